@@ -1,0 +1,53 @@
+// Flags shared by the meshgauge CLI verbs, and their conversion to library
+// types. Flags are defined only here and parsed only in main.cc.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "absl/flags/declare.h"
+#include "absl/status/statusor.h"
+#include "lib/mesh.h"
+#include "lib/sdf_types.h"
+
+ABSL_DECLARE_FLAG(std::string, method);
+ABSL_DECLARE_FLAG(double, cone_angle);
+ABSL_DECLARE_FLAG(int, rays);
+ABSL_DECLARE_FLAG(double, kappa);
+ABSL_DECLARE_FLAG(int, threads);
+ABSL_DECLARE_FLAG(std::vector<std::string>, region_direction);
+ABSL_DECLARE_FLAG(bool, reorient);
+ABSL_DECLARE_FLAG(std::string, csv);
+ABSL_DECLARE_FLAG(std::string, ply);
+ABSL_DECLARE_FLAG(bool, json);
+ABSL_DECLARE_FLAG(double, max_distance);
+ABSL_DECLARE_FLAG(std::string, normals);
+ABSL_DECLARE_FLAG(std::string, out);
+ABSL_DECLARE_FLAG(double, size);
+ABSL_DECLARE_FLAG(double, radius);
+
+namespace meshgauge::cli {
+
+// Rewrites argv so that `--cone-angle` style names become absl's
+// `--cone_angle`, and repeated `--region-direction A --region-direction B`
+// become one comma-separated list. Values are left untouched.
+std::vector<std::string> NormalizeArgs(int argc, char** argv);
+
+// SdfParams from --method --cone-angle --rays --kappa --threads
+// --max-distance --normals. Errors: InvalidArgument naming the flag.
+absl::StatusOr<SdfParams> SdfParamsFromFlags();
+
+// A mesh read from a file with --region-direction and --reorient applied.
+struct LoadedMesh {
+  Mesh mesh;
+  double signed_volume = 0;
+  bool closed = false;
+  bool reoriented = false;
+  std::vector<std::string> warnings;
+};
+
+// Reads and validates `path`; a closed mesh with negative signed volume is
+// reported in `warnings` and reversed only with --reorient.
+absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path);
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,55 @@
+#include <chrono>
+#include <iostream>
+
+#include "absl/flags/flag.h"
+#include "absl/strings/str_cat.h"
+#include "client/cli/cli_flags.h"
+#include "client/cli/commands.h"
+#include "client/cli/progress_bar.h"
+#include "client/cli/summary.h"
+#include "lib/mesh_io.h"
+#include "lib/sdf.h"
+
+namespace meshgauge::cli {
+
+absl::Status RunSdf(const std::vector<std::string>& args) {
+  if (args.size() != 1) {
+    return absl::InvalidArgumentError("usage: meshgauge sdf MESH [flags]");
+  }
+  auto params = SdfParamsFromFlags();
+  if (!params.ok()) return params.status();
+  const auto start = std::chrono::steady_clock::now();
+  auto loaded = LoadMeshFromFlags(args[0]);
+  if (!loaded.ok()) return loaded.status();
+  ProgressBar bar("tracing");
+  ComputeControl control;
+  control.progress = [&bar](int64_t done, int64_t total) {
+    bar.Update(done, total);
+  };
+  auto result = ComputeSdf(loaded->mesh, *params, control);
+  bar.Finish();
+  if (!result.ok()) return result.status();
+  const double seconds = std::chrono::duration<double>(
+                             std::chrono::steady_clock::now() - start)
+                             .count();
+  if (const std::string csv = absl::GetFlag(FLAGS_csv); !csv.empty()) {
+    if (absl::Status s = WriteSdfCsv(csv, loaded->mesh, *result); !s.ok()) {
+      return s;
+    }
+  }
+  if (const std::string ply = absl::GetFlag(FLAGS_ply); !ply.empty()) {
+    if (absl::Status s = WriteQualityPly(ply, loaded->mesh, result->values);
+        !s.ok()) {
+      return s;
+    }
+  }
+  const nlohmann::json summary = SummaryJson(*loaded, *result, seconds);
+  if (absl::GetFlag(FLAGS_json)) {
+    std::cout << summary.dump() << "\n";
+  } else {
+    std::cout << SummaryText(summary);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge::cli

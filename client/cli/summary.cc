@@ -1,0 +1,111 @@
+#include "client/cli/summary.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "lib/integrals.h"
+
+namespace meshgauge::cli {
+
+nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
+                           double seconds) {
+  std::vector<double> ok;
+  for (double v : result.values) {
+    if (std::isfinite(v)) ok.push_back(v);
+  }
+  nlohmann::json j;
+  j["vertices"] = loaded.mesh.num_vertices();
+  j["faces"] = loaded.mesh.num_faces();
+  j["dimension"] = loaded.mesh.dimension;
+  j["method"] = result.resolved.params.method == SdfMethod::kCone ? "cone"
+                                                                 : "normal";
+  j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
+  j["rays_per_vertex"] = result.resolved.rays;
+  j["ok"] = result.CountStatus(VertexStatus::kOk);
+  j["no_hit"] = result.CountStatus(VertexStatus::kNoHit);
+  j["no_faces"] = result.CountStatus(VertexStatus::kNoFaces);
+  j["degenerate_normal"] = result.CountStatus(VertexStatus::kDegenerateNormal);
+  if (ok.empty()) {
+    for (const char* key : {"sdf_min", "sdf_median", "sdf_max", "sdf_mean"}) {
+      j[key] = nullptr;
+    }
+  } else {
+    std::sort(ok.begin(), ok.end());
+    const size_t n = ok.size();
+    double sum = 0;
+    for (double v : ok) sum += v;
+    j["sdf_min"] = ok.front();
+    j["sdf_max"] = ok.back();
+    j["sdf_median"] = n % 2 ? ok[n / 2] : (ok[n / 2 - 1] + ok[n / 2]) / 2;
+    j["sdf_mean"] = sum / static_cast<double>(n);
+  }
+  const IntegralResult integral = IntegrateNodal(loaded.mesh, result.values);
+  j["integral"] = integral.value;
+  j["integral_skipped_faces"] = integral.skipped_faces;
+  j["rays"] = result.rays_traced;
+  j["seconds"] = seconds;
+  j["rays_per_second"] = result.trace_seconds > 0
+                             ? result.rays_traced / result.trace_seconds
+                             : 0.0;
+  j["closed"] = loaded.closed;
+  j[loaded.mesh.dimension == 3 ? "signed_volume" : "signed_area"] =
+      loaded.signed_volume;
+  j["reoriented"] = loaded.reoriented;
+  j["warnings"] = loaded.warnings;
+  return j;
+}
+
+std::string SummaryText(const nlohmann::json& j) {
+  auto num = [](const nlohmann::json& v) {
+    return v.is_null() ? std::string("-") : absl::StrFormat("%.6g", v.get<double>());
+  };
+  std::string s = absl::StrFormat(
+      "mesh: %dD, %d vertices, %d faces, %s\n"
+      "method: %s, %g deg cone, %d rays per vertex\n"
+      "vertices: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
+      "sdf: min %s  median %s  max %s  mean %s\n"
+      "integral of sdf over the surface: %.8g (%d faces skipped)\n"
+      "rays: %d in %.3f s (%.3g rays/s in the ray pass)\n",
+      j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
+      j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
+      j["method"].get<std::string>(), j["cone_angle_degrees"].get<double>(),
+      j["rays_per_vertex"].get<int>(), j["ok"].get<int64_t>(),
+      j["no_hit"].get<int64_t>(), j["no_faces"].get<int64_t>(),
+      j["degenerate_normal"].get<int64_t>(), num(j["sdf_min"]),
+      num(j["sdf_median"]), num(j["sdf_max"]), num(j["sdf_mean"]),
+      j["integral"].get<double>(), j["integral_skipped_faces"].get<int64_t>(),
+      j["rays"].get<int64_t>(), j["seconds"].get<double>(),
+      j["rays_per_second"].get<double>());
+  for (const auto& w : j["warnings"]) {
+    absl::StrAppend(&s, "warning: ", w.get<std::string>(), "\n");
+  }
+  return s;
+}
+
+absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
+                         const SdfResult& result) {
+  std::ofstream out(path);
+  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  out << "vertex,x,y,z,sdf,normalized,hits,kept,status\n";
+  for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
+    const Vec3& p = mesh.positions[i];
+    const bool ok = result.status[i] == VertexStatus::kOk;
+    out << absl::StrFormat("%d,%.17g,%.17g,%.17g,", i, p.x, p.y, p.z);
+    if (ok) {
+      out << absl::StrFormat("%.17g,%.17g", result.values[i],
+                             result.normalized[i]);
+    } else {
+      out << ",";
+    }
+    out << absl::StrFormat(",%d,%d,%s\n", result.hits[i], result.kept[i],
+                           VertexStatusName(result.status[i]));
+  }
+  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,28 @@
+// Summary statistics and outputs of an SDF run for the CLI.
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "absl/status/status.h"
+#include "client/cli/cli_flags.h"
+#include "lib/sdf_types.h"
+
+namespace meshgauge::cli {
+
+// The JSON summary of SPEC/README: vertices, faces, dimension, ok, no_hit,
+// no_faces, degenerate_normal, sdf_min/median/max/mean (null when no value),
+// integral, rays, seconds, rays_per_second, plus method, warnings, volume.
+nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
+                           double seconds);
+
+// Human-readable form of the same summary.
+std::string SummaryText(const nlohmann::json& summary);
+
+// CSV: vertex,x,y,z,sdf,normalized,hits,kept,status (sdf and normalized
+// empty unless status is OK; 17 significant digits).
+absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
+                         const SdfResult& result);
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,77 @@
+// Embree 3 scene over a mesh's primitives (SPEC §4).
+//
+// 3D: one triangle geometry (quads split). 2D: each segment is a quad
+// extruded along z over [-H, H] (H = bounding-box diagonal + 1) and rays stay
+// in the plane z = 0, so Embree finds segment hits. Embree works in single
+// precision and only *chooses* the primitive; callers recompute t in double.
+#pragma once
+
+#include <embree3/rtcore.h>
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/mesh.h"
+#include "lib/topology.h"
+
+namespace meshgauge {
+
+enum class BvhUpdatePolicy {
+  // Each UpdatePositions rebuilds the BVH (scene quality MEDIUM).
+  kRebuild,
+  // The geometry is built once (SAH) and UpdatePositions only refits its
+  // bounds (scene quality LOW + geometry quality REFIT, a two-level BVH).
+  kRefit,
+};
+
+class RayScene {
+ public:
+  // Builds the BVH. `mesh` and `topo` must outlive the scene (the primitive
+  // -> face map is read by the ray filter). Errors: Internal on Embree
+  // failure (message from rtcGetDeviceError).
+  static absl::StatusOr<std::unique_ptr<RayScene>> Create(
+      const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);
+  ~RayScene();
+  RayScene(const RayScene&) = delete;
+  RayScene& operator=(const RayScene&) = delete;
+
+  // Copies mesh.positions (same vertex count) into the Embree buffers and
+  // refits or rebuilds per the policy.
+  absl::Status UpdatePositions(const Mesh& mesh);
+
+  // Closest hit of the ray origin + t * dir (dir unit length) with t in
+  // (t_min, t_max), ignoring primitives whose face is in `excluded_faces`
+  // (sorted ascending) and hits closer than t_min. Returns the primitive
+  // index into MeshTopology::primitives, or -1 for a miss. Thread-safe.
+  int32_t Trace(const Vec3& origin, const Vec3& dir, float t_min, float t_max,
+                absl::Span<const int32_t> excluded_faces) const;
+
+  RTCScene scene() const { return scene_; }
+  BvhUpdatePolicy policy() const { return policy_; }
+  int64_t builds() const { return builds_; }
+  int64_t refits() const { return refits_; }
+
+ private:
+  RayScene(const MeshTopology& topo, BvhUpdatePolicy policy)
+      : topo_(topo), policy_(policy) {}
+  absl::Status Init(const Mesh& mesh);
+  void FillVertices(const Mesh& mesh);
+  absl::Status Commit();
+
+  const MeshTopology& topo_;
+  BvhUpdatePolicy policy_;
+  int dimension_ = 3;
+  float extrude_half_height_ = 1;
+  RTCDevice device_ = nullptr;
+  RTCScene scene_ = nullptr;
+  RTCGeometry geometry_ = nullptr;
+  float* vertex_buffer_ = nullptr;  // owned by geometry_.
+  std::vector<int32_t> prim_face_;  // primitive -> face, read by the filter.
+  int64_t builds_ = 0;
+  int64_t refits_ = 0;
+};
+
+}  // namespace meshgauge

@@ -1,0 +1,62 @@
+#include "lib/topology.h"
+
+namespace meshgauge {
+namespace {
+
+// Builds CSR lists from (vertex, item) pairs given in ascending item order,
+// so each list comes out ascending.
+template <typename ForEachPair>
+Incidence BuildIncidence(int64_t num_vertices, ForEachPair for_each_pair) {
+  Incidence inc;
+  inc.offsets.assign(num_vertices + 1, 0);
+  for_each_pair([&](int32_t v, int32_t) { ++inc.offsets[v + 1]; });
+  for (int64_t i = 0; i < num_vertices; ++i) {
+    inc.offsets[i + 1] += inc.offsets[i];
+  }
+  inc.items.resize(inc.offsets[num_vertices]);
+  std::vector<int32_t> fill(inc.offsets.begin(), inc.offsets.end() - 1);
+  for_each_pair([&](int32_t v, int32_t item) { inc.items[fill[v]++] = item; });
+  return inc;
+}
+
+}  // namespace
+
+MeshTopology MeshTopology::Build(const Mesh& mesh) {
+  MeshTopology topo;
+  topo.primitives.reserve(mesh.faces.size() * 2);
+  for (int32_t f = 0; f < static_cast<int32_t>(mesh.faces.size()); ++f) {
+    const Face& face = mesh.faces[f];
+    if (face.size == 2) {
+      topo.primitives.push_back({{face.v[0], face.v[1], -1}, f});
+    } else {
+      topo.primitives.push_back({{face.v[0], face.v[1], face.v[2]}, f});
+      if (face.size == 4) {
+        topo.primitives.push_back({{face.v[0], face.v[2], face.v[3]}, f});
+      }
+    }
+  }
+  const int64_t nv = mesh.num_vertices();
+  topo.vertex_faces = BuildIncidence(nv, [&](auto&& emit) {
+    for (int32_t f = 0; f < static_cast<int32_t>(mesh.faces.size()); ++f) {
+      const Face& face = mesh.faces[f];
+      for (int k = 0; k < face.size; ++k) emit(face.v[k], f);
+    }
+  });
+  topo.vertex_primitives = BuildIncidence(nv, [&](auto&& emit) {
+    for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size());
+         ++p) {
+      for (int32_t v : topo.primitives[p].v) {
+        if (v >= 0) emit(v, p);
+      }
+    }
+  });
+  topo.vertex_direction.assign(nv, ConeDirection::kInward);
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    const ConeDirection dir = mesh.DirectionOfRegion(mesh.RegionOf(f));
+    const Face& face = mesh.faces[f];
+    for (int k = 0; k < face.size; ++k) topo.vertex_direction[face.v[k]] = dir;
+  }
+  return topo;
+}
+
+}  // namespace meshgauge
