@@ -1,6 +1,9 @@
 // Double-precision ray/primitive geometry of SPEC §4 and §6.
 #pragma once
 
+#include <cmath>
+#include <limits>
+
 #include "lib/mesh.h"
 #include "lib/topology.h"
 
@@ -13,16 +16,45 @@ struct HitGeometry {
   double lambda[3] = {}; // barycentric coordinates of the hit point.
 };
 
-// Recomputes the hit of origin + t d with `prim` in double precision:
-// t = ((a - x) . m) / (d . m). Returns false when d . m == 0 or t is not a
-// finite positive number (the caller then treats the ray as a miss).
-inline bool EvaluateHit(const Mesh& mesh, const Primitive& prim,
-                        const Vec3& x, const Vec3& d, HitGeometry* out) {
-  const Vec3& a = mesh.positions[prim.v[0]];
-  const Vec3& b = mesh.positions[prim.v[1]];
-  const bool segment = prim.v[2] < 0;
-  const Vec3 ab = b - a;
-  const Vec3 ac = segment ? Vec3() : mesh.positions[prim.v[2]] - a;
+// The corners of one primitive, packed contiguously (one or two cache lines)
+// so the hit evaluation after a trace touches little memory. `segment` is
+// true for 2D segments (c unused).
+struct PrimitiveCorners {
+  Vec3 a, b, c;
+  int32_t face = -1;  // the mesh face the primitive belongs to.
+  bool segment = false;
+};
+
+inline PrimitiveCorners CornersOf(const Mesh& mesh, const Primitive& prim) {
+  PrimitiveCorners pc;
+  pc.a = mesh.positions[prim.v[0]];
+  pc.b = mesh.positions[prim.v[1]];
+  pc.face = prim.face;
+  pc.segment = prim.v[2] < 0;
+  if (!pc.segment) pc.c = mesh.positions[prim.v[2]];
+  return pc;
+}
+
+// Hit distance only (the value pass): t = ((a - x) . m) / (d . m), or NaN
+// when d . m == 0 or t is not a finite positive number (a miss).
+inline double HitDistance(const PrimitiveCorners& pc, const Vec3& x,
+                          const Vec3& d) {
+  const Vec3 ab = pc.b - pc.a;
+  const Vec3 m = pc.segment ? Perp(ab) : Cross(ab, pc.c - pc.a);
+  const double t = Dot(pc.a - x, m) / Dot(d, m);
+  return t > 0 && std::isfinite(t) ? t : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Recomputes the hit of origin + t d with a primitive in double precision:
+// t = ((a - x) . m) / (d . m), with m and the barycentric coordinates of the
+// hit point (the sensitivities). Returns false exactly when HitDistance
+// returns NaN (the caller then treats the ray as a miss).
+inline bool EvaluateHit(const PrimitiveCorners& pc, const Vec3& x,
+                        const Vec3& d, HitGeometry* out) {
+  const Vec3& a = pc.a;
+  const bool segment = pc.segment;
+  const Vec3 ab = pc.b - a;
+  const Vec3 ac = segment ? Vec3() : pc.c - a;
   out->m = segment ? Perp(ab) : Cross(ab, ac);
   out->d_dot_m = Dot(d, out->m);
   if (out->d_dot_m == 0) return false;

@@ -1,33 +1,13 @@
 #include "lib/ray_scene.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 #include "absl/strings/str_cat.h"
 
 namespace meshgauge {
 namespace {
-
-// RTCIntersectContext extended with what the filter needs; Embree passes the
-// context pointer through to the filter unchanged.
-struct FilterContext {
-  RTCIntersectContext base;
-  const int32_t* prim_face;
-  absl::Span<const int32_t> excluded_faces;
-  float t_min;
-};
-
-void OneRingFilter(const RTCFilterFunctionNArguments* args) {
-  // Called with N == 1 for rtcIntersect1.
-  const auto* ctx = reinterpret_cast<const FilterContext*>(args->context);
-  const float t = RTCRayN_tfar(args->ray, args->N, 0);
-  const unsigned prim = RTCHitN_primID(args->hit, args->N, 0);
-  if (t < ctx->t_min ||
-      std::binary_search(ctx->excluded_faces.begin(),
-                         ctx->excluded_faces.end(), ctx->prim_face[prim])) {
-    args->valid[0] = 0;
-  }
-}
 
 absl::Status DeviceStatus(RTCDevice device, const char* what) {
   const RTCError err = rtcGetDeviceError(device);
@@ -56,13 +36,14 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   device_ = rtcNewDevice(nullptr);
   if (!device_) return absl::InternalError("rtcNewDevice failed");
   scene_ = rtcNewScene(device_);
+  // ROBUST: watertight intersection, so a ray through a shared edge or
+  // vertex (common on symmetric meshes) cannot slip between primitives.
+  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
                                       ? RTC_BUILD_QUALITY_LOW
                                       : RTC_BUILD_QUALITY_MEDIUM);
   const size_t nv = mesh.positions.size();
   const size_t np = topo_.primitives.size();
-  prim_face_.resize(np);
-  for (size_t i = 0; i < np; ++i) prim_face_[i] = topo_.primitives[i].face;
   if (dimension_ == 3) {
     geometry_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* idx = static_cast<uint32_t*>(
@@ -96,7 +77,6 @@ absl::Status RayScene::Init(const Mesh& mesh) {
       4 * sizeof(float), num_embree_vertices));
   if (!vertex_buffer_) return DeviceStatus(device_, "vertex buffer");
   FillVertices(mesh);
-  rtcSetGeometryIntersectFilterFunction(geometry_, OneRingFilter);
   if (policy_ == BvhUpdatePolicy::kRefit) {
     rtcSetGeometryBuildQuality(geometry_, RTC_BUILD_QUALITY_REFIT);
   }
@@ -146,14 +126,10 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   return DeviceStatus(device_, "rtcCommitScene (update)");
 }
 
-int32_t RayScene::Trace(const Vec3& origin, const Vec3& dir, float t_min,
-                        float t_max,
-                        absl::Span<const int32_t> excluded_faces) const {
-  FilterContext ctx;
-  rtcInitIntersectContext(&ctx.base);
-  ctx.prim_face = prim_face_.data();
-  ctx.excluded_faces = excluded_faces;
-  ctx.t_min = t_min;
+RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
+                                  float t_near, float t_far) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
   RTCRayHit rh;
   rh.ray.org_x = static_cast<float>(origin.x);
   rh.ray.org_y = static_cast<float>(origin.y);
@@ -161,8 +137,8 @@ int32_t RayScene::Trace(const Vec3& origin, const Vec3& dir, float t_min,
   rh.ray.dir_x = static_cast<float>(dir.x);
   rh.ray.dir_y = static_cast<float>(dir.y);
   rh.ray.dir_z = static_cast<float>(dir.z);
-  rh.ray.tnear = 0.0f;
-  rh.ray.tfar = t_max;
+  rh.ray.tnear = t_near;
+  rh.ray.tfar = t_far;
   rh.ray.time = 0.0f;
   rh.ray.mask = std::numeric_limits<unsigned>::max();
   rh.ray.id = 0;
@@ -170,9 +146,9 @@ int32_t RayScene::Trace(const Vec3& origin, const Vec3& dir, float t_min,
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(scene_, &ctx.base, &rh);
-  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return -1;
-  return static_cast<int32_t>(rh.hit.primID);
+  rtcIntersect1(scene_, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
+  return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
 
 }  // namespace meshgauge

@@ -29,8 +29,7 @@ enum class BvhUpdatePolicy {
 
 class RayScene {
  public:
-  // Builds the BVH. `mesh` and `topo` must outlive the scene (the primitive
-  // -> face map is read by the ray filter). Errors: Internal on Embree
+  // Builds the BVH. `topo` must outlive the scene. Errors: Internal on Embree
   // failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
       const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);
@@ -42,12 +41,17 @@ class RayScene {
   // refits or rebuilds per the policy.
   absl::Status UpdatePositions(const Mesh& mesh);
 
-  // Closest hit of the ray origin + t * dir (dir unit length) with t in
-  // (t_min, t_max), ignoring primitives whose face is in `excluded_faces`
-  // (sorted ascending) and hits closer than t_min. Returns the primitive
-  // index into MeshTopology::primitives, or -1 for a miss. Thread-safe.
-  int32_t Trace(const Vec3& origin, const Vec3& dir, float t_min, float t_max,
-                absl::Span<const int32_t> excluded_faces) const;
+  // Closest hit of origin + t * dir with t in [t_near, t_far] (single
+  // precision, plain rtcIntersect1). `prim` indexes
+  // MeshTopology::primitives; -1 for a miss. Thread-safe. The one-ring
+  // exclusion of SPEC §4 is the caller's (TraceExcluding in sdf_pass.h), so
+  // that its face lookup can use prefetched memory.
+  struct Hit {
+    int32_t prim = -1;
+    float t = 0;
+  };
+  Hit Intersect(const Vec3& origin, const Vec3& dir, float t_near,
+                float t_far) const;
 
   RTCScene scene() const { return scene_; }
   BvhUpdatePolicy policy() const { return policy_; }
@@ -69,7 +73,6 @@ class RayScene {
   RTCScene scene_ = nullptr;
   RTCGeometry geometry_ = nullptr;
   float* vertex_buffer_ = nullptr;  // owned by geometry_.
-  std::vector<int32_t> prim_face_;  // primitive -> face, read by the filter.
   int64_t builds_ = 0;
   int64_t refits_ = 0;
 };

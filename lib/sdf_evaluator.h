@@ -10,6 +10,7 @@
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/cone.h"
+#include "lib/hit.h"
 #include "lib/mesh.h"
 #include "lib/ray_scene.h"
 #include "lib/sdf_types.h"
@@ -72,16 +73,20 @@ class SdfEvaluator {
   const HitTable* hits() const {
     return hits_.generation == generation_ ? &hits_ : nullptr;
   }
+  // Corners of every primitive at the current positions (double).
+  const std::vector<PrimitiveCorners>& corners() const { return corners_; }
   double mean_edge_length() const { return mean_edge_length_; }
   double bounding_box_diagonal() const { return bbox_diagonal_; }
 
  private:
   SdfEvaluator() = default;
   absl::Status CommitPositions(std::vector<Vec3> old_positions);
+  void RefreshDerivedGeometry();
 
   Mesh mesh_;
   MeshTopology topo_;
   std::unique_ptr<RayScene> scene_;
+  std::vector<PrimitiveCorners> corners_;
   int64_t generation_ = 0;
   double mean_edge_length_ = 0;
   double bbox_diagonal_ = 0;

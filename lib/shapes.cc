@@ -184,8 +184,9 @@ Mesh MakeHollowSquare(double side, double hole_radius, double h) {
     }
   }
   AppendLoop(mesh, outer, 0);
+  // An odd count puts a segment, not a vertex, opposite every hole vertex.
   const int around =
-      std::max(8, static_cast<int>(std::ceil(2 * kPi * hole_radius / h)));
+      std::max(8, static_cast<int>(std::ceil(2 * kPi * hole_radius / h))) | 1;
   std::vector<Vec3> hole;
   for (int i = 0; i < around; ++i) {
     const double a = -2 * kPi * i / around;  // clockwise.

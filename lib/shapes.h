@@ -24,7 +24,9 @@ Mesh MakeBox(double sx, double sy, double sz, double cell);
 
 // 2D square [-a/2, a/2]^2 (counter-clockwise, region 0, INWARD) with a
 // circular hole of radius r at the centre (clockwise so its normal points out
-// of the solid, into the hole; region 1, OUTWARD). Element size about h.
+// of the solid, into the hole; region 1, OUTWARD; an odd number of vertices,
+// the first at angle 0). Element size about h; each side of the square has
+// ceil(side / h) segments (at least 2).
 Mesh MakeHollowSquare(double side, double hole_radius, double h);
 
 }  // namespace meshgauge

@@ -1,0 +1,132 @@
+// The meshgauge CLI end to end: summary, JSON keys, CSV and PLY outputs,
+// precise errors with non-zero exit status.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::SharedMesh;
+
+struct CliRun {
+  int exit_code;
+  std::string out;  // stdout + stderr.
+};
+
+CliRun RunCli(const std::string& args) {
+  const std::string cmd = std::string(MESHGAUGE_CLI) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  size_t n;
+  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) out.append(buf, n);
+  const int status = pclose(pipe);
+  return {WEXITSTATUS(status), out};
+}
+
+std::string Tmp(const std::string& name) {
+  return (std::filesystem::temp_directory_path() /
+          ("meshgauge_cli_" + std::to_string(::getpid()) + "_" + name))
+      .string();
+}
+
+TEST(CliTest, JsonSummaryHasAllKeys) {
+  const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") + " --json --rays 20");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  for (const char* key :
+       {"vertices", "faces", "dimension", "ok", "no_hit", "no_faces",
+        "sdf_min", "sdf_median", "sdf_max", "sdf_mean", "integral", "rays",
+        "seconds", "rays_per_second"}) {
+    EXPECT_TRUE(j.contains(key)) << key;
+  }
+  EXPECT_EQ(j["vertices"], 502);
+  EXPECT_EQ(j["ok"], 502);
+  EXPECT_EQ(j["rays"], 502 * 20);
+  EXPECT_GT(j["integral"].get<double>(), 0);
+}
+
+TEST(CliTest, WritesCsvAndPly) {
+  const std::string csv = Tmp("k.csv"), ply = Tmp("k.ply");
+  const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") +
+                       " --rays 10 --csv " + csv + " --ply " + ply);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("502 ok"));
+  std::ifstream in(csv);
+  std::string header, first;
+  std::getline(in, header);
+  std::getline(in, first);
+  EXPECT_EQ(header, "vertex,x,y,z,sdf,normalized,hits,kept,status");
+  EXPECT_THAT(first, HasSubstr(",OK"));
+  int lines = 2;
+  for (std::string l; std::getline(in, l);) ++lines;
+  EXPECT_EQ(lines, 503);
+  EXPECT_GT(std::filesystem::file_size(ply), 502u * 16);
+  std::filesystem::remove(csv);
+  std::filesystem::remove(ply);
+}
+
+TEST(CliTest, HorseWarnsAndReorientsOnRequest) {
+  const CliRun warn = RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4");
+  ASSERT_EQ(warn.exit_code, 0);
+  EXPECT_THAT(warn.out, HasSubstr("negative signed volume"));
+  const CliRun fixed = RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4 --reorient --json");
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.out;
+  const auto j = nlohmann::json::parse(fixed.out);
+  EXPECT_TRUE(j["reoriented"].get<bool>());
+  // Reoriented, the cones look into the solid: almost every vertex hits.
+  EXPECT_GT(j["ok"].get<int64_t>(), 48000);
+}
+
+TEST(CliTest, TwoDimensionalHollowShapeWithRegionDirections) {
+  const std::string obj = Tmp("hollow.obj");
+  ASSERT_EQ(RunCli("shape hollow --radius 1 --size 0.05 --out " + obj).exit_code, 0);
+  const CliRun r = RunCli("sdf " + obj + " --method normal --region-direction 1=outward --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["dimension"], 2);
+  EXPECT_EQ(j["no_hit"], 0);
+  const CliRun bad = RunCli("sdf " + obj + " --region-direction 1=sideways");
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.out, HasSubstr("--region-direction expects ID=inward|outward"));
+  std::filesystem::remove(obj);
+}
+
+TEST(CliTest, PreciseErrors) {
+  struct Case {
+    std::string args, message;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"sdf /nonexistent.obj", "cannot open mesh file '/nonexistent.obj'"},
+           {"sdf " + SharedMesh("decimated-knight.off") + " --cone-angle 200",
+            "cone angle must be in (0, 180) degrees, got 200"},
+           {"sdf " + SharedMesh("decimated-knight.off") + " --rays 5000",
+            "--rays must be in [1, 4096], got 5000"},
+           {"sdf " + SharedMesh("decimated-knight.off") + " --method foo",
+            "--method must be cone or normal"},
+           {"sdf", "usage: meshgauge sdf MESH"}}) {
+    const CliRun r = RunCli(c.args);
+    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_THAT(r.out, HasSubstr(c.message)) << c.args;
+  }
+  const std::string bad = Tmp("bad.obj");
+  std::ofstream(bad) << "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+  const CliRun r = RunCli("sdf " + bad);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("1 faces have zero area (first face ids: 0)"));
+  std::filesystem::remove(bad);
+}
+
+}  // namespace
+}  // namespace meshgauge

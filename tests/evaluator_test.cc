@@ -1,0 +1,195 @@
+// SdfEvaluator: thread-count independence, position updates (refit and
+// rebuild), cancellation, and NORMAL_RAY on the thin CAD plate.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "lib/mesh_io.h"
+#include "lib/sdf.h"
+#include "lib/shapes.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::SharedMesh;
+
+bool BitIdentical(const SdfResult& a, const SdfResult& b) {
+  return a.values.size() == b.values.size() &&
+         std::memcmp(a.values.data(), b.values.data(),
+                     a.values.size() * sizeof(double)) == 0 &&
+         a.hits == b.hits && a.kept == b.kept && a.status == b.status;
+}
+
+TEST(EvaluatorTest, OneAndTwoThreadsAreBitIdentical) {
+  for (const char* name : {"decimated-knight.off", "teapot.obj"}) {
+    auto mesh = ReadMesh(SharedMesh(name));
+    ASSERT_TRUE(mesh.ok());
+    SdfParams one, two;
+    one.threads = 1;
+    two.threads = 2;
+    auto a = ComputeSdf(*mesh, one);
+    auto b = ComputeSdf(*mesh, two);
+    ASSERT_TRUE(a.ok() && b.ok());
+    EXPECT_TRUE(BitIdentical(*a, *b)) << name;
+  }
+  const Mesh hollow = MakeHollowSquare(4, 1, 0.01);
+  SdfParams one, two;
+  one.threads = 1;
+  two.threads = 2;
+  EXPECT_TRUE(BitIdentical(*ComputeSdf(hollow, one), *ComputeSdf(hollow, two)));
+}
+
+TEST(EvaluatorTest, UpdatePositionsMatchesAFreshComputation) {
+  for (BvhUpdatePolicy policy :
+       {BvhUpdatePolicy::kRefit, BvhUpdatePolicy::kRebuild}) {
+    const Mesh torus = MakeTorus(2, 0.5, 64, 24);
+    auto ev = SdfEvaluator::Create(torus, {.bvh_policy = policy});
+    ASSERT_TRUE(ev.ok());
+    Mesh moved = torus;
+    for (Vec3& p : moved.positions) p = Vec3(p.x * 1.1, p.y * 0.9, p.z * 1.3);
+    ASSERT_TRUE((*ev)->UpdatePositions(moved.positions).ok());
+    EXPECT_EQ((*ev)->generation(), 1);
+    auto updated = (*ev)->Compute({});
+    auto fresh = ComputeSdf(moved, {});
+    ASSERT_TRUE(updated.ok() && fresh.ok());
+    EXPECT_TRUE(BitIdentical(*updated, *fresh));
+    if (policy == BvhUpdatePolicy::kRefit) {
+      EXPECT_EQ((*ev)->scene().refits(), 1);
+      EXPECT_EQ((*ev)->scene().builds(), 1);
+    } else {
+      EXPECT_EQ((*ev)->scene().builds(), 2);
+    }
+  }
+}
+
+TEST(EvaluatorTest, SubsetUpdateMovesOnlyThoseVertices) {
+  const Mesh sphere = MakeIcosphere(1, 6);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  const std::vector<int32_t> idx = {3, 10};
+  const std::vector<Vec3> pos = {sphere.positions[3] * 1.01,
+                                 sphere.positions[10] * 0.99};
+  ASSERT_TRUE((*ev)->UpdatePositions(idx, pos).ok());
+  Mesh expected = sphere;
+  expected.positions[3] = pos[0];
+  expected.positions[10] = pos[1];
+  EXPECT_EQ((*ev)->mesh().positions, expected.positions);
+  EXPECT_TRUE(BitIdentical(*(*ev)->Compute({}), *ComputeSdf(expected, {})));
+}
+
+TEST(EvaluatorTest, RejectsWrongPositionCount) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
+  ASSERT_TRUE(ev.ok());
+  const std::vector<Vec3> few(3);
+  EXPECT_THAT(std::string((*ev)->UpdatePositions(few).message()),
+              HasSubstr("expected 42 positions, got 3"));
+  EXPECT_EQ((*ev)->generation(), 0);
+}
+
+TEST(EvaluatorTest, RejectsNonFinitePositionsAndKeepsOldOnes) {
+  const Mesh sphere = MakeIcosphere(1, 2);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  std::vector<Vec3> bad = sphere.positions;
+  bad[7].x = std::numeric_limits<double>::quiet_NaN();
+  const absl::Status s = (*ev)->UpdatePositions(bad);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(s.message()), HasSubstr("non-finite"));
+  EXPECT_EQ((*ev)->mesh().positions, sphere.positions);
+  EXPECT_EQ((*ev)->generation(), 0);
+}
+
+TEST(EvaluatorTest, RejectsUpdateCollapsingAFace) {
+  const Mesh sphere = MakeIcosphere(1, 2);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  const Face& f = sphere.faces[0];
+  const std::vector<int32_t> idx = {f.v[1]};
+  const std::vector<Vec3> pos = {sphere.positions[f.v[0]]};
+  EXPECT_THAT(std::string((*ev)->UpdatePositions(idx, pos).message()),
+              HasSubstr("zero area"));
+}
+
+TEST(EvaluatorTest, RejectsRepeatedOrOutOfRangeSubsetIndices) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
+  ASSERT_TRUE(ev.ok());
+  const std::vector<Vec3> pos(2, Vec3(0, 0, 2));
+  EXPECT_THAT(std::string((*ev)->UpdatePositions(std::vector<int32_t>{1, 1}, pos).message()),
+              HasSubstr("repeated"));
+  EXPECT_THAT(std::string((*ev)->UpdatePositions(std::vector<int32_t>{1, 99}, pos).message()),
+              HasSubstr("out of range"));
+}
+
+TEST(EvaluatorTest, CancellationStopsTheComputation) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 20));
+  ASSERT_TRUE(ev.ok());
+  ComputeControl control;
+  int polls = 0;
+  control.cancelled = [&polls] { return ++polls > 3; };
+  EXPECT_EQ((*ev)->Compute({}, control).status().code(),
+            absl::StatusCode::kCancelled);
+}
+
+TEST(EvaluatorTest, ProgressReachesTotal) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 10));
+  ASSERT_TRUE(ev.ok());
+  int64_t last = 0, total = 0;
+  ComputeControl control;
+  control.progress = [&](int64_t done, int64_t all) {
+    EXPECT_GE(done, last);
+    last = done;
+    total = all;
+  };
+  ASSERT_TRUE((*ev)->Compute({}, control).ok());
+  EXPECT_EQ(last, total);
+  EXPECT_EQ(total, (*ev)->mesh().num_vertices());
+}
+
+TEST(EvaluatorTest, KeepsHitTableOnlyWhenAskedAndAtTheSameGeneration) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 3));
+  ASSERT_TRUE(ev.ok());
+  ASSERT_TRUE((*ev)->Compute({}).ok());
+  EXPECT_EQ((*ev)->hits(), nullptr);
+  ASSERT_TRUE((*ev)->Compute({}, {}, /*keep_hits=*/true).ok());
+  ASSERT_NE((*ev)->hits(), nullptr);
+  EXPECT_EQ((*ev)->hits()->primitives.size(),
+            static_cast<size_t>((*ev)->mesh().num_vertices() * 100));
+  std::vector<Vec3> p = (*ev)->mesh().positions;
+  for (Vec3& v : p) v *= 1.01;
+  ASSERT_TRUE((*ev)->UpdatePositions(p).ok());
+  EXPECT_EQ((*ev)->hits(), nullptr);
+}
+
+// The tray is a 3.175 mm plate: NORMAL_RAY gives exactly the plate thickness
+// at every vertex whose faces all lie in the two large faces.
+TEST(EvaluatorTest, TrayNormalRayIsPlateThickness) {
+  auto mesh = ReadMesh(SharedMesh("1002_tray_bottom.STL"));
+  ASSERT_TRUE(mesh.ok());
+  SdfParams params;
+  params.method = SdfMethod::kNormalRay;
+  auto r = ComputeSdf(*mesh, params);
+  ASSERT_TRUE(r.ok());
+  const MeshTopology topo = MeshTopology::Build(*mesh);
+  int flat = 0;
+  for (int64_t v = 0; v < mesh->num_vertices(); ++v) {
+    bool all_flat = true;
+    for (int32_t f : topo.vertex_faces.Of(v)) {
+      const Face& face = mesh->faces[f];
+      const Vec3 n = Cross(mesh->positions[face.v[1]] - mesh->positions[face.v[0]],
+                           mesh->positions[face.v[2]] - mesh->positions[face.v[0]]);
+      all_flat &= std::abs(n.y) > (1 - 1e-9) * Norm(n);
+    }
+    if (!all_flat) continue;
+    ++flat;
+    ASSERT_EQ(r->status[v], VertexStatus::kOk) << v;
+    EXPECT_NEAR(r->values[v], 3.175, 1e-5) << v;
+  }
+  EXPECT_GT(flat, 0);
+  std::printf("tray: %d vertices inside the large faces, all at 3.175\n", flat);
+}
+
+}  // namespace
+}  // namespace meshgauge
