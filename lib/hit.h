@@ -35,38 +35,39 @@ inline PrimitiveCorners CornersOf(const Mesh& mesh, const Primitive& prim) {
   return pc;
 }
 
+// m = (b-a) x (c-a) (3D) or perp(b-a) (2D).
+inline Vec3 PrimitiveNormalOf(const PrimitiveCorners& pc) {
+  const Vec3 ab = pc.b - pc.a;
+  return pc.segment ? Perp(ab) : Cross(ab, pc.c - pc.a);
+}
+
 // Hit distance only (the value pass): t = ((a - x) . m) / (d . m), or NaN
 // when d . m == 0 or t is not a finite positive number (a miss).
 inline double HitDistance(const PrimitiveCorners& pc, const Vec3& x,
                           const Vec3& d) {
-  const Vec3 ab = pc.b - pc.a;
-  const Vec3 m = pc.segment ? Perp(ab) : Cross(ab, pc.c - pc.a);
+  const Vec3 m = PrimitiveNormalOf(pc);
   const double t = Dot(pc.a - x, m) / Dot(d, m);
   return t > 0 && std::isfinite(t) ? t : std::numeric_limits<double>::quiet_NaN();
 }
 
-// Recomputes the hit of origin + t d with a primitive in double precision:
-// t = ((a - x) . m) / (d . m), with m and the barycentric coordinates of the
-// hit point (the sensitivities). Returns false exactly when HitDistance
-// returns NaN (the caller then treats the ray as a miss).
+// The hit with m, d . m and the barycentric coordinates of the hit point
+// (the sensitivities). out->t is bit-identical to HitDistance. Returns false
+// exactly when HitDistance returns NaN.
 inline bool EvaluateHit(const PrimitiveCorners& pc, const Vec3& x,
                         const Vec3& d, HitGeometry* out) {
-  const Vec3& a = pc.a;
-  const bool segment = pc.segment;
-  const Vec3 ab = pc.b - a;
-  const Vec3 ac = segment ? Vec3() : pc.c - a;
-  out->m = segment ? Perp(ab) : Cross(ab, ac);
+  out->m = PrimitiveNormalOf(pc);
   out->d_dot_m = Dot(d, out->m);
-  if (out->d_dot_m == 0) return false;
-  out->t = Dot(a - x, out->m) / out->d_dot_m;
+  out->t = Dot(pc.a - x, out->m) / out->d_dot_m;
   if (!(out->t > 0) || !std::isfinite(out->t)) return false;
-  const Vec3 ah = (x + d * out->t) - a;
-  if (segment) {
+  const Vec3 ab = pc.b - pc.a;
+  const Vec3 ah = (x + d * out->t) - pc.a;
+  if (pc.segment) {
     const double s = Dot(ah, ab) / Dot(ab, ab);
     out->lambda[0] = 1 - s;
     out->lambda[1] = s;
     out->lambda[2] = 0;
   } else {
+    const Vec3 ac = pc.c - pc.a;
     const double mm = Dot(out->m, out->m);
     const double beta = Dot(Cross(ah, ac), out->m) / mm;
     const double gamma = Dot(Cross(ab, ah), out->m) / mm;

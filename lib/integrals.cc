@@ -3,67 +3,89 @@
 #include <cmath>
 
 namespace meshgauge {
-namespace {
 
-// 2-point Gauss on [0, 1]: points (1 -+ 1/sqrt 3)/2, weights 1/2.
-constexpr double kGaussLo = 0.21132486540518711775;
-constexpr double kGaussHi = 0.78867513459481288225;
-
-// Degree-2 rule on a triangle: barycentric (2/3, 1/6, 1/6) and permutations,
-// weights 1/3.
-constexpr double kTriMajor = 2.0 / 3.0;
-constexpr double kTriMinor = 1.0 / 6.0;
-
-double TriangleIntegral(double area, double a, double b, double c,
-                        const std::function<double(double)>& phi) {
-  if (!phi) return area * (a + b + c) / 3;
-  const double q0 = kTriMajor * a + kTriMinor * b + kTriMinor * c;
-  const double q1 = kTriMinor * a + kTriMajor * b + kTriMinor * c;
-  const double q2 = kTriMinor * a + kTriMinor * b + kTriMajor * c;
-  return area * (phi(q0) + phi(q1) + phi(q2)) / 3;
+const std::vector<QuadraturePoint>& QuadratureRule(int n) {
+  // 2-point Gauss on [0, 1]: points (1 -+ 1/sqrt 3)/2, weights 1/2.
+  static const std::vector<QuadraturePoint> kSegment = {
+      {0.5, {0.78867513459481288225, 0.21132486540518711775, 0}},
+      {0.5, {0.21132486540518711775, 0.78867513459481288225, 0}}};
+  // Degree 2 on a triangle: barycentric (2/3, 1/6, 1/6) and permutations.
+  static const std::vector<QuadraturePoint> kTriangle = {
+      {1.0 / 3, {2.0 / 3, 1.0 / 6, 1.0 / 6}},
+      {1.0 / 3, {1.0 / 6, 2.0 / 3, 1.0 / 6}},
+      {1.0 / 3, {1.0 / 6, 1.0 / 6, 2.0 / 3}}};
+  return n == 2 ? kSegment : kTriangle;
 }
 
-}  // namespace
-
-double FaceMeasure(const Mesh& mesh, const Face& f) {
+void ForEachElement(
+    const Mesh& mesh,
+    const std::function<void(int64_t face, const Element&)>& fn) {
   const auto& p = mesh.positions;
-  if (f.size == 2) return Norm(p[f.v[1]] - p[f.v[0]]);
-  double area = Norm(Cross(p[f.v[1]] - p[f.v[0]], p[f.v[2]] - p[f.v[0]])) / 2;
-  if (f.size == 4) {
-    area += Norm(Cross(p[f.v[2]] - p[f.v[0]], p[f.v[3]] - p[f.v[0]])) / 2;
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    const Face& face = mesh.faces[f];
+    if (face.size == 2) {
+      Element e;
+      e.n = 2;
+      e.v[0] = face.v[0];
+      e.v[1] = face.v[1];
+      e.measure = Norm(p[face.v[1]] - p[face.v[0]]);
+      fn(f, e);
+      continue;
+    }
+    for (int t = 0; t + 2 < face.size; ++t) {
+      Element e;
+      e.n = 3;
+      e.v[0] = face.v[0];
+      e.v[1] = face.v[t + 1];
+      e.v[2] = face.v[t + 2];
+      e.measure = Norm(Cross(p[e.v[1]] - p[e.v[0]], p[e.v[2]] - p[e.v[0]])) / 2;
+      fn(f, e);
+    }
   }
-  return area;
+}
+
+void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]) {
+  const auto& p = mesh.positions;
+  if (e.n == 2) {
+    const Vec3 u = (p[e.v[1]] - p[e.v[0]]) / e.measure;
+    grad[0] = -u;
+    grad[1] = u;
+    grad[2] = Vec3();
+    return;
+  }
+  // A = |m| / 2 with m = (b-a) x (c-a): dA/dx = (m/|m|)^T dm/dx / 2.
+  const Vec3 a = p[e.v[0]], b = p[e.v[1]], c = p[e.v[2]];
+  const Vec3 m = Cross(b - a, c - a);
+  const Vec3 g = m / (2 * Norm(m));
+  grad[1] = Cross(c - a, g);
+  grad[2] = Cross(g, b - a);
+  grad[0] = -(grad[1] + grad[2]);
 }
 
 IntegralResult IntegrateNodal(const Mesh& mesh,
                               const std::vector<double>& values,
                               const std::function<double(double)>& phi) {
   IntegralResult r;
-  const auto& p = mesh.positions;
-  for (const Face& f : mesh.faces) {
+  int64_t last_skipped = -1;
+  ForEachElement(mesh, [&](int64_t face, const Element& e) {
     bool finite = true;
-    for (int k = 0; k < f.size; ++k) finite &= std::isfinite(values[f.v[k]]);
+    for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
     if (!finite) {
-      ++r.skipped_faces;
-      continue;
+      if (face != last_skipped) ++r.skipped_faces;
+      last_skipped = face;
+      return;
     }
-    if (f.size == 2) {
-      const double len = Norm(p[f.v[1]] - p[f.v[0]]);
-      const double a = values[f.v[0]], b = values[f.v[1]];
-      r.value += phi ? len * (phi(kGaussHi * a + kGaussLo * b) +
-                              phi(kGaussLo * a + kGaussHi * b)) / 2
-                     : len * (a + b) / 2;
-      r.measure += len;
-      continue;
+    double sum = 0;
+    for (const QuadraturePoint& q : QuadratureRule(e.n)) {
+      double t = 0;
+      for (int i = 0; i < e.n; ++i) t += q.shape[i] * values[e.v[i]];
+      sum += q.weight * (phi ? phi(t) : t);
     }
-    for (int t = 0; t + 2 < f.size; ++t) {
-      const int i0 = f.v[0], i1 = f.v[t + 1], i2 = f.v[t + 2];
-      const double area = Norm(Cross(p[i1] - p[i0], p[i2] - p[i0])) / 2;
-      r.value += TriangleIntegral(area, values[i0], values[i1], values[i2], phi);
-      r.measure += area;
-    }
-  }
+    r.value += e.measure * sum;
+    r.measure += e.measure;
+  });
   return r;
 }
+
 
 }  // namespace meshgauge

@@ -25,7 +25,31 @@ IntegralResult IntegrateNodal(
     const Mesh& mesh, const std::vector<double>& values,
     const std::function<double(double)>& phi = nullptr);
 
-// Measure of one face: segment length, triangle area, quad = two triangles.
-double FaceMeasure(const Mesh& mesh, const Face& face);
+// One integration element: a segment (n = 2) or a triangle (n = 3; a quad
+// gives two) with its vertex ids and measure (length or area).
+struct Element {
+  int n = 0;
+  int32_t v[3] = {-1, -1, -1};
+  double measure = 0;
+};
+
+// A quadrature point of an element: weight (summing to 1 over the element)
+// and the linear shape functions N_i at the point.
+struct QuadraturePoint {
+  double weight;
+  double shape[3];
+};
+
+// The rule of SPEC §7 for an element with n vertices: 2 Gauss points on a
+// segment, 3 points (degree 2) on a triangle.
+const std::vector<QuadraturePoint>& QuadratureRule(int n);
+
+// Calls fn(element) for every integration element of every face, in face
+// order; `face` is the mesh face index.
+void ForEachElement(const Mesh& mesh,
+                    const std::function<void(int64_t face, const Element&)>& fn);
+
+// d(measure)/dx for the element's vertices (3 entries; z = 0 in 2D).
+void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]);
 
 }  // namespace meshgauge

@@ -135,7 +135,11 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
   result.kept.assign(nv, 0);
   hits_.generation = -1;
   std::vector<int32_t> table;
-  if (keep_hits) table.assign(nv * num_rays, -1);
+  std::vector<uint8_t> kept_table;
+  if (keep_hits) {
+    table.assign(nv * num_rays, -1);
+    kept_table.assign(nv * num_rays, 0);
+  }
 
   ControlGate gate(control, nv);
   std::atomic<int64_t> rays_traced{0};
@@ -193,6 +197,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       traced += num_rays;
       const ConeEstimate est =
           EstimateCone(t, cone, params.kappa, absl::MakeSpan(kept), scratch);
+      if (keep_hits) {
+        std::copy(kept.begin(), kept.end(), kept_table.begin() + p * num_rays);
+      }
       result.hits[p] = est.hits;
       result.kept[p] = est.kept;
       if (est.kept == 0) {
@@ -221,6 +228,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     hits_.resolved = resolved;
     hits_.cone = std::move(cone);
     hits_.primitives = std::move(table);
+    hits_.kept = std::move(kept_table);
     hits_.t_min = t_min;
     hits_.t_max = t_max;
     hits_.generation = generation_;

@@ -23,17 +23,23 @@ struct EvaluatorOptions {
 };
 
 // The frozen result of a ray pass: for every vertex p and ray k, the hit
-// primitive (index into MeshTopology::primitives) or -1. Row-major #V x K.
+// primitive (index into MeshTopology::primitives) or -1, and whether the ray
+// was kept by the filter. Row-major #V x K.
 // Sensitivities (SPEC §6) hold these fixed and differentiate the rest.
 struct HitTable {
   ResolvedParams resolved;
   std::vector<ConeRay> cone;
   std::vector<int32_t> primitives;
+  std::vector<uint8_t> kept;  // #V x K: 1 where the ray passed the filter.
   double t_min = 0;  // self-hit threshold, mesh units.
   double t_max = 0;  // miss distance, mesh units.
   int64_t generation = -1;
   absl::Span<const int32_t> Row(int64_t vertex) const {
     return absl::MakeConstSpan(primitives.data() + vertex * cone.size(),
+                               cone.size());
+  }
+  absl::Span<const uint8_t> KeptRow(int64_t vertex) const {
+    return absl::MakeConstSpan(kept.data() + vertex * cone.size(),
                                cone.size());
   }
 };
@@ -46,7 +52,7 @@ class SdfEvaluator {
       Mesh mesh, const EvaluatorOptions& options = {});
 
   // Computes SDF values for every vertex (SPEC §3-5). With keep_hits the
-  // hit table is kept for sensitivities (memory: 4 bytes x #V x K).
+  // hit table is kept for sensitivities (memory: 5 bytes x #V x K).
   // Errors: InvalidArgument for bad params; Cancelled when
   // control.cancelled() returned true.
   absl::StatusOr<SdfResult> Compute(const SdfParams& params,

@@ -121,7 +121,7 @@ Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv) {
   return mesh;
 }
 
-Mesh MakeBox(double sx, double sy, double sz, double cell) {
+Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
   Mesh mesh;
   std::map<std::tuple<int64_t, int64_t, int64_t>, int32_t> index;
   const double size[3] = {sx, sy, sz};
@@ -155,7 +155,10 @@ Mesh MakeBox(double sx, double sy, double sz, double cell) {
             idx[c] = j + dj[k];
             q[k] = vertex(idx[0], idx[1], idx[2]);
           }
-          if (side == 0) {
+          if (quads) {
+            mesh.faces.push_back(side == 0 ? Face::Quad(q[0], q[3], q[2], q[1])
+                                           : Face::Quad(q[0], q[1], q[2], q[3]));
+          } else if (side == 0) {
             mesh.faces.push_back(Face::Triangle(q[0], q[2], q[1]));
             mesh.faces.push_back(Face::Triangle(q[0], q[3], q[2]));
           } else {

@@ -18,9 +18,9 @@ Mesh MakeIcosphere(double radius, int frequency);
 // split into triangles.
 Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv);
 
-// Axis-aligned box [0,sx] x [0,sy] x [0,sz], each face a grid of
-// triangles with cells of at most `cell` mesh units.
-Mesh MakeBox(double sx, double sy, double sz, double cell);
+// Axis-aligned box [0,sx] x [0,sy] x [0,sz], each face a grid of cells of at
+// most `cell` mesh units, each cell two triangles or (quads = true) a quad.
+Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads = false);
 
 // 2D square [-a/2, a/2]^2 (counter-clockwise, region 0, INWARD) with a
 // circular hole of radius r at the centre (clockwise so its normal points out

@@ -1,0 +1,208 @@
+#include "lib/sensitivity.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "lib/estimator.h"
+#include "lib/hit.h"
+#include "lib/normals.h"
+#include "lib/vertex_cone.h"
+
+namespace meshgauge {
+namespace {
+
+// Vertices per batch: terms of a batch are computed in parallel, then
+// scattered serially in vertex order (deterministic sums).
+constexpr int64_t kBatch = 4096;
+
+struct Term {
+  int32_t vertex;
+  Vec3 d;
+};
+
+// Everything a vertex's gradient needs, shared read-only by the workers.
+struct Context {
+  const SdfEvaluator& ev;
+  const HitTable& hits;
+  std::vector<Vec3> normals;
+};
+
+// Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for vertex p.
+// Leaves `terms` empty when p has no value.
+void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
+                 std::vector<double>& t, std::vector<uint8_t>& kept,
+                 std::vector<double>& scratch,
+                 std::vector<HitGeometry>& geo) {
+  terms.clear();
+  const SdfEvaluator& ev = ctx.ev;
+  const Mesh& mesh = ev.mesh();
+  const MeshTopology& topo = ev.topology();
+  const auto& cone = ctx.hits.cone;
+  const int num_rays = static_cast<int>(cone.size());
+  if (topo.vertex_faces.Of(p).empty()) return;
+  const VertexCone vc = MakeVertexCone(mesh.dimension, ctx.normals[p],
+                                       topo.vertex_direction[p]);
+  if (!vc.valid) return;
+  const Vec3& x = mesh.positions[p];
+  const auto row = ctx.hits.Row(p);
+  for (int k = 0; k < num_rays; ++k) {
+    t[k] = std::numeric_limits<double>::quiet_NaN();
+    if (row[k] < 0) continue;
+    const Vec3 d = RayDirection(vc.frame, cone[k]);
+    if (EvaluateHit(ev.corners()[row[k]], x, d, &geo[k]) &&
+        geo[k].t <= ctx.hits.t_max) {
+      t[k] = geo[k].t;
+    }
+  }
+  const ConeEstimate est =
+      EstimateCone(t, cone, ctx.hits.resolved.params.kappa,
+                   absl::MakeSpan(kept), scratch);
+  if (est.kept == 0) return;
+  Vec3 d_origin, g_u, g_v, g_a;
+  for (int k = 0; k < num_rays; ++k) {
+    if (!kept[k]) continue;
+    const HitGeometry& h = geo[k];
+    const double c = cone[k].weight / est.weight_sum;
+    const Vec3 dt_dx = h.m * (c / h.d_dot_m);  // c * m / (d.m)
+    d_origin -= dt_dx;
+    const Primitive& prim = topo.primitives[row[k]];
+    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
+      terms.push_back({prim.v[j], dt_dx * h.lambda[j]});
+    }
+    const Vec3 g_d = dt_dx * (-h.t);  // c * dt/dd
+    g_u += g_d * cone[k].local.x;
+    g_v += g_d * cone[k].local.y;
+    g_a += g_d * cone[k].local.z;
+  }
+  terms.push_back({static_cast<int32_t>(p), d_origin});
+  // Direction -> axis (through the frame) -> n -> N.
+  const Vec3 g_axis =
+      g_a + FrameVjp(mesh.dimension, vc.frame.axis, g_u, g_v);
+  const Vec3 g_n = g_axis * vc.sign;
+  const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
+  Vec3 grad[3];
+  for (int32_t prim_id : topo.vertex_primitives.Of(p)) {
+    const Primitive& prim = topo.primitives[prim_id];
+    PrimitiveNormalVjp(mesh, prim, g_big_n, grad);
+    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
+      terms.push_back({prim.v[j], grad[j]});
+    }
+  }
+}
+
+absl::StatusOr<Context> MakeContext(const SdfEvaluator& ev) {
+  const HitTable* hits = ev.hits();
+  if (hits == nullptr) {
+    return absl::FailedPreconditionError(
+        "sensitivities need the hit table of a ray pass at the current "
+        "positions: call Compute(..., keep_hits = true) after the last "
+        "UpdatePositions");
+  }
+  if (hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
+    return absl::FailedPreconditionError(
+        "sensitivities are only available with area-weighted normals; "
+        "recompute with NormalWeighting::kArea");
+  }
+  return Context{ev, *hits,
+                 UnnormalizedNormals(ev.mesh(), ev.topology(),
+                                     NormalWeighting::kArea)};
+}
+
+// Runs `consume(p, terms)` for every vertex in ascending order, computing
+// the terms of each batch in parallel.
+template <typename Consume>
+absl::Status ForEachRow(const Context& ctx, const ComputeControl& control,
+                        int threads, Consume consume) {
+  const int64_t nv = ctx.ev.mesh().num_vertices();
+  const size_t num_rays = ctx.hits.cone.size();
+  std::vector<std::vector<Term>> rows(std::min(nv, kBatch));
+  tbb::task_arena arena(threads > 0 ? threads
+                                    : tbb::info::default_concurrency());
+  for (int64_t begin = 0; begin < nv; begin += kBatch) {
+    if (control.cancelled && control.cancelled()) {
+      return absl::CancelledError("sensitivity computation cancelled");
+    }
+    const int64_t end = std::min(nv, begin + kBatch);
+    arena.execute([&] {
+      tbb::parallel_for(
+          tbb::blocked_range<int64_t>(begin, end, 64),
+          [&](const tbb::blocked_range<int64_t>& r) {
+            std::vector<double> t(num_rays), scratch;
+            std::vector<uint8_t> kept(num_rays);
+            std::vector<HitGeometry> geo(num_rays);
+            for (int64_t p = r.begin(); p < r.end(); ++p) {
+              VertexTerms(ctx, p, rows[p - begin], t, kept, scratch, geo);
+            }
+          });
+    });
+    for (int64_t p = begin; p < end; ++p) consume(p, rows[p - begin]);
+    if (control.progress) control.progress(end, nv);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<SparseJacobian> ComputeJacobian(const SdfEvaluator& evaluator,
+                                               const ComputeControl& control,
+                                               int threads) {
+  auto ctx = MakeContext(evaluator);
+  if (!ctx.ok()) return ctx.status();
+  SparseJacobian jac;
+  jac.row_offsets.push_back(0);
+  absl::Status s = ForEachRow(*ctx, control, threads,
+                              [&jac](int64_t, std::vector<Term>& terms) {
+    std::stable_sort(terms.begin(), terms.end(),
+                     [](const Term& a, const Term& b) {
+                       return a.vertex < b.vertex;
+                     });
+    for (size_t i = 0; i < terms.size();) {
+      Vec3 sum;
+      size_t j = i;
+      for (; j < terms.size() && terms[j].vertex == terms[i].vertex; ++j) {
+        sum += terms[j].d;
+      }
+      jac.columns.push_back(terms[i].vertex);
+      jac.values.push_back(sum);
+      i = j;
+    }
+    jac.row_offsets.push_back(jac.nonzeros());
+  });
+  if (!s.ok()) return s;
+  return jac;
+}
+
+absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
+                                             absl::Span<const double> g,
+                                             const ComputeControl& control,
+                                             int threads) {
+  const int64_t nv = evaluator.mesh().num_vertices();
+  if (std::ssize(g) != nv) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "VJP weights must have one value per vertex: expected ", nv, ", got ",
+        g.size()));
+  }
+  for (int64_t i = 0; i < nv; ++i) {
+    if (!std::isfinite(g[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("VJP weight of vertex ", i, " is not finite"));
+    }
+  }
+  auto ctx = MakeContext(evaluator);
+  if (!ctx.ok()) return ctx.status();
+  std::vector<Vec3> out(nv);
+  absl::Status s = ForEachRow(*ctx, control, threads,
+                              [&](int64_t p, const std::vector<Term>& terms) {
+    if (g[p] == 0) return;
+    for (const Term& term : terms) out[term.vertex] += term.d * g[p];
+  });
+  if (!s.ok()) return s;
+  return out;
+}
+
+}  // namespace meshgauge

@@ -1,0 +1,170 @@
+// SPEC §6: every derivative against central finite differences.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "lib/mesh_io.h"
+#include "lib/sensitivity.h"
+#include "lib/shapes.h"
+#include "tests/fd_check.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using testing::CheckJacobian;
+using testing::ExpectFdAgreement;
+using testing::SharedMesh;
+
+SdfParams Cone(int rays = 0) {
+  SdfParams p;
+  p.rays = rays;
+  return p;
+}
+SdfParams NormalRay() {
+  SdfParams p;
+  p.method = SdfMethod::kNormalRay;
+  return p;
+}
+
+// Moves every vertex radially by a deterministic pseudo-random fraction of
+// up to `amount`: a generic mesh, where no ray passes exactly through a
+// vertex or an edge of the opposite side (on a perfectly symmetric mesh the
+// normal ray of every vertex does, and the hit primitive switches under any
+// perturbation: a true non-differentiable event).
+Mesh Jitter(Mesh m, double amount) {
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    m.positions[i] *= 1 + amount * std::sin(12.9898 * i + 78.233 * i * i);
+  }
+  return m;
+}
+
+// r(theta) = 1 + A sin(f theta), thesis §5.4.2.
+Mesh NoisyCircle(int n, double amplitude, int frequency) {
+  Mesh m = MakeCircle(1, n);
+  for (Vec3& p : m.positions) {
+    const double th = std::atan2(p.y, p.x);
+    p *= 1 + amplitude * std::sin(frequency * th);
+  }
+  return m;
+}
+
+TEST(SensitivityTest, Circle) {
+  ExpectFdAgreement(CheckJacobian(MakeCircle(0.5, 64), Cone(), 64, "circle cone"));
+  // Odd count: the normal ray of a vertex ends mid-segment, not on the
+  // opposite vertex.
+  ExpectFdAgreement(CheckJacobian(MakeCircle(0.5, 63), NormalRay(), 63, "circle normal"));
+}
+
+TEST(SensitivityTest, NoisyCircle) {
+  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), Cone(), 100, "noisy circle cone"));
+  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), NormalRay(), 100, "noisy circle normal"));
+}
+
+TEST(SensitivityTest, HollowSquareWithOutwardRegion) {
+  const Mesh m = MakeHollowSquare(4, 1, 0.2);
+  ExpectFdAgreement(CheckJacobian(m, Cone(), 60, "hollow cone"));
+  ExpectFdAgreement(CheckJacobian(m, NormalRay(), 60, "hollow normal"));
+}
+
+TEST(SensitivityTest, Sphere) {
+  ExpectFdAgreement(CheckJacobian(MakeIcosphere(0.5, 4), Cone(), 30, "sphere cone"));
+  ExpectFdAgreement(CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.01), NormalRay(), 30, "jittered sphere normal"));
+}
+
+TEST(SensitivityTest, Torus) {
+  ExpectFdAgreement(CheckJacobian(MakeTorus(1, 0.4, 32, 12), Cone(), 30, "torus cone"));
+}
+
+TEST(SensitivityTest, DecimatedKnight) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok());
+  ExpectFdAgreement(CheckJacobian(*mesh, Cone(), 30, "knight cone"));
+  ExpectFdAgreement(CheckJacobian(*mesh, NormalRay(), 30, "knight normal"));
+}
+
+TEST(SensitivityTest, Spot) {
+  auto mesh = ReadMesh(SharedMesh("spot_triangulated.obj"));
+  ASSERT_TRUE(mesh.ok());
+  ExpectFdAgreement(CheckJacobian(*mesh, Cone(), 12, "spot cone"));
+}
+
+TEST(SensitivityTest, QuadMesh) {
+  // A box of quads (each grid cell one quad face), made generic.
+  Mesh quads = MakeBox(2, 1, 0.5, 0.25, /*quads=*/true);
+  quads = Jitter(quads, 0.01);
+  ASSERT_TRUE(ValidateMesh(quads).ok());
+  ExpectFdAgreement(CheckJacobian(quads, Cone(), 40, "quad box cone"));
+}
+
+TEST(SensitivityTest, VjpIsRotationEquivariantIn2D) {
+  const Mesh m = NoisyCircle(150, 0.05, 5);
+  const double angle = 0.7;
+  const double c = std::cos(angle), s = std::sin(angle);
+  Mesh rotated = m;
+  for (Vec3& p : rotated.positions) p = Vec3(c * p.x - s * p.y, s * p.x + c * p.y, 0);
+  std::vector<double> g(m.num_vertices());
+  for (size_t i = 0; i < g.size(); ++i) g[i] = std::cos(0.3 * i);
+  std::vector<Vec3> grads[2];
+  std::vector<double> values[2];
+  int i = 0;
+  for (const Mesh* mesh : {&m, static_cast<const Mesh*>(&rotated)}) {
+    auto ev = SdfEvaluator::Create(*mesh);
+    ASSERT_TRUE(ev.ok());
+    auto r = (*ev)->Compute({}, {}, true);
+    ASSERT_TRUE(r.ok());
+    values[i] = r->values;
+    grads[i++] = *ComputeVjp(**ev, g);
+  }
+  for (size_t v = 0; v < g.size(); ++v) {
+    EXPECT_NEAR(values[0][v], values[1][v], 1e-12);
+    const Vec3& a = grads[0][v];
+    const Vec3 ra(c * a.x - s * a.y, s * a.x + c * a.y, 0);
+    EXPECT_NEAR(ra.x, grads[1][v].x, 1e-9);
+    EXPECT_NEAR(ra.y, grads[1][v].y, 1e-9);
+  }
+}
+
+TEST(SensitivityTest, VjpIsBitIdenticalForOneAndTwoThreads) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  auto ev = SdfEvaluator::Create(*mesh);
+  ASSERT_TRUE((*ev)->Compute({}, {}, true).ok());
+  std::vector<double> g(mesh->num_vertices(), 1.0);
+  auto a = ComputeVjp(**ev, g, {}, 1);
+  auto b = ComputeVjp(**ev, g, {}, 2);
+  ASSERT_TRUE(a.ok() && b.ok());
+  EXPECT_EQ(*a, *b);
+}
+
+TEST(SensitivityTest, RequiresHitTable) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
+  ASSERT_TRUE((*ev)->Compute({}).ok());
+  EXPECT_EQ(ComputeJacobian(**ev).status().code(),
+            absl::StatusCode::kFailedPrecondition);
+}
+
+TEST(SensitivityTest, RejectsAngleWeightedNormals) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
+  SdfParams p;
+  p.normal_weighting = NormalWeighting::kAngle;
+  ASSERT_TRUE((*ev)->Compute(p, {}, true).ok());
+  const absl::Status s = ComputeJacobian(**ev).status();
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(s.message()), ::testing::HasSubstr("area-weighted"));
+}
+
+TEST(SensitivityTest, RejectsBadVjpWeights) {
+  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
+  ASSERT_TRUE((*ev)->Compute({}, {}, true).ok());
+  EXPECT_EQ(ComputeVjp(**ev, std::vector<double>(3, 1.0)).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  std::vector<double> g(42, 1.0);
+  g[5] = std::nan("");
+  EXPECT_EQ(ComputeVjp(**ev, g).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace meshgauge
