@@ -3,10 +3,13 @@
 //   meshgauge_bench [--repeat N] [--threads T] MESH...
 //
 // For each mesh (closed meshes with negative volume are reversed first),
-// runs in one process, alternating their order, N times each: the raw Embree pass
-// (bench/raw_embree_pass.h) and meshgauge's full SDF pass (CONE, defaults),
-// and prints the best rate of each and their ratio.
+// runs in one process, alternating their order, N times each:
+//  * the raw Embree pass (bench/raw_embree_pass.h) and meshgauge's full SDF
+//    pass (CONE, defaults): best rate of each and their ratio;
+//  * a values-only pass vs a values pass keeping the hit table followed by
+//    the VJP (all-ones g): best times and their ratio (goal <= 1.3).
 #include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -16,6 +19,7 @@
 #include "bench/raw_embree_pass.h"
 #include "lib/mesh_io.h"
 #include "lib/sdf.h"
+#include "lib/sensitivity.h"
 
 ABSL_FLAG(int, repeat, 4, "runs of each pass; the best is reported");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
@@ -39,18 +43,40 @@ int BenchMesh(const std::string& path) {
                  std::string(evaluator.status().message()).c_str());
     return 1;
   }
-  double best_raw = 0, best_sdf = 0;
+  double best_raw = 0, best_sdf = 0, best_values = 1e300;
+  double best_with_vjp = 1e300, best_vjp = 1e300;
   int64_t rays = 0;
   for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
     // Alternate the order so neither pass always runs on a warmer machine.
     absl::StatusOr<SdfResult> sdf;
-    if (i % 2 == 1) sdf = (*evaluator)->Compute(params);
+    double values_wall = 0;
+    auto values_only = [&] {
+      const auto start = std::chrono::steady_clock::now();
+      sdf = (*evaluator)->Compute(params);
+      values_wall = std::chrono::duration<double>(
+                        std::chrono::steady_clock::now() - start).count();
+    };
+    if (i % 2 == 1) values_only();
     auto raw = RunRawPass(*mesh, params);
-    if (i % 2 == 0) sdf = (*evaluator)->Compute(params);
+    if (i % 2 == 0) values_only();
+    best_values = std::min(best_values, values_wall);
     if (!raw.ok() || !sdf.ok()) {
       std::fprintf(stderr, "pass failed\n");
       return 1;
     }
+    const auto t0 = std::chrono::steady_clock::now();
+    auto kept = (*evaluator)->Compute(params, {}, /*keep_hits=*/true);
+    const auto t1 = std::chrono::steady_clock::now();
+    auto vjp = ComputeVjp(**evaluator, std::vector<double>(mesh->num_vertices(), 1.0),
+                          {}, params.threads);
+    const auto t2 = std::chrono::steady_clock::now();
+    if (!kept.ok() || !vjp.ok()) {
+      std::fprintf(stderr, "values+vjp failed\n");
+      return 1;
+    }
+    best_with_vjp = std::min(best_with_vjp,
+                             std::chrono::duration<double>(t2 - t0).count());
+    best_vjp = std::min(best_vjp, std::chrono::duration<double>(t2 - t1).count());
     best_raw = std::max(best_raw, raw->rays / raw->seconds);
     best_sdf = std::max(best_sdf, sdf->rays_traced / sdf->trace_seconds);
     rays = sdf->rays_traced;
@@ -61,6 +87,11 @@ int BenchMesh(const std::string& path) {
               static_cast<long long>(mesh->num_vertices()),
               static_cast<long long>(rays), best_raw, best_sdf,
               best_sdf / best_raw);
+  const double values_only = best_values;
+  std::printf("%-28s values %.3f s  values+hits+VJP %.3f s (VJP alone %.3f s)  "
+              "ratio %.3f\n",
+              "", values_only, best_with_vjp, best_vjp,
+              best_with_vjp / values_only);
   return 0;
 }
 

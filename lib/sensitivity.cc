@@ -8,7 +8,6 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
-#include "lib/estimator.h"
 #include "lib/hit.h"
 #include "lib/normals.h"
 #include "lib/vertex_cone.h"
@@ -35,9 +34,7 @@ struct Context {
 // Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for vertex p.
 // Leaves `terms` empty when p has no value.
 void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
-                 std::vector<double>& t, std::vector<uint8_t>& kept,
-                 std::vector<double>& scratch,
-                 std::vector<HitGeometry>& geo) {
+                 std::vector<uint8_t>& kept, std::vector<HitGeometry>& geo) {
   terms.clear();
   const SdfEvaluator& ev = ctx.ev;
   const Mesh& mesh = ev.mesh();
@@ -45,29 +42,33 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const auto& cone = ctx.hits.cone;
   const int num_rays = static_cast<int>(cone.size());
   if (topo.vertex_faces.Of(p).empty()) return;
-  const VertexCone vc = MakeVertexCone(mesh.dimension, ctx.normals[p],
-                                       topo.vertex_direction[p]);
+  const VertexCone vc =
+      MakeVertexCone(mesh.dimension, ctx.normals[p], topo.vertex_direction[p]);
   if (!vc.valid) return;
   const Vec3& x = mesh.positions[p];
   const auto row = ctx.hits.Row(p);
+  // The kept set is frozen in the hit table (SPEC §6): only kept rays are
+  // evaluated, in double precision, at the current positions.
+  const auto kept_row = ctx.hits.KeptRow(p);
+  double weight_sum = 0;
   for (int k = 0; k < num_rays; ++k) {
-    t[k] = std::numeric_limits<double>::quiet_NaN();
-    if (row[k] < 0) continue;
-    const Vec3 d = RayDirection(vc.frame, cone[k]);
-    if (EvaluateHit(ev.corners()[row[k]], x, d, &geo[k]) &&
-        geo[k].t <= ctx.hits.t_max) {
-      t[k] = geo[k].t;
+    kept[k] = kept_row[k];
+    if (!kept[k]) continue;
+    if (!EvaluateHit(ev.corners()[row[k]], x, RayDirection(vc.frame, cone[k]),
+                     &geo[k])) {
+      // Cannot happen at the positions of the ray pass; after a move the
+      // table is invalidated (SdfEvaluator::hits()).
+      kept[k] = 0;
+      continue;
     }
+    weight_sum += cone[k].weight;
   }
-  const ConeEstimate est =
-      EstimateCone(t, cone, ctx.hits.resolved.params.kappa,
-                   absl::MakeSpan(kept), scratch);
-  if (est.kept == 0) return;
+  if (weight_sum == 0) return;
   Vec3 d_origin, g_u, g_v, g_a;
   for (int k = 0; k < num_rays; ++k) {
     if (!kept[k]) continue;
     const HitGeometry& h = geo[k];
-    const double c = cone[k].weight / est.weight_sum;
+    const double c = cone[k].weight / weight_sum;
     const Vec3 dt_dx = h.m * (c / h.d_dot_m);  // c * m / (d.m)
     d_origin -= dt_dx;
     const Primitive& prim = topo.primitives[row[k]];
@@ -81,8 +82,7 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   }
   terms.push_back({static_cast<int32_t>(p), d_origin});
   // Direction -> axis (through the frame) -> n -> N.
-  const Vec3 g_axis =
-      g_a + FrameVjp(mesh.dimension, vc.frame.axis, g_u, g_v);
+  const Vec3 g_axis = g_a + FrameVjp(mesh.dimension, vc.frame.axis, g_u, g_v);
   const Vec3 g_n = g_axis * vc.sign;
   const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
   Vec3 grad[3];
@@ -92,6 +92,17 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
       terms.push_back({prim.v[j], grad[j]});
     }
+  }
+}
+
+// Starts loading the corners of every primitive vertex p's rays hit, so
+// they are in cache when VertexTerms(p) runs (called one vertex ahead).
+void PrefetchVertex(const Context& ctx, int64_t p) {
+  for (int32_t prim : ctx.hits.Row(p)) {
+    if (prim < 0) continue;
+    const char* line = reinterpret_cast<const char*>(&ctx.ev.corners()[prim]);
+    __builtin_prefetch(line);
+    __builtin_prefetch(line + sizeof(PrimitiveCorners) - 1);
   }
 }
 
@@ -108,16 +119,17 @@ absl::StatusOr<Context> MakeContext(const SdfEvaluator& ev) {
         "sensitivities are only available with area-weighted normals; "
         "recompute with NormalWeighting::kArea");
   }
-  return Context{ev, *hits,
-                 UnnormalizedNormals(ev.mesh(), ev.topology(),
-                                     NormalWeighting::kArea)};
+  return Context{
+      ev, *hits,
+      UnnormalizedNormals(ev.mesh(), ev.topology(), NormalWeighting::kArea)};
 }
 
-// Runs `consume(p, terms)` for every vertex in ascending order, computing
-// the terms of each batch in parallel.
+// Computes the terms of every vertex, a batch of kBatch vertices at a time
+// in parallel, and hands each batch to consume(arena, begin, end, rows)
+// (rows[i] are the terms of vertex begin + i).
 template <typename Consume>
-absl::Status ForEachRow(const Context& ctx, const ComputeControl& control,
-                        int threads, Consume consume) {
+absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
+                          int threads, Consume consume) {
   const int64_t nv = ctx.ev.mesh().num_vertices();
   const size_t num_rays = ctx.hits.cone.size();
   std::vector<std::vector<Term>> rows(std::min(nv, kBatch));
@@ -129,18 +141,18 @@ absl::Status ForEachRow(const Context& ctx, const ComputeControl& control,
     }
     const int64_t end = std::min(nv, begin + kBatch);
     arena.execute([&] {
-      tbb::parallel_for(
-          tbb::blocked_range<int64_t>(begin, end, 64),
-          [&](const tbb::blocked_range<int64_t>& r) {
-            std::vector<double> t(num_rays), scratch;
-            std::vector<uint8_t> kept(num_rays);
-            std::vector<HitGeometry> geo(num_rays);
-            for (int64_t p = r.begin(); p < r.end(); ++p) {
-              VertexTerms(ctx, p, rows[p - begin], t, kept, scratch, geo);
-            }
-          });
+      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
+                        [&](const tbb::blocked_range<int64_t>& r) {
+                          std::vector<uint8_t> kept(num_rays);
+                          std::vector<HitGeometry> geo(num_rays);
+                          PrefetchVertex(ctx, r.begin());
+                          for (int64_t p = r.begin(); p < r.end(); ++p) {
+                            if (p + 1 < r.end()) PrefetchVertex(ctx, p + 1);
+                            VertexTerms(ctx, p, rows[p - begin], kept, geo);
+                          }
+                        });
     });
-    for (int64_t p = begin; p < end; ++p) consume(p, rows[p - begin]);
+    consume(arena, begin, end, rows);
     if (control.progress) control.progress(end, nv);
   }
   return absl::OkStatus();
@@ -155,24 +167,29 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const SdfEvaluator& evaluator,
   if (!ctx.ok()) return ctx.status();
   SparseJacobian jac;
   jac.row_offsets.push_back(0);
-  absl::Status s = ForEachRow(*ctx, control, threads,
-                              [&jac](int64_t, std::vector<Term>& terms) {
-    std::stable_sort(terms.begin(), terms.end(),
-                     [](const Term& a, const Term& b) {
-                       return a.vertex < b.vertex;
-                     });
-    for (size_t i = 0; i < terms.size();) {
-      Vec3 sum;
-      size_t j = i;
-      for (; j < terms.size() && terms[j].vertex == terms[i].vertex; ++j) {
-        sum += terms[j].d;
-      }
-      jac.columns.push_back(terms[i].vertex);
-      jac.values.push_back(sum);
-      i = j;
-    }
-    jac.row_offsets.push_back(jac.nonzeros());
-  });
+  absl::Status s = ForEachBatch(
+      *ctx, control, threads,
+      [&jac](tbb::task_arena&, int64_t begin, int64_t end,
+             std::vector<std::vector<Term>>& rows) {
+        for (int64_t p = begin; p < end; ++p) {
+          std::vector<Term>& terms = rows[p - begin];
+          std::stable_sort(
+              terms.begin(), terms.end(),
+              [](const Term& a, const Term& b) { return a.vertex < b.vertex; });
+          for (size_t i = 0; i < terms.size();) {
+            Vec3 sum;
+            size_t j = i;
+            for (; j < terms.size() && terms[j].vertex == terms[i].vertex;
+                 ++j) {
+              sum += terms[j].d;
+            }
+            jac.columns.push_back(terms[i].vertex);
+            jac.values.push_back(sum);
+            i = j;
+          }
+          jac.row_offsets.push_back(jac.nonzeros());
+        }
+      });
   if (!s.ok()) return s;
   return jac;
 }
@@ -183,9 +200,9 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
                                              int threads) {
   const int64_t nv = evaluator.mesh().num_vertices();
   if (std::ssize(g) != nv) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "VJP weights must have one value per vertex: expected ", nv, ", got ",
-        g.size()));
+    return absl::InvalidArgumentError(
+        absl::StrCat("VJP weights must have one value per vertex: expected ",
+                     nv, ", got ", g.size()));
   }
   for (int64_t i = 0; i < nv; ++i) {
     if (!std::isfinite(g[i])) {
@@ -196,11 +213,28 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
   auto ctx = MakeContext(evaluator);
   if (!ctx.ok()) return ctx.status();
   std::vector<Vec3> out(nv);
-  absl::Status s = ForEachRow(*ctx, control, threads,
-                              [&](int64_t p, const std::vector<Term>& terms) {
-    if (g[p] == 0) return;
-    for (const Term& term : terms) out[term.vertex] += term.d * g[p];
-  });
+  // Scatter in parallel over destination ranges; every destination still
+  // sums its terms in vertex order, so the result does not depend on the
+  // number of threads.
+  absl::Status s = ForEachBatch(
+      *ctx, control, threads,
+      [&](tbb::task_arena& arena, int64_t begin, int64_t end,
+          const std::vector<std::vector<Term>>& rows) {
+        const int parts = arena.max_concurrency();
+        arena.execute([&] {
+          tbb::parallel_for(0, parts, [&](int part) {
+            const int64_t lo = nv * part / parts, hi = nv * (part + 1) / parts;
+            for (int64_t p = begin; p < end; ++p) {
+              if (g[p] == 0) continue;
+              for (const Term& term : rows[p - begin]) {
+                if (term.vertex >= lo && term.vertex < hi) {
+                  out[term.vertex] += term.d * g[p];
+                }
+              }
+            }
+          });
+        });
+      });
   if (!s.ok()) return s;
   return out;
 }

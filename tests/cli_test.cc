@@ -130,3 +130,68 @@ TEST(CliTest, PreciseErrors) {
 
 }  // namespace
 }  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+TEST(CliDerivativesTest, GradWritesVjpAndJacobian) {
+  const std::string vjp = Tmp("vjp.csv"), jac = Tmp("jac.csv"), w = Tmp("w.txt");
+  {
+    std::ofstream out(w);
+    for (int i = 0; i < 502; ++i) out << (i % 3) << "\n";
+  }
+  const CliRun r = RunCli("grad " + SharedMesh("decimated-knight.off") +
+                          " --rays 20 --weights " + w + " --vjp " + vjp +
+                          " --jacobian " + jac + " --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j["jacobian_nonzeros"].get<int64_t>(), 502);
+  std::ifstream in(vjp);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "vertex,dx,dy,dz");
+  std::ifstream jin(jac);
+  std::getline(jin, header);
+  EXPECT_EQ(header, "row,col,dx,dy,dz");
+  const CliRun bad = RunCli("grad " + SharedMesh("decimated-knight.off") +
+                            " --weights " + SharedMesh("README.md"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_THAT(bad.out, HasSubstr("not a finite number"));
+  for (const auto& f : {vjp, jac, w}) std::filesystem::remove(f);
+}
+
+TEST(CliDerivativesTest, PenaltyPrintsValueAndWritesGradient) {
+  const std::string grad = Tmp("pgrad.csv");
+  const CliRun r = RunCli("penalty " + SharedMesh("decimated-knight.off") +
+                          " --t-min 0.1 --rays 20 --json --grad " + grad);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_GT(j["penalty"].get<double>(), 0);
+  EXPECT_EQ(j["phi"], "one-sided");
+  int lines = 0;
+  std::ifstream in(grad);
+  for (std::string l; std::getline(in, l);) ++lines;
+  EXPECT_EQ(lines, 503);
+  const CliRun no_tmin = RunCli("penalty " + SharedMesh("decimated-knight.off"));
+  EXPECT_EQ(no_tmin.exit_code, 1);
+  EXPECT_THAT(no_tmin.out, HasSubstr("t_min must be a finite number > 0"));
+  const CliRun bad_phi = RunCli("penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --phi x");
+  EXPECT_THAT(bad_phi.out, HasSubstr("--phi must be one-sided or thesis"));
+  std::filesystem::remove(grad);
+}
+
+TEST(CliDerivativesTest, CalibrateReportsAlphas) {
+  const CliRun r = RunCli("calibrate " + SharedMesh("1002_tray_bottom.STL") +
+                          " --t-min 2 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["compared"], 2216);
+  EXPECT_EQ(j["sdf_lower"].get<int64_t>() + j["sdf_equal"].get<int64_t>() +
+                j["sdf_higher"].get<int64_t>(),
+            2216);
+  EXPECT_GT(j["alpha1"].get<double>(), 3.175 / 2);
+  EXPECT_EQ(j["sdf_histogram"].size(), 20u);
+}
+
+}  // namespace
+}  // namespace meshgauge

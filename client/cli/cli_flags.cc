@@ -32,6 +32,22 @@ ABSL_FLAG(std::string, normals, "area", "vertex normal weighting: area|angle");
 ABSL_FLAG(std::string, out, "", "output file (meshgauge shape)");
 ABSL_FLAG(double, size, 0.05, "element size (meshgauge shape)");
 ABSL_FLAG(double, radius, 1.0, "radius (meshgauge shape)");
+ABSL_FLAG(std::string, weights, "",
+          "meshgauge grad: per-vertex weights g (one number per line, #V "
+          "lines; default all ones)");
+ABSL_FLAG(std::string, vjp, "",
+          "meshgauge grad: write g^T J as CSV vertex,dx,dy,dz");
+ABSL_FLAG(std::string, jacobian, "",
+          "meshgauge grad: write the sparse Jacobian as CSV row,col,dx,dy,dz");
+ABSL_FLAG(double, t_min, 0, "minimum thickness (penalty, calibrate), > 0");
+ABSL_FLAG(std::string, phi, "one-sided",
+          "penalty form: one-sided max(0,1-t/t_min)^n or thesis (t/t_min-1)^n");
+ABSL_FLAG(double, power, 2, "penalty power n >= 1");
+ABSL_FLAG(std::string, grad, "",
+          "meshgauge penalty: write dP/dx as CSV vertex,dx,dy,dz");
+ABSL_FLAG(double, tolerance, 0.01,
+          "meshgauge calibrate: relative tolerance for SDF == thickness");
+ABSL_FLAG(int, bins, 20, "meshgauge calibrate: histogram bins");
 
 namespace meshgauge::cli {
 

@@ -25,6 +25,15 @@ ABSL_DECLARE_FLAG(std::string, normals);
 ABSL_DECLARE_FLAG(std::string, out);
 ABSL_DECLARE_FLAG(double, size);
 ABSL_DECLARE_FLAG(double, radius);
+ABSL_DECLARE_FLAG(std::string, weights);
+ABSL_DECLARE_FLAG(std::string, vjp);
+ABSL_DECLARE_FLAG(std::string, jacobian);
+ABSL_DECLARE_FLAG(double, t_min);
+ABSL_DECLARE_FLAG(std::string, phi);
+ABSL_DECLARE_FLAG(double, power);
+ABSL_DECLARE_FLAG(std::string, grad);
+ABSL_DECLARE_FLAG(double, tolerance);
+ABSL_DECLARE_FLAG(int, bins);
 
 namespace meshgauge::cli {
 

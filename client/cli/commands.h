@@ -12,6 +12,18 @@ namespace meshgauge::cli {
 // meshgauge sdf MESH [flags]: SDF per vertex, summary on stdout.
 absl::Status RunSdf(const std::vector<std::string>& args);
 
+// meshgauge grad MESH [--weights FILE] [--vjp FILE] [--jacobian FILE]:
+// sensitivities of the SDF (SPEC §6).
+absl::Status RunGrad(const std::vector<std::string>& args);
+
+// meshgauge penalty MESH --t-min T [--phi one-sided|thesis] [--power n]
+// [--grad FILE]: minimum-thickness penalty and its gradient (SPEC §7).
+absl::Status RunPenalty(const std::vector<std::string>& args);
+
+// meshgauge calibrate MESH --t-min T [--tolerance R] [--bins N] [--json]:
+// SDF vs physical thickness (SPEC §8).
+absl::Status RunCalibrate(const std::vector<std::string>& args);
+
 // meshgauge shape circle|sphere|torus|hollow --size H --radius R --out FILE:
 // writes an analytic test shape (OBJ; 2D shapes as `l` polylines).
 absl::Status RunShape(const std::vector<std::string>& args);

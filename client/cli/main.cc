@@ -13,6 +13,9 @@ namespace {
 constexpr char kUsage[] =
     "meshgauge VERB [args] [flags]\n"
     "  sdf MESH        SDF per vertex (summary; --csv, --ply, --json)\n"
+    "  grad MESH       sensitivities: --vjp FILE (g^T J), --jacobian FILE\n"
+    "  penalty MESH    minimum-thickness penalty --t-min T [--grad FILE]\n"
+    "  calibrate MESH  SDF vs physical thickness --t-min T\n"
     "  shape KIND      write an analytic shape: circle|sphere|torus|hollow\n"
     "Run 'meshgauge --helpfull' for every flag.";
 
@@ -35,6 +38,12 @@ int main(int argc, char** argv) {
   absl::Status status;
   if (verb == "sdf") {
     status = meshgauge::cli::RunSdf(args);
+  } else if (verb == "grad") {
+    status = meshgauge::cli::RunGrad(args);
+  } else if (verb == "penalty") {
+    status = meshgauge::cli::RunPenalty(args);
+  } else if (verb == "calibrate") {
+    status = meshgauge::cli::RunCalibrate(args);
   } else if (verb == "shape") {
     status = meshgauge::cli::RunShape(args);
   } else {

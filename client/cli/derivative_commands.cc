@@ -1,0 +1,235 @@
+// meshgauge grad / penalty / calibrate.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+
+#include <nlohmann/json.hpp>
+
+#include "absl/flags/flag.h"
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/strip.h"
+#include "client/cli/cli_flags.h"
+#include "client/cli/commands.h"
+#include "client/cli/progress_bar.h"
+#include "lib/calibration.h"
+#include "lib/penalty.h"
+#include "lib/sensitivity.h"
+
+namespace meshgauge::cli {
+namespace {
+
+// The mesh, an evaluator and a ray pass with the hit table kept.
+struct Prepared {
+  std::unique_ptr<SdfEvaluator> evaluator;
+  SdfResult result;
+  SdfParams params;
+};
+
+absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
+                                 const char* usage, bool keep_hits) {
+  if (args.size() != 1) return absl::InvalidArgumentError(usage);
+  auto params = SdfParamsFromFlags();
+  if (!params.ok()) return params.status();
+  auto loaded = LoadMeshFromFlags(args[0]);
+  if (!loaded.ok()) return loaded.status();
+  for (const std::string& w : loaded->warnings) {
+    std::cerr << "meshgauge: warning: " << w << "\n";
+  }
+  auto ev = SdfEvaluator::Create(std::move(loaded->mesh));
+  if (!ev.ok()) return ev.status();
+  Prepared prep{std::move(*ev), {}, *params};
+  if (keep_hits) {
+    ProgressBar bar("tracing");
+    ComputeControl control;
+    control.progress = [&bar](int64_t d, int64_t t) { bar.Update(d, t); };
+    auto result = prep.evaluator->Compute(*params, control, true);
+    if (!result.ok()) return result.status();
+    prep.result = std::move(*result);
+  }
+  return prep;
+}
+
+absl::Status WriteVectorCsv(const std::string& path,
+                            const std::vector<Vec3>& v) {
+  std::ofstream out(path);
+  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  out << "vertex,dx,dy,dz\n";
+  for (size_t i = 0; i < v.size(); ++i) {
+    out << absl::StrFormat("%d,%.17g,%.17g,%.17g\n", i, v[i].x, v[i].y, v[i].z);
+  }
+  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::vector<double>> ReadWeights(const std::string& path,
+                                                int64_t nv) {
+  if (path.empty()) return std::vector<double>(nv, 1.0);
+  std::ifstream in(path);
+  if (!in) return absl::NotFoundError(absl::StrCat("cannot open '", path, "'"));
+  std::vector<double> w;
+  std::string line;
+  int64_t line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    const absl::string_view s = absl::StripAsciiWhitespace(line);
+    if (s.empty()) continue;
+    double x = 0;
+    if (!absl::SimpleAtod(s, &x) || !std::isfinite(x)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "'", path, "' line ", line_no, ": not a finite number: '", s, "'"));
+    }
+    w.push_back(x);
+  }
+  if (std::ssize(w) != nv) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "'", path, "' has ", w.size(), " weights but the mesh has ", nv,
+        " vertices"));
+  }
+  return w;
+}
+
+double MaxNorm(const std::vector<Vec3>& v) {
+  double m = 0;
+  for (const Vec3& x : v) m = std::max(m, Norm(x));
+  return m;
+}
+
+}  // namespace
+
+absl::Status RunGrad(const std::vector<std::string>& args) {
+  auto prep = Prepare(args, "usage: meshgauge grad MESH [--weights FILE] "
+                            "[--vjp FILE] [--jacobian FILE]", true);
+  if (!prep.ok()) return prep.status();
+  const SdfEvaluator& ev = *prep->evaluator;
+  nlohmann::json j;
+  j["vertices"] = ev.mesh().num_vertices();
+  j["ok"] = prep->result.CountStatus(VertexStatus::kOk);
+  if (const std::string path = absl::GetFlag(FLAGS_jacobian); !path.empty()) {
+    auto jac = ComputeJacobian(ev);
+    if (!jac.ok()) return jac.status();
+    std::ofstream out(path);
+    if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+    out << "row,col,dx,dy,dz\n";
+    for (size_t p = 0; p + 1 < jac->row_offsets.size(); ++p) {
+      for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1]; ++e) {
+        const Vec3& d = jac->values[e];
+        out << absl::StrFormat("%d,%d,%.17g,%.17g,%.17g\n", p, jac->columns[e],
+                               d.x, d.y, d.z);
+      }
+    }
+    if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+    j["jacobian_nonzeros"] = jac->nonzeros();
+  }
+  auto weights = ReadWeights(absl::GetFlag(FLAGS_weights), ev.mesh().num_vertices());
+  if (!weights.ok()) return weights.status();
+  auto vjp = ComputeVjp(ev, *weights);
+  if (!vjp.ok()) return vjp.status();
+  j["vjp_max_norm"] = MaxNorm(*vjp);
+  if (const std::string path = absl::GetFlag(FLAGS_vjp); !path.empty()) {
+    if (absl::Status s = WriteVectorCsv(path, *vjp); !s.ok()) return s;
+  }
+  if (absl::GetFlag(FLAGS_json)) {
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << absl::StrFormat(
+        "vertices: %d (%d with a value)\nmax |g^T J| per vertex: %.6g\n",
+        j["vertices"].get<int64_t>(), j["ok"].get<int64_t>(),
+        j["vjp_max_norm"].get<double>());
+    if (j.contains("jacobian_nonzeros")) {
+      std::cout << "jacobian nonzeros: " << j["jacobian_nonzeros"] << "\n";
+    }
+  }
+  return absl::OkStatus();
+}
+
+absl::Status RunPenalty(const std::vector<std::string>& args) {
+  PenaltyParams pp;
+  pp.t_min = absl::GetFlag(FLAGS_t_min);
+  pp.power = absl::GetFlag(FLAGS_power);
+  const std::string phi = absl::GetFlag(FLAGS_phi);
+  if (phi == "one-sided") {
+    pp.form = PenaltyForm::kOneSided;
+  } else if (phi == "thesis") {
+    pp.form = PenaltyForm::kThesis;
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
+  }
+  if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("--t-min/--power: ", s.message()));
+  }
+  auto prep = Prepare(args, "usage: meshgauge penalty MESH --t-min T "
+                            "[--phi one-sided|thesis] [--power n] [--grad FILE]",
+                      true);
+  if (!prep.ok()) return prep.status();
+  const std::string grad_path = absl::GetFlag(FLAGS_grad);
+  auto pen = ComputePenalty(*prep->evaluator, prep->result.values, pp,
+                            !grad_path.empty());
+  if (!pen.ok()) return pen.status();
+  if (!grad_path.empty()) {
+    if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok()) return s;
+  }
+  nlohmann::json j;
+  j["penalty"] = pen->value;
+  j["t_min"] = pp.t_min;
+  j["phi"] = phi;
+  j["power"] = pp.power;
+  j["skipped_faces"] = pen->skipped_faces;
+  if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
+  if (absl::GetFlag(FLAGS_json)) {
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << absl::StrFormat(
+        "penalty P = %.10g (phi %s, t_min %g, n %g; %d faces skipped)\n",
+        pen->value, phi, pp.t_min, pp.power, pen->skipped_faces);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status RunCalibrate(const std::vector<std::string>& args) {
+  auto prep = Prepare(args, "usage: meshgauge calibrate MESH --t-min T "
+                            "[--tolerance R] [--bins N] [--json]", false);
+  if (!prep.ok()) return prep.status();
+  CalibrationParams cp;
+  cp.t_min = absl::GetFlag(FLAGS_t_min);
+  cp.equal_tolerance = absl::GetFlag(FLAGS_tolerance);
+  cp.bins = absl::GetFlag(FLAGS_bins);
+  cp.sdf = prep->params;
+  auto rep = Calibrate(*prep->evaluator, cp);
+  if (!rep.ok()) return rep.status();
+  nlohmann::json j;
+  j["compared"] = rep->compared;
+  j["sdf_lower"] = rep->lower;
+  j["sdf_equal"] = rep->equal;
+  j["sdf_higher"] = rep->higher;
+  j["equal_tolerance"] = cp.equal_tolerance;
+  j["t_min"] = cp.t_min;
+  j["alpha1"] = rep->alpha1;
+  j["alpha2"] = rep->alpha2;
+  j["histogram_range"] = {rep->sdf_histogram.lo, rep->sdf_histogram.hi};
+  j["sdf_histogram"] = rep->sdf_histogram.counts;
+  j["thickness_histogram"] = rep->thickness_histogram.counts;
+  if (absl::GetFlag(FLAGS_json)) {
+    std::cout << j.dump() << "\n";
+    return absl::OkStatus();
+  }
+  std::cout << absl::StrFormat(
+      "vertices compared: %d\nSDF vs thickness (tolerance %g): %d lower, %d "
+      "equal, %d higher\nalpha1 = max(thickness)/t_min = %.6g\nalpha2 = "
+      "min(SDF)/t_min = %.6g\n%-24s %8s %8s\n",
+      rep->compared, cp.equal_tolerance, rep->lower, rep->equal, rep->higher,
+      rep->alpha1, rep->alpha2, "bin", "sdf", "thick");
+  const Histogram& h = rep->sdf_histogram;
+  for (size_t b = 0; b < h.counts.size(); ++b) {
+    const double lo = h.lo + (h.hi - h.lo) * b / h.counts.size();
+    const double hi = h.lo + (h.hi - h.lo) * (b + 1) / h.counts.size();
+    std::cout << absl::StrFormat("[%10.4g, %10.4g) %8d %8d\n", lo, hi,
+                                 h.counts[b],
+                                 rep->thickness_histogram.counts[b]);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge::cli
