@@ -65,9 +65,11 @@ int BenchMesh(const std::string& path) {
       return 1;
     }
     const auto t0 = std::chrono::steady_clock::now();
-    auto kept = (*evaluator)->Compute(params, {}, /*keep_hits=*/true);
+    HitTable hits;
+    auto kept = (*evaluator)->Compute(params, {}, &hits);
     const auto t1 = std::chrono::steady_clock::now();
-    auto vjp = ComputeVjp(**evaluator, std::vector<double>(mesh->num_vertices(), 1.0),
+    auto vjp = ComputeVjp(**evaluator, hits,
+                          std::vector<double>(mesh->num_vertices(), 1.0),
                           {}, params.threads);
     const auto t2 = std::chrono::steady_clock::now();
     if (!kept.ok() || !vjp.ok()) {

@@ -22,7 +22,7 @@ std::vector<int64_t> Bin(const std::vector<double>& v, double lo, double hi,
 
 }  // namespace
 
-absl::StatusOr<CalibrationReport> Calibrate(SdfEvaluator& evaluator,
+absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
                                             const CalibrationParams& params,
                                             const ComputeControl& control) {
   if (!(params.t_min > 0) || !std::isfinite(params.t_min)) {

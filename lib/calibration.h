@@ -35,7 +35,7 @@ struct CalibrationReport {
 // Runs both passes on the evaluator's current positions.
 // Errors: InvalidArgument (params), Cancelled; FailedPrecondition when no
 // vertex has both values.
-absl::StatusOr<CalibrationReport> Calibrate(SdfEvaluator& evaluator,
+absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
                                             const CalibrationParams& params,
                                             const ComputeControl& control = {});
 

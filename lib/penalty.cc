@@ -44,12 +44,11 @@ absl::Status ValidatePenaltyParams(const PenaltyParams& p) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<PenaltyResult> ComputePenalty(const SdfEvaluator& evaluator,
-                                             const std::vector<double>& values,
-                                             const PenaltyParams& params,
-                                             bool with_gradient,
-                                             const ComputeControl& control,
-                                             int threads) {
+absl::StatusOr<PenaltyResult> ComputePenalty(
+    const SdfEvaluator& evaluator, const std::vector<double>& values,
+    const PenaltyParams& params, const HitTable* hits_for_gradient,
+    const ComputeControl& control, int threads) {
+  const bool with_gradient = hits_for_gradient != nullptr;
   if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
   const Mesh& mesh = evaluator.mesh();
   if (std::ssize(values) != mesh.num_vertices()) {
@@ -88,7 +87,8 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const SdfEvaluator& evaluator,
     }
   });
   if (!with_gradient) return r;
-  auto vjp = ComputeVjp(evaluator, r.dp_dt, control, threads);
+  auto vjp = ComputeVjp(evaluator, *hits_for_gradient, r.dp_dt, control,
+                        threads);
   if (!vjp.ok()) return vjp.status();
   r.gradient = std::move(*vjp);
   for (size_t i = 0; i < r.gradient.size(); ++i) {

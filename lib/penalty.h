@@ -38,16 +38,14 @@ struct PenaltyResult {
   std::vector<Vec3> measure_gradient;
 };
 
-// Penalty of the values of the evaluator's last Compute (`values`: #V, NaN
-// where there is no value). With `with_gradient` the evaluator must hold the
-// hit table of that Compute (keep_hits = true); see ComputeVjp.
-// Errors: InvalidArgument (params, wrong sizes), FailedPrecondition (no hit
-// table), Cancelled.
-absl::StatusOr<PenaltyResult> ComputePenalty(const SdfEvaluator& evaluator,
-                                             const std::vector<double>& values,
-                                             const PenaltyParams& params,
-                                             bool with_gradient,
-                                             const ComputeControl& control = {},
-                                             int threads = 0);
+// Penalty of `values` (#V, NaN where there is no value: an SdfResult of the
+// evaluator at its current positions). With `hits_for_gradient` (the hit
+// table of that Compute) the gradient is computed too; see ComputeVjp.
+// Errors: InvalidArgument (params, wrong sizes), FailedPrecondition (hit
+// table of another generation), Cancelled.
+absl::StatusOr<PenaltyResult> ComputePenalty(
+    const SdfEvaluator& evaluator, const std::vector<double>& values,
+    const PenaltyParams& params, const HitTable* hits_for_gradient,
+    const ComputeControl& control = {}, int threads = 0);
 
 }  // namespace meshgauge

@@ -107,7 +107,8 @@ void SdfEvaluator::RefreshDerivedGeometry() {
 
 absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
                                                 const ComputeControl& control,
-                                                bool keep_hits) {
+                                                HitTable* hits) const {
+  const bool keep_hits = hits != nullptr;
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
   const ResolvedParams resolved = ResolveParams(params, mesh_.dimension);
   std::vector<ConeRay> cone;
@@ -133,7 +134,6 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
   result.status.assign(nv, VertexStatus::kOk);
   result.hits.assign(nv, 0);
   result.kept.assign(nv, 0);
-  hits_.generation = -1;
   std::vector<int32_t> table;
   std::vector<uint8_t> kept_table;
   if (keep_hits) {
@@ -225,13 +225,13 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
   result.rays_traced = rays_traced;
   result.normalized = NormalizedSdf(result.values);
   if (keep_hits) {
-    hits_.resolved = resolved;
-    hits_.cone = std::move(cone);
-    hits_.primitives = std::move(table);
-    hits_.kept = std::move(kept_table);
-    hits_.t_min = t_min;
-    hits_.t_max = t_max;
-    hits_.generation = generation_;
+    hits->resolved = resolved;
+    hits->cone = std::move(cone);
+    hits->primitives = std::move(table);
+    hits->kept = std::move(kept_table);
+    hits->t_min = t_min;
+    hits->t_max = t_max;
+    hits->generation = generation_;
   }
   return result;
 }

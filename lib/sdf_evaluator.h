@@ -51,13 +51,15 @@ class SdfEvaluator {
   static absl::StatusOr<std::unique_ptr<SdfEvaluator>> Create(
       Mesh mesh, const EvaluatorOptions& options = {});
 
-  // Computes SDF values for every vertex (SPEC §3-5). With keep_hits the
-  // hit table is kept for sensitivities (memory: 5 bytes x #V x K).
+  // Computes SDF values for every vertex (SPEC §3-5). When `hits` is not
+  // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
+  // K). Const and thread-safe: concurrent Computes on one evaluator are fine;
+  // UpdatePositions must not run concurrently with anything.
   // Errors: InvalidArgument for bad params; Cancelled when
   // control.cancelled() returned true.
   absl::StatusOr<SdfResult> Compute(const SdfParams& params,
                                     const ComputeControl& control = {},
-                                    bool keep_hits = false);
+                                    HitTable* hits = nullptr) const;
 
   // Replaces all vertex positions (#V entries, finite) and refits or
   // rebuilds the BVH. Topology never changes. The new positions are
@@ -74,11 +76,6 @@ class SdfEvaluator {
   const RayScene& scene() const { return *scene_; }
   // Increments on every successful UpdatePositions; starts at 0.
   int64_t generation() const { return generation_; }
-  // The hit table of the last Compute(..., keep_hits = true) at the current
-  // generation, or nullptr.
-  const HitTable* hits() const {
-    return hits_.generation == generation_ ? &hits_ : nullptr;
-  }
   // Corners of every primitive at the current positions (double).
   const std::vector<PrimitiveCorners>& corners() const { return corners_; }
   double mean_edge_length() const { return mean_edge_length_; }
@@ -96,7 +93,6 @@ class SdfEvaluator {
   int64_t generation_ = 0;
   double mean_edge_length_ = 0;
   double bbox_diagonal_ = 0;
-  HitTable hits_;
 };
 
 }  // namespace meshgauge

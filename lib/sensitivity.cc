@@ -106,13 +106,16 @@ void PrefetchVertex(const Context& ctx, int64_t p) {
   }
 }
 
-absl::StatusOr<Context> MakeContext(const SdfEvaluator& ev) {
-  const HitTable* hits = ev.hits();
-  if (hits == nullptr) {
-    return absl::FailedPreconditionError(
+absl::StatusOr<Context> MakeContext(const SdfEvaluator& ev,
+                                    const HitTable& table) {
+  const HitTable* hits = &table;
+  if (hits->generation != ev.generation() ||
+      std::ssize(hits->primitives) !=
+          ev.mesh().num_vertices() * std::ssize(hits->cone)) {
+    return absl::FailedPreconditionError(absl::StrCat(
         "sensitivities need the hit table of a ray pass at the current "
-        "positions: call Compute(..., keep_hits = true) after the last "
-        "UpdatePositions");
+        "positions (generation ",
+        ev.generation(), "), got one from generation ", hits->generation));
   }
   if (hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
     return absl::FailedPreconditionError(
@@ -161,9 +164,10 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
 }  // namespace
 
 absl::StatusOr<SparseJacobian> ComputeJacobian(const SdfEvaluator& evaluator,
+                                               const HitTable& hits,
                                                const ComputeControl& control,
                                                int threads) {
-  auto ctx = MakeContext(evaluator);
+  auto ctx = MakeContext(evaluator, hits);
   if (!ctx.ok()) return ctx.status();
   SparseJacobian jac;
   jac.row_offsets.push_back(0);
@@ -195,6 +199,7 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const SdfEvaluator& evaluator,
 }
 
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
+                                             const HitTable& hits,
                                              absl::Span<const double> g,
                                              const ComputeControl& control,
                                              int threads) {
@@ -210,7 +215,7 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
           absl::StrCat("VJP weight of vertex ", i, " is not finite"));
     }
   }
-  auto ctx = MakeContext(evaluator);
+  auto ctx = MakeContext(evaluator, hits);
   if (!ctx.ok()) return ctx.status();
   std::vector<Vec3> out(nv);
   // Scatter in parallel over destination ranges; every destination still

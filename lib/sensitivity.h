@@ -28,13 +28,14 @@ struct SparseJacobian {
   int64_t nonzeros() const { return std::ssize(columns); }
 };
 
-// Preconditions for both calls: evaluator.hits() is not null (the last
-// Compute had keep_hits = true and no UpdatePositions followed). Errors:
-// FailedPrecondition otherwise, or when the values used angle-weighted
-// normals (no derivative is provided for them); Cancelled via control.
+// `hits` is the table a Compute(params, control, &hits) filled at the
+// evaluator's current generation. Errors: FailedPrecondition when it is from
+// another generation (the vertices moved since) or when the values used
+// angle-weighted normals (no derivative is provided for them); Cancelled via
+// control.
 absl::StatusOr<SparseJacobian> ComputeJacobian(
-    const SdfEvaluator& evaluator, const ComputeControl& control = {},
-    int threads = 0);
+    const SdfEvaluator& evaluator, const HitTable& hits,
+    const ComputeControl& control = {}, int threads = 0);
 
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
 // g has #V entries (ignored where a vertex has no value; must be finite).
@@ -42,6 +43,7 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const SdfEvaluator& evaluator,
+                                             const HitTable& hits,
                                              absl::Span<const double> g,
                                              const ComputeControl& control = {},
                                              int threads = 0);

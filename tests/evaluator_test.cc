@@ -148,19 +148,29 @@ TEST(EvaluatorTest, ProgressReachesTotal) {
   EXPECT_EQ(total, (*ev)->mesh().num_vertices());
 }
 
-TEST(EvaluatorTest, KeepsHitTableOnlyWhenAskedAndAtTheSameGeneration) {
+TEST(EvaluatorTest, HitTableMatchesValuesAndRecordsGeneration) {
   auto ev = SdfEvaluator::Create(MakeIcosphere(1, 3));
   ASSERT_TRUE(ev.ok());
-  ASSERT_TRUE((*ev)->Compute({}).ok());
-  EXPECT_EQ((*ev)->hits(), nullptr);
-  ASSERT_TRUE((*ev)->Compute({}, {}, /*keep_hits=*/true).ok());
-  ASSERT_NE((*ev)->hits(), nullptr);
-  EXPECT_EQ((*ev)->hits()->primitives.size(),
-            static_cast<size_t>((*ev)->mesh().num_vertices() * 100));
+  HitTable hits;
+  auto with = (*ev)->Compute({}, {}, &hits);
+  auto without = (*ev)->Compute({});
+  ASSERT_TRUE(with.ok() && without.ok());
+  EXPECT_EQ(with->values, without->values);
+  const int64_t nv = (*ev)->mesh().num_vertices();
+  EXPECT_EQ(hits.primitives.size(), static_cast<size_t>(nv * 100));
+  EXPECT_EQ(hits.kept.size(), static_cast<size_t>(nv * 100));
+  EXPECT_EQ(hits.generation, 0);
+  for (int64_t p = 0; p < nv; ++p) {
+    int kept = 0;
+    for (uint8_t k : hits.KeptRow(p)) kept += k;
+    EXPECT_EQ(kept, with->kept[p]);
+  }
   std::vector<Vec3> p = (*ev)->mesh().positions;
   for (Vec3& v : p) v *= 1.01;
   ASSERT_TRUE((*ev)->UpdatePositions(p).ok());
-  EXPECT_EQ((*ev)->hits(), nullptr);
+  HitTable moved;
+  ASSERT_TRUE((*ev)->Compute({}, {}, &moved).ok());
+  EXPECT_EQ(moved.generation, 1);
 }
 
 // The tray is a 3.175 mm plate: NORMAL_RAY gives exactly the plate thickness

@@ -40,12 +40,16 @@ struct Snapshot {
   std::vector<double> values;
   std::vector<int32_t> prims;
   std::vector<uint8_t> kept;
+  HitTable hits;
 };
 
 inline Snapshot Take(SdfEvaluator& ev, const SdfParams& params) {
-  auto r = ev.Compute(params, {}, /*keep_hits=*/true);
+  HitTable hits;
+  auto r = ev.Compute(params, {}, &hits);
   EXPECT_TRUE(r.ok()) << r.status();
-  return {r->values, ev.hits()->primitives, ev.hits()->kept};
+  Snapshot s{r->values, hits.primitives, hits.kept, {}};
+  s.hits = std::move(hits);
+  return s;
 }
 
 inline bool SameRow(const Snapshot& a, const Snapshot& b, int64_t p, size_t k) {
@@ -65,14 +69,14 @@ inline FdReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
   EXPECT_TRUE(evr.ok()) << evr.status();
   SdfEvaluator& ev = **evr;
   const Snapshot base = Take(ev, params);
-  auto jac = ComputeJacobian(ev);
+  auto jac = ComputeJacobian(ev, base.hits);
   EXPECT_TRUE(jac.ok()) << jac.status();
   const int64_t nv = mesh.num_vertices();
   std::vector<double> g(nv);
   for (int64_t i = 0; i < nv; ++i) g[i] = std::sin(1.0 + 7.3 * i);
-  auto vjp = ComputeVjp(ev, g);
+  auto vjp = ComputeVjp(ev, base.hits, g);
   EXPECT_TRUE(vjp.ok()) << vjp.status();
-  const size_t k = ev.hits()->cone.size();
+  const size_t k = base.hits.cone.size();
   const double step = 1e-7 * BoundingBoxDiagonal(mesh);
   const int dims = mesh.dimension;
   // Row sums vanish (translation invariance).

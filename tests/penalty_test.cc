@@ -30,10 +30,9 @@ PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns) {
   PenaltyFd rep;
   auto ev = SdfEvaluator::Create(mesh);
   EXPECT_TRUE(ev.ok());
-  auto base = (*ev)->Compute({}, {}, true);
-  const std::vector<int32_t> base_prims = (*ev)->hits()->primitives;
-  const std::vector<uint8_t> base_kept = (*ev)->hits()->kept;
-  auto pen = ComputePenalty(**ev, base->values, pp, /*with_gradient=*/true);
+  HitTable base_hits;
+  auto base = (*ev)->Compute({}, {}, &base_hits);
+  auto pen = ComputePenalty(**ev, base->values, pp, &base_hits);
   EXPECT_TRUE(pen.ok()) << pen.status();
   const double step = 1e-7 * BoundingBoxDiagonal(mesh);
   for (int col = 0; col < columns; ++col) {
@@ -45,9 +44,10 @@ PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns) {
         Vec3 x = mesh.positions[j];
         x[c] += (s == 0 ? 1 : -1) * step;
         EXPECT_TRUE((*ev)->UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x}).ok());
-        auto r = (*ev)->Compute({}, {}, true);
-        clean &= (*ev)->hits()->primitives == base_prims && (*ev)->hits()->kept == base_kept;
-        p_at[s] = ComputePenalty(**ev, r->values, pp, false)->value;
+        HitTable hits;
+        auto r = (*ev)->Compute({}, {}, &hits);
+        clean &= hits.primitives == base_hits.primitives && hits.kept == base_hits.kept;
+        p_at[s] = ComputePenalty(**ev, r->values, pp, nullptr)->value;
       }
       EXPECT_TRUE((*ev)->UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{mesh.positions[j]}).ok());
       const double fd = (p_at[0] - p_at[1]) / (2 * step);
@@ -102,10 +102,10 @@ TEST(PenaltyTest, ValueOfConstantThicknessIsClosedForm) {
   sp.rays = 30;
   auto r = (*ev)->Compute(sp);
   const double d = testing::ClosedFormEstimate(2, 30, 30);
-  auto pen = ComputePenalty(**ev, r->values, {.t_min = 2.0}, false);
+  auto pen = ComputePenalty(**ev, r->values, {.t_min = 2.0}, nullptr);
   ASSERT_TRUE(pen.ok());
   EXPECT_NEAR(pen->value, M_PI * std::pow(1 - d / 2.0, 2), 1e-5);
-  auto above = ComputePenalty(**ev, r->values, {.t_min = 0.5}, false);
+  auto above = ComputePenalty(**ev, r->values, {.t_min = 0.5}, nullptr);
   EXPECT_EQ(above->value, 0.0);
 }
 
@@ -114,8 +114,9 @@ TEST(PenaltyTest, SkipsFacesWithoutValuesAndCountsThem) {
   sheet.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
   sheet.faces = {Face::Triangle(0, 1, 2), Face::Triangle(0, 2, 3)};
   auto ev = SdfEvaluator::Create(sheet);
-  auto r = (*ev)->Compute({}, {}, true);
-  auto pen = ComputePenalty(**ev, r->values, {.t_min = 1}, true);
+  HitTable hits;
+  auto r = (*ev)->Compute({}, {}, &hits);
+  auto pen = ComputePenalty(**ev, r->values, {.t_min = 1}, &hits);
   ASSERT_TRUE(pen.ok());
   EXPECT_EQ(pen->skipped_faces, 2);
   EXPECT_EQ(pen->value, 0);
@@ -123,14 +124,14 @@ TEST(PenaltyTest, SkipsFacesWithoutValuesAndCountsThem) {
 
 TEST(PenaltyTest, RejectsBadParameters) {
   auto ev = SdfEvaluator::Create(MakeCircle(1, 16));
-  auto r = (*ev)->Compute({}, {}, true);
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 0}, false).status().message()),
+  auto r = (*ev)->Compute({});
+  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 0}, nullptr).status().message()),
               HasSubstr("t_min must be a finite number > 0"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .power = 0.5}, false).status().message()),
+  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .power = 0.5}, nullptr).status().message()),
               HasSubstr("power n must be >= 1"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .form = PenaltyForm::kThesis, .power = 1.5}, false).status().message()),
+  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .form = PenaltyForm::kThesis, .power = 1.5}, nullptr).status().message()),
               HasSubstr("integer n"));
-  EXPECT_EQ(ComputePenalty(**ev, std::vector<double>(3), {.t_min = 1}, false).status().code(),
+  EXPECT_EQ(ComputePenalty(**ev, std::vector<double>(3), {.t_min = 1}, nullptr).status().code(),
             absl::StatusCode::kInvalidArgument);
 }
 

@@ -113,10 +113,11 @@ TEST(SensitivityTest, VjpIsRotationEquivariantIn2D) {
   for (const Mesh* mesh : {&m, static_cast<const Mesh*>(&rotated)}) {
     auto ev = SdfEvaluator::Create(*mesh);
     ASSERT_TRUE(ev.ok());
-    auto r = (*ev)->Compute({}, {}, true);
+    HitTable hits;
+    auto r = (*ev)->Compute({}, {}, &hits);
     ASSERT_TRUE(r.ok());
     values[i] = r->values;
-    grads[i++] = *ComputeVjp(**ev, g);
+    grads[i++] = *ComputeVjp(**ev, hits, g);
   }
   for (size_t v = 0; v < g.size(); ++v) {
     EXPECT_NEAR(values[0][v], values[1][v], 1e-12);
@@ -130,18 +131,27 @@ TEST(SensitivityTest, VjpIsRotationEquivariantIn2D) {
 TEST(SensitivityTest, VjpIsBitIdenticalForOneAndTwoThreads) {
   auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
   auto ev = SdfEvaluator::Create(*mesh);
-  ASSERT_TRUE((*ev)->Compute({}, {}, true).ok());
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
   std::vector<double> g(mesh->num_vertices(), 1.0);
-  auto a = ComputeVjp(**ev, g, {}, 1);
-  auto b = ComputeVjp(**ev, g, {}, 2);
+  auto a = ComputeVjp(**ev, hits, g, {}, 1);
+  auto b = ComputeVjp(**ev, hits, g, {}, 2);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(*a, *b);
 }
 
-TEST(SensitivityTest, RequiresHitTable) {
-  auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
-  ASSERT_TRUE((*ev)->Compute({}).ok());
-  EXPECT_EQ(ComputeJacobian(**ev).status().code(),
+TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {
+  const Mesh sphere = MakeIcosphere(1, 2);
+  auto ev = SdfEvaluator::Create(sphere);
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
+  std::vector<Vec3> moved = sphere.positions;
+  for (Vec3& p : moved) p *= 1.1;
+  ASSERT_TRUE((*ev)->UpdatePositions(moved).ok());
+  const absl::Status s = ComputeJacobian(**ev, hits).status();
+  EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(s.message()), ::testing::HasSubstr("generation 1"));
+  EXPECT_EQ(ComputeJacobian(**ev, HitTable{}).status().code(),
             absl::StatusCode::kFailedPrecondition);
 }
 
@@ -149,20 +159,22 @@ TEST(SensitivityTest, RejectsAngleWeightedNormals) {
   auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
   SdfParams p;
   p.normal_weighting = NormalWeighting::kAngle;
-  ASSERT_TRUE((*ev)->Compute(p, {}, true).ok());
-  const absl::Status s = ComputeJacobian(**ev).status();
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute(p, {}, &hits).ok());
+  const absl::Status s = ComputeJacobian(**ev, hits).status();
   EXPECT_EQ(s.code(), absl::StatusCode::kFailedPrecondition);
   EXPECT_THAT(std::string(s.message()), ::testing::HasSubstr("area-weighted"));
 }
 
 TEST(SensitivityTest, RejectsBadVjpWeights) {
   auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
-  ASSERT_TRUE((*ev)->Compute({}, {}, true).ok());
-  EXPECT_EQ(ComputeVjp(**ev, std::vector<double>(3, 1.0)).status().code(),
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
+  EXPECT_EQ(ComputeVjp(**ev, hits, std::vector<double>(3, 1.0)).status().code(),
             absl::StatusCode::kInvalidArgument);
   std::vector<double> g(42, 1.0);
   g[5] = std::nan("");
-  EXPECT_EQ(ComputeVjp(**ev, g).status().code(),
+  EXPECT_EQ(ComputeVjp(**ev, hits, g).status().code(),
             absl::StatusCode::kInvalidArgument);
 }
 

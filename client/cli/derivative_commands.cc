@@ -25,6 +25,7 @@ struct Prepared {
   std::unique_ptr<SdfEvaluator> evaluator;
   SdfResult result;
   SdfParams params;
+  HitTable hits;
 };
 
 absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
@@ -39,12 +40,12 @@ absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
   }
   auto ev = SdfEvaluator::Create(std::move(loaded->mesh));
   if (!ev.ok()) return ev.status();
-  Prepared prep{std::move(*ev), {}, *params};
+  Prepared prep{std::move(*ev), {}, *params, {}};
   if (keep_hits) {
     ProgressBar bar("tracing");
     ComputeControl control;
     control.progress = [&bar](int64_t d, int64_t t) { bar.Update(d, t); };
-    auto result = prep.evaluator->Compute(*params, control, true);
+    auto result = prep.evaluator->Compute(*params, control, &prep.hits);
     if (!result.ok()) return result.status();
     prep.result = std::move(*result);
   }
@@ -107,7 +108,7 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
   j["vertices"] = ev.mesh().num_vertices();
   j["ok"] = prep->result.CountStatus(VertexStatus::kOk);
   if (const std::string path = absl::GetFlag(FLAGS_jacobian); !path.empty()) {
-    auto jac = ComputeJacobian(ev);
+    auto jac = ComputeJacobian(ev, prep->hits);
     if (!jac.ok()) return jac.status();
     std::ofstream out(path);
     if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
@@ -124,7 +125,7 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
   }
   auto weights = ReadWeights(absl::GetFlag(FLAGS_weights), ev.mesh().num_vertices());
   if (!weights.ok()) return weights.status();
-  auto vjp = ComputeVjp(ev, *weights);
+  auto vjp = ComputeVjp(ev, prep->hits, *weights);
   if (!vjp.ok()) return vjp.status();
   j["vjp_max_norm"] = MaxNorm(*vjp);
   if (const std::string path = absl::GetFlag(FLAGS_vjp); !path.empty()) {
@@ -166,7 +167,7 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
   if (!prep.ok()) return prep.status();
   const std::string grad_path = absl::GetFlag(FLAGS_grad);
   auto pen = ComputePenalty(*prep->evaluator, prep->result.values, pp,
-                            !grad_path.empty());
+                            grad_path.empty() ? nullptr : &prep->hits);
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok()) return s;
