@@ -57,7 +57,7 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     if (!EvaluateHit(ev.corners()[row[k]], x, RayDirection(vc.frame, cone[k]),
                      &geo[k])) {
       // Cannot happen at the positions of the ray pass; after a move the
-      // table is invalidated (SdfEvaluator::hits()).
+      // table's generation no longer matches (MakeContext rejects it).
       kept[k] = 0;
       continue;
     }
