@@ -90,10 +90,16 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   ev->mesh_ = std::move(mesh);
   ev->topo_ = MeshTopology::Build(ev->mesh_);
   ev->RefreshDerivedGeometry();
-  auto scene = RayScene::Create(ev->mesh_, ev->topo_, options.bvh_policy);
-  if (!scene.ok()) return scene.status();
-  ev->scene_ = std::move(*scene);
+  ev->policy_ = options.bvh_policy;
+  if (absl::Status s = ev->RebuildBvh(); !s.ok()) return s;
   return ev;
+}
+
+absl::Status SdfEvaluator::RebuildBvh() {
+  auto scene = RayScene::Create(mesh_, topo_, policy_);
+  if (!scene.ok()) return scene.status();
+  scene_ = std::move(*scene);
+  return absl::OkStatus();
 }
 
 void SdfEvaluator::RefreshDerivedGeometry() {

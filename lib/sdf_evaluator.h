@@ -71,6 +71,10 @@ class SdfEvaluator {
   absl::Status UpdatePositions(absl::Span<const int32_t> indices,
                                absl::Span<const Vec3> positions);
 
+  // Rebuilds the BVH from scratch at the current positions (a refitted BVH
+  // stays correct but its quality degrades as vertices move far).
+  absl::Status RebuildBvh();
+
   const Mesh& mesh() const { return mesh_; }
   const MeshTopology& topology() const { return topo_; }
   const RayScene& scene() const { return *scene_; }
@@ -88,6 +92,7 @@ class SdfEvaluator {
 
   Mesh mesh_;
   MeshTopology topo_;
+  BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   std::unique_ptr<RayScene> scene_;
   std::vector<PrimitiveCorners> corners_;
   int64_t generation_ = 0;

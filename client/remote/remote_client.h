@@ -1,0 +1,99 @@
+// C++ client of the meshgauge gRPC service. Every call of a session carries
+// the metadata `x-meshgauge-session: <id>` (the routing key of a session-
+// affine balancer) and the client's deadline.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "lib/mesh.h"
+#include "lib/sdf_types.h"
+#include "lib/sensitivity.h"
+#include "meshgauge/v1/meshgauge.grpc.pb.h"
+
+namespace meshgauge::client {
+
+inline constexpr char kSessionMetadataKey[] = "x-meshgauge-session";
+
+struct ClientOptions {
+  double deadline_seconds = 600;   // per call.
+  int upload_chunk_vertices = 65536;  // vertices (and faces) per chunk.
+  int64_t max_message_bytes = 256ll << 20;
+};
+
+// Values of a ComputeSdf stream, reassembled.
+struct RemoteSdf {
+  std::vector<double> values;  // NaN unless OK.
+  std::vector<v1::VertexStatus> status;
+  std::vector<int32_t> hits, kept;
+  std::vector<double> normalized;
+  std::optional<SparseJacobian> jacobian;  // with include_jacobian.
+  v1::SdfSummary summary;
+};
+
+// CRC-32 of the mesh in the Footer's canonical order (positions as float64,
+// then face sizes, indices, regions as int32, little-endian).
+uint32_t MeshCrc32(const Mesh& mesh);
+
+// Wire form of library parameters (threads are the server's business).
+v1::SdfParameters ToWireParams(const SdfParams& params);
+
+// Per-vertex 3-vectors from `dimension` doubles per vertex.
+std::vector<Vec3> FromFlattened(const google::protobuf::RepeatedField<double>& flat,
+                                int dimension);
+
+class RemoteClient {
+ public:
+  // `target` is host:port. The channel is insecure (loopback, or a trusted
+  // network behind the balancer).
+  explicit RemoteClient(const std::string& target, ClientOptions options = {});
+
+  // Uploads a mesh (validate it first for a clearer error) as a new session;
+  // empty id: the server chooses one.
+  absl::StatusOr<v1::SessionInfo> Upload(const Mesh& mesh,
+                                         const std::string& session_id = "");
+  absl::StatusOr<v1::SessionInfo> Get(const std::string& session_id);
+  // All sessions (follows the pages).
+  absl::StatusOr<std::vector<v1::SessionInfo>> List(int page_size = 100);
+  absl::Status Delete(const std::string& session_id);
+  // All positions (indices empty) or a subset; returns the response.
+  absl::StatusOr<v1::UpdatePositionsResponse> UpdatePositions(
+      const std::string& session_id, int64_t expected_generation, int dimension,
+      const std::vector<Vec3>& positions,
+      const std::vector<int32_t>& indices = {});
+  absl::StatusOr<RemoteSdf> ComputeSdf(
+      const std::string& session_id, const v1::SdfParameters& params,
+      bool include_jacobian = false,
+      std::optional<int64_t> expected_generation = std::nullopt,
+      int chunk_vertices = 0);
+  absl::StatusOr<v1::ComputeVjpResponse> ComputeVjp(
+      const std::string& session_id, const v1::SdfParameters& params,
+      const std::vector<double>& weights,
+      std::optional<int64_t> expected_generation = std::nullopt);
+  absl::StatusOr<v1::ComputePenaltyResponse> ComputePenalty(
+      const std::string& session_id, const v1::SdfParameters& params,
+      double t_min, v1::PenaltyForm form, double power, bool with_gradient,
+      std::optional<int64_t> expected_generation = std::nullopt);
+  absl::StatusOr<v1::CalibrateResponse> Calibrate(
+      const std::string& session_id, const v1::SdfParameters& params,
+      double t_min, double equal_tolerance = 0, int bins = 0);
+
+  v1::MeshGauge::Stub& stub() { return *stub_; }
+  // A context with the deadline and the session routing key.
+  std::unique_ptr<grpc::ClientContext> Context(
+      const std::string& session_id) const;
+
+ private:
+  ClientOptions options_;
+  std::shared_ptr<grpc::Channel> channel_;
+  std::unique_ptr<v1::MeshGauge::Stub> stub_;
+};
+
+absl::Status FromGrpc(const grpc::Status& s);
+
+}  // namespace meshgauge::client

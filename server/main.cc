@@ -1,0 +1,129 @@
+// meshgauge-server: flags are parsed here only, into ServerOptions.
+#include <prometheus/exposer.h>
+#include <signal.h>
+
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
+#include "absl/strings/str_cat.h"
+#include "server/server.h"
+
+ABSL_FLAG(std::string, address, "127.0.0.1:50051",
+          "gRPC listen address host:port (port 0 = any free port)");
+ABSL_FLAG(std::string, metrics_address, "127.0.0.1:9464",
+          "Prometheus /metrics listen address; empty disables it");
+ABSL_FLAG(bool, reflection, false, "enable gRPC server reflection");
+ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
+          "largest gRPC message accepted or sent");
+ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
+ABSL_FLAG(int64_t, max_vertices, 5'000'000, "vertices per session");
+ABSL_FLAG(int64_t, max_faces, 10'000'000, "faces per session");
+ABSL_FLAG(int, max_rays, 1024, "rays per vertex a request may ask for");
+ABSL_FLAG(int64_t, memory_budget_bytes, 8ll << 30,
+          "memory for all sessions; least recently used are evicted");
+ABSL_FLAG(double, session_ttl_seconds, 3600, "idle time before eviction");
+ABSL_FLAG(int, rebuild_every_updates, 32,
+          "position updates refit the BVH; every Nth rebuilds it");
+ABSL_FLAG(int, compute_threads, 0, "threads per computation (0 = all cores)");
+ABSL_FLAG(double, shutdown_grace_seconds, 20,
+          "on SIGTERM/SIGINT, time in-flight calls get to finish");
+ABSL_FLAG(std::string, port_file, "",
+          "write the bound gRPC port to this file once serving (for tests)");
+
+namespace {
+
+meshgauge::server::ServerOptions OptionsFromFlags() {
+  meshgauge::server::ServerOptions o;
+  o.address = absl::GetFlag(FLAGS_address);
+  o.metrics_address = absl::GetFlag(FLAGS_metrics_address);
+  o.reflection = absl::GetFlag(FLAGS_reflection);
+  o.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
+  o.max_sessions = absl::GetFlag(FLAGS_max_sessions);
+  o.max_vertices = absl::GetFlag(FLAGS_max_vertices);
+  o.max_faces = absl::GetFlag(FLAGS_max_faces);
+  o.max_rays = absl::GetFlag(FLAGS_max_rays);
+  o.memory_budget_bytes = absl::GetFlag(FLAGS_memory_budget_bytes);
+  o.session_ttl_seconds = absl::GetFlag(FLAGS_session_ttl_seconds);
+  o.rebuild_every_updates = absl::GetFlag(FLAGS_rebuild_every_updates);
+  o.compute_threads = absl::GetFlag(FLAGS_compute_threads);
+  o.shutdown_grace_seconds = absl::GetFlag(FLAGS_shutdown_grace_seconds);
+  return o;
+}
+
+std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
+  return absl::StrCat(
+      "meshgauge-server listening on ", o.address, " (port ", port,
+      "), metrics on ",
+      o.metrics_address.empty() ? "(off)" : o.metrics_address,
+      ", reflection ", o.reflection ? "on" : "off",
+      "; max_message_bytes=", o.max_message_bytes,
+      " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
+      " max_faces=", o.max_faces, " max_rays=", o.max_rays,
+      " memory_budget_bytes=", o.memory_budget_bytes,
+      " session_ttl_seconds=", o.session_ttl_seconds,
+      " rebuild_every_updates=", o.rebuild_every_updates,
+      " compute_threads=", o.compute_threads,
+      " shutdown_grace_seconds=", o.shutdown_grace_seconds);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage("meshgauge-server [flags]");
+  absl::ParseCommandLine(argc, argv);
+  const meshgauge::server::ServerOptions options = OptionsFromFlags();
+  if (options.max_rays < 1 || options.max_rays > 4096 ||
+      options.max_sessions < 1 || options.rebuild_every_updates < 1 ||
+      options.shutdown_grace_seconds < 0) {
+    std::cerr << "meshgauge-server: invalid limits: max_rays in [1, 4096], "
+                 "max_sessions >= 1, rebuild_every_updates >= 1, "
+                 "shutdown_grace_seconds >= 0\n";
+    return 2;
+  }
+  // Block the termination signals in every thread; one thread waits for them.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  meshgauge::server::Metrics metrics;
+  std::unique_ptr<prometheus::Exposer> exposer;
+  if (!options.metrics_address.empty()) {
+    try {
+      exposer = std::make_unique<prometheus::Exposer>(options.metrics_address);
+      exposer->RegisterCollectable(metrics.registry());
+    } catch (const std::exception& e) {
+      std::cerr << "meshgauge-server: cannot serve metrics on "
+                << options.metrics_address << ": " << e.what() << "\n";
+      return 1;
+    }
+  }
+  meshgauge::server::SteadyClock clock;
+  auto server = meshgauge::server::MeshGaugeServer::Start(options, &metrics,
+                                                          &clock);
+  if (!server.ok()) {
+    std::cerr << "meshgauge-server: " << server.status().message() << "\n";
+    return 1;
+  }
+  std::cerr << Describe(options, (*server)->port()) << std::endl;
+  if (const std::string f = absl::GetFlag(FLAGS_port_file); !f.empty()) {
+    std::ofstream(f) << (*server)->port() << "\n";
+  }
+  std::thread signal_waiter([&] {
+    int sig = 0;
+    sigwait(&signals, &sig);
+    std::cerr << "meshgauge-server: signal " << sig << ", draining (grace "
+              << options.shutdown_grace_seconds << " s)" << std::endl;
+    (*server)->Shutdown();
+  });
+  (*server)->Wait();
+  signal_waiter.join();
+  std::cerr << "meshgauge-server: stopped" << std::endl;
+  return 0;
+}

@@ -1,0 +1,49 @@
+// Assembles a CreateSession stream (header, chunks, footer) into a Mesh,
+// checking it as it arrives: declared counts and server limits, face sizes
+// against indices, the final counts and CRC-32, then SPEC §1 validation.
+#pragma once
+
+#include <zlib.h>
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "lib/mesh.h"
+#include "meshgauge/v1/meshgauge.pb.h"
+#include "server/server_options.h"
+
+namespace meshgauge::server {
+
+class MeshAssembler {
+ public:
+  explicit MeshAssembler(const ServerOptions& options) : options_(options) {}
+
+  // Every error is INVALID_ARGUMENT (or RESOURCE_EXHAUSTED for a limit) with
+  // a message naming the field.
+  absl::Status Add(const v1::CreateSessionRequest& request);
+  // The stream ended: returns the validated mesh, or the defect (a stream
+  // without footer is "truncated").
+  absl::StatusOr<Mesh> Finish();
+  const std::string& session_id() const { return session_id_; }
+
+ private:
+  absl::Status Header(const v1::CreateSessionRequest::Header& h);
+  absl::Status Chunk(const v1::CreateSessionRequest::Chunk& c);
+  absl::Status Footer(const v1::CreateSessionRequest::Footer& f);
+
+  const ServerOptions& options_;
+  bool have_header_ = false, have_footer_ = false;
+  std::string session_id_;
+  Mesh mesh_;
+  int64_t declared_vertices_ = 0, declared_faces_ = 0;
+  std::vector<double> coords_;  // pending coordinates (partial vertex).
+  std::vector<int32_t> pending_sizes_;  // faces waiting for indices.
+  std::vector<int32_t> pending_indices_;
+  // CRC over positions, sizes, indices, regions (in that order): the four
+  // streams are checksummed separately and combined at the end.
+  uLong crc_[4] = {0, 0, 0, 0};
+  int64_t crc_len_[4] = {0, 0, 0, 0};
+  uint32_t footer_crc_ = 0;
+};
+
+}  // namespace meshgauge::server

@@ -1,0 +1,393 @@
+#include "server/service.h"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <optional>
+
+#include "absl/strings/str_cat.h"
+#include "lib/calibration.h"
+#include "lib/integrals.h"
+#include "lib/penalty.h"
+#include "lib/sensitivity.h"
+#include "server/mesh_upload.h"
+#include "server/proto_convert.h"
+
+namespace meshgauge::server {
+namespace {
+
+constexpr int kDefaultChunkVertices = 16384;
+constexpr int kMaxChunkVertices = 65536;
+
+const char* CodeName(grpc::StatusCode code) {
+  static const char* kNames[] = {
+      "OK",           "CANCELLED",          "UNKNOWN",
+      "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
+      "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED",
+      "FAILED_PRECONDITION", "ABORTED",     "OUT_OF_RANGE",
+      "UNIMPLEMENTED", "INTERNAL",          "UNAVAILABLE",
+      "DATA_LOSS",    "UNAUTHENTICATED"};
+  const int i = static_cast<int>(code);
+  return i >= 0 && i < 17 ? kNames[i] : "UNKNOWN";
+}
+
+int64_t PassBytes(const CachedPass& p) {
+  return std::ssize(p.hits.primitives) * 4 + std::ssize(p.hits.kept) +
+         std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4);
+}
+
+double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                       start)
+      .count();
+}
+
+}  // namespace
+
+MeshGaugeService::MeshGaugeService(const ServerOptions& options,
+                                   SessionStore* store, Metrics* metrics,
+                                   const Clock* clock)
+    : options_(options), store_(store), metrics_(metrics), clock_(clock) {}
+
+template <typename Body>
+grpc::Status MeshGaugeService::Instrumented(const char* method, Body body) {
+  const auto start = std::chrono::steady_clock::now();
+  store_->Sweep();
+  grpc::Status status = ToGrpc(body());
+  metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
+  return status;
+}
+
+ComputeControl MeshGaugeService::Control(grpc::ServerContext* ctx) const {
+  ComputeControl control;
+  control.cancelled = [ctx] { return ctx->IsCancelled(); };
+  return control;
+}
+
+absl::Status MeshGaugeService::Interrupted(grpc::ServerContext* ctx,
+                                           absl::Status s) const {
+  if (s.code() != absl::StatusCode::kCancelled) return s;
+  if (ctx->deadline() <= std::chrono::system_clock::now()) {
+    return absl::DeadlineExceededError("deadline exceeded during computation");
+  }
+  return absl::CancelledError("call cancelled by the client");
+}
+
+absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
+    const std::string& session_id, const v1::SdfParameters& params,
+    bool has_expected_generation, int64_t expected_generation) {
+  auto session = store_->Get(session_id);
+  if (!session.ok()) return session.status();
+  auto sdf_params =
+      ToSdfParams(params, options_.max_rays, options_.compute_threads);
+  if (!sdf_params.ok()) return sdf_params.status();
+  auto reader = (*session)->Read();
+  if (!reader.ok()) return reader.status();
+  const int64_t generation = reader->evaluator->generation();
+  if (has_expected_generation && expected_generation != generation) {
+    return absl::AbortedError(absl::StrCat(
+        "session '", session_id, "' is at generation ", generation,
+        ", the request expected generation ", expected_generation));
+  }
+  return Prepared{std::move(*session), std::move(*reader), *sdf_params};
+}
+
+absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
+    grpc::ServerContext* ctx, Session& session, const Session::Reader& reader,
+    const SdfParams& params) {
+  const SdfEvaluator& ev = *reader.evaluator;
+  if (auto cached = session.FindPass(params, ev.generation())) {
+    return Pass{std::move(cached), true};
+  }
+  auto pass = std::make_shared<CachedPass>();
+  auto result = ev.Compute(params, Control(ctx), &pass->hits);
+  if (!result.ok()) return Interrupted(ctx, result.status());
+  metrics_->AddRays(static_cast<double>(result->rays_traced));
+  pass->params = params;
+  pass->generation = ev.generation();
+  pass->result = std::move(*result);
+  pass->bytes = PassBytes(*pass);
+  session.StorePass(pass);
+  store_->EnforceBudget(&session);
+  return Pass{std::move(pass), false};
+}
+
+grpc::Status MeshGaugeService::CreateSession(
+    grpc::ServerContext*, grpc::ServerReader<v1::CreateSessionRequest>* reader,
+    v1::SessionInfo* response) {
+  return Instrumented("CreateSession", [&]() -> absl::Status {
+    MeshAssembler assembler(options_);
+    v1::CreateSessionRequest request;
+    while (reader->Read(&request)) {
+      if (absl::Status s = assembler.Add(request); !s.ok()) return s;
+    }
+    auto mesh = assembler.Finish();
+    if (!mesh.ok()) return mesh.status();
+    auto session = store_->Create(assembler.session_id(), std::move(*mesh));
+    if (!session.ok()) return session.status();
+    ToProto((*session)->Snapshot(), clock_->NowSeconds(), response);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::GetSession(grpc::ServerContext*,
+                                          const v1::GetSessionRequest* request,
+                                          v1::SessionInfo* response) {
+  return Instrumented("GetSession", [&]() -> absl::Status {
+    auto session = store_->Get(request->session_id());
+    if (!session.ok()) return session.status();
+    ToProto((*session)->Snapshot(), clock_->NowSeconds(), response);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::ListSessions(
+    grpc::ServerContext*, const v1::ListSessionsRequest* request,
+    v1::ListSessionsResponse* response) {
+  return Instrumented("ListSessions", [&]() -> absl::Status {
+    int page_size = request->page_size() == 0 ? 100 : request->page_size();
+    if (page_size < 1 || page_size > 1000) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "page_size must be in [1, 1000] (0 = 100), got ", page_size));
+    }
+    std::string next;
+    const double now = clock_->NowSeconds();
+    for (const SessionSnapshot& s :
+         store_->List(request->page_token(), page_size, &next)) {
+      ToProto(s, now, response->add_sessions());
+    }
+    response->set_next_page_token(next);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::DeleteSession(
+    grpc::ServerContext*, const v1::DeleteSessionRequest* request,
+    v1::DeleteSessionResponse*) {
+  return Instrumented("DeleteSession", [&]() -> absl::Status {
+    return store_->Delete(request->session_id());
+  });
+}
+
+grpc::Status MeshGaugeService::UpdatePositions(
+    grpc::ServerContext*, const v1::UpdatePositionsRequest* request,
+    v1::UpdatePositionsResponse* response) {
+  return Instrumented("UpdatePositions", [&]() -> absl::Status {
+    auto session = store_->Get(request->session_id());
+    if (!session.ok()) return session.status();
+    const int dim = (*session)->dimension();
+    auto points = ToPoints(request->positions(), dim, "positions");
+    if (!points.ok()) return points.status();
+    const bool subset = request->indices_size() > 0;
+    const int64_t expected =
+        subset ? request->indices_size() : (*session)->num_vertices();
+    if (std::ssize(*points) != expected) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "positions holds ", points->size(), " points, expected ", expected,
+          subset ? " (one per index)" : " (one per vertex of the session)"));
+    }
+    std::vector<int32_t> indices(request->indices().begin(),
+                                 request->indices().end());
+    auto outcome = (*session)->UpdatePositions(request->expected_generation(),
+                                               indices, *points);
+    if (!outcome.ok()) return outcome.status();
+    response->set_generation(outcome->generation);
+    response->set_refit(outcome->refit);
+    response->set_bvh_seconds(outcome->bvh_seconds);
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::ComputeSdf(
+    grpc::ServerContext* ctx, const v1::ComputeSdfRequest* request,
+    grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
+  return Instrumented("ComputeSdf", [&]() -> absl::Status {
+    const auto start = std::chrono::steady_clock::now();
+    int chunk = request->chunk_vertices() == 0 ? kDefaultChunkVertices
+                                               : request->chunk_vertices();
+    if (chunk < 1 || chunk > kMaxChunkVertices) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
+                       "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
+    }
+    auto prep = Prepare(request->session_id(), request->params(),
+                        request->has_expected_generation(),
+                        request->expected_generation());
+    if (!prep.ok()) return prep.status();
+    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+    if (!pass.ok()) return pass.status();
+    const SdfEvaluator& ev = *prep->reader.evaluator;
+    const SdfResult& r = pass->pass->result;
+    std::optional<SparseJacobian> jac;
+    if (request->include_jacobian()) {
+      auto j = ComputeJacobian(ev, pass->pass->hits, Control(ctx),
+                               options_.compute_threads);
+      if (!j.ok()) return Interrupted(ctx, j.status());
+      jac = std::move(*j);
+    }
+    const int64_t nv = ev.mesh().num_vertices();
+    const int dim = ev.mesh().dimension;
+    for (int64_t begin = 0; begin < nv; begin += chunk) {
+      if (ctx->IsCancelled()) {
+        return Interrupted(ctx, absl::CancelledError("cancelled"));
+      }
+      const int64_t end = std::min(nv, begin + chunk);
+      v1::ComputeSdfResponse msg;
+      v1::SdfChunk* c = msg.mutable_chunk();
+      c->set_vertex_begin(begin);
+      c->set_vertex_end(end);
+      for (int64_t p = begin; p < end; ++p) {
+        c->add_values(r.values[p]);
+        c->add_status(ToProto(r.status[p]));
+        c->add_hits(r.hits[p]);
+        c->add_kept(r.kept[p]);
+        c->add_normalized(r.normalized[p]);
+      }
+      if (jac) {
+        const int64_t base = jac->row_offsets[begin];
+        for (int64_t p = begin; p <= end; ++p) {
+          c->add_row_offsets(jac->row_offsets[p] - base);
+        }
+        for (int64_t e = base; e < jac->row_offsets[end]; ++e) {
+          c->add_columns(jac->columns[e]);
+          for (int k = 0; k < dim; ++k) c->add_derivatives(jac->values[e][k]);
+        }
+      }
+      if (!writer->Write(msg)) {
+        return absl::CancelledError("client went away during the stream");
+      }
+    }
+    v1::ComputeSdfResponse last;
+    v1::SdfSummary* s = last.mutable_summary();
+    s->set_generation(ev.generation());
+    s->set_ok(r.CountStatus(VertexStatus::kOk));
+    s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
+    s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
+    s->set_degenerate_normal(r.CountStatus(VertexStatus::kDegenerateNormal));
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0;
+    int64_t n = 0;
+    for (double v : r.values) {
+      if (!std::isfinite(v)) continue;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+      sum += v;
+      ++n;
+    }
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    s->set_sdf_min(n ? lo : nan);
+    s->set_sdf_max(n ? hi : nan);
+    s->set_sdf_mean(n ? sum / n : nan);
+    s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
+    s->set_rays(r.rays_traced);
+    s->set_reused_hits(pass->reused);
+    s->set_seconds(Seconds(start));
+    if (!writer->Write(last)) {
+      return absl::CancelledError("client went away before the summary");
+    }
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
+                                          const v1::ComputeVjpRequest* request,
+                                          v1::ComputeVjpResponse* response) {
+  return Instrumented("ComputeVjp", [&]() -> absl::Status {
+    const auto start = std::chrono::steady_clock::now();
+    auto prep = Prepare(request->session_id(), request->params(),
+                        request->has_expected_generation(),
+                        request->expected_generation());
+    if (!prep.ok()) return prep.status();
+    const SdfEvaluator& ev = *prep->reader.evaluator;
+    if (request->weights_size() != ev.mesh().num_vertices()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "weights holds ", request->weights_size(), " values, expected one "
+          "per vertex (", ev.mesh().num_vertices(), ")"));
+    }
+    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+    if (!pass.ok()) return pass.status();
+    metrics_->RecordHitCache(pass->reused);
+    auto vjp = meshgauge::ComputeVjp(
+        ev, pass->pass->hits,
+        absl::MakeConstSpan(request->weights().data(), request->weights_size()),
+        Control(ctx), options_.compute_threads);
+    if (!vjp.ok()) return Interrupted(ctx, vjp.status());
+    response->set_generation(ev.generation());
+    AppendFlattened(*vjp, ev.mesh().dimension, response->mutable_gradient());
+    response->set_reused_hits(pass->reused);
+    response->set_seconds(Seconds(start));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::ComputePenalty(
+    grpc::ServerContext* ctx, const v1::ComputePenaltyRequest* request,
+    v1::ComputePenaltyResponse* response) {
+  return Instrumented("ComputePenalty", [&]() -> absl::Status {
+    const auto start = std::chrono::steady_clock::now();
+    auto pp = ToPenaltyParams(*request);
+    if (!pp.ok()) return pp.status();
+    auto prep = Prepare(request->session_id(), request->params(),
+                        request->has_expected_generation(),
+                        request->expected_generation());
+    if (!prep.ok()) return prep.status();
+    const SdfEvaluator& ev = *prep->reader.evaluator;
+    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+    if (!pass.ok()) return pass.status();
+    metrics_->RecordHitCache(pass->reused);
+    const std::vector<double>& values = pass->pass->result.values;
+    auto pen = meshgauge::ComputePenalty(
+        ev, values, *pp, request->with_gradient() ? &pass->pass->hits : nullptr,
+        Control(ctx), options_.compute_threads);
+    if (!pen.ok()) return Interrupted(ctx, pen.status());
+    response->set_generation(ev.generation());
+    response->set_value(pen->value);
+    response->set_skipped_faces(pen->skipped_faces);
+    if (request->with_gradient()) {
+      AppendFlattened(pen->gradient, ev.mesh().dimension,
+                      response->mutable_gradient());
+    }
+    double lo = std::numeric_limits<double>::infinity();
+    for (double v : values) {
+      if (std::isfinite(v)) lo = std::min(lo, v);
+    }
+    response->set_sdf_min(std::isfinite(lo)
+                              ? lo
+                              : std::numeric_limits<double>::quiet_NaN());
+    response->set_reused_hits(pass->reused);
+    response->set_seconds(Seconds(start));
+    return absl::OkStatus();
+  });
+}
+
+grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
+                                         const v1::CalibrateRequest* request,
+                                         v1::CalibrateResponse* response) {
+  return Instrumented("Calibrate", [&]() -> absl::Status {
+    auto prep = Prepare(request->session_id(), request->params(), false, 0);
+    if (!prep.ok()) return prep.status();
+    CalibrationParams cp;
+    cp.t_min = request->t_min();
+    if (request->equal_tolerance() != 0) {
+      cp.equal_tolerance = request->equal_tolerance();
+    }
+    if (request->bins() != 0) cp.bins = request->bins();
+    cp.sdf = prep->params;
+    auto rep = meshgauge::Calibrate(*prep->reader.evaluator, cp, Control(ctx));
+    if (!rep.ok()) return Interrupted(ctx, rep.status());
+    response->set_compared(rep->compared);
+    response->set_sdf_lower(rep->lower);
+    response->set_sdf_equal(rep->equal);
+    response->set_sdf_higher(rep->higher);
+    response->set_alpha1(rep->alpha1);
+    response->set_alpha2(rep->alpha2);
+    response->set_histogram_lo(rep->sdf_histogram.lo);
+    response->set_histogram_hi(rep->sdf_histogram.hi);
+    for (int64_t c : rep->sdf_histogram.counts) response->add_sdf_histogram(c);
+    for (int64_t c : rep->thickness_histogram.counts) {
+      response->add_thickness_histogram(c);
+    }
+    return absl::OkStatus();
+  });
+}
+
+}  // namespace meshgauge::server

@@ -1,0 +1,85 @@
+// The meshgauge.v1.MeshGauge gRPC service (synchronous API). Geometry lives
+// in lib/; this class validates requests, maps sessions, caches ray passes
+// and converts to and from the wire types.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <memory>
+
+#include "meshgauge/v1/meshgauge.grpc.pb.h"
+#include "server/clock.h"
+#include "server/metrics.h"
+#include "server/server_options.h"
+#include "server/session_store.h"
+
+namespace meshgauge::server {
+
+class MeshGaugeService final : public v1::MeshGauge::Service {
+ public:
+  // All pointers must outlive the service.
+  MeshGaugeService(const ServerOptions& options, SessionStore* store,
+                   Metrics* metrics, const Clock* clock);
+
+  grpc::Status CreateSession(
+      grpc::ServerContext* ctx,
+      grpc::ServerReader<v1::CreateSessionRequest>* reader,
+      v1::SessionInfo* response) override;
+  grpc::Status GetSession(grpc::ServerContext* ctx,
+                          const v1::GetSessionRequest* request,
+                          v1::SessionInfo* response) override;
+  grpc::Status ListSessions(grpc::ServerContext* ctx,
+                            const v1::ListSessionsRequest* request,
+                            v1::ListSessionsResponse* response) override;
+  grpc::Status DeleteSession(grpc::ServerContext* ctx,
+                             const v1::DeleteSessionRequest* request,
+                             v1::DeleteSessionResponse* response) override;
+  grpc::Status UpdatePositions(grpc::ServerContext* ctx,
+                               const v1::UpdatePositionsRequest* request,
+                               v1::UpdatePositionsResponse* response) override;
+  grpc::Status ComputeSdf(
+      grpc::ServerContext* ctx, const v1::ComputeSdfRequest* request,
+      grpc::ServerWriter<v1::ComputeSdfResponse>* writer) override;
+  grpc::Status ComputeVjp(grpc::ServerContext* ctx,
+                          const v1::ComputeVjpRequest* request,
+                          v1::ComputeVjpResponse* response) override;
+  grpc::Status ComputePenalty(grpc::ServerContext* ctx,
+                              const v1::ComputePenaltyRequest* request,
+                              v1::ComputePenaltyResponse* response) override;
+  grpc::Status Calibrate(grpc::ServerContext* ctx,
+                         const v1::CalibrateRequest* request,
+                         v1::CalibrateResponse* response) override;
+
+ private:
+  struct Pass {
+    std::shared_ptr<const CachedPass> pass;
+    bool reused = false;
+  };
+  // The session's ray pass for these parameters at the reader's generation:
+  // cached, or traced now (and cached). Honours cancellation/deadlines.
+  absl::StatusOr<Pass> EnsurePass(grpc::ServerContext* ctx, Session& session,
+                                  const Session::Reader& reader,
+                                  const SdfParams& params);
+  // Shared front half of the compute calls: session, params, generation.
+  struct Prepared {
+    std::shared_ptr<Session> session;
+    Session::Reader reader;
+    SdfParams params;
+  };
+  absl::StatusOr<Prepared> Prepare(const std::string& session_id,
+                                   const v1::SdfParameters& params,
+                                   bool has_expected_generation,
+                                   int64_t expected_generation);
+  ComputeControl Control(grpc::ServerContext* ctx) const;
+  absl::Status Interrupted(grpc::ServerContext* ctx, absl::Status s) const;
+  // Runs body, records the RPC's code and latency.
+  template <typename Body>
+  grpc::Status Instrumented(const char* method, Body body);
+
+  const ServerOptions& options_;
+  SessionStore* store_;
+  Metrics* metrics_;
+  const Clock* clock_;
+};
+
+}  // namespace meshgauge::server

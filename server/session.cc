@@ -1,0 +1,145 @@
+#include "server/session.h"
+
+#include <chrono>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge::server {
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                       start)
+      .count();
+}
+
+}  // namespace
+
+bool SameSdfParams(const SdfParams& a, const SdfParams& b) {
+  return a.method == b.method && a.cone_angle_degrees == b.cone_angle_degrees &&
+         a.rays == b.rays && a.min_weight_angle == b.min_weight_angle &&
+         a.kappa == b.kappa && a.self_hit_epsilon == b.self_hit_epsilon &&
+         a.max_distance == b.max_distance &&
+         a.normal_weighting == b.normal_weighting;
+}
+
+int64_t Session::EstimateBaseBytes(const Mesh& mesh) {
+  int64_t prims = 0;
+  for (const Face& f : mesh.faces) prims += f.size == 4 ? 2 : 1;
+  // Mesh (positions, faces, regions), topology (primitives, incidences,
+  // directions), packed corners, Embree vertex/index buffers and BVH nodes.
+  return mesh.num_vertices() * (24 + 8 + 1 + 32) +
+         mesh.num_faces() * (20 + 4 + 12) + prims * (16 + 12 + 80 + 16 + 96);
+}
+
+Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
+                 Metrics* metrics, double now)
+    : id_(std::move(id)),
+      options_(options),
+      metrics_(metrics),
+      dimension_(mesh.dimension),
+      num_vertices_(mesh.num_vertices()),
+      num_faces_(mesh.num_faces()),
+      signed_volume_(SignedVolume(mesh)),
+      closed_(IsClosed(mesh)),
+      base_bytes_(EstimateBaseBytes(mesh)),
+      pending_mesh_(std::move(mesh)),
+      last_used_(now) {}
+
+absl::Status Session::EnsureEvaluator() {
+  // Caller holds mu_ exclusively.
+  if (evaluator_) return absl::OkStatus();
+  const auto start = std::chrono::steady_clock::now();
+  auto ev = SdfEvaluator::Create(std::move(pending_mesh_),
+                                 {.bvh_policy = BvhUpdatePolicy::kRefit});
+  if (!ev.ok()) return ev.status();
+  evaluator_ = std::move(*ev);
+  ++builds_;
+  metrics_->RecordBvhBuild(SecondsSince(start));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<Session::Reader> Session::Read() {
+  {
+    std::shared_lock<std::shared_mutex> lock(mu_);
+    if (evaluator_) return Reader{std::move(lock), evaluator_.get()};
+  }
+  {
+    std::unique_lock<std::shared_mutex> lock(mu_);
+    if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
+  }
+  std::shared_lock<std::shared_mutex> lock(mu_);
+  return Reader{std::move(lock), evaluator_.get()};
+}
+
+absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
+    int64_t expected_generation, absl::Span<const int32_t> indices,
+    absl::Span<const Vec3> positions) {
+  std::unique_lock<std::shared_mutex> lock(mu_);
+  if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
+  if (expected_generation != evaluator_->generation()) {
+    return absl::AbortedError(absl::StrCat(
+        "session '", id_, "' is at generation ", evaluator_->generation(),
+        ", the update expected generation ", expected_generation));
+  }
+  const auto start = std::chrono::steady_clock::now();
+  absl::Status s = indices.empty()
+                       ? evaluator_->UpdatePositions(positions)
+                       : evaluator_->UpdatePositions(indices, positions);
+  if (!s.ok()) return s;
+  UpdateOutcome out;
+  if (++updates_since_build_ >= options_.rebuild_every_updates) {
+    if (absl::Status r = evaluator_->RebuildBvh(); !r.ok()) return r;
+    updates_since_build_ = 0;
+    ++builds_;
+    out.bvh_seconds = SecondsSince(start);
+    metrics_->RecordBvhBuild(out.bvh_seconds);
+  } else {
+    out.refit = true;
+    ++refits_;
+    out.bvh_seconds = SecondsSince(start);
+    metrics_->RecordBvhRefit(out.bvh_seconds);
+  }
+  out.generation = evaluator_->generation();
+  generation_ = out.generation;
+  {
+    std::lock_guard<std::mutex> cache_lock(cache_mu_);
+    cache_.reset();  // stale: generation moved on.
+    cache_bytes_ = 0;
+  }
+  return out;
+}
+
+std::shared_ptr<const CachedPass> Session::FindPass(const SdfParams& params,
+                                                    int64_t generation) const {
+  std::lock_guard<std::mutex> lock(cache_mu_);
+  if (cache_ && cache_->generation == generation &&
+      SameSdfParams(cache_->params, params)) {
+    return cache_;
+  }
+  return nullptr;
+}
+
+void Session::StorePass(std::shared_ptr<const CachedPass> pass) {
+  std::lock_guard<std::mutex> lock(cache_mu_);
+  cache_bytes_ = pass->bytes;
+  cache_ = std::move(pass);
+}
+
+SessionSnapshot Session::Snapshot() const {
+  SessionSnapshot s;
+  s.id = id_;
+  s.dimension = dimension_;
+  s.num_vertices = num_vertices_;
+  s.num_faces = num_faces_;
+  s.generation = generation_;
+  s.memory_bytes = memory_bytes();
+  s.bvh_builds = builds_;
+  s.bvh_refits = refits_;
+  s.last_used = last_used_;
+  s.signed_volume = signed_volume_;
+  s.closed = closed_;
+  return s;
+}
+
+}  // namespace meshgauge::server

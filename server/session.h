@@ -1,0 +1,119 @@
+// One uploaded mesh and its cached state.
+//
+// Concurrency: computations hold the session's lock shared (many at once);
+// UpdatePositions holds it exclusively. The evaluator (and its BVH) is built
+// lazily by the first call that needs it. The last ray pass (values + hit
+// table) is cached per (parameters, generation), so a VJP or penalty call at
+// the same generation and parameters does not trace again.
+#pragma once
+
+#include <atomic>
+#include <memory>
+#include <mutex>
+#include <shared_mutex>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/sdf_evaluator.h"
+#include "server/metrics.h"
+#include "server/server_options.h"
+
+namespace meshgauge::server {
+
+// A ray pass kept for reuse.
+struct CachedPass {
+  SdfParams params;
+  int64_t generation = -1;
+  SdfResult result;
+  HitTable hits;
+  int64_t bytes = 0;
+};
+
+struct SessionSnapshot {
+  std::string id;
+  int dimension = 3;
+  int64_t num_vertices = 0, num_faces = 0;
+  int64_t generation = 0;
+  int64_t memory_bytes = 0;
+  int64_t bvh_builds = 0, bvh_refits = 0;
+  double last_used = 0;
+  double signed_volume = 0;
+  bool closed = false;
+};
+
+struct UpdateOutcome {
+  int64_t generation = 0;
+  bool refit = false;
+  double bvh_seconds = 0;
+};
+
+class Session {
+ public:
+  // `mesh` must be valid (ValidateMesh); metrics must outlive the session.
+  Session(std::string id, Mesh mesh, const ServerOptions& options,
+          Metrics* metrics, double now);
+
+  const std::string& id() const { return id_; }
+  int dimension() const { return dimension_; }
+  int64_t num_vertices() const { return num_vertices_; }
+
+  // Shared access to the evaluator for computations (builds it on first
+  // use). Hold the returned object for the whole computation.
+  struct Reader {
+    std::shared_lock<std::shared_mutex> lock;
+    const SdfEvaluator* evaluator = nullptr;
+  };
+  absl::StatusOr<Reader> Read();
+
+  // Exclusive: moves vertices, refits the BVH, or rebuilds it every
+  // options.rebuild_every_updates updates. Errors: ABORTED on a generation
+  // mismatch, INVALID_ARGUMENT for bad positions.
+  absl::StatusOr<UpdateOutcome> UpdatePositions(
+      int64_t expected_generation, absl::Span<const int32_t> indices,
+      absl::Span<const Vec3> positions);
+
+  // The cached pass for these parameters at this generation, or null.
+  std::shared_ptr<const CachedPass> FindPass(const SdfParams& params,
+                                             int64_t generation) const;
+  void StorePass(std::shared_ptr<const CachedPass> pass);
+
+  SessionSnapshot Snapshot() const;
+  int64_t memory_bytes() const { return base_bytes_ + cache_bytes_.load(); }
+  void Touch(double now) { last_used_ = now; }
+  double last_used() const { return last_used_.load(); }
+
+  // Estimated bytes of a mesh's session without a cached pass: mesh,
+  // topology, packed corners and the Embree BVH.
+  static int64_t EstimateBaseBytes(const Mesh& mesh);
+
+ private:
+  absl::Status EnsureEvaluator();
+
+  const std::string id_;
+  const ServerOptions& options_;
+  Metrics* metrics_;
+  const int dimension_;
+  const int64_t num_vertices_, num_faces_;
+  const double signed_volume_;
+  const bool closed_;
+  const int64_t base_bytes_;
+  mutable std::shared_mutex mu_;
+  Mesh pending_mesh_;  // until the evaluator takes it.
+  std::unique_ptr<SdfEvaluator> evaluator_;
+  int updates_since_build_ = 0;
+  std::atomic<int64_t> builds_{0}, refits_{0};
+  // Mirrors the evaluator's generation so Snapshot never takes mu_ (a
+  // reader must not lock it twice).
+  std::atomic<int64_t> generation_{0};
+  mutable std::mutex cache_mu_;
+  std::shared_ptr<const CachedPass> cache_;
+  std::atomic<int64_t> cache_bytes_{0};
+  std::atomic<double> last_used_;
+};
+
+// True when two parameter sets give the same values (threads excluded).
+bool SameSdfParams(const SdfParams& a, const SdfParams& b);
+
+}  // namespace meshgauge::server

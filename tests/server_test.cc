@@ -1,0 +1,419 @@
+// The gRPC service end to end on loopback: results equal to the library's
+// bit for bit, every status code path, uploads, caching, sessions.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <thread>
+
+#include "lib/mesh_io.h"
+#include "lib/penalty.h"
+#include "lib/sdf.h"
+#include "lib/sensitivity.h"
+#include "lib/shapes.h"
+#include "tests/server_test_util.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+using client::ToWireParams;
+
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
+
+class ServerTest : public testing::ServerFixture {};
+
+TEST_F(ServerTest, ComputeSdfMatchesLibraryBitForBit) {
+  const Mesh mesh = Knight();
+  auto info = client_->Upload(mesh, "knight");
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->num_vertices(), 502);
+  EXPECT_EQ(info->generation(), 0);
+  for (SdfMethod method : {SdfMethod::kCone, SdfMethod::kNormalRay}) {
+    SdfParams params;
+    params.method = method;
+    auto remote = client_->ComputeSdf("knight", ToWireParams(params), false,
+                                      std::nullopt, 100);
+    ASSERT_TRUE(remote.ok()) << remote.status();
+    auto local = ComputeSdf(mesh, params);
+    EXPECT_TRUE(SameBits(remote->values, local->values));
+    EXPECT_EQ(remote->hits, local->hits);
+    EXPECT_EQ(remote->kept, local->kept);
+    EXPECT_EQ(remote->summary.ok(), 502);
+    EXPECT_FALSE(remote->summary.reused_hits());
+    EXPECT_NEAR(remote->summary.integral(),
+                IntegrateNodal(mesh, local->values).value, 1e-15);
+  }
+}
+
+TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "k").ok());
+  auto ev = SdfEvaluator::Create(mesh);
+  HitTable hits;
+  auto values = (*ev)->Compute({}, {}, &hits);
+  auto jac = ComputeJacobian(**ev, hits);
+  auto remote = client_->ComputeSdf("k", ToWireParams({}), true);
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  ASSERT_TRUE(remote->jacobian.has_value());
+  EXPECT_EQ(remote->jacobian->row_offsets, jac->row_offsets);
+  EXPECT_EQ(remote->jacobian->columns, jac->columns);
+  EXPECT_EQ(remote->jacobian->values, jac->values);
+
+  std::vector<double> g(502);
+  for (int i = 0; i < 502; ++i) g[i] = std::sin(0.1 * i);
+  auto vjp = client_->ComputeVjp("k", ToWireParams({}), g);
+  ASSERT_TRUE(vjp.ok()) << vjp.status();
+  EXPECT_TRUE(vjp->reused_hits()) << "same generation and params as ComputeSdf";
+  EXPECT_EQ(client::FromFlattened(vjp->gradient(), 3), *ComputeVjp(**ev, hits, g));
+
+  auto pen = client_->ComputePenalty("k", ToWireParams({}), 0.1,
+                                     v1::PENALTY_FORM_ONE_SIDED, 2, true);
+  ASSERT_TRUE(pen.ok()) << pen.status();
+  auto local = ComputePenalty(**ev, values->values, {.t_min = 0.1}, &hits);
+  EXPECT_EQ(pen->value(), local->value);
+  EXPECT_EQ(client::FromFlattened(pen->gradient(), 3), local->gradient);
+  EXPECT_TRUE(pen->reused_hits());
+
+  // Other parameters trace anew.
+  SdfParams other;
+  other.rays = 50;
+  auto traced = client_->ComputeVjp("k", ToWireParams(other), g);
+  ASSERT_TRUE(traced.ok());
+  EXPECT_FALSE(traced->reused_hits());
+  EXPECT_THAT(metrics_.Text(), HasSubstr("meshgauge_hit_cache_requests_total{result=\"reused\"} 2"));
+}
+
+TEST_F(ServerTest, UpdatePositionsRefitsAndChecksGeneration) {
+  const Mesh torus = MakeTorus(2, 0.5, 48, 16);
+  ASSERT_TRUE(client_->Upload(torus, "t").ok());
+  Mesh moved = torus;
+  for (Vec3& p : moved.positions) p = Vec3(p.x * 1.2, p.y, p.z * 0.8);
+  auto up = client_->UpdatePositions("t", 0, 3, moved.positions);
+  ASSERT_TRUE(up.ok()) << up.status();
+  EXPECT_EQ(up->generation(), 1);
+  EXPECT_TRUE(up->refit());
+  auto stale = client_->UpdatePositions("t", 0, 3, moved.positions);
+  EXPECT_EQ(stale.status().code(), absl::StatusCode::kAborted);
+  EXPECT_THAT(std::string(stale.status().message()), HasSubstr("generation 1"));
+  auto remote = client_->ComputeSdf("t", ToWireParams({}), false, 1);
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  EXPECT_TRUE(SameBits(remote->values, ComputeSdf(moved, {})->values));
+  EXPECT_EQ(client_->ComputeSdf("t", ToWireParams({}), false, 0).status().code(),
+            absl::StatusCode::kAborted);
+  // Subset update.
+  auto sub = client_->UpdatePositions("t", 1, 3, {Vec3(3, 0, 0)}, {0});
+  ASSERT_TRUE(sub.ok()) << sub.status();
+  EXPECT_EQ(sub->generation(), 2);
+  auto info = client_->Get("t");
+  EXPECT_EQ(info->bvh_refits(), 2);
+  EXPECT_THAT(metrics_.Text(), HasSubstr("meshgauge_bvh_refits_total 2"));
+}
+
+TEST_F(ServerTest, RebuildsAfterConfiguredNumberOfUpdates) {
+  server::ServerOptions o;
+  o.rebuild_every_updates = 2;
+  TearDown();
+  StartServer(o);
+  const Mesh sphere = MakeIcosphere(1, 4);
+  ASSERT_TRUE(client_->Upload(sphere, "s").ok());
+  std::vector<Vec3> p = sphere.positions;
+  for (int gen = 0; gen < 4; ++gen) {
+    for (Vec3& v : p) v *= 1.01;
+    auto up = client_->UpdatePositions("s", gen, 3, p);
+    ASSERT_TRUE(up.ok());
+    EXPECT_EQ(up->refit(), gen % 2 == 0) << gen;
+  }
+  auto info = client_->Get("s");
+  EXPECT_EQ(info->bvh_refits(), 2);
+  EXPECT_EQ(info->bvh_builds(), 3);  // first build + 2 rebuilds.
+}
+
+TEST_F(ServerTest, StatusCodePaths) {
+  const Mesh mesh = Knight();
+  auto code = [](const auto& r) { return r.status().code(); };
+  EXPECT_EQ(code(client_->Get("nope")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(client_->Delete("nope").code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE(client_->Upload(mesh, "a").ok());
+  EXPECT_EQ(code(client_->Upload(mesh, "a")), absl::StatusCode::kAlreadyExists);
+  auto bad_id = client_->Upload(mesh, "no spaces/please");
+  EXPECT_EQ(code(bad_id), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(bad_id.status().message()), HasSubstr("[A-Za-z0-9._-]"));
+  Mesh degenerate = mesh;
+  degenerate.positions[degenerate.faces[3].v[1]] = degenerate.positions[degenerate.faces[3].v[0]];
+  auto invalid = client_->Upload(degenerate, "d");
+  EXPECT_EQ(code(invalid), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(invalid.status().message()), HasSubstr("zero area"));
+
+  v1::SdfParameters wide = ToWireParams({});
+  wide.set_cone_angle_degrees(190);
+  auto bad_angle = client_->ComputeSdf("a", wide);
+  EXPECT_EQ(code(bad_angle), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(bad_angle.status().message()), HasSubstr("cone angle"));
+  v1::SdfParameters many = ToWireParams({});
+  many.set_rays(2000);
+  auto too_many = client_->ComputeSdf("a", many);
+  EXPECT_EQ(code(too_many), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(too_many.status().message()), HasSubstr("limit of 1024"));
+  EXPECT_EQ(code(client_->ComputeSdf("a", ToWireParams({}), false, std::nullopt, 100000)),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams({}), {1.0, 2.0})),
+            absl::StatusCode::kInvalidArgument);
+  SdfParams angle;
+  angle.normal_weighting = NormalWeighting::kAngle;
+  EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams(angle), std::vector<double>(502, 1.0))),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(code(client_->ComputePenalty("a", ToWireParams({}), -1, v1::PENALTY_FORM_ONE_SIDED, 2, false)),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(client_->UpdatePositions("a", 0, 3, {Vec3(0, 0, 0)})),
+            absl::StatusCode::kInvalidArgument);
+  std::vector<Vec3> nan_positions = mesh.positions;
+  nan_positions[4].y = std::nan("");
+  auto nan_update = client_->UpdatePositions("a", 0, 3, nan_positions);
+  EXPECT_EQ(code(nan_update), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(nan_update.status().message()), HasSubstr("not finite"));
+  EXPECT_EQ(code(client_->UpdatePositions("a", 0, 3, {Vec3(0, 0, 0)}, {9999})),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(client_->Calibrate("a", ToWireParams({}), 0)),
+            absl::StatusCode::kInvalidArgument);
+  auto cal = client_->Calibrate("a", ToWireParams({}), 0.05);
+  ASSERT_TRUE(cal.ok()) << cal.status();
+  EXPECT_EQ(cal->compared(), 502);
+  v1::ListSessionsRequest list;
+  list.set_page_size(5000);
+  v1::ListSessionsResponse resp;
+  auto ctx = client_->Context("");
+  EXPECT_EQ(client_->stub().ListSessions(ctx.get(), list, &resp).error_code(),
+            grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_TRUE(client_->Delete("a").ok());
+  EXPECT_EQ(code(client_->Get("a")), absl::StatusCode::kNotFound);
+}
+
+TEST_F(ServerTest, LimitsGiveResourceExhausted) {
+  server::ServerOptions o;
+  o.max_sessions = 2;
+  o.max_vertices = 600;
+  TearDown();
+  StartServer(o);
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "1").ok());
+  ASSERT_TRUE(client_->Upload(mesh, "2").ok());
+  auto third = client_->Upload(mesh, "3");
+  EXPECT_EQ(third.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(third.status().message()), HasSubstr("maximum of 2 sessions"));
+  auto big = client_->Upload(MakeIcosphere(1, 8), "big");
+  EXPECT_EQ(big.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(big.status().message()), HasSubstr("limit of 600"));
+}
+
+TEST_F(ServerTest, MessageSizeLimitIsEnforced) {
+  server::ServerOptions o;
+  o.max_message_bytes = 4096;
+  TearDown();
+  StartServer(o);
+  client::ClientOptions co;
+  co.upload_chunk_vertices = 1000;  // one chunk far above 4 KiB.
+  client::RemoteClient c(target_, co);
+  auto r = c.Upload(MakeIcosphere(1, 10), "x");
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted) << r.status();
+}
+
+// Sends raw CreateSession messages.
+absl::StatusOr<v1::SessionInfo> RawUpload(
+    client::RemoteClient& c, const std::vector<v1::CreateSessionRequest>& msgs) {
+  auto ctx = c.Context("raw");
+  v1::SessionInfo info;
+  auto w = c.stub().CreateSession(ctx.get(), &info);
+  for (const auto& m : msgs) w->Write(m);
+  w->WritesDone();
+  if (absl::Status s = client::FromGrpc(w->Finish()); !s.ok()) return s;
+  return info;
+}
+
+std::vector<v1::CreateSessionRequest> TriangleUpload(uint32_t crc) {
+  Mesh tri;
+  tri.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  tri.faces = {Face::Triangle(0, 1, 2)};
+  std::vector<v1::CreateSessionRequest> m(3);
+  auto* h = m[0].mutable_header();
+  h->set_session_id("raw");
+  h->set_dimension(3);
+  h->set_num_vertices(3);
+  h->set_num_faces(1);
+  auto* c = m[1].mutable_chunk();
+  for (const Vec3& p : tri.positions) {
+    c->add_positions(p.x);
+    c->add_positions(p.y);
+    c->add_positions(p.z);
+  }
+  c->add_face_sizes(3);
+  for (int i = 0; i < 3; ++i) c->add_face_indices(i);
+  m[2].mutable_footer()->set_num_vertices(3);
+  m[2].mutable_footer()->set_num_faces(1);
+  m[2].mutable_footer()->set_crc32(crc ? crc : client::MeshCrc32(tri));
+  return m;
+}
+
+TEST_F(ServerTest, UploadChecksCountsChecksumAndTruncation) {
+  EXPECT_TRUE(RawUpload(*client_, TriangleUpload(0)).ok());
+  ASSERT_TRUE(client_->Delete("raw").ok());
+  auto bad_crc = RawUpload(*client_, TriangleUpload(12345));
+  EXPECT_EQ(bad_crc.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(bad_crc.status().message()), HasSubstr("checksum mismatch"));
+  auto msgs = TriangleUpload(0);
+  msgs.pop_back();
+  auto truncated = RawUpload(*client_, msgs);
+  EXPECT_EQ(truncated.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(truncated.status().message()), HasSubstr("truncated stream"));
+  msgs = TriangleUpload(0);
+  msgs[1].mutable_chunk()->mutable_positions()->RemoveLast();
+  auto short_positions = RawUpload(*client_, msgs);
+  EXPECT_THAT(std::string(short_positions.status().message()), HasSubstr("stray coordinates"));
+  msgs = TriangleUpload(0);
+  msgs.erase(msgs.begin());
+  EXPECT_THAT(std::string(RawUpload(*client_, msgs).status().message()),
+              HasSubstr("first message must be a header"));
+  msgs = TriangleUpload(0);
+  msgs[2].mutable_footer()->set_num_faces(2);
+  EXPECT_THAT(std::string(RawUpload(*client_, msgs).status().message()),
+              HasSubstr("footer counts"));
+  msgs = TriangleUpload(0);
+  msgs[1].mutable_chunk()->set_face_sizes(0, 5);
+  EXPECT_THAT(std::string(RawUpload(*client_, msgs).status().message()),
+              HasSubstr("has size 5"));
+  EXPECT_EQ(client_->List()->size(), 0u);
+}
+
+TEST_F(ServerTest, TwoDimensionalHollowSessionWithOutwardRegion) {
+  const Mesh hollow = MakeHollowSquare(4, 1, 0.1);
+  auto info = client_->Upload(hollow);
+  ASSERT_TRUE(info.ok()) << info.status();
+  EXPECT_EQ(info->dimension(), 2);
+  EXPECT_EQ(info->session_id().size(), 18u);  // server-assigned "s-<16 hex>".
+  auto r = client_->ComputeSdf(info->session_id(), ToWireParams({}));
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(SameBits(r->values, ComputeSdf(hollow, {})->values));
+  auto vjp = client_->ComputeVjp(info->session_id(), ToWireParams({}),
+                                 std::vector<double>(hollow.num_vertices(), 1.0));
+  ASSERT_TRUE(vjp.ok());
+  EXPECT_EQ(vjp->gradient_size(), 2 * hollow.num_vertices());
+}
+
+TEST_F(ServerTest, ListPaginates) {
+  const Mesh tri = MakeIcosphere(1, 1);
+  for (int i = 0; i < 7; ++i) ASSERT_TRUE(client_->Upload(tri, "m" + std::to_string(i)).ok());
+  v1::ListSessionsRequest req;
+  req.set_page_size(3);
+  std::vector<std::string> ids;
+  int pages = 0;
+  do {
+    v1::ListSessionsResponse resp;
+    auto ctx = client_->Context("");
+    ASSERT_TRUE(client_->stub().ListSessions(ctx.get(), req, &resp).ok());
+    for (const auto& s : resp.sessions()) ids.push_back(s.session_id());
+    req.set_page_token(resp.next_page_token());
+    ++pages;
+  } while (!req.page_token().empty());
+  EXPECT_EQ(pages, 3);
+  EXPECT_EQ(ids, (std::vector<std::string>{"m0", "m1", "m2", "m3", "m4", "m5", "m6"}));
+}
+
+TEST_F(ServerTest, IdleSessionsExpireAfterTtl) {
+  ASSERT_TRUE(client_->Upload(Knight(), "old").ok());
+  clock_.Advance(options_.session_ttl_seconds - 1);
+  ASSERT_TRUE(client_->Upload(Knight(), "new").ok());
+  clock_.Advance(2);  // "old" is now idle past the TTL, "new" is not.
+  EXPECT_EQ(client_->Get("old").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(client_->Get("new").ok());
+  EXPECT_THAT(metrics_.Text(),
+              HasSubstr("meshgauge_session_evictions_total{reason=\"ttl\"} 1"));
+}
+
+TEST_F(ServerTest, MemoryBudgetEvictsLeastRecentlyUsed) {
+  server::ServerOptions o;
+  const Mesh sphere = MakeIcosphere(1, 10);
+  o.memory_budget_bytes = server::Session::EstimateBaseBytes(sphere) * 5 / 2;
+  TearDown();
+  StartServer(o);
+  ASSERT_TRUE(client_->Upload(sphere, "a").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(client_->Upload(sphere, "b").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(client_->Get("a").ok());  // a is now more recent than b.
+  clock_.Advance(1);
+  ASSERT_TRUE(client_->Upload(sphere, "c").ok());
+  EXPECT_TRUE(client_->Get("a").ok());
+  EXPECT_EQ(client_->Get("b").status().code(), absl::StatusCode::kNotFound);
+  EXPECT_THAT(metrics_.Text(),
+              HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1"));
+}
+
+TEST_F(ServerTest, ConcurrentClientsGetLibraryResults) {
+  const Mesh knight = Knight();
+  const Mesh torus = MakeTorus(2, 0.5, 40, 14);
+  ASSERT_TRUE(client_->Upload(knight, "k").ok());
+  ASSERT_TRUE(client_->Upload(torus, "t").ok());
+  ASSERT_TRUE(client_->Upload(torus, "moving").ok());
+  const auto k_values = ComputeSdf(knight, {})->values;
+  const auto t_values = ComputeSdf(torus, {})->values;
+  std::atomic<int> mismatches{0}, errors{0};
+  std::vector<std::thread> threads;
+  for (int c = 0; c < 4; ++c) {
+    threads.emplace_back([&, c] {
+      client::RemoteClient cl(target_);
+      for (int i = 0; i < 4; ++i) {
+        SdfParams p;
+        p.rays = (i % 2) ? 64 : 0;  // alternate parameters: cache misses.
+        const bool k = (c + i) % 2 == 0;
+        auto r = cl.ComputeSdf(k ? "k" : "t", ToWireParams(p));
+        if (!r.ok()) {
+          ++errors;
+          continue;
+        }
+        if (p.rays == 0 && !SameBits(r->values, k ? k_values : t_values)) ++mismatches;
+      }
+    });
+  }
+  threads.emplace_back([&] {  // an optimiser moving its own session.
+    client::RemoteClient cl(target_);
+    std::vector<Vec3> p = torus.positions;
+    for (int gen = 0; gen < 6; ++gen) {
+      for (Vec3& v : p) v *= 1.001;
+      if (!cl.UpdatePositions("moving", gen, 3, p).ok()) ++errors;
+      if (!cl.ComputeVjp("moving", ToWireParams({}), std::vector<double>(p.size(), 1)).ok()) ++errors;
+    }
+  });
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(errors, 0);
+  EXPECT_EQ(mismatches, 0);
+}
+
+TEST_F(ServerTest, ConcurrentUpdatesOnOneSessionAreSerialised) {
+  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 6), "s").ok());
+  const std::vector<Vec3> base = MakeIcosphere(1, 6).positions;
+  std::atomic<int> ok{0}, aborted{0};
+  std::vector<std::thread> threads;
+  for (int c = 0; c < 4; ++c) {
+    threads.emplace_back([&, c] {
+      client::RemoteClient cl(target_);
+      std::vector<Vec3> p = base;
+      for (Vec3& v : p) v *= 1 + 0.01 * (c + 1);
+      auto r = cl.UpdatePositions("s", 0, 3, p);
+      if (r.ok()) ++ok;
+      else if (r.status().code() == absl::StatusCode::kAborted) ++aborted;
+    });
+  }
+  for (auto& t : threads) t.join();
+  EXPECT_EQ(ok, 1);  // exactly one writer wins generation 0 -> 1.
+  EXPECT_EQ(aborted, 3);
+  EXPECT_EQ(client_->Get("s")->generation(), 1);
+}
+
+}  // namespace
+}  // namespace meshgauge

@@ -1,0 +1,40 @@
+// An in-process meshgauge server on a free loopback port, with a fake clock.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <string>
+
+#include "client/remote/remote_client.h"
+#include "server/server.h"
+
+namespace meshgauge::testing {
+
+class ServerFixture : public ::testing::Test {
+ protected:
+  void StartServer(server::ServerOptions options = {}) {
+    options_ = options;
+    options_.address = "127.0.0.1:0";
+    options_.metrics_address = "";
+    auto s = server::MeshGaugeServer::Start(options_, &metrics_, &clock_);
+    ASSERT_TRUE(s.ok()) << s.status();
+    server_ = std::move(*s);
+    target_ = "127.0.0.1:" + std::to_string(server_->port());
+    client_ = std::make_unique<client::RemoteClient>(target_);
+  }
+  void SetUp() override { StartServer(); }
+  void TearDown() override {
+    client_.reset();
+    server_.reset();
+  }
+
+  server::ServerOptions options_;
+  server::Metrics metrics_;
+  server::FakeClock clock_;
+  std::unique_ptr<server::MeshGaugeServer> server_;
+  std::string target_;
+  std::unique_ptr<client::RemoteClient> client_;
+};
+
+}  // namespace meshgauge::testing
