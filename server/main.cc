@@ -30,6 +30,8 @@ ABSL_FLAG(double, session_ttl_seconds, 3600, "idle time before eviction");
 ABSL_FLAG(int, rebuild_every_updates, 32,
           "position updates refit the BVH; every Nth rebuilds it");
 ABSL_FLAG(int, compute_threads, 0, "threads per computation (0 = all cores)");
+ABSL_FLAG(double, drain_notice_seconds, 1,
+          "on SIGTERM, health says NOT_SERVING this long before draining");
 ABSL_FLAG(double, shutdown_grace_seconds, 20,
           "on SIGTERM/SIGINT, time in-flight calls get to finish");
 ABSL_FLAG(std::string, port_file, "",
@@ -52,6 +54,7 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
   o.rebuild_every_updates = absl::GetFlag(FLAGS_rebuild_every_updates);
   o.compute_threads = absl::GetFlag(FLAGS_compute_threads);
   o.shutdown_grace_seconds = absl::GetFlag(FLAGS_shutdown_grace_seconds);
+  o.drain_notice_seconds = absl::GetFlag(FLAGS_drain_notice_seconds);
   return o;
 }
 
@@ -68,6 +71,7 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       " session_ttl_seconds=", o.session_ttl_seconds,
       " rebuild_every_updates=", o.rebuild_every_updates,
       " compute_threads=", o.compute_threads,
+      " drain_notice_seconds=", o.drain_notice_seconds,
       " shutdown_grace_seconds=", o.shutdown_grace_seconds);
 }
 

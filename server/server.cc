@@ -64,6 +64,8 @@ void MeshGaugeServer::Shutdown() {
   }
   cv_.notify_all();
   server_->GetHealthCheckService()->SetServingStatus(false);
+  std::this_thread::sleep_for(
+      std::chrono::duration<double>(options_.drain_notice_seconds));
   const auto deadline =
       std::chrono::system_clock::now() +
       std::chrono::duration_cast<std::chrono::system_clock::duration>(

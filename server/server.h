@@ -31,9 +31,10 @@ class MeshGaugeServer {
   int port() const { return port_; }
   SessionStore& store() { return store_; }
 
-  // Graceful drain: health turns NOT_SERVING, new calls are refused,
-  // calls in flight may finish within options.shutdown_grace_seconds, then
-  // the rest are cancelled. Idempotent.
+  // Graceful drain: health turns NOT_SERVING (calls are still served for
+  // options.drain_notice_seconds), then new calls are refused, calls in
+  // flight may finish within options.shutdown_grace_seconds, and the rest
+  // are cancelled. Idempotent; blocks until drained.
   void Shutdown();
   // Blocks until the server has shut down.
   void Wait();

@@ -20,6 +20,9 @@ struct ServerOptions {
   double session_ttl_seconds = 3600;  // idle sessions are evicted.
   int rebuild_every_updates = 32;     // BVH refits between full rebuilds.
   int compute_threads = 0;            // per computation; 0 = all cores.
+  // On shutdown, health reports NOT_SERVING for this long while calls are
+  // still accepted (so balancers stop routing), then the server drains.
+  double drain_notice_seconds = 1;
   double shutdown_grace_seconds = 20; // in-flight calls may finish.
   double sweep_interval_seconds = 5;  // TTL sweep period.
 };

@@ -17,6 +17,9 @@ class ServerFixture : public ::testing::Test {
     options_ = options;
     options_.address = "127.0.0.1:0";
     options_.metrics_address = "";
+    options_.drain_notice_seconds = options.drain_notice_seconds == 1
+                                        ? 0.0
+                                        : options.drain_notice_seconds;
     auto s = server::MeshGaugeServer::Start(options_, &metrics_, &clock_);
     ASSERT_TRUE(s.ok()) << s.status();
     server_ = std::move(*s);

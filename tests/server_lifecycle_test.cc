@@ -1,0 +1,146 @@
+// Server lifecycle: health, cancellation and deadlines inside long
+// computations, metrics exposition, graceful drain with a call in flight.
+#include <gmock/gmock.h>
+#include <grpcpp/generic/generic_stub.h>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <future>
+#include <thread>
+
+#include "lib/shapes.h"
+#include "tests/server_test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
+using client::ToWireParams;
+using Clock = std::chrono::steady_clock;
+
+// grpc.health.v1.Health/Check for the whole server, by hand-encoded bytes:
+// the request is empty; the response is field 1 (status) as a varint.
+// Returns 1 SERVING, 2 NOT_SERVING, -1 on an RPC error.
+int HealthStatus(const std::string& target) {
+  auto channel = grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
+  grpc::GenericStub stub(channel);
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(2));
+  grpc::ByteBuffer request, response;
+  grpc::Slice empty("");
+  request = grpc::ByteBuffer(&empty, 1);
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(),
+                 &request, &response,
+                 [&done](grpc::Status s) { done.set_value(s); });
+  if (!done.get_future().get().ok()) return -1;
+  std::vector<grpc::Slice> slices;
+  if (!response.Dump(&slices).ok()) return -1;
+  std::string bytes;
+  for (const auto& s : slices) bytes += std::string(s.begin(), s.end());
+  return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
+}
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+class LifecycleTest : public testing::ServerFixture {};
+
+TEST_F(LifecycleTest, HealthIsServingAfterStart) {
+  EXPECT_EQ(HealthStatus(target_), 1);
+}
+
+TEST_F(LifecycleTest, CancellationMidStreamStopsTheCall) {
+  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 30), "s").ok());
+  auto ctx = client_->Context("s");
+  v1::ComputeSdfRequest req;
+  req.set_session_id("s");
+  req.set_chunk_vertices(100);
+  auto reader = client_->stub().ComputeSdf(ctx.get(), req);
+  v1::ComputeSdfResponse msg;
+  ASSERT_TRUE(reader->Read(&msg));
+  EXPECT_EQ(msg.chunk().vertex_end(), 100);
+  ctx->TryCancel();
+  while (reader->Read(&msg)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
+  // The server recorded the cancelled call and still serves.
+  for (int i = 0; i < 100 && metrics_.Text().find("code=\"CANCELLED\",method=\"ComputeSdf\"") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_THAT(metrics_.Text(), HasSubstr("code=\"CANCELLED\",method=\"ComputeSdf\""));
+  EXPECT_TRUE(client_->Get("s").ok());
+}
+
+TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
+  const Mesh big = MakeIcosphere(1, 90);  // 81k vertices: seconds of rays.
+  ASSERT_TRUE(client_->Upload(big, "big").ok());
+  ASSERT_TRUE(client_->Get("big").ok());
+  // Build the BVH first so the deadline falls inside the ray pass.
+  ASSERT_TRUE(client_->UpdatePositions("big", 0, 3, big.positions).ok());
+  client::ClientOptions fast;
+  fast.deadline_seconds = 0.2;
+  client::RemoteClient impatient(target_, fast);
+  const auto start = Clock::now();
+  auto r = impatient.ComputeSdf("big", ToWireParams({}));
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kDeadlineExceeded);
+  // The update needs the session exclusively: it can only run once the
+  // server-side computation has stopped.
+  auto up = client_->UpdatePositions("big", 1, 3, big.positions);
+  const double waited = SecondsSince(start);
+  ASSERT_TRUE(up.ok()) << up.status();
+  EXPECT_LT(waited, 0.2 + 0.1 + 0.2) << "server kept computing after the deadline";
+  for (int i = 0; i < 100 && metrics_.Text().find("DEADLINE_EXCEEDED") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_THAT(metrics_.Text(), HasSubstr("code=\"DEADLINE_EXCEEDED\",method=\"ComputeSdf\""));
+}
+
+TEST_F(LifecycleTest, MetricsUseBaseUnitsAndNoSessionIds) {
+  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 4), "secret-session-name").ok());
+  ASSERT_TRUE(client_->ComputeSdf("secret-session-name", ToWireParams({})).ok());
+  EXPECT_EQ(client_->Get("missing").status().code(), absl::StatusCode::kNotFound);
+  const std::string text = metrics_.Text();
+  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_requests_total{code=\"OK\",method=\"ComputeSdf\"} 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_requests_total{code=\"NOT_FOUND\",method=\"GetSession\"} 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_duration_seconds_count{method=\"CreateSession\"} 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_sessions_active 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_rays_traced_total 16200"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_bvh_builds_total 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_bvh_build_seconds_count 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_session_cache_bytes"));
+  EXPECT_THAT(text, Not(HasSubstr("secret-session-name")));
+}
+
+TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
+  server::ServerOptions o;
+  o.drain_notice_seconds = 0.5;
+  o.shutdown_grace_seconds = 30;
+  TearDown();
+  StartServer(o);
+  const Mesh big = MakeIcosphere(1, 110);  // 121k vertices: outlasts the
+                                           // 0.5 s drain notice.
+  ASSERT_TRUE(client_->Upload(big, "big").ok());
+  auto in_flight = std::async(std::launch::async, [&] {
+    client::RemoteClient c(target_);
+    return c.ComputeSdf("big", ToWireParams({}));
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  auto shutdown = std::async(std::launch::async, [&] { server_->Shutdown(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(150));
+  EXPECT_EQ(HealthStatus(target_), 2) << "NOT_SERVING while draining";
+  auto result = in_flight.get();
+  const auto finished = Clock::now();
+  ASSERT_TRUE(result.ok()) << result.status();
+  EXPECT_EQ(shutdown.wait_for(std::chrono::seconds(0)), std::future_status::timeout)
+      << "the call must still have been running when the drain began";
+  (void)finished;
+  EXPECT_EQ(result->summary.ok(), big.num_vertices());
+  shutdown.get();
+  EXPECT_EQ(client_->Get("big").status().code(), absl::StatusCode::kUnavailable);
+}
+
+}  // namespace
+}  // namespace meshgauge
