@@ -24,6 +24,10 @@ absl::Status RunPenalty(const std::vector<std::string>& args);
 // SDF vs physical thickness (SPEC §8).
 absl::Status RunCalibrate(const std::vector<std::string>& args);
 
+// meshgauge remote upload|list|info|delete|sdf|grad|penalty|update ...:
+// the same work through a meshgauge-server (--server host:port).
+absl::Status RunRemote(const std::vector<std::string>& args);
+
 // meshgauge shape circle|sphere|torus|hollow --size H --radius R --out FILE:
 // writes an analytic test shape (OBJ; 2D shapes as `l` polylines).
 absl::Status RunShape(const std::vector<std::string>& args);

@@ -17,6 +17,8 @@ constexpr char kUsage[] =
     "  penalty MESH    minimum-thickness penalty --t-min T [--grad FILE]\n"
     "  calibrate MESH  SDF vs physical thickness --t-min T\n"
     "  shape KIND      write an analytic shape: circle|sphere|torus|hollow\n"
+    "  remote VERB     upload|list|info|delete|sdf|grad|penalty|update via\n"
+    "                  a meshgauge-server (--server host:port)\n"
     "Run 'meshgauge --helpfull' for every flag.";
 
 }  // namespace
@@ -44,6 +46,8 @@ int main(int argc, char** argv) {
     status = meshgauge::cli::RunPenalty(args);
   } else if (verb == "calibrate") {
     status = meshgauge::cli::RunCalibrate(args);
+  } else if (verb == "remote") {
+    status = meshgauge::cli::RunRemote(args);
   } else if (verb == "shape") {
     status = meshgauge::cli::RunShape(args);
   } else {

@@ -1,0 +1,139 @@
+"""End to end against a real meshgauge-server process on loopback: the
+Python client, error mapping, Prometheus over HTTP, the remote optimiser
+example, and a graceful SIGTERM drain."""
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+import urllib.request
+
+import numpy as np
+
+from meshgauge_client import MeshGaugeClient, MeshGaugeError
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
+import thicken_dumbbell  # noqa: E402
+
+import grpc  # noqa: E402
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def octahedron(scale=1.0):
+    v = scale * np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0],
+                          [0, 0, 1], [0, 0, -1]], dtype=float)
+    f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
+                  [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    return v, f
+
+
+class RemoteEndToEnd(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.tmp = tempfile.mkdtemp()
+        port_file = os.path.join(cls.tmp, "port")
+        cls.metrics_port = free_port()
+        cls.log = open(os.path.join(cls.tmp, "server.log"), "w+")
+        cls.proc = subprocess.Popen(
+            [os.environ["MESHGAUGE_SERVER"], "--address=127.0.0.1:0",
+             f"--metrics_address=127.0.0.1:{cls.metrics_port}",
+             f"--port_file={port_file}", "--drain_notice_seconds=0.2",
+             "--shutdown_grace_seconds=10"],
+            stderr=cls.log)
+        deadline = time.time() + 20
+        while not os.path.exists(port_file) or not open(port_file).read().strip():
+            if time.time() > deadline or cls.proc.poll() is not None:
+                raise RuntimeError("server did not start")
+            time.sleep(0.05)
+        cls.target = "127.0.0.1:" + open(port_file).read().strip()
+        cls.client = MeshGaugeClient(cls.target)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.client.close()
+        if cls.proc.poll() is None:
+            cls.proc.kill()
+        cls.log.close()
+
+    def test_1_values_vjp_penalty_numpy(self):
+        v, f = octahedron()
+        info = self.client.upload(v, f, session_id="octa")
+        self.assertEqual(info.num_vertices, 6)
+        r = self.client.sdf("octa", rays=50)
+        self.assertEqual(r["values"].shape, (6,))
+        self.assertTrue(np.all(np.isfinite(r["values"])))
+        self.assertEqual(r["summary"].ok, 6)
+        g = self.client.vjp("octa", np.ones(6), rays=50)
+        self.assertEqual(g.shape, (6, 3))
+        # Scaling the shape scales the SDF: d(sum SDF)/dx . x = sum SDF.
+        self.assertAlmostEqual(float(np.sum(g * v)), float(np.sum(r["values"])),
+                               places=9)
+        gen = self.client.update_positions("octa", 2 * v, 0)
+        self.assertEqual(gen, 1)
+        r2 = self.client.sdf("octa", rays=50, expected_generation=1)
+        np.testing.assert_allclose(r2["values"], 2 * r["values"], rtol=1e-12)
+        p, grad, resp = self.client.penalty("octa", t_min=5.0)
+        self.assertGreater(p, 0)
+        self.assertEqual(grad.shape, (6, 3))
+        self.assertIn("octa", [s.session_id for s in self.client.list()])
+
+    def test_2_errors_map_to_status_codes(self):
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.info("missing")
+        self.assertEqual(e.exception.code, grpc.StatusCode.NOT_FOUND)
+        v, f = octahedron()
+        self.client.upload(v, f, session_id="dup")
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.upload(v, f, session_id="dup")
+        self.assertEqual(e.exception.code, grpc.StatusCode.ALREADY_EXISTS)
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.update_positions("dup", v, expected_generation=7)
+        self.assertEqual(e.exception.code, grpc.StatusCode.ABORTED)
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.sdf("dup", cone_angle=200)
+        self.assertEqual(e.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+        bad = v.copy()
+        bad[2] = bad[0]  # face (0, 2, 4) collapses
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.upload(bad, f, session_id="bad")
+        self.assertEqual(e.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+        self.assertIn("zero area", e.exception.details)
+
+    def test_3_remote_optimiser_reaches_t_min(self):
+        out = open(os.path.join(self.tmp, "optimiser.log"), "w")
+        history = thicken_dumbbell.optimise(self.client, t_min=0.6, neck=0.3,
+                                            max_iterations=150, out=out)
+        out.close()
+        print(open(os.path.join(self.tmp, "optimiser.log")).read()[-400:])
+        self.assertLess(history[0], 0.35)
+        self.assertGreaterEqual(history[-1], 0.6)
+
+    def test_4_prometheus_over_http(self):
+        text = urllib.request.urlopen(
+            f"http://127.0.0.1:{self.metrics_port}/metrics", timeout=5).read().decode()
+        self.assertIn('meshgauge_rpc_requests_total{code="OK",method="ComputePenalty"}', text)
+        self.assertIn("meshgauge_bvh_refits_total", text)
+        self.assertIn("meshgauge_rays_traced_total", text)
+        self.assertNotIn("octa", text)  # no session ids as labels
+
+    def test_5_sigterm_drains_and_exits_cleanly(self):
+        self.proc.send_signal(signal.SIGTERM)
+        self.assertEqual(self.proc.wait(timeout=20), 0)
+        self.log.seek(0)
+        log = self.log.read()
+        self.assertIn("draining", log)
+        self.assertIn("stopped", log)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
