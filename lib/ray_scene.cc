@@ -38,7 +38,14 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   scene_ = rtcNewScene(device_);
   // ROBUST: watertight intersection, so a ray through a shared edge or
   // vertex (common on symmetric meshes) cannot slip between primitives.
-  rtcSetSceneFlags(scene_, RTC_SCENE_FLAG_ROBUST);
+  // DYNAMIC (with LOW quality and a REFIT geometry): without it Embree 3
+  // rebuilds on every commit instead of refitting (measured: 50 ms vs 4 ms
+  // for 320k triangles).
+  rtcSetSceneFlags(scene_, policy_ == BvhUpdatePolicy::kRefit
+                               ? static_cast<RTCSceneFlags>(
+                                     RTC_SCENE_FLAG_ROBUST |
+                                     RTC_SCENE_FLAG_DYNAMIC)
+                               : RTC_SCENE_FLAG_ROBUST);
   rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
                                       ? RTC_BUILD_QUALITY_LOW
                                       : RTC_BUILD_QUALITY_MEDIUM);

@@ -6,7 +6,10 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config
   libembree-dev libtbb-dev libopenmesh-dev libabsl-dev nlohmann-json3-dev
+  libgrpc++-dev protobuf-compiler-grpc libprotobuf-dev protobuf-compiler
+  prometheus-cpp-dev zlib1g-dev
   libgtest-dev libgmock-dev
+  python3 python3-grpcio python3-protobuf python3-numpy python3-scipy
 )
 
 missing=()

@@ -1,15 +1,15 @@
 #!/usr/bin/env bash
-# Quick start: install dependencies, build, and run the main job (the CLI on
-# a generated sphere and, when ../shared is present, on a real scan).
+# Quick start: install dependencies, build, and run the main job: the
+# meshgauge gRPC server on localhost (gRPC 127.0.0.1:50051, Prometheus
+# metrics http://127.0.0.1:9464/metrics) until Ctrl-C / SIGTERM.
+# Extra arguments go to meshgauge-server (e.g. --address 127.0.0.1:6000).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 scripts/build.sh
-mkdir -p build/examples
-build/client/meshgauge shape sphere --radius 0.5 --size 0.02 --out build/examples/sphere.obj
-echo "== meshgauge sdf build/examples/sphere.obj (diameter 1)"
-build/client/meshgauge sdf build/examples/sphere.obj --ply build/examples/sphere_sdf.ply
-if [ -f ../shared/meshes/spot_triangulated.obj ]; then
-  echo "== meshgauge sdf ../shared/meshes/spot_triangulated.obj"
-  build/client/meshgauge sdf ../shared/meshes/spot_triangulated.obj --csv build/examples/spot.csv
-fi
+echo "meshgauge: try, from another terminal:"
+echo "  build/client/meshgauge remote upload ../shared/meshes/spot_triangulated.obj --session-id spot"
+echo "  build/client/meshgauge remote sdf spot"
+echo "  PYTHONPATH=build/python:client/python python3 client/python/examples/thicken_dumbbell.py"
+exec build/server/meshgauge-server --address 127.0.0.1:50051 \
+  --metrics_address 127.0.0.1:9464 "$@"

@@ -1,0 +1,133 @@
+// meshgauge_grpc_bench: the cost of going through the server.
+//
+//   meshgauge_grpc_bench [--iterations N] MESH
+//
+// In one process: an in-process server on a loopback port and the library.
+//  1. One optimiser iteration (move every vertex -> SDF values -> VJP with
+//     g = 1) through gRPC (UpdatePositions, ComputeSdf stream, ComputeVjp
+//     reusing the frozen hits) vs the same work on an SdfEvaluator
+//     (UpdatePositions, Compute with hit table, ComputeVjp). Best of N.
+//  2. A position update on a live session (BVH refit) vs re-uploading the
+//     mesh as a new session and building its BVH. Best of N.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "client/remote/remote_client.h"
+#include "lib/mesh_io.h"
+#include "lib/sdf.h"
+#include "lib/sensitivity.h"
+#include "server/server.h"
+
+ABSL_FLAG(int, iterations, 5, "repetitions of each measurement (best kept)");
+
+namespace meshgauge::bench {
+namespace {
+
+double Best(int n, const std::function<void(int)>& body) {
+  double best = 1e300;
+  for (int i = 0; i < n; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    body(i);
+    best = std::min(best, std::chrono::duration<double>(
+                              std::chrono::steady_clock::now() - start)
+                              .count());
+  }
+  return best;
+}
+
+void Check(const absl::Status& s) {
+  if (!s.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(s.message()).c_str());
+    std::exit(1);
+  }
+}
+
+int Run(const std::string& path) {
+  auto mesh = ReadMesh(path);
+  Check(mesh.status());
+  if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
+  const int n = absl::GetFlag(FLAGS_iterations);
+  const int64_t nv = mesh->num_vertices();
+  const std::vector<double> ones(nv, 1.0);
+  auto moved = [&](int i) {
+    std::vector<Vec3> p = mesh->positions;
+    const double s = 1 + 1e-5 * std::sin(1.0 + i);
+    for (Vec3& v : p) v *= s;
+    return p;
+  };
+
+  // In-process.
+  auto ev = SdfEvaluator::Create(*mesh);
+  Check(ev.status());
+  const double local = Best(n, [&](int i) {
+    Check((*ev)->UpdatePositions(moved(i)));
+    HitTable hits;
+    Check((*ev)->Compute({}, {}, &hits).status());
+    Check(ComputeVjp(**ev, hits, ones).status());
+  });
+
+  // Through gRPC on loopback.
+  server::ServerOptions options;
+  options.address = "127.0.0.1:0";
+  options.metrics_address = "";
+  options.drain_notice_seconds = 0;
+  options.rebuild_every_updates = 1 << 30;  // measure refits only.
+  server::Metrics metrics;
+  server::SteadyClock clock;
+  auto srv = server::MeshGaugeServer::Start(options, &metrics, &clock);
+  Check(srv.status());
+  client::RemoteClient c("127.0.0.1:" + std::to_string((*srv)->port()));
+  Check(c.Upload(*mesh, "bench").status());
+  int64_t generation = 0;
+  const v1::SdfParameters params = client::ToWireParams({});
+  // Build the BVH (lazily) before timing.
+  Check(c.UpdatePositions("bench", generation++, 3, mesh->positions).status());
+  const double remote = Best(n, [&](int i) {
+    Check(c.UpdatePositions("bench", generation++, 3, moved(i)).status());
+    Check(c.ComputeSdf("bench", params).status());
+    auto vjp = c.ComputeVjp("bench", params, ones);
+    Check(vjp.status());
+    if (!vjp->reused_hits()) std::fprintf(stderr, "VJP traced again!\n");
+  });
+
+  // Refit vs re-upload + rebuild.
+  const double refit = Best(n, [&](int i) {
+    Check(c.UpdatePositions("bench", generation++, 3, moved(i)).status());
+  });
+  const double reupload = Best(n, [&](int i) {
+    const std::string id = "re" + std::to_string(i);
+    Check(c.Upload(*mesh, id).status());
+    Check(c.UpdatePositions(id, 0, 3, mesh->positions).status());  // builds
+    Check(c.Delete(id));
+  });
+  (*srv)->Shutdown();
+
+  std::printf("%s: %lld vertices, %lld faces, best of %d\n",
+              path.substr(path.find_last_of('/') + 1).c_str(),
+              static_cast<long long>(nv),
+              static_cast<long long>(mesh->num_faces()), n);
+  std::printf("  optimiser iteration (update + SDF + VJP): in-process %.3f s, "
+              "gRPC %.3f s, ratio %.3f (goal <= 1.15)\n",
+              local, remote, remote / local);
+  std::printf("  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
+              "%.1fx (goal >= 5)\n",
+              refit, reupload, reupload / refit);
+  return 0;
+}
+
+}  // namespace
+}  // namespace meshgauge::bench
+
+int main(int argc, char** argv) {
+  std::vector<char*> args = absl::ParseCommandLine(argc, argv);
+  if (args.size() != 2) {
+    std::fprintf(stderr, "usage: meshgauge_grpc_bench [--iterations N] MESH\n");
+    return 2;
+  }
+  return meshgauge::bench::Run(args[1]);
+}
