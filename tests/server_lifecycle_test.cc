@@ -53,11 +53,14 @@ TEST_F(LifecycleTest, HealthIsServingAfterStart) {
 }
 
 TEST_F(LifecycleTest, CancellationMidStreamStopsTheCall) {
-  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 30), "s").ok());
+  // ~20 MB of values and Jacobian rows: far more than HTTP/2 flow control
+  // lets the server buffer, so it is still writing when the client cancels.
+  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 60), "s").ok());
   auto ctx = client_->Context("s");
   v1::ComputeSdfRequest req;
   req.set_session_id("s");
   req.set_chunk_vertices(100);
+  req.set_include_jacobian(true);
   auto reader = client_->stub().ComputeSdf(ctx.get(), req);
   v1::ComputeSdfResponse msg;
   ASSERT_TRUE(reader->Read(&msg));
