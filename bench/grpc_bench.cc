@@ -111,12 +111,14 @@ int Run(const std::string& path) {
               path.substr(path.find_last_of('/') + 1).c_str(),
               static_cast<long long>(nv),
               static_cast<long long>(mesh->num_faces()), n);
-  std::printf("  optimiser iteration (update + SDF + VJP): in-process %.3f s, "
-              "gRPC %.3f s, ratio %.3f (goal <= 1.15)\n",
-              local, remote, remote / local);
-  std::printf("  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
-              "%.1fx (goal >= 5)\n",
-              refit, reupload, reupload / refit);
+  std::printf(
+      "  optimiser iteration (update + SDF + VJP): in-process %.3f s, "
+      "gRPC %.3f s, ratio %.3f (goal <= 1.15)\n",
+      local, remote, remote / local);
+  std::printf(
+      "  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
+      "%.1fx (goal >= 5)\n",
+      refit, reupload, reupload / refit);
   return 0;
 }
 

@@ -10,6 +10,7 @@
 #include <limits>
 
 #include "lib/normals.h"
+#include "lib/ray_scene.h"
 #include "lib/topology.h"
 #include "lib/vertex_cone.h"
 
@@ -73,27 +74,13 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
           rtcInitIntersectContext(&ctx);
           for (int64_t p = r.begin(); p < r.end(); ++p) {
             if (topo.vertex_faces.Of(p).empty()) continue;
-            const VertexCone vc = MakeVertexCone(3, normals[p],
-                                                 topo.vertex_direction[p]);
+            const VertexCone vc =
+                MakeVertexCone(3, normals[p], topo.vertex_direction[p]);
             if (!vc.valid) continue;
             const Vec3& x = mesh.positions[p];
             for (const ConeRay& ray : *cone) {
               const Vec3 d = RayDirection(vc.frame, ray);
-              RTCRayHit rh;
-              rh.ray.org_x = static_cast<float>(x.x);
-              rh.ray.org_y = static_cast<float>(x.y);
-              rh.ray.org_z = static_cast<float>(x.z);
-              rh.ray.dir_x = static_cast<float>(d.x);
-              rh.ray.dir_y = static_cast<float>(d.y);
-              rh.ray.dir_z = static_cast<float>(d.z);
-              rh.ray.tnear = t_near;
-              rh.ray.tfar = t_far;
-              rh.ray.time = 0;
-              rh.ray.mask = std::numeric_limits<unsigned>::max();
-              rh.ray.id = 0;
-              rh.ray.flags = 0;
-              rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-              rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+              RTCRayHit rh = MakeRayHit(x, d, t_near, t_far);
               rtcIntersect1(scene, &ctx, &rh);
               ++local_rays;
               local_hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
@@ -105,9 +92,9 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
         tbb::simple_partitioner());
   });
   RawPassResult result;
-  result.seconds = std::chrono::duration<double>(
-                       std::chrono::steady_clock::now() - start)
-                       .count();
+  result.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   result.rays = rays;
   result.hits = hits;
   rtcReleaseScene(scene);

@@ -19,11 +19,11 @@ struct RawPassResult {
   double seconds = 0;
 };
 
-// Builds a MEDIUM-quality, ROBUST (watertight, as meshgauge's) Embree scene of the mesh's triangles (3D only)
-// and traces, for every vertex with faces, the resolved cone of `params`
-// with tnear = eps * h and tfar = bounding-box diagonal, over vertices in a
-// oneTBB parallel_for with `params.threads` threads. Only the ray pass is
-// timed.
+// Builds a MEDIUM-quality, ROBUST (watertight, as meshgauge's) Embree scene of
+// the mesh's triangles (3D only) and traces, for every vertex with faces, the
+// resolved cone of `params` with tnear = eps * h and tfar = bounding-box
+// diagonal, over vertices in a oneTBB parallel_for with `params.threads`
+// threads. Only the ray pass is timed.
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
                                          const SdfParams& params);
 

@@ -57,7 +57,8 @@ int BenchMesh(const std::string& path) {
       const auto start = std::chrono::steady_clock::now();
       sdf = (*evaluator)->Compute(params);
       values_wall = std::chrono::duration<double>(
-                        std::chrono::steady_clock::now() - start).count();
+                        std::chrono::steady_clock::now() - start)
+                        .count();
     };
     if (i % 2 == 1) values_only();
     auto raw = RunRawPass(*mesh, params);
@@ -72,36 +73,37 @@ int BenchMesh(const std::string& path) {
     auto kept = (*evaluator)->Compute(params, {}, &hits);
     const auto t1 = std::chrono::steady_clock::now();
     auto vjp = ComputeVjp(**evaluator, hits,
-                          std::vector<double>(mesh->num_vertices(), 1.0),
-                          {}, params.threads);
+                          std::vector<double>(mesh->num_vertices(), 1.0), {},
+                          params.threads);
     const auto t2 = std::chrono::steady_clock::now();
     if (!kept.ok() || !vjp.ok()) {
       std::fprintf(stderr, "values+vjp failed\n");
       return 1;
     }
-    best_with_vjp = std::min(best_with_vjp,
-                             std::chrono::duration<double>(t2 - t0).count());
-    best_vjp = std::min(best_vjp, std::chrono::duration<double>(t2 - t1).count());
+    best_with_vjp =
+        std::min(best_with_vjp, std::chrono::duration<double>(t2 - t0).count());
+    best_vjp =
+        std::min(best_vjp, std::chrono::duration<double>(t2 - t1).count());
     best_raw = std::max(best_raw, raw->rays / raw->seconds);
     auto refit_pass = (*refit_evaluator)->Compute(params);
-    best_refit = std::max(best_refit, refit_pass->rays_traced /
-                                          refit_pass->trace_seconds);
+    best_refit = std::max(best_refit,
+                          refit_pass->rays_traced / refit_pass->trace_seconds);
     best_sdf = std::max(best_sdf, sdf->rays_traced / sdf->trace_seconds);
     rays = sdf->rays_traced;
   }
-  std::printf("%-28s %8lld V %11lld rays  raw %.3e rays/s  sdf %.3e rays/s  "
-              "sdf/raw %.3f\n",
-              path.substr(path.find_last_of('/') + 1).c_str(),
-              static_cast<long long>(mesh->num_vertices()),
-              static_cast<long long>(rays), best_raw, best_sdf,
-              best_sdf / best_raw);
+  std::printf(
+      "%-28s %8lld V %11lld rays  raw %.3e rays/s  sdf %.3e rays/s  "
+      "sdf/raw %.3f\n",
+      path.substr(path.find_last_of('/') + 1).c_str(),
+      static_cast<long long>(mesh->num_vertices()),
+      static_cast<long long>(rays), best_raw, best_sdf, best_sdf / best_raw);
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);
   const double values_only = best_values;
-  std::printf("%-28s values %.3f s  values+hits+VJP %.3f s (VJP alone %.3f s)  "
-              "ratio %.3f\n",
-              "", values_only, best_with_vjp, best_vjp,
-              best_with_vjp / values_only);
+  std::printf(
+      "%-28s values %.3f s  values+hits+VJP %.3f s (VJP alone %.3f s)  "
+      "ratio %.3f\n",
+      "", values_only, best_with_vjp, best_vjp, best_with_vjp / values_only);
   return 0;
 }
 

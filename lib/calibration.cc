@@ -29,7 +29,8 @@ absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
     return absl::InvalidArgumentError(
         absl::StrCat("t_min must be a finite number > 0, got ", params.t_min));
   }
-  if (!(params.equal_tolerance >= 0) || !std::isfinite(params.equal_tolerance)) {
+  if (!(params.equal_tolerance >= 0) ||
+      !std::isfinite(params.equal_tolerance)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "equal tolerance must be >= 0, got ", params.equal_tolerance));
   }

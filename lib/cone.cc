@@ -17,8 +17,7 @@ bool InSouthCap(const Vec3& a) {
 }  // namespace
 
 absl::StatusOr<std::vector<ConeRay>> MakeCone(int dimension,
-                                              double aperture_radians,
-                                              int rays,
+                                              double aperture_radians, int rays,
                                               double min_weight_angle) {
   if (!(aperture_radians > 0 && aperture_radians < std::numbers::pi)) {
     return absl::InvalidArgumentError(

@@ -24,8 +24,7 @@ struct ConeRay {
 // [1, 4096]. min_weight_angle: theta_min > 0 in radians.
 // Errors: InvalidArgument naming the parameter and its range.
 absl::StatusOr<std::vector<ConeRay>> MakeCone(int dimension,
-                                              double aperture_radians,
-                                              int rays,
+                                              double aperture_radians, int rays,
                                               double min_weight_angle);
 
 // World frame for a unit cone axis.

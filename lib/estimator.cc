@@ -30,8 +30,9 @@ ConeEstimate EstimateCone(absl::Span<const double> t,
   std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
   double median = scratch[mid];
   if (n % 2 == 0) {
-    median = (median + *std::max_element(scratch.begin(),
-                                         scratch.begin() + mid)) / 2;
+    median =
+        (median + *std::max_element(scratch.begin(), scratch.begin() + mid)) /
+        2;
   }
   const double bound = kappa * sigma + 1e-12 * std::abs(median);
   double num = 0;

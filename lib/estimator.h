@@ -10,10 +10,10 @@
 namespace meshgauge {
 
 struct ConeEstimate {
-  double value = 0;         // sum_kept w t / sum_kept w (valid if kept > 0).
-  double weight_sum = 0;    // sum_kept w.
-  int32_t hits = 0;         // rays with a hit.
-  int32_t kept = 0;         // rays that passed the filter.
+  double value = 0;       // sum_kept w t / sum_kept w (valid if kept > 0).
+  double weight_sum = 0;  // sum_kept w.
+  int32_t hits = 0;       // rays with a hit.
+  int32_t kept = 0;       // rays that passed the filter.
 };
 
 // t[k]: hit distance of ray k, or NaN for a miss. kappa >= 0. Writes

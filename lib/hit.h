@@ -10,10 +10,10 @@
 namespace meshgauge {
 
 struct HitGeometry {
-  double t = 0;          // distance along the unit direction.
-  Vec3 m;                // (b-a) x (c-a) (3D) or perp(b-a) (2D).
-  double d_dot_m = 0;    // d . m, nonzero.
-  double lambda[3] = {}; // barycentric coordinates of the hit point.
+  double t = 0;           // distance along the unit direction.
+  Vec3 m;                 // (b-a) x (c-a) (3D) or perp(b-a) (2D).
+  double d_dot_m = 0;     // d . m, nonzero.
+  double lambda[3] = {};  // barycentric coordinates of the hit point.
 };
 
 // The corners of one primitive, packed contiguously (one or two cache lines)
@@ -47,7 +47,8 @@ inline double HitDistance(const PrimitiveCorners& pc, const Vec3& x,
                           const Vec3& d) {
   const Vec3 m = PrimitiveNormalOf(pc);
   const double t = Dot(pc.a - x, m) / Dot(d, m);
-  return t > 0 && std::isfinite(t) ? t : std::numeric_limits<double>::quiet_NaN();
+  return t > 0 && std::isfinite(t) ? t
+                                   : std::numeric_limits<double>::quiet_NaN();
 }
 
 // The hit with m, d . m and the barycentric coordinates of the hit point

@@ -62,30 +62,43 @@ void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]) {
   grad[0] = -(grad[1] + grad[2]);
 }
 
-IntegralResult IntegrateNodal(const Mesh& mesh,
-                              const std::vector<double>& values,
-                              const std::function<double(double)>& phi) {
-  IntegralResult r;
-  int64_t last_skipped = -1;
+int64_t ForEachValuedElement(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::function<void(const Element&, const double* t)>& fn) {
+  int64_t skipped = 0, last_skipped = -1;
   ForEachElement(mesh, [&](int64_t face, const Element& e) {
     bool finite = true;
     for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
     if (!finite) {
-      if (face != last_skipped) ++r.skipped_faces;
+      if (face != last_skipped) ++skipped;
       last_skipped = face;
       return;
     }
-    double sum = 0;
-    for (const QuadraturePoint& q : QuadratureRule(e.n)) {
-      double t = 0;
-      for (int i = 0; i < e.n; ++i) t += q.shape[i] * values[e.v[i]];
-      sum += q.weight * (phi ? phi(t) : t);
+    double t[3] = {0, 0, 0};
+    const auto& rule = QuadratureRule(e.n);
+    for (size_t q = 0; q < rule.size(); ++q) {
+      for (int i = 0; i < e.n; ++i) t[q] += rule[q].shape[i] * values[e.v[i]];
     }
-    r.value += e.measure * sum;
-    r.measure += e.measure;
+    fn(e, t);
   });
-  return r;
+  return skipped;
 }
 
+IntegralResult IntegrateNodal(const Mesh& mesh,
+                              const std::vector<double>& values,
+                              const std::function<double(double)>& phi) {
+  IntegralResult r;
+  r.skipped_faces = ForEachValuedElement(
+      mesh, values, [&](const Element& e, const double* t) {
+        double sum = 0;
+        const auto& rule = QuadratureRule(e.n);
+        for (size_t q = 0; q < rule.size(); ++q) {
+          sum += rule[q].weight * (phi ? phi(t[q]) : t[q]);
+        }
+        r.value += e.measure * sum;
+        r.measure += e.measure;
+      });
+  return r;
+}
 
 }  // namespace meshgauge

@@ -12,9 +12,9 @@
 namespace meshgauge {
 
 struct IntegralResult {
-  double value = 0;            // integral, in (value units) x length^(dim-1).
-  double measure = 0;          // total length/area of the faces used.
-  int64_t skipped_faces = 0;   // faces with a vertex whose value is not finite.
+  double value = 0;           // integral, in (value units) x length^(dim-1).
+  double measure = 0;         // total length/area of the faces used.
+  int64_t skipped_faces = 0;  // faces with a vertex whose value is not finite.
 };
 
 // Integral of phi(t) over the surface, t the interpolated nodal values
@@ -46,8 +46,17 @@ const std::vector<QuadraturePoint>& QuadratureRule(int n);
 
 // Calls fn(element) for every integration element of every face, in face
 // order; `face` is the mesh face index.
-void ForEachElement(const Mesh& mesh,
-                    const std::function<void(int64_t face, const Element&)>& fn);
+void ForEachElement(
+    const Mesh& mesh,
+    const std::function<void(int64_t face, const Element&)>& fn);
+
+// Calls fn(e, t) for every element whose vertices all have finite values,
+// t[q] the value interpolated at quadrature point q of QuadratureRule(e.n);
+// returns the number of faces skipped (a face with any non-finite vertex
+// value).
+int64_t ForEachValuedElement(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::function<void(const Element&, const double* t)>& fn);
 
 // d(measure)/dx for the element's vertices (3 entries; z = 0 in 2D).
 void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]);

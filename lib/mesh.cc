@@ -36,8 +36,8 @@ class DefectList {
 // |(b-a) x (c-a)| <= 1e-14 * longest edge^2.
 bool TriangleIsDegenerate(const Vec3& a, const Vec3& b, const Vec3& c) {
   const double area2 = Norm(Cross(b - a, c - a));
-  const double longest = std::max({Dot(b - a, b - a), Dot(c - b, c - b),
-                                   Dot(a - c, a - c)});
+  const double longest =
+      std::max({Dot(b - a, b - a), Dot(c - b, c - b), Dot(a - c, a - c)});
   return !(area2 > 1e-14 * longest);
 }
 
@@ -56,29 +56,30 @@ absl::Status ValidateMesh(const Mesh& mesh) {
         absl::StrCat("dimension must be 2 or 3, got ", mesh.dimension));
   }
   if (mesh.positions.empty() || mesh.faces.empty()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "empty mesh: ", mesh.positions.size(), " vertices and ",
-        mesh.faces.size(), " faces (need at least one of each)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("empty mesh: ", mesh.positions.size(), " vertices and ",
+                     mesh.faces.size(), " faces (need at least one of each)"));
   }
-  if (mesh.positions.size() > static_cast<size_t>(
-                                  std::numeric_limits<int32_t>::max()) ||
+  if (mesh.positions.size() >
+          static_cast<size_t>(std::numeric_limits<int32_t>::max()) ||
       mesh.faces.size() >
           static_cast<size_t>(std::numeric_limits<int32_t>::max() / 2)) {
     return absl::InvalidArgumentError("mesh too large for 32-bit indices");
   }
   if (!mesh.face_regions.empty() &&
       mesh.face_regions.size() != mesh.faces.size()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("face_regions has ", mesh.face_regions.size(),
-                     " entries but the mesh has ", mesh.faces.size(),
-                     " faces"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "face_regions has ", mesh.face_regions.size(),
+        " entries but the mesh has ", mesh.faces.size(), " faces"));
   }
   std::vector<std::string> problems;
   DefectList non_finite("vertices have non-finite coordinates");
   DefectList nonzero_z("vertices of a 2D mesh have z != 0 (mixed dimensions)");
   for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
-    if (!IsFinite(mesh.positions[i])) non_finite.Add(i);
-    else if (mesh.dimension == 2 && mesh.positions[i].z != 0) nonzero_z.Add(i);
+    if (!IsFinite(mesh.positions[i]))
+      non_finite.Add(i);
+    else if (mesh.dimension == 2 && mesh.positions[i].z != 0)
+      nonzero_z.Add(i);
   }
   if (!non_finite.empty()) problems.push_back(non_finite.Message("vertex"));
   if (!nonzero_z.empty()) problems.push_back(nonzero_z.Message("vertex"));
@@ -122,8 +123,8 @@ absl::Status ValidateMesh(const Mesh& mesh) {
     }
     if (non_finite.empty() && FaceIsDegenerate(mesh, face)) degenerate.Add(f);
   }
-  for (const DefectList* list : {&bad_arity, &out_of_range, &repeated,
-                                 &degenerate}) {
+  for (const DefectList* list :
+       {&bad_arity, &out_of_range, &repeated, &degenerate}) {
     if (!list->empty()) problems.push_back(list->Message("face"));
   }
   if (problems.empty()) {
@@ -198,8 +199,8 @@ double MeanEdgeLength(const Mesh& mesh) {
   for (const Face& f : mesh.faces) {
     const int edges = f.size == 2 ? 1 : f.size;
     for (int k = 0; k < edges; ++k) {
-      sum += Norm(mesh.positions[f.v[(k + 1) % f.size]] -
-                  mesh.positions[f.v[k]]);
+      sum +=
+          Norm(mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]]);
       ++count;
     }
   }

@@ -2,7 +2,6 @@
 
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
-
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
@@ -21,13 +20,13 @@ namespace {
 using OpenMesh::EdgeHandle;
 using OpenMesh::FaceHandle;
 using OpenMesh::HalfedgeHandle;
-using OpenMesh::VertexHandle;
 using OpenMesh::Vec2f;
 using OpenMesh::Vec3d;
 using OpenMesh::Vec3f;
 using OpenMesh::Vec3uc;
 using OpenMesh::Vec4f;
 using OpenMesh::Vec4uc;
+using OpenMesh::VertexHandle;
 
 // Receives vertices and faces from OpenMesh's readers; ignores attributes.
 class CollectingImporter : public OpenMesh::IO::BaseImporter {
@@ -112,7 +111,8 @@ class CollectingImporter : public OpenMesh::IO::BaseImporter {
 };
 
 std::string LowerExtension(const std::string& path) {
-  return absl::AsciiStrToLower(std::filesystem::path(path).extension().string());
+  return absl::AsciiStrToLower(
+      std::filesystem::path(path).extension().string());
 }
 
 // Counts the faces a file declares, independently of OpenMesh, so that a
@@ -193,7 +193,8 @@ absl::StatusOr<Mesh> ReadMesh(const std::string& path) {
 absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
                              const std::vector<double>& values) {
   std::ofstream out(path, std::ios::binary);
-  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   const bool curve = mesh.dimension == 2;
   out << "ply\nformat binary_little_endian 1.0\n"
       << "comment meshgauge SDF in property quality\n"
@@ -233,7 +234,8 @@ absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
       put(static_cast<int32_t>(f.v[t + 2]));
     }
   }
-  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
   return absl::OkStatus();
 }
 

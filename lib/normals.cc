@@ -37,7 +37,8 @@ std::vector<Vec3> UnnormalizedNormals(const Mesh& mesh,
                                       const MeshTopology& topo,
                                       NormalWeighting weighting) {
   std::vector<Vec3> normals(mesh.positions.size());
-  const bool angle = weighting == NormalWeighting::kAngle && mesh.dimension == 3;
+  const bool angle =
+      weighting == NormalWeighting::kAngle && mesh.dimension == 3;
   for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
     Vec3 sum;
     for (int32_t prim_id : topo.vertex_primitives.Of(p)) {

@@ -63,8 +63,8 @@ absl::StatusOr<std::optional<Mesh>> ReadObjCurveIfAny(const std::string& path) {
         // Negative: relative to the vertices read so far. Range is checked
         // by ValidateMesh.
         id = id > 0 ? id - 1 : std::ssize(mesh.positions) + id;
-        ids.push_back(static_cast<int32_t>(std::clamp<int64_t>(
-            id, -1, std::numeric_limits<int32_t>::max())));
+        ids.push_back(static_cast<int32_t>(
+            std::clamp<int64_t>(id, -1, std::numeric_limits<int32_t>::max())));
       }
       for (size_t i = 0; i + 1 < ids.size(); ++i) {
         mesh.faces.push_back(Face::Segment(ids[i], ids[i + 1]));
@@ -74,9 +74,9 @@ absl::StatusOr<std::optional<Mesh>> ReadObjCurveIfAny(const std::string& path) {
   }
   if (!has_lines) return std::optional<Mesh>();
   if (face_lines > 0) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "'", path, "' mixes ", face_lines,
-        " faces (f) with polylines (l): mixed dimensions"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", path, "' mixes ", face_lines,
+                     " faces (f) with polylines (l): mixed dimensions"));
   }
   return std::optional<Mesh>(std::move(mesh));
 }

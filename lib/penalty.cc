@@ -12,7 +12,8 @@ namespace {
 struct Phi {
   PenaltyParams p;
   double Value(double t) const {
-    if (p.form == PenaltyForm::kThesis) return std::pow(t / p.t_min - 1, p.power);
+    if (p.form == PenaltyForm::kThesis)
+      return std::pow(t / p.t_min - 1, p.power);
     return std::pow(std::max(0.0, 1 - t / p.t_min), p.power);
   }
   double Derivative(double t) const {
@@ -44,51 +45,45 @@ absl::Status ValidatePenaltyParams(const PenaltyParams& p) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<PenaltyResult> ComputePenalty(
-    const SdfEvaluator& evaluator, const std::vector<double>& values,
-    const PenaltyParams& params, const HitTable* hits_for_gradient,
-    const ComputeControl& control, int threads) {
+absl::StatusOr<PenaltyResult> ComputePenalty(const SdfEvaluator& evaluator,
+                                             const std::vector<double>& values,
+                                             const PenaltyParams& params,
+                                             const HitTable* hits_for_gradient,
+                                             const ComputeControl& control,
+                                             int threads) {
   const bool with_gradient = hits_for_gradient != nullptr;
   if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
   const Mesh& mesh = evaluator.mesh();
   if (std::ssize(values) != mesh.num_vertices()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("expected ", mesh.num_vertices(), " values, got ",
-                     values.size()));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "expected ", mesh.num_vertices(), " values, got ", values.size()));
   }
   const Phi phi{params};
   PenaltyResult r;
   r.dp_dt.assign(mesh.num_vertices(), 0.0);
   if (with_gradient) r.measure_gradient.assign(mesh.num_vertices(), Vec3());
-  int64_t last_skipped = -1;
-  ForEachElement(mesh, [&](int64_t face, const Element& e) {
-    bool finite = true;
-    for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
-    if (!finite) {
-      if (face != last_skipped) ++r.skipped_faces;
-      last_skipped = face;
-      return;
-    }
-    double phi_sum = 0;
-    for (const QuadraturePoint& q : QuadratureRule(e.n)) {
-      double t = 0;
-      for (int i = 0; i < e.n; ++i) t += q.shape[i] * values[e.v[i]];
-      phi_sum += q.weight * phi.Value(t);
-      const double dphi = q.weight * e.measure * phi.Derivative(t);
-      for (int i = 0; i < e.n; ++i) r.dp_dt[e.v[i]] += dphi * q.shape[i];
-    }
-    r.value += e.measure * phi_sum;
-    if (with_gradient) {
-      Vec3 grad[3];
-      ElementMeasureGradient(mesh, e, grad);
-      for (int i = 0; i < e.n; ++i) {
-        r.measure_gradient[e.v[i]] += grad[i] * phi_sum;
-      }
-    }
-  });
+  r.skipped_faces = ForEachValuedElement(
+      mesh, values, [&](const Element& e, const double* t) {
+        const auto& rule = QuadratureRule(e.n);
+        double phi_sum = 0;
+        for (size_t q = 0; q < rule.size(); ++q) {
+          phi_sum += rule[q].weight * phi.Value(t[q]);
+          const double dphi = rule[q].weight * e.measure * phi.Derivative(t[q]);
+          for (int i = 0; i < e.n; ++i)
+            r.dp_dt[e.v[i]] += dphi * rule[q].shape[i];
+        }
+        r.value += e.measure * phi_sum;
+        if (with_gradient) {
+          Vec3 grad[3];
+          ElementMeasureGradient(mesh, e, grad);
+          for (int i = 0; i < e.n; ++i) {
+            r.measure_gradient[e.v[i]] += grad[i] * phi_sum;
+          }
+        }
+      });
   if (!with_gradient) return r;
-  auto vjp = ComputeVjp(evaluator, *hits_for_gradient, r.dp_dt, control,
-                        threads);
+  auto vjp =
+      ComputeVjp(evaluator, *hits_for_gradient, r.dp_dt, control, threads);
   if (!vjp.ok()) return vjp.status();
   r.gradient = std::move(*vjp);
   for (size_t i = 0; i < r.gradient.size(); ++i) {

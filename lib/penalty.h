@@ -29,9 +29,9 @@ struct PenaltyParams {
 absl::Status ValidatePenaltyParams(const PenaltyParams& params);
 
 struct PenaltyResult {
-  double value = 0;              // P, in length^(dim-1).
-  int64_t skipped_faces = 0;     // faces with a vertex without a value.
-  std::vector<double> dp_dt;     // dP/dt_p per vertex (#V).
+  double value = 0;           // P, in length^(dim-1).
+  int64_t skipped_faces = 0;  // faces with a vertex without a value.
+  std::vector<double> dp_dt;  // dP/dt_p per vertex (#V).
   // With gradient: dP/dx per vertex (#V; z = 0 in 2D), and its explicit
   // measure part alone (already included in `gradient`).
   std::vector<Vec3> gradient;
@@ -43,9 +43,11 @@ struct PenaltyResult {
 // table of that Compute) the gradient is computed too; see ComputeVjp.
 // Errors: InvalidArgument (params, wrong sizes), FailedPrecondition (hit
 // table of another generation), Cancelled.
-absl::StatusOr<PenaltyResult> ComputePenalty(
-    const SdfEvaluator& evaluator, const std::vector<double>& values,
-    const PenaltyParams& params, const HitTable* hits_for_gradient,
-    const ComputeControl& control = {}, int threads = 0);
+absl::StatusOr<PenaltyResult> ComputePenalty(const SdfEvaluator& evaluator,
+                                             const std::vector<double>& values,
+                                             const PenaltyParams& params,
+                                             const HitTable* hits_for_gradient,
+                                             const ComputeControl& control = {},
+                                             int threads = 0);
 
 }  // namespace meshgauge

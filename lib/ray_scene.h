@@ -19,6 +19,10 @@
 
 namespace meshgauge {
 
+// A single ray (and empty hit) for rtcIntersect1 from double inputs.
+RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
+                     float t_far);
+
 enum class BvhUpdatePolicy {
   // Each UpdatePositions rebuilds the BVH (scene quality MEDIUM).
   kRebuild,

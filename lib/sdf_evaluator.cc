@@ -190,10 +190,10 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
         }
       }
       for (int k = 0; k < num_rays; ++k) {
-        prims[k] = SkipOneRing(*scene_, corners_, one_ring, x, dirs[k],
-                               raw[k], t_max_f);
-        t[k] = prims[k] >= 0 ? HitDistance(corners_[prims[k]], x, dirs[k])
-                             : kNaN;
+        prims[k] = SkipOneRing(*scene_, corners_, one_ring, x, dirs[k], raw[k],
+                               t_max_f);
+        t[k] =
+            prims[k] >= 0 ? HitDistance(corners_[prims[k]], x, dirs[k]) : kNaN;
         if (!(t[k] <= t_max)) {
           t[k] = kNaN;
           prims[k] = -1;
@@ -221,13 +221,13 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       params.threads > 0 ? params.threads : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int64_t>(0, nv, kVertexBlock),
-                      process, tbb::simple_partitioner());
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, nv, kVertexBlock), process,
+                      tbb::simple_partitioner());
   });
   if (gate.stopped()) return absl::CancelledError("SDF computation cancelled");
-  result.trace_seconds = std::chrono::duration<double>(
-                             std::chrono::steady_clock::now() - start)
-                             .count();
+  result.trace_seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   result.rays_traced = rays_traced;
   result.normalized = NormalizedSdf(result.values);
   if (keep_hits) {
@@ -257,16 +257,16 @@ absl::Status SdfEvaluator::UpdatePositions(absl::Span<const int32_t> indices,
                                            absl::Span<const Vec3> positions) {
   if (indices.size() != positions.size()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("got ", indices.size(), " indices but ",
-                     positions.size(), " positions"));
+        absl::StrCat("got ", indices.size(), " indices but ", positions.size(),
+                     " positions"));
   }
   std::vector<uint8_t> seen(mesh_.positions.size(), 0);
   for (size_t i = 0; i < indices.size(); ++i) {
     const int32_t v = indices[i];
     if (v < 0 || v >= mesh_.num_vertices()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "vertex index ", v, " at position ", i, " is out of range [0, ",
-          mesh_.num_vertices(), ")"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("vertex index ", v, " at position ", i,
+                       " is out of range [0, ", mesh_.num_vertices(), ")"));
     }
     if (seen[v]++) {
       return absl::InvalidArgumentError(

@@ -31,16 +31,15 @@ struct HitTable {
   std::vector<ConeRay> cone;
   std::vector<int32_t> primitives;
   std::vector<uint8_t> kept;  // #V x K: 1 where the ray passed the filter.
-  double t_min = 0;  // self-hit threshold, mesh units.
-  double t_max = 0;  // miss distance, mesh units.
+  double t_min = 0;           // self-hit threshold, mesh units.
+  double t_max = 0;           // miss distance, mesh units.
   int64_t generation = -1;
   absl::Span<const int32_t> Row(int64_t vertex) const {
     return absl::MakeConstSpan(primitives.data() + vertex * cone.size(),
                                cone.size());
   }
   absl::Span<const uint8_t> KeptRow(int64_t vertex) const {
-    return absl::MakeConstSpan(kept.data() + vertex * cone.size(),
-                               cone.size());
+    return absl::MakeConstSpan(kept.data() + vertex * cone.size(), cone.size());
   }
 };
 

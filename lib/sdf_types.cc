@@ -18,9 +18,8 @@ absl::Status ValidateParams(const SdfParams& p) {
         "ray count must be in [1, 4096] (0 for the default), got ", p.rays));
   }
   if (!(p.min_weight_angle >= 0) || !std::isfinite(p.min_weight_angle)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("minimum weight angle must be >= 0 radians, got ",
-                     p.min_weight_angle));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "minimum weight angle must be >= 0 radians, got ", p.min_weight_angle));
   }
   if (!(p.kappa >= 0) || !std::isfinite(p.kappa)) {
     return absl::InvalidArgumentError(

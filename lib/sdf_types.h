@@ -69,7 +69,7 @@ struct SdfResult {
   std::vector<int32_t> hits;  // rays that hit, per vertex.
   std::vector<int32_t> kept;  // rays kept by the filter, per vertex.
   int64_t rays_traced = 0;
-  double trace_seconds = 0;   // wall time of the ray pass.
+  double trace_seconds = 0;  // wall time of the ray pass.
   ResolvedParams resolved;
 
   int64_t CountStatus(VertexStatus s) const;

@@ -39,15 +39,23 @@ Mesh MakeCircle(double radius, int segments) {
 
 Mesh MakeIcosphere(double radius, int frequency) {
   const double g = (1 + std::sqrt(5.0)) / 2;
-  const std::array<Vec3, 12> ico = {{{-1, g, 0}, {1, g, 0}, {-1, -g, 0},
-                                     {1, -g, 0}, {0, -1, g}, {0, 1, g},
-                                     {0, -1, -g}, {0, 1, -g}, {g, 0, -1},
-                                     {g, 0, 1}, {-g, 0, -1}, {-g, 0, 1}}};
-  const int tris[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10},
-                           {0, 10, 11}, {1, 5, 9}, {5, 11, 4},  {11, 10, 2},
-                           {10, 7, 6}, {7, 1, 8},  {3, 9, 4},   {3, 4, 2},
-                           {3, 2, 6},  {3, 6, 8},  {3, 8, 9},   {4, 9, 5},
-                           {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+  const std::array<Vec3, 12> ico = {{{-1, g, 0},
+                                     {1, g, 0},
+                                     {-1, -g, 0},
+                                     {1, -g, 0},
+                                     {0, -1, g},
+                                     {0, 1, g},
+                                     {0, -1, -g},
+                                     {0, 1, -g},
+                                     {g, 0, -1},
+                                     {g, 0, 1},
+                                     {-g, 0, -1},
+                                     {-g, 0, 1}}};
+  const int tris[20][3] = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10},
+                           {0, 10, 11}, {1, 5, 9},  {5, 11, 4}, {11, 10, 2},
+                           {10, 7, 6},  {7, 1, 8},  {3, 9, 4},  {3, 4, 2},
+                           {3, 2, 6},   {3, 6, 8},  {3, 8, 9},  {4, 9, 5},
+                           {2, 4, 11},  {6, 2, 10}, {8, 6, 7},  {9, 8, 1}};
   Mesh mesh;
   // Points are identified by their integer barycentric lattice position on
   // an icosahedron edge or face so shared points are shared vertices.
@@ -55,9 +63,8 @@ Mesh MakeIcosphere(double radius, int frequency) {
   auto vertex = [&](int a, int b, int c, int i, int j) -> int32_t {
     const int k = frequency - i - j;
     // Canonical key: sort (corner, weight) pairs by corner id.
-    std::array<std::pair<int, int>, 3> w = {{{i == 0 ? -1 : a, i},
-                                             {j == 0 ? -1 : b, j},
-                                             {k == 0 ? -1 : c, k}}};
+    std::array<std::pair<int, int>, 3> w = {
+        {{i == 0 ? -1 : a, i}, {j == 0 ? -1 : b, j}, {k == 0 ? -1 : c, k}}};
     std::sort(w.begin(), w.end());
     std::array<int, 6> key{};
     int n = 0;
@@ -78,7 +85,8 @@ Mesh MakeIcosphere(double radius, int frequency) {
       for (int j = 0; j + i < frequency; ++j) {
         // Lattice point (i, j): weights f-i-j on t[0], i on t[1], j on t[2].
         const int32_t p0 = vertex(t[0], t[1], t[2], frequency - i - j, i);
-        const int32_t p1 = vertex(t[0], t[1], t[2], frequency - i - j - 1, i + 1);
+        const int32_t p1 =
+            vertex(t[0], t[1], t[2], frequency - i - j - 1, i + 1);
         const int32_t p2 = vertex(t[0], t[1], t[2], frequency - i - j - 1, i);
         mesh.faces.push_back(Face::Triangle(p0, p1, p2));
         if (i + j + 1 < frequency) {
@@ -92,7 +100,8 @@ Mesh MakeIcosphere(double radius, int frequency) {
   // Orient outward.
   for (Face& f : mesh.faces) {
     const Vec3& a = mesh.positions[f.v[0]];
-    const Vec3 n = Cross(mesh.positions[f.v[1]] - a, mesh.positions[f.v[2]] - a);
+    const Vec3 n =
+        Cross(mesh.positions[f.v[1]] - a, mesh.positions[f.v[2]] - a);
     if (Dot(n, a) < 0) std::swap(f.v[1], f.v[2]);
   }
   return mesh;
@@ -133,8 +142,7 @@ Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
     auto key = std::make_tuple(i, j, k);
     auto it = index.find(key);
     if (it != index.end()) return it->second;
-    mesh.positions.push_back(
-        {sx * i / n[0], sy * j / n[1], sz * k / n[2]});
+    mesh.positions.push_back({sx * i / n[0], sy * j / n[1], sz * k / n[2]});
     const int32_t id = static_cast<int32_t>(mesh.positions.size() - 1);
     index[key] = id;
     return id;
@@ -156,8 +164,9 @@ Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
             q[k] = vertex(idx[0], idx[1], idx[2]);
           }
           if (quads) {
-            mesh.faces.push_back(side == 0 ? Face::Quad(q[0], q[3], q[2], q[1])
-                                           : Face::Quad(q[0], q[1], q[2], q[3]));
+            mesh.faces.push_back(side == 0
+                                     ? Face::Quad(q[0], q[3], q[2], q[1])
+                                     : Face::Quad(q[0], q[1], q[2], q[3]));
           } else if (side == 0) {
             mesh.faces.push_back(Face::Triangle(q[0], q[2], q[1]));
             mesh.faces.push_back(Face::Triangle(q[0], q[3], q[2]));
@@ -178,8 +187,8 @@ Mesh MakeHollowSquare(double side, double hole_radius, double h) {
   const int per_side = std::max(2, static_cast<int>(std::ceil(side / h)));
   std::vector<Vec3> outer;
   const double half = side / 2;
-  const Vec3 corners[4] = {{-half, -half, 0}, {half, -half, 0},
-                           {half, half, 0}, {-half, half, 0}};
+  const Vec3 corners[4] = {
+      {-half, -half, 0}, {half, -half, 0}, {half, half, 0}, {-half, half, 0}};
   for (int s = 0; s < 4; ++s) {
     for (int i = 0; i < per_side; ++i) {
       outer.push_back(corners[s] + (corners[(s + 1) % 4] - corners[s]) *

@@ -43,8 +43,7 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
     }
   });
   topo.vertex_primitives = BuildIncidence(nv, [&](auto&& emit) {
-    for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size());
-         ++p) {
+    for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size()); ++p) {
       for (int32_t v : topo.primitives[p].v) {
         if (v >= 0) emit(v, p);
       }

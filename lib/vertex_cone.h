@@ -7,8 +7,8 @@
 namespace meshgauge {
 
 struct VertexCone {
-  bool valid = false;  // false when |N_p| == 0 (no axis).
-  double sign = -1;    // axis = sign * n: -1 INWARD, +1 OUTWARD.
+  bool valid = false;        // false when |N_p| == 0 (no axis).
+  double sign = -1;          // axis = sign * n: -1 INWARD, +1 OUTWARD.
   double normal_length = 0;  // |N_p|.
   Vec3 n;                    // N_p / |N_p|.
   ConeFrame frame;

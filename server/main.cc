@@ -61,8 +61,7 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
 std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
   return absl::StrCat(
       "meshgauge-server listening on ", o.address, " (port ", port,
-      "), metrics on ",
-      o.metrics_address.empty() ? "(off)" : o.metrics_address,
+      "), metrics on ", o.metrics_address.empty() ? "(off)" : o.metrics_address,
       ", reflection ", o.reflection ? "on" : "off",
       "; max_message_bytes=", o.max_message_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
@@ -109,8 +108,8 @@ int main(int argc, char** argv) {
     }
   }
   meshgauge::server::SteadyClock clock;
-  auto server = meshgauge::server::MeshGaugeServer::Start(options, &metrics,
-                                                          &clock);
+  auto server =
+      meshgauge::server::MeshGaugeServer::Start(options, &metrics, &clock);
   if (!server.ok()) {
     std::cerr << "meshgauge-server: " << server.status().message() << "\n";
     return 1;

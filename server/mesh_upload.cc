@@ -35,8 +35,8 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
   have_header_ = true;
   session_id_ = h.session_id();
   if (h.dimension() != 2 && h.dimension() != 3) {
-    return Invalid(absl::StrCat("header.dimension must be 2 or 3, got ",
-                                h.dimension()));
+    return Invalid(
+        absl::StrCat("header.dimension must be 2 or 3, got ", h.dimension()));
   }
   if (h.num_vertices() <= 0 || h.num_faces() <= 0) {
     return Invalid(absl::StrCat("header declares ", h.num_vertices(),
@@ -77,13 +77,15 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
   const int dim = mesh_.dimension;
   // Positions.
   if (c.positions_size() > 0) {
-    crc_[0] = crc32(crc_[0], reinterpret_cast<const Bytef*>(c.positions().data()),
-                    c.positions_size() * sizeof(double));
+    crc_[0] =
+        crc32(crc_[0], reinterpret_cast<const Bytef*>(c.positions().data()),
+              c.positions_size() * sizeof(double));
     crc_len_[0] += c.positions_size() * sizeof(double);
     for (double x : c.positions()) {
       coords_.push_back(x);
       if (std::ssize(coords_) == dim) {
-        mesh_.positions.push_back({coords_[0], coords_[1], dim == 3 ? coords_[2] : 0.0});
+        mesh_.positions.push_back(
+            {coords_[0], coords_[1], dim == 3 ? coords_[2] : 0.0});
         coords_.clear();
       }
     }
@@ -94,23 +96,26 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
   }
   // Faces: sizes and indices may arrive in different chunks.
   if (c.face_sizes_size() > 0) {
-    crc_[1] = crc32(crc_[1], reinterpret_cast<const Bytef*>(c.face_sizes().data()),
-                    c.face_sizes_size() * sizeof(int32_t));
+    crc_[1] =
+        crc32(crc_[1], reinterpret_cast<const Bytef*>(c.face_sizes().data()),
+              c.face_sizes_size() * sizeof(int32_t));
     crc_len_[1] += c.face_sizes_size() * sizeof(int32_t);
     for (int32_t s : c.face_sizes()) {
       const bool ok = dim == 2 ? s == 2 : (s == 3 || s == 4);
       if (!ok) {
         return Invalid(absl::StrCat(
             "face ", mesh_.num_faces() + std::ssize(pending_sizes_),
-            " has size ", s, dim == 2 ? " (2D faces are segments: 2)"
-                                      : " (3D faces are triangles or quads)"));
+            " has size ", s,
+            dim == 2 ? " (2D faces are segments: 2)"
+                     : " (3D faces are triangles or quads)"));
       }
       pending_sizes_.push_back(s);
     }
   }
   if (c.face_indices_size() > 0) {
-    crc_[2] = crc32(crc_[2], reinterpret_cast<const Bytef*>(c.face_indices().data()),
-                    c.face_indices_size() * sizeof(int32_t));
+    crc_[2] =
+        crc32(crc_[2], reinterpret_cast<const Bytef*>(c.face_indices().data()),
+              c.face_indices_size() * sizeof(int32_t));
     crc_len_[2] += c.face_indices_size() * sizeof(int32_t);
     pending_indices_.insert(pending_indices_.end(), c.face_indices().begin(),
                             c.face_indices().end());
@@ -125,22 +130,25 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
     used += s;
     ++consumed_sizes;
   }
-  pending_sizes_.erase(pending_sizes_.begin(), pending_sizes_.begin() + consumed_sizes);
-  pending_indices_.erase(pending_indices_.begin(), pending_indices_.begin() + used);
+  pending_sizes_.erase(pending_sizes_.begin(),
+                       pending_sizes_.begin() + consumed_sizes);
+  pending_indices_.erase(pending_indices_.begin(),
+                         pending_indices_.begin() + used);
   if (mesh_.num_faces() + std::ssize(pending_sizes_) > declared_faces_) {
-    return Invalid(absl::StrCat("more than the declared ", declared_faces_,
-                                " faces"));
+    return Invalid(
+        absl::StrCat("more than the declared ", declared_faces_, " faces"));
   }
   if (!pending_indices_.empty() && pending_sizes_.empty() &&
       mesh_.num_faces() == declared_faces_) {
     return Invalid("more face indices than the face sizes account for");
   }
   if (c.face_regions_size() > 0) {
-    crc_[3] = crc32(crc_[3], reinterpret_cast<const Bytef*>(c.face_regions().data()),
-                    c.face_regions_size() * sizeof(int32_t));
+    crc_[3] =
+        crc32(crc_[3], reinterpret_cast<const Bytef*>(c.face_regions().data()),
+              c.face_regions_size() * sizeof(int32_t));
     crc_len_[3] += c.face_regions_size() * sizeof(int32_t);
-    mesh_.face_regions.insert(mesh_.face_regions.end(), c.face_regions().begin(),
-                              c.face_regions().end());
+    mesh_.face_regions.insert(mesh_.face_regions.end(),
+                              c.face_regions().begin(), c.face_regions().end());
     if (std::ssize(mesh_.face_regions) > declared_faces_) {
       return Invalid(absl::StrCat("more than the declared ", declared_faces_,
                                   " face regions"));
@@ -151,9 +159,11 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
 
 absl::Status MeshAssembler::Footer(const v1::CreateSessionRequest::Footer& f) {
   have_footer_ = true;
-  if (f.num_vertices() != declared_vertices_ || f.num_faces() != declared_faces_) {
-    return Invalid(absl::StrCat("footer counts ", f.num_vertices(), " vertices / ",
-                                f.num_faces(), " faces differ from the header's ",
+  if (f.num_vertices() != declared_vertices_ ||
+      f.num_faces() != declared_faces_) {
+    return Invalid(absl::StrCat("footer counts ", f.num_vertices(),
+                                " vertices / ", f.num_faces(),
+                                " faces differ from the header's ",
                                 declared_vertices_, " / ", declared_faces_));
   }
   footer_crc_ = f.crc32();
@@ -163,23 +173,23 @@ absl::Status MeshAssembler::Footer(const v1::CreateSessionRequest::Footer& f) {
 absl::StatusOr<Mesh> MeshAssembler::Finish() {
   if (!have_header_) return Invalid("empty stream (no header)");
   if (!have_footer_) {
-    return Invalid(absl::StrCat("truncated stream: no footer after ",
-                                mesh_.num_vertices(), " of ", declared_vertices_,
-                                " vertices and ", mesh_.num_faces(), " of ",
-                                declared_faces_, " faces"));
+    return Invalid(
+        absl::StrCat("truncated stream: no footer after ", mesh_.num_vertices(),
+                     " of ", declared_vertices_, " vertices and ",
+                     mesh_.num_faces(), " of ", declared_faces_, " faces"));
   }
   if (!coords_.empty() || mesh_.num_vertices() != declared_vertices_) {
-    return Invalid(absl::StrCat("received ", mesh_.num_vertices(),
-                                " complete vertices (", coords_.size(),
-                                " stray coordinates), declared ",
-                                declared_vertices_));
+    return Invalid(absl::StrCat(
+        "received ", mesh_.num_vertices(), " complete vertices (",
+        coords_.size(), " stray coordinates), declared ", declared_vertices_));
   }
   if (!pending_sizes_.empty() || !pending_indices_.empty() ||
       mesh_.num_faces() != declared_faces_) {
     return Invalid(absl::StrCat("received ", mesh_.num_faces(),
                                 " complete faces, declared ", declared_faces_));
   }
-  if (!mesh_.face_regions.empty() && mesh_.num_faces() != std::ssize(mesh_.face_regions)) {
+  if (!mesh_.face_regions.empty() &&
+      mesh_.num_faces() != std::ssize(mesh_.face_regions)) {
     return Invalid(absl::StrCat("received ", mesh_.face_regions.size(),
                                 " face regions for ", mesh_.num_faces(),
                                 " faces (send one per face or none)"));
@@ -187,9 +197,10 @@ absl::StatusOr<Mesh> MeshAssembler::Finish() {
   uLong crc = crc_[0];
   for (int i = 1; i < 4; ++i) crc = crc32_combine(crc, crc_[i], crc_len_[i]);
   if (static_cast<uint32_t>(crc) != footer_crc_) {
-    return Invalid(absl::StrFormat("checksum mismatch: footer says %08x, data "
-                                   "has %08x",
-                                   footer_crc_, static_cast<uint32_t>(crc)));
+    return Invalid(
+        absl::StrFormat("checksum mismatch: footer says %08x, data "
+                        "has %08x",
+                        footer_crc_, static_cast<uint32_t>(crc)));
   }
   if (absl::Status s = ValidateMesh(mesh_); !s.ok()) {
     return Invalid(std::string(s.message()));

@@ -36,7 +36,7 @@ class MeshAssembler {
   std::string session_id_;
   Mesh mesh_;
   int64_t declared_vertices_ = 0, declared_faces_ = 0;
-  std::vector<double> coords_;  // pending coordinates (partial vertex).
+  std::vector<double> coords_;          // pending coordinates (partial vertex).
   std::vector<int32_t> pending_sizes_;  // faces waiting for indices.
   std::vector<int32_t> pending_indices_;
   // CRC over positions, sizes, indices, regions (in that order): the four

@@ -35,7 +35,8 @@ absl::StatusOr<SdfParams> ToSdfParams(const v1::SdfParameters& p, int max_rays,
           "params.normal_weighting ", static_cast<int>(p.normal_weighting()),
           " is not a known NormalWeighting"));
   }
-  if (p.cone_angle_degrees() != 0) out.cone_angle_degrees = p.cone_angle_degrees();
+  if (p.cone_angle_degrees() != 0)
+    out.cone_angle_degrees = p.cone_angle_degrees();
   out.rays = p.rays();
   if (p.has_kappa()) out.kappa = p.kappa();
   out.min_weight_angle = p.min_weight_angle();
@@ -43,9 +44,9 @@ absl::StatusOr<SdfParams> ToSdfParams(const v1::SdfParameters& p, int max_rays,
   if (p.self_hit_epsilon() != 0) out.self_hit_epsilon = p.self_hit_epsilon();
   out.threads = threads;
   if (p.rays() > max_rays) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("params.rays ", p.rays(), " exceeds the server's limit of ",
-                     max_rays, " rays per vertex (--max_rays)"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "params.rays ", p.rays(), " exceeds the server's limit of ", max_rays,
+        " rays per vertex (--max_rays)"));
   }
   if (absl::Status s = ValidateParams(out); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat("params: ", s.message()));

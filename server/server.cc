@@ -7,8 +7,8 @@
 
 namespace meshgauge::server {
 
-MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
-                                 Metrics* metrics, const Clock* clock)
+MeshGaugeServer::MeshGaugeServer(const ServerOptions& options, Metrics* metrics,
+                                 const Clock* clock)
     : options_(options),
       store_(options, metrics, clock),
       service_(options, &store_, metrics, clock) {}
@@ -25,8 +25,8 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(),
                            &s->port_);
   builder.RegisterService(&s->service_);
-  const int max_bytes = static_cast<int>(
-      std::min<int64_t>(options.max_message_bytes, INT32_MAX));
+  const int max_bytes =
+      static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);
   s->server_ = builder.BuildAndStart();
@@ -47,8 +47,8 @@ MeshGaugeServer::~MeshGaugeServer() {
 void MeshGaugeServer::SweepLoop() {
   std::unique_lock<std::mutex> lock(mu_);
   while (!stopping_) {
-    cv_.wait_for(lock, std::chrono::duration<double>(
-                           options_.sweep_interval_seconds));
+    cv_.wait_for(
+        lock, std::chrono::duration<double>(options_.sweep_interval_seconds));
     if (stopping_) break;
     lock.unlock();
     store_.Sweep();

@@ -20,13 +20,23 @@ constexpr int kDefaultChunkVertices = 16384;
 constexpr int kMaxChunkVertices = 65536;
 
 const char* CodeName(grpc::StatusCode code) {
-  static const char* kNames[] = {
-      "OK",           "CANCELLED",          "UNKNOWN",
-      "INVALID_ARGUMENT", "DEADLINE_EXCEEDED", "NOT_FOUND",
-      "ALREADY_EXISTS", "PERMISSION_DENIED", "RESOURCE_EXHAUSTED",
-      "FAILED_PRECONDITION", "ABORTED",     "OUT_OF_RANGE",
-      "UNIMPLEMENTED", "INTERNAL",          "UNAVAILABLE",
-      "DATA_LOSS",    "UNAUTHENTICATED"};
+  static const char* kNames[] = {"OK",
+                                 "CANCELLED",
+                                 "UNKNOWN",
+                                 "INVALID_ARGUMENT",
+                                 "DEADLINE_EXCEEDED",
+                                 "NOT_FOUND",
+                                 "ALREADY_EXISTS",
+                                 "PERMISSION_DENIED",
+                                 "RESOURCE_EXHAUSTED",
+                                 "FAILED_PRECONDITION",
+                                 "ABORTED",
+                                 "OUT_OF_RANGE",
+                                 "UNIMPLEMENTED",
+                                 "INTERNAL",
+                                 "UNAVAILABLE",
+                                 "DATA_LOSS",
+                                 "UNAUTHENTICATED"};
   const int i = static_cast<int>(code);
   return i >= 0 && i < 17 ? kNames[i] : "UNKNOWN";
 }
@@ -37,8 +47,7 @@ int64_t PassBytes(const CachedPass& p) {
 }
 
 double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                       start)
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
       .count();
 }
 
@@ -299,9 +308,11 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
     if (!prep.ok()) return prep.status();
     const SdfEvaluator& ev = *prep->reader.evaluator;
     if (request->weights_size() != ev.mesh().num_vertices()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "weights holds ", request->weights_size(), " values, expected one "
-          "per vertex (", ev.mesh().num_vertices(), ")"));
+      return absl::InvalidArgumentError(
+          absl::StrCat("weights holds ", request->weights_size(),
+                       " values, expected one "
+                       "per vertex (",
+                       ev.mesh().num_vertices(), ")"));
     }
     auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
     if (!pass.ok()) return pass.status();
@@ -350,9 +361,8 @@ grpc::Status MeshGaugeService::ComputePenalty(
     for (double v : values) {
       if (std::isfinite(v)) lo = std::min(lo, v);
     }
-    response->set_sdf_min(std::isfinite(lo)
-                              ? lo
-                              : std::numeric_limits<double>::quiet_NaN());
+    response->set_sdf_min(
+        std::isfinite(lo) ? lo : std::numeric_limits<double>::quiet_NaN());
     response->set_reused_hits(pass->reused);
     response->set_seconds(Seconds(start));
     return absl::OkStatus();

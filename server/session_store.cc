@@ -26,9 +26,11 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(std::string id,
                                                               Mesh mesh) {
   const int64_t bytes = Session::EstimateBaseBytes(mesh);
   if (bytes > options_.memory_budget_bytes) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "mesh needs about ", bytes, " bytes, more than the server's memory "
-        "budget of ", options_.memory_budget_bytes, " bytes"));
+    return absl::ResourceExhaustedError(
+        absl::StrCat("mesh needs about ", bytes,
+                     " bytes, more than the server's memory "
+                     "budget of ",
+                     options_.memory_budget_bytes, " bytes"));
   }
   std::lock_guard<std::mutex> lock(mu_);
   if (id.empty()) {
@@ -97,8 +99,8 @@ std::vector<SessionSnapshot> SessionStore::List(const std::string& page_token,
   next_token->clear();
   {
     std::lock_guard<std::mutex> lock(mu_);
-    for (auto it = sessions_.upper_bound(page_token);
-         it != sessions_.end(); ++it) {
+    for (auto it = sessions_.upper_bound(page_token); it != sessions_.end();
+         ++it) {
       if (std::ssize(page) == page_size) {
         *next_token = page.back()->id();
         break;

@@ -42,8 +42,10 @@ TEST(AnalyticTest, CircleConvergesToClosedForm) {
     const double err = MaxRelativeError(r, 1.0, d_est);
     const double integral = IntegrateNodal(circle, r.values).value;
     const double int_err = std::abs(integral / (2 * kPi * 0.5 * d_est) - 1);
-    std::printf("circle n=%5d  max |SDF/D_est-1| = %.3e  |int/(2 pi R D_est)-1| = %.3e\n",
-                n, err, int_err);
+    std::printf(
+        "circle n=%5d  max |SDF/D_est-1| = %.3e  |int/(2 pi R D_est)-1| = "
+        "%.3e\n",
+        n, err, int_err);
     EXPECT_LT(err, previous) << "error must shrink with h";
     previous = err;
   }
@@ -61,8 +63,10 @@ TEST(AnalyticTest, SphereConvergesToClosedForm) {
     mean_err /= static_cast<double>(r.values.size());
     const double integral = IntegrateNodal(sphere, r.values).value;
     const double int_err = std::abs(integral / (4 * kPi * 0.25 * d_est) - 1);
-    std::printf("sphere f=%3d V=%6zu  mean |SDF/D_est-1| = %.3e  |int/(4 pi R^2 D_est)-1| = %.3e\n",
-                frequency, r.values.size(), mean_err, int_err);
+    std::printf(
+        "sphere f=%3d V=%6zu  mean |SDF/D_est-1| = %.3e  |int/(4 pi R^2 "
+        "D_est)-1| = %.3e\n",
+        frequency, r.values.size(), mean_err, int_err);
     EXPECT_LT(mean_err, previous_mean);
     EXPECT_LT(int_err, previous_int);
     previous_mean = mean_err;
@@ -83,7 +87,8 @@ TEST(AnalyticTest, ThesisTable51Circle) {
   std::printf("Table 5.1  h       thesis    err%%    meshgauge  err%%\n");
   for (const Row& row : {Row{0.05, 12.5211, 0.360}, Row{0.025, 12.5235, 0.341},
                          Row{0.0167, 12.5241, 0.336}}) {
-    const Mesh circle = MakeCircle(1.0, static_cast<int>(std::ceil(2 * kPi / row.h)));
+    const Mesh circle =
+        MakeCircle(1.0, static_cast<int>(std::ceil(2 * kPi / row.h)));
     const SdfResult r = Compute(circle, params);
     const double ours = IntegrateNodal(circle, r.values).value;
     const double err = std::abs(ours - analytic) / analytic * 100;
@@ -100,7 +105,9 @@ TEST(AnalyticTest, ThesisTable52Sphere) {
   struct Row {
     double h, thesis_value, thesis_error_percent;
   };
-  std::printf("Table 5.2  h      thesis    err%%    meshgauge  err%% vs pi  err%% vs 4piR^2 D_est\n");
+  std::printf(
+      "Table 5.2  h      thesis    err%%    meshgauge  err%% vs pi  err%% vs "
+      "4piR^2 D_est\n");
   for (const Row& row : {Row{0.25, 3.02554, 3.694}, Row{0.125, 3.10882, 1.040},
                          Row{0.083, 3.12629, 0.487}}) {
     // Element size = mean edge length: the coarsest icosphere with mean
@@ -112,10 +119,12 @@ TEST(AnalyticTest, ThesisTable52Sphere) {
     const double ours = IntegrateNodal(sphere, r.values).value;
     const double err_pi = std::abs(ours - kPi) / kPi * 100;
     const double err_limit = std::abs(ours - limit) / limit * 100;
-    std::printf("           %.3f  %.5f  %.3f   %.5f   %.3f      %.3f     (f=%d, mean edge %.4f, V=%lld)\n",
-                row.h, row.thesis_value, row.thesis_error_percent, ours,
-                err_pi, err_limit, f, MeanEdgeLength(sphere),
-                static_cast<long long>(sphere.num_vertices()));
+    std::printf(
+        "           %.3f  %.5f  %.3f   %.5f   %.3f      %.3f     (f=%d, mean "
+        "edge %.4f, V=%lld)\n",
+        row.h, row.thesis_value, row.thesis_error_percent, ours, err_pi,
+        err_limit, f, MeanEdgeLength(sphere),
+        static_cast<long long>(sphere.num_vertices()));
     if (row.h < 0.1) {
       EXPECT_LT(err_limit, 1.0);
     }
@@ -161,7 +170,7 @@ TEST(AnalyticTest, HollowSquareNormalRayMatchesGeometry) {
       // INWARD from a mid-side: to the hole polygon along the axis. The
       // polygon crosses the axis between its vertices at distance
       // r cos(pi/n) / cos(angle to the nearest segment midpoint).
-      const double phi = std::atan2(-p.y, -p.x);  // direction to centre.
+      const double phi = std::atan2(-p.y, -p.x);   // direction to centre.
       const double to_hit = std::atan2(p.y, p.x);  // polar angle of the hit.
       const double seg = 2 * kPi / n;
       const double mid = (std::floor(to_hit / seg) + 0.5) * seg;

@@ -1,8 +1,9 @@
 // SPEC §8 calibration report.
+#include "lib/calibration.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "lib/calibration.h"
 #include "lib/mesh_io.h"
 #include "lib/shapes.h"
 #include "tests/test_util.h"
@@ -57,7 +58,8 @@ TEST(CalibrationTest, CircleSdfEqualsThicknessWithinTolerance) {
   auto rep = Calibrate(**ev, {.t_min = 1, .sdf = sp});
   ASSERT_TRUE(rep.ok());
   EXPECT_EQ(rep->equal, 256);
-  auto strict = Calibrate(**ev, {.t_min = 1, .equal_tolerance = 1e-4, .sdf = sp});
+  auto strict =
+      Calibrate(**ev, {.t_min = 1, .equal_tolerance = 1e-4, .sdf = sp});
   EXPECT_EQ(strict->lower, 256);
 }
 

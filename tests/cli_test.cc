@@ -6,10 +6,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-
-#include <nlohmann/json.hpp>
 
 #include "tests/test_util.h"
 
@@ -42,13 +41,14 @@ std::string Tmp(const std::string& name) {
 }
 
 TEST(CliTest, JsonSummaryHasAllKeys) {
-  const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") + " --json --rays 20");
+  const CliRun r =
+      RunCli("sdf " + SharedMesh("decimated-knight.off") + " --json --rays 20");
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   for (const char* key :
-       {"vertices", "faces", "dimension", "ok", "no_hit", "no_faces",
-        "sdf_min", "sdf_median", "sdf_max", "sdf_mean", "integral", "rays",
-        "seconds", "rays_per_second"}) {
+       {"vertices", "faces", "dimension", "ok", "no_hit", "no_faces", "sdf_min",
+        "sdf_median", "sdf_max", "sdf_mean", "integral", "rays", "seconds",
+        "rays_per_second"}) {
     EXPECT_TRUE(j.contains(key)) << key;
   }
   EXPECT_EQ(j["vertices"], 502);
@@ -60,7 +60,7 @@ TEST(CliTest, JsonSummaryHasAllKeys) {
 TEST(CliTest, WritesCsvAndPly) {
   const std::string csv = Tmp("k.csv"), ply = Tmp("k.ply");
   const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") +
-                       " --rays 10 --csv " + csv + " --ply " + ply);
+                          " --rays 10 --csv " + csv + " --ply " + ply);
   ASSERT_EQ(r.exit_code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("502 ok"));
   std::ifstream in(csv);
@@ -81,7 +81,8 @@ TEST(CliTest, HorseWarnsAndReorientsOnRequest) {
   const CliRun warn = RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4");
   ASSERT_EQ(warn.exit_code, 0);
   EXPECT_THAT(warn.out, HasSubstr("negative signed volume"));
-  const CliRun fixed = RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4 --reorient --json");
+  const CliRun fixed =
+      RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4 --reorient --json");
   ASSERT_EQ(fixed.exit_code, 0) << fixed.out;
   const auto j = nlohmann::json::parse(fixed.out);
   EXPECT_TRUE(j["reoriented"].get<bool>());
@@ -91,15 +92,18 @@ TEST(CliTest, HorseWarnsAndReorientsOnRequest) {
 
 TEST(CliTest, TwoDimensionalHollowShapeWithRegionDirections) {
   const std::string obj = Tmp("hollow.obj");
-  ASSERT_EQ(RunCli("shape hollow --radius 1 --size 0.05 --out " + obj).exit_code, 0);
-  const CliRun r = RunCli("sdf " + obj + " --method normal --region-direction 1=outward --json");
+  ASSERT_EQ(
+      RunCli("shape hollow --radius 1 --size 0.05 --out " + obj).exit_code, 0);
+  const CliRun r = RunCli(
+      "sdf " + obj + " --method normal --region-direction 1=outward --json");
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["dimension"], 2);
   EXPECT_EQ(j["no_hit"], 0);
   const CliRun bad = RunCli("sdf " + obj + " --region-direction 1=sideways");
   EXPECT_EQ(bad.exit_code, 1);
-  EXPECT_THAT(bad.out, HasSubstr("--region-direction expects ID=inward|outward"));
+  EXPECT_THAT(bad.out,
+              HasSubstr("--region-direction expects ID=inward|outward"));
   std::filesystem::remove(obj);
 }
 
@@ -135,7 +139,8 @@ namespace meshgauge {
 namespace {
 
 TEST(CliDerivativesTest, GradWritesVjpAndJacobian) {
-  const std::string vjp = Tmp("vjp.csv"), jac = Tmp("jac.csv"), w = Tmp("w.txt");
+  const std::string vjp = Tmp("vjp.csv"), jac = Tmp("jac.csv"),
+                    w = Tmp("w.txt");
   {
     std::ofstream out(w);
     for (int i = 0; i < 502; ++i) out << (i % 3) << "\n";
@@ -172,10 +177,12 @@ TEST(CliDerivativesTest, PenaltyPrintsValueAndWritesGradient) {
   std::ifstream in(grad);
   for (std::string l; std::getline(in, l);) ++lines;
   EXPECT_EQ(lines, 503);
-  const CliRun no_tmin = RunCli("penalty " + SharedMesh("decimated-knight.off"));
+  const CliRun no_tmin =
+      RunCli("penalty " + SharedMesh("decimated-knight.off"));
   EXPECT_EQ(no_tmin.exit_code, 1);
   EXPECT_THAT(no_tmin.out, HasSubstr("t_min must be a finite number > 0"));
-  const CliRun bad_phi = RunCli("penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --phi x");
+  const CliRun bad_phi = RunCli(
+      "penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --phi x");
   EXPECT_THAT(bad_phi.out, HasSubstr("--phi must be one-sided or thesis"));
   std::filesystem::remove(grad);
 }

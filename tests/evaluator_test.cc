@@ -117,10 +117,14 @@ TEST(EvaluatorTest, RejectsRepeatedOrOutOfRangeSubsetIndices) {
   auto ev = SdfEvaluator::Create(MakeIcosphere(1, 2));
   ASSERT_TRUE(ev.ok());
   const std::vector<Vec3> pos(2, Vec3(0, 0, 2));
-  EXPECT_THAT(std::string((*ev)->UpdatePositions(std::vector<int32_t>{1, 1}, pos).message()),
-              HasSubstr("repeated"));
-  EXPECT_THAT(std::string((*ev)->UpdatePositions(std::vector<int32_t>{1, 99}, pos).message()),
-              HasSubstr("out of range"));
+  EXPECT_THAT(
+      std::string(
+          (*ev)->UpdatePositions(std::vector<int32_t>{1, 1}, pos).message()),
+      HasSubstr("repeated"));
+  EXPECT_THAT(
+      std::string(
+          (*ev)->UpdatePositions(std::vector<int32_t>{1, 99}, pos).message()),
+      HasSubstr("out of range"));
 }
 
 TEST(EvaluatorTest, CancellationStopsTheComputation) {
@@ -188,8 +192,9 @@ TEST(EvaluatorTest, TrayNormalRayIsPlateThickness) {
     bool all_flat = true;
     for (int32_t f : topo.vertex_faces.Of(v)) {
       const Face& face = mesh->faces[f];
-      const Vec3 n = Cross(mesh->positions[face.v[1]] - mesh->positions[face.v[0]],
-                           mesh->positions[face.v[2]] - mesh->positions[face.v[0]]);
+      const Vec3 n =
+          Cross(mesh->positions[face.v[1]] - mesh->positions[face.v[0]],
+                mesh->positions[face.v[2]] - mesh->positions[face.v[0]]);
       all_flat &= std::abs(n.y) > (1 - 1e-9) * Norm(n);
     }
     if (!all_flat) continue;

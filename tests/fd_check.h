@@ -19,10 +19,10 @@
 namespace meshgauge::testing {
 
 struct FdReport {
-  int64_t samples = 0;   // (p, j, coordinate) triples with a nonzero entry.
-  int64_t clean = 0;     // of those, with identical hits and kept sets.
-  int64_t passed = 0;    // of those, relative error <= 1e-5.
-  double worst = 0;      // largest relative error among clean samples.
+  int64_t samples = 0;  // (p, j, coordinate) triples with a nonzero entry.
+  int64_t clean = 0;    // of those, with identical hits and kept sets.
+  int64_t passed = 0;   // of those, relative error <= 1e-5.
+  double worst = 0;     // largest relative error among clean samples.
   int64_t vjp_checks = 0, vjp_passed = 0;
 };
 
@@ -86,7 +86,8 @@ inline FdReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
       sum += jac->values[e];
       for (int c = 0; c < 3; ++c) mag[c] += std::abs(jac->values[e][c]);
     }
-    for (int c = 0; c < 3; ++c) EXPECT_LE(std::abs(sum[c]), 1e-9 * (1 + mag[c])) << p;
+    for (int c = 0; c < 3; ++c)
+      EXPECT_LE(std::abs(sum[c]), 1e-9 * (1 + mag[c])) << p;
   }
   for (int col = 0; col < columns; ++col) {
     const int32_t j = static_cast<int32_t>((col * 7919LL + 13) % nv);
@@ -95,17 +96,20 @@ inline FdReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
       for (int sign : {+1, -1}) {
         Vec3 x = mesh.positions[j];
         x[c] += sign * step;
-        EXPECT_TRUE(ev.UpdatePositions(std::vector<int32_t>{j},
-                                       std::vector<Vec3>{x}).ok());
+        EXPECT_TRUE(
+            ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x})
+                .ok());
         (sign > 0 ? plus : minus) = Take(ev, params);
       }
       EXPECT_TRUE(ev.UpdatePositions(std::vector<int32_t>{j},
-                                     std::vector<Vec3>{mesh.positions[j]}).ok());
+                                     std::vector<Vec3>{mesh.positions[j]})
+                      .ok());
       bool all_clean = true;
       double fd_dot = 0;
       for (int64_t p = 0; p < nv; ++p) {
         double an = 0;
-        for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1]; ++e) {
+        for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
+             ++e) {
           if (jac->columns[e] == j) an = jac->values[e][c];
         }
         const bool finite = std::isfinite(plus.values[p]) &&
@@ -113,20 +117,30 @@ inline FdReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
                             std::isfinite(base.values[p]);
         const double fd =
             finite ? (plus.values[p] - minus.values[p]) / (2 * step) : 0;
-        const bool clean = SameRow(base, plus, p, k) && SameRow(base, minus, p, k);
+        const bool clean =
+            SameRow(base, plus, p, k) && SameRow(base, minus, p, k);
         if (an == 0 && (fd == 0 || !finite)) continue;
         if (clean && finite) fd_dot += g[p] * fd;
         ++rep.samples;
         if (!clean) {
-          if (std::getenv("MESHGAUGE_FD_VERBOSE") && rep.samples - rep.clean < 6) {
-            const bool prims_same =
-                std::equal(base.prims.begin() + p * k, base.prims.begin() + (p + 1) * k, plus.prims.begin() + p * k) &&
-                std::equal(base.prims.begin() + p * k, base.prims.begin() + (p + 1) * k, minus.prims.begin() + p * k);
-            std::printf("  unclean p=%lld j=%d c=%d prims_same=%d\n", static_cast<long long>(p), j, c, prims_same);
+          if (std::getenv("MESHGAUGE_FD_VERBOSE") &&
+              rep.samples - rep.clean < 6) {
+            const bool prims_same = std::equal(base.prims.begin() + p * k,
+                                               base.prims.begin() + (p + 1) * k,
+                                               plus.prims.begin() + p * k) &&
+                                    std::equal(base.prims.begin() + p * k,
+                                               base.prims.begin() + (p + 1) * k,
+                                               minus.prims.begin() + p * k);
+            std::printf("  unclean p=%lld j=%d c=%d prims_same=%d\n",
+                        static_cast<long long>(p), j, c, prims_same);
             for (size_t r = 0; r < k; ++r) {
               const size_t i = p * k + r;
-              if (base.prims[i] != plus.prims[i] || base.prims[i] != minus.prims[i] || base.kept[i] != plus.kept[i] || base.kept[i] != minus.kept[i])
-                std::printf("    ray %zu prim %d/%d/%d kept %d/%d/%d\n", r, base.prims[i], plus.prims[i], minus.prims[i], base.kept[i], plus.kept[i], minus.kept[i]);
+              if (base.prims[i] != plus.prims[i] ||
+                  base.prims[i] != minus.prims[i] ||
+                  base.kept[i] != plus.kept[i] || base.kept[i] != minus.kept[i])
+                std::printf("    ray %zu prim %d/%d/%d kept %d/%d/%d\n", r,
+                            base.prims[i], plus.prims[i], minus.prims[i],
+                            base.kept[i], plus.kept[i], minus.kept[i]);
             }
           }
           all_clean = false;
@@ -147,13 +161,15 @@ inline FdReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
       }
     }
   }
-  std::printf("%-28s samples %6lld clean %6lld (%.1f%%) passed %6lld worst rel err %.2e  vjp %lld/%lld\n",
-              label.c_str(), static_cast<long long>(rep.samples),
-              static_cast<long long>(rep.clean),
-              100.0 * rep.clean / std::max<int64_t>(1, rep.samples),
-              static_cast<long long>(rep.passed), rep.worst,
-              static_cast<long long>(rep.vjp_passed),
-              static_cast<long long>(rep.vjp_checks));
+  std::printf(
+      "%-28s samples %6lld clean %6lld (%.1f%%) passed %6lld worst rel err "
+      "%.2e  vjp %lld/%lld\n",
+      label.c_str(), static_cast<long long>(rep.samples),
+      static_cast<long long>(rep.clean),
+      100.0 * rep.clean / std::max<int64_t>(1, rep.samples),
+      static_cast<long long>(rep.passed), rep.worst,
+      static_cast<long long>(rep.vjp_passed),
+      static_cast<long long>(rep.vjp_checks));
   return rep;
 }
 

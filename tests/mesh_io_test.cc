@@ -1,5 +1,7 @@
 // Mesh files: every shared mesh loads with the README's exact counts, no face
 // is lost, and 2D OBJ polylines are read.
+#include "lib/mesh_io.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -7,7 +9,6 @@
 #include <filesystem>
 #include <fstream>
 
-#include "lib/mesh_io.h"
 #include "lib/sdf.h"
 #include "tests/test_util.h"
 
@@ -130,8 +131,9 @@ TEST_F(MeshFileTest, RejectsObjMixingFacesAndPolylines) {
 }
 
 TEST_F(MeshFileTest, RejectsPolygonsWithMoreThanFourVertices) {
-  const std::string path = Write(
-      "penta.obj", "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nf 1 2 3 4 5\n");
+  const std::string path =
+      Write("penta.obj",
+            "v 0 0 0\nv 1 0 0\nv 2 1 0\nv 1 2 0\nv 0 1 0\nf 1 2 3 4 5\n");
   EXPECT_THAT(ReadMesh(path).status().message(),
               HasSubstr("1 polygons with more than 4 vertices"));
 }
@@ -151,12 +153,14 @@ TEST_F(MeshFileTest, ReportsFacesTheReaderDropped) {
 }
 
 TEST_F(MeshFileTest, WeldsAsciiStlByExactCoordinates) {
-  const std::string path = Write(
-      "t.stl",
-      "solid t\n"
-      "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
-      "facet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\n"
-      "endsolid t\n");
+  const std::string path =
+      Write("t.stl",
+            "solid t\n"
+            "facet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 "
+            "0\nvertex 0 1 0\nendloop\nendfacet\n"
+            "facet normal 0 0 1\nouter loop\nvertex 1 0 0\nvertex 1 1 "
+            "0\nvertex 0 1 0\nendloop\nendfacet\n"
+            "endsolid t\n");
   auto mesh = ReadMesh(path);
   ASSERT_TRUE(mesh.ok()) << mesh.status();
   EXPECT_EQ(mesh->num_vertices(), 4);

@@ -36,40 +36,49 @@ TEST(MeshValidationTest, RejectsNonFiniteCoordinates) {
   Mesh m = Tetrahedron();
   m.positions[2].y = std::numeric_limits<double>::quiet_NaN();
   m.positions[3].z = std::numeric_limits<double>::infinity();
-  EXPECT_THAT(Error(m), HasSubstr("2 vertices have non-finite coordinates (first vertex ids: 2, 3)"));
+  EXPECT_THAT(
+      Error(m),
+      HasSubstr(
+          "2 vertices have non-finite coordinates (first vertex ids: 2, 3)"));
 }
 
 TEST(MeshValidationTest, RejectsIndexOutOfRange) {
   Mesh m = Tetrahedron();
   m.faces[1].v[2] = 4;
   m.faces[3].v[0] = -1;
-  EXPECT_THAT(Error(m), HasSubstr("2 faces have vertex indices out of range [0, 4) (first face ids: 1, 3)"));
+  EXPECT_THAT(Error(m), HasSubstr("2 faces have vertex indices out of range "
+                                  "[0, 4) (first face ids: 1, 3)"));
 }
 
 TEST(MeshValidationTest, RejectsRepeatedIndexInFace) {
   Mesh m = Tetrahedron();
   m.faces[2] = Face::Triangle(0, 3, 0);
-  EXPECT_THAT(Error(m), HasSubstr("1 faces repeat a vertex index (first face ids: 2)"));
+  EXPECT_THAT(Error(m),
+              HasSubstr("1 faces repeat a vertex index (first face ids: 2)"));
 }
 
 TEST(MeshValidationTest, RejectsZeroAreaFaces) {
   Mesh m = Tetrahedron();
   m.positions.push_back({2, 0, 0});  // collinear with 0 and 1.
   m.faces.push_back(Face::Triangle(0, 1, 4));
-  EXPECT_THAT(Error(m), HasSubstr("1 faces have zero area (first face ids: 4)"));
+  EXPECT_THAT(Error(m),
+              HasSubstr("1 faces have zero area (first face ids: 4)"));
 }
 
 TEST(MeshValidationTest, RejectsZeroLengthSegment) {
   Mesh m = MakeCircle(1, 8);
   m.positions[3] = m.positions[4];
-  EXPECT_THAT(Error(m), HasSubstr("segments have zero length (first face ids: 3)"));
+  EXPECT_THAT(Error(m),
+              HasSubstr("segments have zero length (first face ids: 3)"));
 }
 
 TEST(MeshValidationTest, RejectsConflictingRegionDirectionsAtVertex) {
   Mesh m = Tetrahedron();
   m.face_regions = {0, 1, 0, 0};
   m.region_directions[1] = ConeDirection::kOutward;
-  EXPECT_THAT(Error(m), HasSubstr("3 vertices touch faces of regions with different cone directions (first vertex ids: 0, 1, 3)"));
+  EXPECT_THAT(Error(m),
+              HasSubstr("3 vertices touch faces of regions with different cone "
+                        "directions (first vertex ids: 0, 1, 3)"));
 }
 
 TEST(MeshValidationTest, AcceptsDifferentRegionsWithSameDirection) {
@@ -95,7 +104,8 @@ TEST(MeshValidationTest, RejectsSegmentsInA3DMesh) {
 TEST(MeshValidationTest, RejectsNonZeroZInA2DMesh) {
   Mesh m = MakeCircle(1, 8);
   m.positions[5].z = 0.1;
-  EXPECT_THAT(Error(m), HasSubstr("1 vertices of a 2D mesh have z != 0 (mixed dimensions) (first vertex ids: 5)"));
+  EXPECT_THAT(Error(m), HasSubstr("1 vertices of a 2D mesh have z != 0 (mixed "
+                                  "dimensions) (first vertex ids: 5)"));
 }
 
 TEST(MeshValidationTest, RejectsTrianglesInA2DMesh) {
@@ -113,7 +123,8 @@ TEST(MeshValidationTest, RejectsBadDimension) {
 TEST(MeshValidationTest, RejectsRegionListOfWrongLength) {
   Mesh m = Tetrahedron();
   m.face_regions = {0, 0};
-  EXPECT_THAT(Error(m), HasSubstr("face_regions has 2 entries but the mesh has 4 faces"));
+  EXPECT_THAT(Error(m),
+              HasSubstr("face_regions has 2 entries but the mesh has 4 faces"));
 }
 
 TEST(MeshValidationTest, ReportsSeveralDefectsTogether) {

@@ -1,12 +1,13 @@
 // SPEC §7: the penalty and its gradient, including the explicit derivative of
 // the element measures, against central finite differences.
+#include "lib/penalty.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "lib/mesh_io.h"
-#include "lib/penalty.h"
 #include "lib/shapes.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
@@ -36,20 +37,28 @@ PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns) {
   EXPECT_TRUE(pen.ok()) << pen.status();
   const double step = 1e-7 * BoundingBoxDiagonal(mesh);
   for (int col = 0; col < columns; ++col) {
-    const int32_t j = static_cast<int32_t>((col * 7919LL + 5) % mesh.num_vertices());
+    const int32_t j =
+        static_cast<int32_t>((col * 7919LL + 5) % mesh.num_vertices());
     for (int c = 0; c < mesh.dimension; ++c) {
       double p_at[2];
       bool clean = true;
       for (int s = 0; s < 2; ++s) {
         Vec3 x = mesh.positions[j];
         x[c] += (s == 0 ? 1 : -1) * step;
-        EXPECT_TRUE((*ev)->UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x}).ok());
+        EXPECT_TRUE(
+            (*ev)
+                ->UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x})
+                .ok());
         HitTable hits;
         auto r = (*ev)->Compute({}, {}, &hits);
-        clean &= hits.primitives == base_hits.primitives && hits.kept == base_hits.kept;
+        clean &= hits.primitives == base_hits.primitives &&
+                 hits.kept == base_hits.kept;
         p_at[s] = ComputePenalty(**ev, r->values, pp, nullptr)->value;
       }
-      EXPECT_TRUE((*ev)->UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{mesh.positions[j]}).ok());
+      EXPECT_TRUE((*ev)
+                      ->UpdatePositions(std::vector<int32_t>{j},
+                                        std::vector<Vec3>{mesh.positions[j]})
+                      .ok());
       const double fd = (p_at[0] - p_at[1]) / (2 * step);
       const double an = pen->gradient[j][c];
       if (fd == 0 && an == 0) continue;
@@ -61,10 +70,12 @@ PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns) {
       rep.measure_term_matters += RelativeError(fd, without) > 1e-3;
     }
   }
-  std::printf("penalty FD: checked %lld clean %lld passed %lld; without the measure term %lld would fail\n",
-              static_cast<long long>(rep.checked), static_cast<long long>(rep.clean),
-              static_cast<long long>(rep.passed),
-              static_cast<long long>(rep.measure_term_matters));
+  std::printf(
+      "penalty FD: checked %lld clean %lld passed %lld; without the measure "
+      "term %lld would fail\n",
+      static_cast<long long>(rep.checked), static_cast<long long>(rep.clean),
+      static_cast<long long>(rep.passed),
+      static_cast<long long>(rep.measure_term_matters));
   return rep;
 }
 
@@ -78,19 +89,23 @@ void Expect(const PenaltyFd& rep) {
 
 TEST(PenaltyTest, OneSidedOnNoisyCircleMatchesFd) {
   Mesh m = MakeCircle(1, 120);
-  for (Vec3& p : m.positions) p *= 1 + 0.05 * std::sin(6 * std::atan2(p.y, p.x));
-  Expect(CheckPenalty(m, {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2}, 40));
+  for (Vec3& p : m.positions)
+    p *= 1 + 0.05 * std::sin(6 * std::atan2(p.y, p.x));
+  Expect(CheckPenalty(
+      m, {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2}, 40));
 }
 
 TEST(PenaltyTest, ThesisFormOnHollowSquareMatchesFd) {
   Expect(CheckPenalty(MakeHollowSquare(4, 1, 0.2),
-                      {.t_min = 1.5, .form = PenaltyForm::kThesis, .power = 2}, 40));
+                      {.t_min = 1.5, .form = PenaltyForm::kThesis, .power = 2},
+                      40));
 }
 
 TEST(PenaltyTest, OneSidedOnKnightMatchesFd) {
   auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
   ASSERT_TRUE(mesh.ok());
-  Expect(CheckPenalty(*mesh, {.t_min = 0.3, .form = PenaltyForm::kOneSided, .power = 3}, 25));
+  Expect(CheckPenalty(
+      *mesh, {.t_min = 0.3, .form = PenaltyForm::kOneSided, .power = 3}, 25));
 }
 
 TEST(PenaltyTest, ValueOfConstantThicknessIsClosedForm) {
@@ -125,13 +140,26 @@ TEST(PenaltyTest, SkipsFacesWithoutValuesAndCountsThem) {
 TEST(PenaltyTest, RejectsBadParameters) {
   auto ev = SdfEvaluator::Create(MakeCircle(1, 16));
   auto r = (*ev)->Compute({});
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 0}, nullptr).status().message()),
+  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 0}, nullptr)
+                              .status()
+                              .message()),
               HasSubstr("t_min must be a finite number > 0"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .power = 0.5}, nullptr).status().message()),
+  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values,
+                                         {.t_min = 1, .power = 0.5}, nullptr)
+                              .status()
+                              .message()),
               HasSubstr("power n must be >= 1"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, r->values, {.t_min = 1, .form = PenaltyForm::kThesis, .power = 1.5}, nullptr).status().message()),
-              HasSubstr("integer n"));
-  EXPECT_EQ(ComputePenalty(**ev, std::vector<double>(3), {.t_min = 1}, nullptr).status().code(),
+  EXPECT_THAT(
+      std::string(ComputePenalty(
+                      **ev, r->values,
+                      {.t_min = 1, .form = PenaltyForm::kThesis, .power = 1.5},
+                      nullptr)
+                      .status()
+                      .message()),
+      HasSubstr("integer n"));
+  EXPECT_EQ(ComputePenalty(**ev, std::vector<double>(3), {.t_min = 1}, nullptr)
+                .status()
+                .code(),
             absl::StatusCode::kInvalidArgument);
 }
 

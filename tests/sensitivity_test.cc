@@ -1,4 +1,6 @@
 // SPEC §6: every derivative against central finite differences.
+#include "lib/sensitivity.h"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -6,7 +8,6 @@
 #include <numbers>
 
 #include "lib/mesh_io.h"
-#include "lib/sensitivity.h"
 #include "lib/shapes.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
@@ -52,15 +53,19 @@ Mesh NoisyCircle(int n, double amplitude, int frequency) {
 }
 
 TEST(SensitivityTest, Circle) {
-  ExpectFdAgreement(CheckJacobian(MakeCircle(0.5, 64), Cone(), 64, "circle cone"));
+  ExpectFdAgreement(
+      CheckJacobian(MakeCircle(0.5, 64), Cone(), 64, "circle cone"));
   // Odd count: the normal ray of a vertex ends mid-segment, not on the
   // opposite vertex.
-  ExpectFdAgreement(CheckJacobian(MakeCircle(0.5, 63), NormalRay(), 63, "circle normal"));
+  ExpectFdAgreement(
+      CheckJacobian(MakeCircle(0.5, 63), NormalRay(), 63, "circle normal"));
 }
 
 TEST(SensitivityTest, NoisyCircle) {
-  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), Cone(), 100, "noisy circle cone"));
-  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), NormalRay(), 100, "noisy circle normal"));
+  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), Cone(), 100,
+                                  "noisy circle cone"));
+  ExpectFdAgreement(CheckJacobian(NoisyCircle(200, 0.05, 8), NormalRay(), 100,
+                                  "noisy circle normal"));
 }
 
 TEST(SensitivityTest, HollowSquareWithOutwardRegion) {
@@ -70,12 +75,15 @@ TEST(SensitivityTest, HollowSquareWithOutwardRegion) {
 }
 
 TEST(SensitivityTest, Sphere) {
-  ExpectFdAgreement(CheckJacobian(MakeIcosphere(0.5, 4), Cone(), 30, "sphere cone"));
-  ExpectFdAgreement(CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.01), NormalRay(), 30, "jittered sphere normal"));
+  ExpectFdAgreement(
+      CheckJacobian(MakeIcosphere(0.5, 4), Cone(), 30, "sphere cone"));
+  ExpectFdAgreement(CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.01),
+                                  NormalRay(), 30, "jittered sphere normal"));
 }
 
 TEST(SensitivityTest, Torus) {
-  ExpectFdAgreement(CheckJacobian(MakeTorus(1, 0.4, 32, 12), Cone(), 30, "torus cone"));
+  ExpectFdAgreement(
+      CheckJacobian(MakeTorus(1, 0.4, 32, 12), Cone(), 30, "torus cone"));
 }
 
 TEST(SensitivityTest, DecimatedKnight) {
@@ -104,7 +112,8 @@ TEST(SensitivityTest, VjpIsRotationEquivariantIn2D) {
   const double angle = 0.7;
   const double c = std::cos(angle), s = std::sin(angle);
   Mesh rotated = m;
-  for (Vec3& p : rotated.positions) p = Vec3(c * p.x - s * p.y, s * p.x + c * p.y, 0);
+  for (Vec3& p : rotated.positions)
+    p = Vec3(c * p.x - s * p.y, s * p.x + c * p.y, 0);
   std::vector<double> g(m.num_vertices());
   for (size_t i = 0; i < g.size(); ++i) g[i] = std::cos(0.3 * i);
   std::vector<Vec3> grads[2];

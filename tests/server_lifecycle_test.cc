@@ -14,16 +14,17 @@
 namespace meshgauge {
 namespace {
 
+using client::ToWireParams;
 using ::testing::HasSubstr;
 using ::testing::Not;
-using client::ToWireParams;
 using Clock = std::chrono::steady_clock;
 
 // grpc.health.v1.Health/Check for the whole server, by hand-encoded bytes:
 // the request is empty; the response is field 1 (status) as a varint.
 // Returns 1 SERVING, 2 NOT_SERVING, -1 on an RPC error.
 int HealthStatus(const std::string& target) {
-  auto channel = grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
+  auto channel =
+      grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
   grpc::GenericStub stub(channel);
   grpc::ClientContext ctx;
   ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(2));
@@ -70,10 +71,14 @@ TEST_F(LifecycleTest, CancellationMidStreamStopsTheCall) {
   }
   EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::CANCELLED);
   // The server recorded the cancelled call and still serves.
-  for (int i = 0; i < 100 && metrics_.Text().find("code=\"CANCELLED\",method=\"ComputeSdf\"") == std::string::npos; ++i) {
+  for (int i = 0; i < 100 && metrics_.Text().find(
+                                 "code=\"CANCELLED\",method=\"ComputeSdf\"") ==
+                                 std::string::npos;
+       ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  EXPECT_THAT(metrics_.Text(), HasSubstr("code=\"CANCELLED\",method=\"ComputeSdf\""));
+  EXPECT_THAT(metrics_.Text(),
+              HasSubstr("code=\"CANCELLED\",method=\"ComputeSdf\""));
   EXPECT_TRUE(client_->Get("s").ok());
 }
 
@@ -94,21 +99,34 @@ TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
   auto up = client_->UpdatePositions("big", 1, 3, big.positions);
   const double waited = SecondsSince(start);
   ASSERT_TRUE(up.ok()) << up.status();
-  EXPECT_LT(waited, 0.2 + 0.1 + 0.2) << "server kept computing after the deadline";
-  for (int i = 0; i < 100 && metrics_.Text().find("DEADLINE_EXCEEDED") == std::string::npos; ++i) {
+  EXPECT_LT(waited, 0.2 + 0.1 + 0.2)
+      << "server kept computing after the deadline";
+  for (int i = 0; i < 100 && metrics_.Text().find("DEADLINE_EXCEEDED") ==
+                                 std::string::npos;
+       ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  EXPECT_THAT(metrics_.Text(), HasSubstr("code=\"DEADLINE_EXCEEDED\",method=\"ComputeSdf\""));
+  EXPECT_THAT(metrics_.Text(),
+              HasSubstr("code=\"DEADLINE_EXCEEDED\",method=\"ComputeSdf\""));
 }
 
 TEST_F(LifecycleTest, MetricsUseBaseUnitsAndNoSessionIds) {
   ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 4), "secret-session-name").ok());
-  ASSERT_TRUE(client_->ComputeSdf("secret-session-name", ToWireParams({})).ok());
-  EXPECT_EQ(client_->Get("missing").status().code(), absl::StatusCode::kNotFound);
+  ASSERT_TRUE(
+      client_->ComputeSdf("secret-session-name", ToWireParams({})).ok());
+  EXPECT_EQ(client_->Get("missing").status().code(),
+            absl::StatusCode::kNotFound);
   const std::string text = metrics_.Text();
-  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_requests_total{code=\"OK\",method=\"ComputeSdf\"} 1"));
-  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_requests_total{code=\"NOT_FOUND\",method=\"GetSession\"} 1"));
-  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_duration_seconds_count{method=\"CreateSession\"} 1"));
+  EXPECT_THAT(
+      text,
+      HasSubstr(
+          "meshgauge_rpc_requests_total{code=\"OK\",method=\"ComputeSdf\"} 1"));
+  EXPECT_THAT(text, HasSubstr("meshgauge_rpc_requests_total{code=\"NOT_FOUND\","
+                              "method=\"GetSession\"} 1"));
+  EXPECT_THAT(
+      text,
+      HasSubstr(
+          "meshgauge_rpc_duration_seconds_count{method=\"CreateSession\"} 1"));
   EXPECT_THAT(text, HasSubstr("meshgauge_sessions_active 1"));
   EXPECT_THAT(text, HasSubstr("meshgauge_rays_traced_total 16200"));
   EXPECT_THAT(text, HasSubstr("meshgauge_bvh_builds_total 1"));
@@ -121,8 +139,7 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   server::ServerOptions o;
   o.drain_notice_seconds = 0.5;
   o.shutdown_grace_seconds = 30;
-  TearDown();
-  StartServer(o);
+  RestartServer(o);
   const Mesh big = MakeIcosphere(1, 110);  // 121k vertices: outlasts the
                                            // 0.5 s drain notice.
   ASSERT_TRUE(client_->Upload(big, "big").ok());
@@ -141,7 +158,8 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
       << "the call must still have been running when new calls were refused";
   EXPECT_EQ(result->summary.ok(), big.num_vertices());
   shutdown.get();
-  EXPECT_EQ(client_->Get("big").status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_EQ(client_->Get("big").status().code(),
+            absl::StatusCode::kUnavailable);
 }
 
 }  // namespace

@@ -17,8 +17,8 @@
 namespace meshgauge {
 namespace {
 
-using ::testing::HasSubstr;
 using client::ToWireParams;
+using ::testing::HasSubstr;
 
 bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() &&
@@ -71,7 +71,8 @@ TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {
   auto vjp = client_->ComputeVjp("k", ToWireParams({}), g);
   ASSERT_TRUE(vjp.ok()) << vjp.status();
   EXPECT_TRUE(vjp->reused_hits()) << "same generation and params as ComputeSdf";
-  EXPECT_EQ(client::FromFlattened(vjp->gradient(), 3), *ComputeVjp(**ev, hits, g));
+  EXPECT_EQ(client::FromFlattened(vjp->gradient(), 3),
+            *ComputeVjp(**ev, hits, g));
 
   auto pen = client_->ComputePenalty("k", ToWireParams({}), 0.1,
                                      v1::PENALTY_FORM_ONE_SIDED, 2, true);
@@ -87,7 +88,9 @@ TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {
   auto traced = client_->ComputeVjp("k", ToWireParams(other), g);
   ASSERT_TRUE(traced.ok());
   EXPECT_FALSE(traced->reused_hits());
-  EXPECT_THAT(metrics_.Text(), HasSubstr("meshgauge_hit_cache_requests_total{result=\"reused\"} 2"));
+  EXPECT_THAT(
+      metrics_.Text(),
+      HasSubstr("meshgauge_hit_cache_requests_total{result=\"reused\"} 2"));
 }
 
 TEST_F(ServerTest, UpdatePositionsRefitsAndChecksGeneration) {
@@ -105,8 +108,9 @@ TEST_F(ServerTest, UpdatePositionsRefitsAndChecksGeneration) {
   auto remote = client_->ComputeSdf("t", ToWireParams({}), false, 1);
   ASSERT_TRUE(remote.ok()) << remote.status();
   EXPECT_TRUE(SameBits(remote->values, ComputeSdf(moved, {})->values));
-  EXPECT_EQ(client_->ComputeSdf("t", ToWireParams({}), false, 0).status().code(),
-            absl::StatusCode::kAborted);
+  EXPECT_EQ(
+      client_->ComputeSdf("t", ToWireParams({}), false, 0).status().code(),
+      absl::StatusCode::kAborted);
   // Subset update.
   auto sub = client_->UpdatePositions("t", 1, 3, {Vec3(3, 0, 0)}, {0});
   ASSERT_TRUE(sub.ok()) << sub.status();
@@ -119,8 +123,7 @@ TEST_F(ServerTest, UpdatePositionsRefitsAndChecksGeneration) {
 TEST_F(ServerTest, RebuildsAfterConfiguredNumberOfUpdates) {
   server::ServerOptions o;
   o.rebuild_every_updates = 2;
-  TearDown();
-  StartServer(o);
+  RestartServer(o);
   const Mesh sphere = MakeIcosphere(1, 4);
   ASSERT_TRUE(client_->Upload(sphere, "s").ok());
   std::vector<Vec3> p = sphere.positions;
@@ -144,9 +147,11 @@ TEST_F(ServerTest, StatusCodePaths) {
   EXPECT_EQ(code(client_->Upload(mesh, "a")), absl::StatusCode::kAlreadyExists);
   auto bad_id = client_->Upload(mesh, "no spaces/please");
   EXPECT_EQ(code(bad_id), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(bad_id.status().message()), HasSubstr("[A-Za-z0-9._-]"));
+  EXPECT_THAT(std::string(bad_id.status().message()),
+              HasSubstr("[A-Za-z0-9._-]"));
   Mesh degenerate = mesh;
-  degenerate.positions[degenerate.faces[3].v[1]] = degenerate.positions[degenerate.faces[3].v[0]];
+  degenerate.positions[degenerate.faces[3].v[1]] =
+      degenerate.positions[degenerate.faces[3].v[0]];
   auto invalid = client_->Upload(degenerate, "d");
   EXPECT_EQ(code(invalid), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(invalid.status().message()), HasSubstr("zero area"));
@@ -155,21 +160,26 @@ TEST_F(ServerTest, StatusCodePaths) {
   wide.set_cone_angle_degrees(190);
   auto bad_angle = client_->ComputeSdf("a", wide);
   EXPECT_EQ(code(bad_angle), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(bad_angle.status().message()), HasSubstr("cone angle"));
+  EXPECT_THAT(std::string(bad_angle.status().message()),
+              HasSubstr("cone angle"));
   v1::SdfParameters many = ToWireParams({});
   many.set_rays(2000);
   auto too_many = client_->ComputeSdf("a", many);
   EXPECT_EQ(code(too_many), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(too_many.status().message()), HasSubstr("limit of 1024"));
-  EXPECT_EQ(code(client_->ComputeSdf("a", ToWireParams({}), false, std::nullopt, 100000)),
+  EXPECT_THAT(std::string(too_many.status().message()),
+              HasSubstr("limit of 1024"));
+  EXPECT_EQ(code(client_->ComputeSdf("a", ToWireParams({}), false, std::nullopt,
+                                     100000)),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams({}), {1.0, 2.0})),
             absl::StatusCode::kInvalidArgument);
   SdfParams angle;
   angle.normal_weighting = NormalWeighting::kAngle;
-  EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams(angle), std::vector<double>(502, 1.0))),
+  EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams(angle),
+                                     std::vector<double>(502, 1.0))),
             absl::StatusCode::kFailedPrecondition);
-  EXPECT_EQ(code(client_->ComputePenalty("a", ToWireParams({}), -1, v1::PENALTY_FORM_ONE_SIDED, 2, false)),
+  EXPECT_EQ(code(client_->ComputePenalty("a", ToWireParams({}), -1,
+                                         v1::PENALTY_FORM_ONE_SIDED, 2, false)),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(code(client_->UpdatePositions("a", 0, 3, {Vec3(0, 0, 0)})),
             absl::StatusCode::kInvalidArgument);
@@ -177,7 +187,8 @@ TEST_F(ServerTest, StatusCodePaths) {
   nan_positions[4].y = std::nan("");
   auto nan_update = client_->UpdatePositions("a", 0, 3, nan_positions);
   EXPECT_EQ(code(nan_update), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(nan_update.status().message()), HasSubstr("not finite"));
+  EXPECT_THAT(std::string(nan_update.status().message()),
+              HasSubstr("not finite"));
   EXPECT_EQ(code(client_->UpdatePositions("a", 0, 3, {Vec3(0, 0, 0)}, {9999})),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(code(client_->Calibrate("a", ToWireParams({}), 0)),
@@ -199,14 +210,14 @@ TEST_F(ServerTest, LimitsGiveResourceExhausted) {
   server::ServerOptions o;
   o.max_sessions = 2;
   o.max_vertices = 600;
-  TearDown();
-  StartServer(o);
+  RestartServer(o);
   const Mesh mesh = Knight();
   ASSERT_TRUE(client_->Upload(mesh, "1").ok());
   ASSERT_TRUE(client_->Upload(mesh, "2").ok());
   auto third = client_->Upload(mesh, "3");
   EXPECT_EQ(third.status().code(), absl::StatusCode::kResourceExhausted);
-  EXPECT_THAT(std::string(third.status().message()), HasSubstr("maximum of 2 sessions"));
+  EXPECT_THAT(std::string(third.status().message()),
+              HasSubstr("maximum of 2 sessions"));
   auto big = client_->Upload(MakeIcosphere(1, 8), "big");
   EXPECT_EQ(big.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(big.status().message()), HasSubstr("limit of 600"));
@@ -215,18 +226,19 @@ TEST_F(ServerTest, LimitsGiveResourceExhausted) {
 TEST_F(ServerTest, MessageSizeLimitIsEnforced) {
   server::ServerOptions o;
   o.max_message_bytes = 4096;
-  TearDown();
-  StartServer(o);
+  RestartServer(o);
   client::ClientOptions co;
   co.upload_chunk_vertices = 1000;  // one chunk far above 4 KiB.
   client::RemoteClient c(target_, co);
   auto r = c.Upload(MakeIcosphere(1, 10), "x");
-  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted) << r.status();
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted)
+      << r.status();
 }
 
 // Sends raw CreateSession messages.
 absl::StatusOr<v1::SessionInfo> RawUpload(
-    client::RemoteClient& c, const std::vector<v1::CreateSessionRequest>& msgs) {
+    client::RemoteClient& c,
+    const std::vector<v1::CreateSessionRequest>& msgs) {
   auto ctx = c.Context("raw");
   v1::SessionInfo info;
   auto w = c.stub().CreateSession(ctx.get(), &info);
@@ -265,16 +277,19 @@ TEST_F(ServerTest, UploadChecksCountsChecksumAndTruncation) {
   ASSERT_TRUE(client_->Delete("raw").ok());
   auto bad_crc = RawUpload(*client_, TriangleUpload(12345));
   EXPECT_EQ(bad_crc.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(bad_crc.status().message()), HasSubstr("checksum mismatch"));
+  EXPECT_THAT(std::string(bad_crc.status().message()),
+              HasSubstr("checksum mismatch"));
   auto msgs = TriangleUpload(0);
   msgs.pop_back();
   auto truncated = RawUpload(*client_, msgs);
   EXPECT_EQ(truncated.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(truncated.status().message()), HasSubstr("truncated stream"));
+  EXPECT_THAT(std::string(truncated.status().message()),
+              HasSubstr("truncated stream"));
   msgs = TriangleUpload(0);
   msgs[1].mutable_chunk()->mutable_positions()->RemoveLast();
   auto short_positions = RawUpload(*client_, msgs);
-  EXPECT_THAT(std::string(short_positions.status().message()), HasSubstr("stray coordinates"));
+  EXPECT_THAT(std::string(short_positions.status().message()),
+              HasSubstr("stray coordinates"));
   msgs = TriangleUpload(0);
   msgs.erase(msgs.begin());
   EXPECT_THAT(std::string(RawUpload(*client_, msgs).status().message()),
@@ -299,15 +314,17 @@ TEST_F(ServerTest, TwoDimensionalHollowSessionWithOutwardRegion) {
   auto r = client_->ComputeSdf(info->session_id(), ToWireParams({}));
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(SameBits(r->values, ComputeSdf(hollow, {})->values));
-  auto vjp = client_->ComputeVjp(info->session_id(), ToWireParams({}),
-                                 std::vector<double>(hollow.num_vertices(), 1.0));
+  auto vjp =
+      client_->ComputeVjp(info->session_id(), ToWireParams({}),
+                          std::vector<double>(hollow.num_vertices(), 1.0));
   ASSERT_TRUE(vjp.ok());
   EXPECT_EQ(vjp->gradient_size(), 2 * hollow.num_vertices());
 }
 
 TEST_F(ServerTest, ListPaginates) {
   const Mesh tri = MakeIcosphere(1, 1);
-  for (int i = 0; i < 7; ++i) ASSERT_TRUE(client_->Upload(tri, "m" + std::to_string(i)).ok());
+  for (int i = 0; i < 7; ++i)
+    ASSERT_TRUE(client_->Upload(tri, "m" + std::to_string(i)).ok());
   v1::ListSessionsRequest req;
   req.set_page_size(3);
   std::vector<std::string> ids;
@@ -321,7 +338,8 @@ TEST_F(ServerTest, ListPaginates) {
     ++pages;
   } while (!req.page_token().empty());
   EXPECT_EQ(pages, 3);
-  EXPECT_EQ(ids, (std::vector<std::string>{"m0", "m1", "m2", "m3", "m4", "m5", "m6"}));
+  EXPECT_EQ(ids, (std::vector<std::string>{"m0", "m1", "m2", "m3", "m4", "m5",
+                                           "m6"}));
 }
 
 TEST_F(ServerTest, IdleSessionsExpireAfterTtl) {
@@ -339,8 +357,7 @@ TEST_F(ServerTest, MemoryBudgetEvictsLeastRecentlyUsed) {
   server::ServerOptions o;
   const Mesh sphere = MakeIcosphere(1, 10);
   o.memory_budget_bytes = server::Session::EstimateBaseBytes(sphere) * 5 / 2;
-  TearDown();
-  StartServer(o);
+  RestartServer(o);
   ASSERT_TRUE(client_->Upload(sphere, "a").ok());
   clock_.Advance(1);
   ASSERT_TRUE(client_->Upload(sphere, "b").ok());
@@ -350,8 +367,9 @@ TEST_F(ServerTest, MemoryBudgetEvictsLeastRecentlyUsed) {
   ASSERT_TRUE(client_->Upload(sphere, "c").ok());
   EXPECT_TRUE(client_->Get("a").ok());
   EXPECT_EQ(client_->Get("b").status().code(), absl::StatusCode::kNotFound);
-  EXPECT_THAT(metrics_.Text(),
-              HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1"));
+  EXPECT_THAT(
+      metrics_.Text(),
+      HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1"));
 }
 
 TEST_F(ServerTest, ConcurrentClientsGetLibraryResults) {
@@ -376,7 +394,8 @@ TEST_F(ServerTest, ConcurrentClientsGetLibraryResults) {
           ++errors;
           continue;
         }
-        if (p.rays == 0 && !SameBits(r->values, k ? k_values : t_values)) ++mismatches;
+        if (p.rays == 0 && !SameBits(r->values, k ? k_values : t_values))
+          ++mismatches;
       }
     });
   }
@@ -386,7 +405,10 @@ TEST_F(ServerTest, ConcurrentClientsGetLibraryResults) {
     for (int gen = 0; gen < 6; ++gen) {
       for (Vec3& v : p) v *= 1.001;
       if (!cl.UpdatePositions("moving", gen, 3, p).ok()) ++errors;
-      if (!cl.ComputeVjp("moving", ToWireParams({}), std::vector<double>(p.size(), 1)).ok()) ++errors;
+      if (!cl.ComputeVjp("moving", ToWireParams({}),
+                         std::vector<double>(p.size(), 1))
+               .ok())
+        ++errors;
     }
   });
   for (auto& t : threads) t.join();
@@ -405,8 +427,10 @@ TEST_F(ServerTest, ConcurrentUpdatesOnOneSessionAreSerialised) {
       std::vector<Vec3> p = base;
       for (Vec3& v : p) v *= 1 + 0.01 * (c + 1);
       auto r = cl.UpdatePositions("s", 0, 3, p);
-      if (r.ok()) ++ok;
-      else if (r.status().code() == absl::StatusCode::kAborted) ++aborted;
+      if (r.ok())
+        ++ok;
+      else if (r.status().code() == absl::StatusCode::kAborted)
+        ++aborted;
     });
   }
   for (auto& t : threads) t.join();

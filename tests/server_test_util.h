@@ -17,14 +17,18 @@ class ServerFixture : public ::testing::Test {
     options_ = options;
     options_.address = "127.0.0.1:0";
     options_.metrics_address = "";
-    options_.drain_notice_seconds = options.drain_notice_seconds == 1
-                                        ? 0.0
-                                        : options.drain_notice_seconds;
+    options_.drain_notice_seconds =
+        options.drain_notice_seconds == 1 ? 0.0 : options.drain_notice_seconds;
     auto s = server::MeshGaugeServer::Start(options_, &metrics_, &clock_);
     ASSERT_TRUE(s.ok()) << s.status();
     server_ = std::move(*s);
     target_ = "127.0.0.1:" + std::to_string(server_->port());
     client_ = std::make_unique<client::RemoteClient>(target_);
+  }
+  // Stops the fixture's server and starts one with `options`.
+  void RestartServer(server::ServerOptions options) {
+    TearDown();
+    StartServer(options);
   }
   void SetUp() override { StartServer(); }
   void TearDown() override {

@@ -30,8 +30,9 @@ inline double ClosedFormEstimate(int dimension, double alpha_degrees, int rays,
   }
   std::vector<double> sorted = chord;
   std::sort(sorted.begin(), sorted.end());
-  const double median = rays % 2 ? sorted[rays / 2]
-                                 : (sorted[rays / 2 - 1] + sorted[rays / 2]) / 2;
+  const double median = rays % 2
+                            ? sorted[rays / 2]
+                            : (sorted[rays / 2 - 1] + sorted[rays / 2]) / 2;
   double mean = 0;
   for (double c : chord) mean += c / rays;
   double var = 0;

@@ -12,9 +12,11 @@
 ABSL_FLAG(std::string, method, "cone",
           "SDF method: cone (Shapira et al.) or normal (one ray along the "
           "axis: physical thickness)");
-ABSL_FLAG(double, cone_angle, 30, "full cone opening angle in degrees, (0,180)");
+ABSL_FLAG(double, cone_angle, 30,
+          "full cone opening angle in degrees, (0,180)");
 ABSL_FLAG(int, rays, 0, "rays per vertex, 1..4096 (0: 100 in 3D, 32 in 2D)");
-ABSL_FLAG(double, kappa, 1.0, "outlier filter: keep |t - median| <= kappa sigma");
+ABSL_FLAG(double, kappa, 1.0,
+          "outlier filter: keep |t - median| <= kappa sigma");
 ABSL_FLAG(int, threads, 0, "worker threads (0: all cores)");
 ABSL_FLAG(std::vector<std::string>, region_direction, {},
           "cone direction per region, ID=inward|outward; repeat the flag or "

@@ -13,12 +13,14 @@ namespace meshgauge::cli {
 absl::Status WriteVectorCsv(const std::string& path,
                             const std::vector<Vec3>& v) {
   std::ofstream out(path);
-  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   out << "vertex,dx,dy,dz\n";
   for (size_t i = 0; i < v.size(); ++i) {
     out << absl::StrFormat("%d,%.17g,%.17g,%.17g\n", i, v[i].x, v[i].y, v[i].z);
   }
-  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
   return absl::OkStatus();
 }
 
@@ -42,9 +44,9 @@ absl::StatusOr<std::vector<double>> ReadWeights(const std::string& path,
     w.push_back(x);
   }
   if (std::ssize(w) != nv) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "'", path, "' has ", w.size(), " weights but the mesh has ", nv,
-        " vertices"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", path, "' has ", w.size(),
+                     " weights but the mesh has ", nv, " vertices"));
   }
   return w;
 }

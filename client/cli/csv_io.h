@@ -10,7 +10,8 @@
 namespace meshgauge::cli {
 
 // Writes `vertex,dx,dy,dz` rows (17 significant digits).
-absl::Status WriteVectorCsv(const std::string& path, const std::vector<Vec3>& v);
+absl::Status WriteVectorCsv(const std::string& path,
+                            const std::vector<Vec3>& v);
 
 // Reads per-vertex weights: one finite number per non-empty line, exactly
 // nv of them. Empty path: all ones.

@@ -2,7 +2,6 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
-
 #include <nlohmann/json.hpp>
 
 #include "absl/flags/flag.h"
@@ -56,8 +55,10 @@ absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
 }  // namespace
 
 absl::Status RunGrad(const std::vector<std::string>& args) {
-  auto prep = Prepare(args, "usage: meshgauge grad MESH [--weights FILE] "
-                            "[--vjp FILE] [--jacobian FILE]", true);
+  auto prep = Prepare(args,
+                      "usage: meshgauge grad MESH [--weights FILE] "
+                      "[--vjp FILE] [--jacobian FILE]",
+                      true);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = *prep->evaluator;
   nlohmann::json j;
@@ -67,7 +68,8 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
     auto jac = ComputeJacobian(ev, prep->hits);
     if (!jac.ok()) return jac.status();
     std::ofstream out(path);
-    if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+    if (!out)
+      return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
     out << "row,col,dx,dy,dz\n";
     for (size_t p = 0; p + 1 < jac->row_offsets.size(); ++p) {
       for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1]; ++e) {
@@ -76,10 +78,12 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
                                d.x, d.y, d.z);
       }
     }
-    if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+    if (!out)
+      return absl::InternalError(absl::StrCat("error writing '", path, "'"));
     j["jacobian_nonzeros"] = jac->nonzeros();
   }
-  auto weights = ReadWeights(absl::GetFlag(FLAGS_weights), ev.mesh().num_vertices());
+  auto weights =
+      ReadWeights(absl::GetFlag(FLAGS_weights), ev.mesh().num_vertices());
   if (!weights.ok()) return weights.status();
   auto vjp = ComputeVjp(ev, prep->hits, *weights);
   if (!vjp.ok()) return vjp.status();
@@ -115,10 +119,12 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
         absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
   }
   if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat("--t-min/--power: ", s.message()));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--t-min/--power: ", s.message()));
   }
-  auto prep = Prepare(args, "usage: meshgauge penalty MESH --t-min T "
-                            "[--phi one-sided|thesis] [--power n] [--grad FILE]",
+  auto prep = Prepare(args,
+                      "usage: meshgauge penalty MESH --t-min T "
+                      "[--phi one-sided|thesis] [--power n] [--grad FILE]",
                       true);
   if (!prep.ok()) return prep.status();
   const std::string grad_path = absl::GetFlag(FLAGS_grad);
@@ -126,7 +132,8 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
                             grad_path.empty() ? nullptr : &prep->hits);
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
-    if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok()) return s;
+    if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok())
+      return s;
   }
   nlohmann::json j;
   j["penalty"] = pen->value;
@@ -146,8 +153,10 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
 }
 
 absl::Status RunCalibrate(const std::vector<std::string>& args) {
-  auto prep = Prepare(args, "usage: meshgauge calibrate MESH --t-min T "
-                            "[--tolerance R] [--bins N] [--json]", false);
+  auto prep = Prepare(args,
+                      "usage: meshgauge calibrate MESH --t-min T "
+                      "[--tolerance R] [--bins N] [--json]",
+                      false);
   if (!prep.ok()) return prep.status();
   CalibrationParams cp;
   cp.t_min = absl::GetFlag(FLAGS_t_min);

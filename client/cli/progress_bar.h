@@ -12,9 +12,8 @@ namespace meshgauge::cli {
 // nothing). Finish() clears the line.
 class ProgressBar {
  public:
-  explicit ProgressBar(std::string label,
-                       std::chrono::milliseconds delay =
-                           std::chrono::milliseconds(500));
+  explicit ProgressBar(std::string label, std::chrono::milliseconds delay =
+                                              std::chrono::milliseconds(500));
   ~ProgressBar();
   void Update(int64_t done, int64_t total);
   void Finish();

@@ -3,7 +3,6 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
-
 #include <nlohmann/json.hpp>
 
 #include "absl/flags/flag.h"
@@ -35,10 +34,10 @@ constexpr char kUsage[] =
     "--positions MESH [--generation G]   (all take --server host:port)";
 
 nlohmann::json InfoJson(const v1::SessionInfo& s) {
-  return {{"session_id", s.session_id()},     {"dimension", s.dimension()},
-          {"vertices", s.num_vertices()},     {"faces", s.num_faces()},
-          {"generation", s.generation()},     {"memory_bytes", s.memory_bytes()},
-          {"bvh_builds", s.bvh_builds()},     {"bvh_refits", s.bvh_refits()},
+  return {{"session_id", s.session_id()},    {"dimension", s.dimension()},
+          {"vertices", s.num_vertices()},    {"faces", s.num_faces()},
+          {"generation", s.generation()},    {"memory_bytes", s.memory_bytes()},
+          {"bvh_builds", s.bvh_builds()},    {"bvh_refits", s.bvh_refits()},
           {"idle_seconds", s.idle_seconds()}};
 }
 
@@ -55,11 +54,13 @@ absl::Status NeedArgs(const std::vector<std::string>& args, size_t n) {
                           : absl::InvalidArgumentError(kUsage);
 }
 
-absl::Status Upload(client::RemoteClient& c, const std::vector<std::string>& a) {
+absl::Status Upload(client::RemoteClient& c,
+                    const std::vector<std::string>& a) {
   if (absl::Status s = NeedArgs(a, 2); !s.ok()) return s;
   auto loaded = LoadMeshFromFlags(a[1]);
   if (!loaded.ok()) return loaded.status();
-  for (const auto& w : loaded->warnings) std::cerr << "meshgauge: warning: " << w << "\n";
+  for (const auto& w : loaded->warnings)
+    std::cerr << "meshgauge: warning: " << w << "\n";
   auto info = c.Upload(loaded->mesh, absl::GetFlag(FLAGS_session_id));
   if (!info.ok()) return info.status();
   Print(InfoJson(*info));
@@ -77,19 +78,30 @@ absl::Status Sdf(client::RemoteClient& c, const std::string& id) {
     for (size_t i = 0; i < r->values.size(); ++i) {
       const bool ok = r->status[i] == v1::VERTEX_STATUS_OK;
       out << i << ",";
-      if (ok) out << absl::StrFormat("%.17g,%.17g", r->values[i], r->normalized[i]);
-      else out << ",";
+      if (ok)
+        out << absl::StrFormat("%.17g,%.17g", r->values[i], r->normalized[i]);
+      else
+        out << ",";
       out << "," << r->hits[i] << "," << r->kept[i] << ","
-          << v1::VertexStatus_Name(r->status[i]).substr(strlen("VERTEX_STATUS_")) << "\n";
+          << v1::VertexStatus_Name(r->status[i])
+                 .substr(strlen("VERTEX_STATUS_"))
+          << "\n";
     }
-    if (!out) return absl::InternalError(absl::StrCat("cannot write '", csv, "'"));
+    if (!out)
+      return absl::InternalError(absl::StrCat("cannot write '", csv, "'"));
   }
   const v1::SdfSummary& s = r->summary;
-  Print({{"generation", s.generation()}, {"ok", s.ok()}, {"no_hit", s.no_hit()},
-         {"no_faces", s.no_faces()}, {"sdf_min", s.sdf_min()},
-         {"sdf_max", s.sdf_max()}, {"sdf_mean", s.sdf_mean()},
-         {"integral", s.integral()}, {"rays", s.rays()},
-         {"seconds", s.seconds()}, {"reused_hits", s.reused_hits()}});
+  Print({{"generation", s.generation()},
+         {"ok", s.ok()},
+         {"no_hit", s.no_hit()},
+         {"no_faces", s.no_faces()},
+         {"sdf_min", s.sdf_min()},
+         {"sdf_max", s.sdf_max()},
+         {"sdf_mean", s.sdf_mean()},
+         {"integral", s.integral()},
+         {"rays", s.rays()},
+         {"seconds", s.seconds()},
+         {"reused_hits", s.reused_hits()}});
   return absl::OkStatus();
 }
 
@@ -106,8 +118,10 @@ absl::Status Grad(client::RemoteClient& c, const std::string& id) {
   if (const std::string path = absl::GetFlag(FLAGS_vjp); !path.empty()) {
     if (absl::Status s = WriteVectorCsv(path, grad); !s.ok()) return s;
   }
-  Print({{"generation", r->generation()}, {"vjp_max_norm", MaxNorm(grad)},
-         {"reused_hits", r->reused_hits()}, {"seconds", r->seconds()}});
+  Print({{"generation", r->generation()},
+         {"vjp_max_norm", MaxNorm(grad)},
+         {"reused_hits", r->reused_hits()},
+         {"seconds", r->seconds()}});
   return absl::OkStatus();
 }
 
@@ -134,15 +148,18 @@ absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
       return s;
     }
   }
-  Print({{"generation", r->generation()}, {"penalty", r->value()},
-         {"skipped_faces", r->skipped_faces()}, {"sdf_min", r->sdf_min()},
+  Print({{"generation", r->generation()},
+         {"penalty", r->value()},
+         {"skipped_faces", r->skipped_faces()},
+         {"sdf_min", r->sdf_min()},
          {"reused_hits", r->reused_hits()}});
   return absl::OkStatus();
 }
 
 absl::Status Update(client::RemoteClient& c, const std::string& id) {
   const std::string path = absl::GetFlag(FLAGS_positions);
-  if (path.empty()) return absl::InvalidArgumentError("--positions MESH is required");
+  if (path.empty())
+    return absl::InvalidArgumentError("--positions MESH is required");
   auto mesh = ReadMesh(path);
   if (!mesh.ok()) return mesh.status();
   auto info = c.Get(id);
@@ -151,7 +168,8 @@ absl::Status Update(client::RemoteClient& c, const std::string& id) {
   if (gen < 0) gen = info->generation();
   auto r = c.UpdatePositions(id, gen, info->dimension(), mesh->positions);
   if (!r.ok()) return r.status();
-  Print({{"generation", r->generation()}, {"refit", r->refit()},
+  Print({{"generation", r->generation()},
+         {"refit", r->refit()},
          {"bvh_seconds", r->bvh_seconds()}});
   return absl::OkStatus();
 }

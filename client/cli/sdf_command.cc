@@ -29,9 +29,9 @@ absl::Status RunSdf(const std::vector<std::string>& args) {
   auto result = ComputeSdf(loaded->mesh, *params, control);
   bar.Finish();
   if (!result.ok()) return result.status();
-  const double seconds = std::chrono::duration<double>(
-                             std::chrono::steady_clock::now() - start)
-                             .count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+          .count();
   if (const std::string csv = absl::GetFlag(FLAGS_csv); !csv.empty()) {
     if (absl::Status s = WriteSdfCsv(csv, loaded->mesh, *result); !s.ok()) {
       return s;

@@ -13,7 +13,8 @@ namespace {
 
 absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
   std::ofstream out(path);
-  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   out.precision(17);
   for (const Vec3& p : mesh.positions) {
     out << "v " << p.x << " " << p.y << " " << p.z << "\n";
@@ -29,7 +30,8 @@ absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
     for (int k = 0; k < face.size; ++k) out << " " << face.v[k] + 1;
     out << "\n";
   }
-  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
   return absl::OkStatus();
 }
 
@@ -51,11 +53,13 @@ absl::Status RunShape(const std::vector<std::string>& args) {
   }
   Mesh mesh;
   if (args[0] == "circle") {
-    mesh = MakeCircle(r, static_cast<int>(std::ceil(2 * std::numbers::pi * r / h)));
+    mesh = MakeCircle(
+        r, static_cast<int>(std::ceil(2 * std::numbers::pi * r / h)));
   } else if (args[0] == "sphere") {
     mesh = MakeIcosphere(r, static_cast<int>(std::ceil(1.0515 * r / h)));
   } else if (args[0] == "torus") {
-    mesh = MakeTorus(2 * r, r, static_cast<int>(std::ceil(4 * std::numbers::pi * r / h)),
+    mesh = MakeTorus(2 * r, r,
+                     static_cast<int>(std::ceil(4 * std::numbers::pi * r / h)),
                      static_cast<int>(std::ceil(2 * std::numbers::pi * r / h)));
   } else if (args[0] == "hollow") {
     mesh = MakeHollowSquare(4 * r, r, h);

@@ -21,8 +21,8 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j["vertices"] = loaded.mesh.num_vertices();
   j["faces"] = loaded.mesh.num_faces();
   j["dimension"] = loaded.mesh.dimension;
-  j["method"] = result.resolved.params.method == SdfMethod::kCone ? "cone"
-                                                                 : "normal";
+  j["method"] =
+      result.resolved.params.method == SdfMethod::kCone ? "cone" : "normal";
   j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
   j["rays_per_vertex"] = result.resolved.rays;
   j["ok"] = result.CountStatus(VertexStatus::kOk);
@@ -61,7 +61,8 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
 
 std::string SummaryText(const nlohmann::json& j) {
   auto num = [](const nlohmann::json& v) {
-    return v.is_null() ? std::string("-") : absl::StrFormat("%.6g", v.get<double>());
+    return v.is_null() ? std::string("-")
+                       : absl::StrFormat("%.6g", v.get<double>());
   };
   std::string s = absl::StrFormat(
       "mesh: %dD, %d vertices, %d faces, %s\n"
@@ -89,7 +90,8 @@ std::string SummaryText(const nlohmann::json& j) {
 absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
                          const SdfResult& result) {
   std::ofstream out(path);
-  if (!out) return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   out << "vertex,x,y,z,sdf,normalized,hits,kept,status\n";
   for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
     const Vec3& p = mesh.positions[i];
@@ -104,7 +106,8 @@ absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
     out << absl::StrFormat(",%d,%d,%s\n", result.hits[i], result.kept[i],
                            VertexStatusName(result.status[i]));
   }
-  if (!out) return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
   return absl::OkStatus();
 }
 

@@ -1,9 +1,8 @@
 // Summary statistics and outputs of an SDF run for the CLI.
 #pragma once
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "absl/status/status.h"
 #include "client/cli/cli_flags.h"

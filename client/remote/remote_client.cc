@@ -62,7 +62,8 @@ v1::SdfParameters ToWireParams(const SdfParams& p) {
 std::vector<Vec3> FromFlattened(
     const google::protobuf::RepeatedField<double>& flat, int dimension) {
   std::vector<Vec3> out(flat.size() / dimension);
-  for (int i = 0; i < flat.size(); ++i) out[i / dimension][i % dimension] = flat[i];
+  for (int i = 0; i < flat.size(); ++i)
+    out[i / dimension][i % dimension] = flat[i];
   return out;
 }
 
@@ -113,8 +114,10 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
   for (int64_t begin = 0; ok && begin < n; begin += step) {
     req.Clear();
     auto* c = req.mutable_chunk();
-    for (int64_t i = begin; i < std::min(begin + step, mesh.num_vertices()); ++i) {
-      for (int d = 0; d < mesh.dimension; ++d) c->add_positions(mesh.positions[i][d]);
+    for (int64_t i = begin; i < std::min(begin + step, mesh.num_vertices());
+         ++i) {
+      for (int d = 0; d < mesh.dimension; ++d)
+        c->add_positions(mesh.positions[i][d]);
     }
     for (int64_t f = begin; f < std::min(begin + step, mesh.num_faces()); ++f) {
       const Face& face = mesh.faces[f];
@@ -142,7 +145,8 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Get(const std::string& id) {
   v1::GetSessionRequest req;
   req.set_session_id(id);
   v1::SessionInfo info;
-  if (absl::Status s = FromGrpc(stub_->GetSession(ctx.get(), req, &info)); !s.ok()) {
+  if (absl::Status s = FromGrpc(stub_->GetSession(ctx.get(), req, &info));
+      !s.ok()) {
     return s;
   }
   return info;
@@ -181,7 +185,8 @@ absl::StatusOr<v1::UpdatePositionsResponse> RemoteClient::UpdatePositions(
   req.set_session_id(id);
   req.set_expected_generation(expected_generation);
   req.mutable_indices()->Add(indices.begin(), indices.end());
-  req.mutable_positions()->Reserve(static_cast<int>(positions.size()) * dimension);
+  req.mutable_positions()->Reserve(static_cast<int>(positions.size()) *
+                                   dimension);
   for (const Vec3& p : positions) {
     for (int d = 0; d < dimension; ++d) req.add_positions(p[d]);
   }
@@ -218,7 +223,8 @@ absl::StatusOr<RemoteSdf> RemoteClient::ComputeSdf(
     }
     const v1::SdfChunk& c = msg.chunk();
     out.values.insert(out.values.end(), c.values().begin(), c.values().end());
-    for (int s : c.status()) out.status.push_back(static_cast<v1::VertexStatus>(s));
+    for (int s : c.status())
+      out.status.push_back(static_cast<v1::VertexStatus>(s));
     out.hits.insert(out.hits.end(), c.hits().begin(), c.hits().end());
     out.kept.insert(out.kept.end(), c.kept().begin(), c.kept().end());
     out.normalized.insert(out.normalized.end(), c.normalized().begin(),
@@ -229,7 +235,8 @@ absl::StatusOr<RemoteSdf> RemoteClient::ComputeSdf(
       for (int r = 1; r < c.row_offsets_size(); ++r) {
         j.row_offsets.push_back(base + c.row_offsets(r));
       }
-      const int dim = c.columns_size() ? c.derivatives_size() / c.columns_size() : 3;
+      const int dim =
+          c.columns_size() ? c.derivatives_size() / c.columns_size() : 3;
       for (int e = 0; e < c.columns_size(); ++e) {
         j.columns.push_back(c.columns(e));
         Vec3 d;
@@ -253,7 +260,8 @@ absl::StatusOr<v1::ComputeVjpResponse> RemoteClient::ComputeVjp(
   if (expected_generation) req.set_expected_generation(*expected_generation);
   req.mutable_weights()->Add(weights.begin(), weights.end());
   v1::ComputeVjpResponse resp;
-  if (absl::Status s = FromGrpc(stub_->ComputeVjp(ctx.get(), req, &resp)); !s.ok()) {
+  if (absl::Status s = FromGrpc(stub_->ComputeVjp(ctx.get(), req, &resp));
+      !s.ok()) {
     return s;
   }
   return resp;
@@ -291,7 +299,8 @@ absl::StatusOr<v1::CalibrateResponse> RemoteClient::Calibrate(
   req.set_equal_tolerance(equal_tolerance);
   req.set_bins(bins);
   v1::CalibrateResponse resp;
-  if (absl::Status s = FromGrpc(stub_->Calibrate(ctx.get(), req, &resp)); !s.ok()) {
+  if (absl::Status s = FromGrpc(stub_->Calibrate(ctx.get(), req, &resp));
+      !s.ok()) {
     return s;
   }
   return resp;

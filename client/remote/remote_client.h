@@ -21,7 +21,7 @@ namespace meshgauge::client {
 inline constexpr char kSessionMetadataKey[] = "x-meshgauge-session";
 
 struct ClientOptions {
-  double deadline_seconds = 600;   // per call.
+  double deadline_seconds = 600;      // per call.
   int upload_chunk_vertices = 65536;  // vertices (and faces) per chunk.
   int64_t max_message_bytes = 256ll << 20;
 };
@@ -44,8 +44,8 @@ uint32_t MeshCrc32(const Mesh& mesh);
 v1::SdfParameters ToWireParams(const SdfParams& params);
 
 // Per-vertex 3-vectors from `dimension` doubles per vertex.
-std::vector<Vec3> FromFlattened(const google::protobuf::RepeatedField<double>& flat,
-                                int dimension);
+std::vector<Vec3> FromFlattened(
+    const google::protobuf::RepeatedField<double>& flat, int dimension);
 
 class RemoteClient {
  public:
