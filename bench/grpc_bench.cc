@@ -95,6 +95,19 @@ int Run(const std::string& path) {
     if (!vjp->reused_hits()) std::fprintf(stderr, "VJP traced again!\n");
   });
 
+  // A VJP that reuses the last ray pass vs one that must trace.
+  double reused = 1e300, traced = 1e300;
+  for (int i = 0; i < n; ++i) {
+    Check(c.UpdatePositions("bench", generation++, 3, moved(i)).status());
+    const auto t0 = std::chrono::steady_clock::now();
+    Check(c.ComputeVjp("bench", params, ones).status());  // traces
+    const auto t1 = std::chrono::steady_clock::now();
+    Check(c.ComputeVjp("bench", params, ones).status());  // reuses
+    const auto t2 = std::chrono::steady_clock::now();
+    traced = std::min(traced, std::chrono::duration<double>(t1 - t0).count());
+    reused = std::min(reused, std::chrono::duration<double>(t2 - t1).count());
+  }
+
   // Refit vs re-upload + rebuild.
   const double refit = Best(n, [&](int i) {
     Check(c.UpdatePositions("bench", generation++, 3, moved(i)).status());
@@ -115,6 +128,9 @@ int Run(const std::string& path) {
       "  optimiser iteration (update + SDF + VJP): in-process %.3f s, "
       "gRPC %.3f s, ratio %.3f (goal <= 1.15)\n",
       local, remote, remote / local);
+  std::printf("  VJP reusing the cached ray pass %.3f s vs tracing anew %.3f s: "
+              "%.1fx\n",
+              reused, traced, traced / reused);
   std::printf(
       "  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
       "%.1fx (goal >= 5)\n",

@@ -123,7 +123,7 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
 
 grpc::Status MeshGaugeService::CreateSession(
     grpc::ServerContext*, grpc::ServerReader<v1::CreateSessionRequest>* reader,
-    v1::SessionInfo* response) {
+    v1::CreateSessionResponse* response) {
   return Instrumented("CreateSession", [&]() -> absl::Status {
     MeshAssembler assembler(options_);
     v1::CreateSessionRequest request;
@@ -134,18 +134,20 @@ grpc::Status MeshGaugeService::CreateSession(
     if (!mesh.ok()) return mesh.status();
     auto session = store_->Create(assembler.session_id(), std::move(*mesh));
     if (!session.ok()) return session.status();
-    ToProto((*session)->Snapshot(), clock_->NowSeconds(), response);
+    ToProto((*session)->Snapshot(), clock_->NowSeconds(),
+            response->mutable_session());
     return absl::OkStatus();
   });
 }
 
 grpc::Status MeshGaugeService::GetSession(grpc::ServerContext*,
                                           const v1::GetSessionRequest* request,
-                                          v1::SessionInfo* response) {
+                                          v1::GetSessionResponse* response) {
   return Instrumented("GetSession", [&]() -> absl::Status {
     auto session = store_->Get(request->session_id());
     if (!session.ok()) return session.status();
-    ToProto((*session)->Snapshot(), clock_->NowSeconds(), response);
+    ToProto((*session)->Snapshot(), clock_->NowSeconds(),
+            response->mutable_session());
     return absl::OkStatus();
   });
 }

@@ -24,10 +24,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   grpc::Status CreateSession(
       grpc::ServerContext* ctx,
       grpc::ServerReader<v1::CreateSessionRequest>* reader,
-      v1::SessionInfo* response) override;
+      v1::CreateSessionResponse* response) override;
   grpc::Status GetSession(grpc::ServerContext* ctx,
                           const v1::GetSessionRequest* request,
-                          v1::SessionInfo* response) override;
+                          v1::GetSessionResponse* response) override;
   grpc::Status ListSessions(grpc::ServerContext* ctx,
                             const v1::ListSessionsRequest* request,
                             v1::ListSessionsResponse* response) override;

@@ -167,6 +167,39 @@ TEST_F(MeshFileTest, WeldsAsciiStlByExactCoordinates) {
   EXPECT_EQ(mesh->num_faces(), 2);
 }
 
+TEST_F(MeshFileTest, ReadsAsciiPly) {
+  const std::string path = Write(
+      "a.ply",
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 2\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
+  auto mesh = ReadMesh(path);
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  EXPECT_EQ(mesh->num_vertices(), 4);
+  EXPECT_EQ(mesh->num_faces(), 2);
+  EXPECT_EQ(mesh->positions[2], Vec3(1, 1, 0));
+}
+
+TEST_F(MeshFileTest, ReadsAndWeldsBinaryStl) {
+  std::string data(80, ' ');
+  const uint32_t count = 2;
+  data.append(reinterpret_cast<const char*>(&count), 4);
+  const float tris[2][9] = {{0, 0, 0, 1, 0, 0, 0, 1, 0},
+                            {1, 0, 0, 1, 1, 0, 0, 1, 0}};
+  for (const auto& t : tris) {
+    const float normal[3] = {0, 0, 1};
+    data.append(reinterpret_cast<const char*>(normal), 12);
+    data.append(reinterpret_cast<const char*>(t), 36);
+    data.append(2, '\0');
+  }
+  const std::string path = Write("b.stl", data);
+  auto mesh = ReadMesh(path);
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  EXPECT_EQ(mesh->num_vertices(), 4);
+  EXPECT_EQ(mesh->num_faces(), 2);
+}
+
 TEST_F(MeshFileTest, MissingFileIsNotFound) {
   EXPECT_EQ(ReadMesh("/nonexistent/x.obj").status().code(),
             absl::StatusCode::kNotFound);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 #include <future>
 #include <thread>
 
@@ -99,8 +100,13 @@ TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
   auto up = client_->UpdatePositions("big", 1, 3, big.positions);
   const double waited = SecondsSince(start);
   ASSERT_TRUE(up.ok()) << up.status();
-  EXPECT_LT(waited, 0.2 + 0.1 + 0.2)
+  // 0.2 s deadline + at most 0.1 s to stop + the update itself (~0.03 s
+  // for 81k vertices) + slack for a loaded 2-core machine.
+  EXPECT_LT(waited, 0.2 + 0.1 + 0.1)
       << "server kept computing after the deadline";
+  std::printf("deadline 0.2 s; the exclusive update completed %.3f s after "
+              "the call started\n",
+              waited);
   for (int i = 0; i < 100 && metrics_.Text().find("DEADLINE_EXCEEDED") ==
                                  std::string::npos;
        ++i) {

@@ -240,12 +240,12 @@ absl::StatusOr<v1::SessionInfo> RawUpload(
     client::RemoteClient& c,
     const std::vector<v1::CreateSessionRequest>& msgs) {
   auto ctx = c.Context("raw");
-  v1::SessionInfo info;
-  auto w = c.stub().CreateSession(ctx.get(), &info);
+  v1::CreateSessionResponse response;
+  auto w = c.stub().CreateSession(ctx.get(), &response);
   for (const auto& m : msgs) w->Write(m);
   w->WritesDone();
   if (absl::Status s = client::FromGrpc(w->Finish()); !s.ok()) return s;
-  return info;
+  return response.session();
 }
 
 std::vector<v1::CreateSessionRequest> TriangleUpload(uint32_t crc) {

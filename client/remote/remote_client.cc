@@ -93,8 +93,8 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
 absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
     const Mesh& mesh, const std::string& session_id) {
   auto ctx = Context(session_id);
-  v1::SessionInfo info;
-  auto writer = stub_->CreateSession(ctx.get(), &info);
+  v1::CreateSessionResponse response;
+  auto writer = stub_->CreateSession(ctx.get(), &response);
   v1::CreateSessionRequest req;
   auto* h = req.mutable_header();
   h->set_session_id(session_id);
@@ -137,19 +137,19 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
   }
   writer->WritesDone();
   if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
-  return info;
+  return response.session();
 }
 
 absl::StatusOr<v1::SessionInfo> RemoteClient::Get(const std::string& id) {
   auto ctx = Context(id);
   v1::GetSessionRequest req;
   req.set_session_id(id);
-  v1::SessionInfo info;
-  if (absl::Status s = FromGrpc(stub_->GetSession(ctx.get(), req, &info));
+  v1::GetSessionResponse resp;
+  if (absl::Status s = FromGrpc(stub_->GetSession(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return info;
+  return resp.session();
 }
 
 absl::StatusOr<std::vector<v1::SessionInfo>> RemoteClient::List(int page_size) {

@@ -126,7 +126,38 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertIn("meshgauge_rays_traced_total", text)
         self.assertNotIn("octa", text)  # no session ids as labels
 
-    def test_5_sigterm_drains_and_exits_cleanly(self):
+    def test_5_cli_remote_verbs(self):
+        cli = os.environ["MESHGAUGE_CLI"]
+        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+                              "decimated-knight.off")
+
+        def run(*args, ok=True):
+            p = subprocess.run([cli, "remote", *args, "--server", self.target,
+                                "--json"], capture_output=True, text=True,
+                               timeout=60)
+            if ok:
+                self.assertEqual(p.returncode, 0, p.stderr)
+            return p
+
+        import json
+        info = json.loads(run("upload", knight, "--session-id", "cli").stdout)
+        self.assertEqual(info["vertices"], 502)
+        sdf = json.loads(run("sdf", "cli").stdout)
+        self.assertEqual(sdf["ok"], 502)
+        grad = json.loads(run("grad", "cli").stdout)
+        self.assertTrue(grad["reused_hits"])
+        pen = json.loads(run("penalty", "cli", "--t-min", "0.1").stdout)
+        self.assertGreater(pen["penalty"], 0)
+        up = json.loads(run("update", "cli", "--positions", knight).stdout)
+        self.assertEqual(up["generation"], 1)
+        ids = [s["session_id"] for s in json.loads(run("list").stdout)]
+        self.assertIn("cli", ids)
+        run("delete", "cli")
+        missing = run("info", "cli", ok=False)
+        self.assertEqual(missing.returncode, 1)
+        self.assertIn("no session 'cli'", missing.stderr)
+
+    def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)
         self.log.seek(0)

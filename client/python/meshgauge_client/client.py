@@ -126,14 +126,15 @@ class MeshGaugeClient:
                 num_vertices=len(vertices), num_faces=len(faces),
                 crc32=mesh_crc32(vertices, faces, regions)))
 
-        info = self._call(self._stub.CreateSession, requests(), session_id)
+        info = self._call(self._stub.CreateSession, requests(),
+                          session_id).session
         self._dims[info.session_id] = dim
         return info
 
     def info(self, session_id):
         return self._call(self._stub.GetSession,
                           pb.GetSessionRequest(session_id=session_id),
-                          session_id)
+                          session_id).session
 
     def list(self, page_size=100):
         out, token = [], ""
