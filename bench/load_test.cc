@@ -1,0 +1,230 @@
+// meshgauge-load: N concurrent optimiser-like clients against a server.
+//
+//   meshgauge-load --target host:port [--clients N] [--iterations M]
+//                  [--frequency F] [--time_limit_seconds T] [--recreate]
+//
+// Every client creates its own session (an icosphere of geodesic frequency
+// F), then for M iterations: UpdatePositions (a deterministic deformation of
+// iteration i) -> ComputeSdf -> ComputeVjp (g = 1). First one client runs
+// the same sequence alone: the reference. Every reply of every concurrent
+// client must equal the reference bit for bit. Bounded by --iterations and
+// --time_limit_seconds; loopback or the stack's own addresses only.
+// With --recreate, a client whose session was lost (NOT_FOUND, UNAVAILABLE:
+// a replica died) re-creates it at the current iteration and continues.
+// Prints throughput, p50/p95/p99 latency per RPC, errors by status code and
+// mismatches; exits 0 iff there were no mismatches and (without --recreate)
+// no errors, or (with --recreate) every client finished.
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
+#include "client/remote/remote_client.h"
+#include "lib/shapes.h"
+
+ABSL_FLAG(std::string, target, "127.0.0.1:50051", "server or balancer");
+ABSL_FLAG(int, clients, 4, "concurrent clients, 1..256");
+ABSL_FLAG(int, iterations, 5, "iterations per client, 1..10000");
+ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
+ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
+ABSL_FLAG(bool, recreate, false, "re-create lost sessions and continue");
+ABSL_FLAG(std::string, session_prefix, "load", "session ids: PREFIX-<n>");
+
+namespace meshgauge::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Reply {
+  std::vector<double> values;
+  std::vector<double> gradient;
+};
+
+struct Stats {
+  std::mutex mu;
+  std::map<std::string, std::vector<double>> latency;  // per RPC, seconds.
+  std::map<std::string, int64_t> errors;               // "RPC CODE" -> n.
+  int64_t mismatches = 0, iterations = 0, recreated = 0;
+  void Latency(const std::string& rpc, double s) {
+    std::lock_guard<std::mutex> l(mu);
+    latency[rpc].push_back(s);
+  }
+  void Error(const std::string& rpc, const absl::Status& st) {
+    std::lock_guard<std::mutex> l(mu);
+    ++errors[absl::StrCat(rpc, " ", absl::StatusCodeToString(st.code()))];
+  }
+};
+
+std::vector<Vec3> Deform(const Mesh& mesh, int iteration) {
+  std::vector<Vec3> p = mesh.positions;
+  const double a = 0.02 * std::sin(0.7 * (iteration + 1));
+  for (Vec3& v : p) v = Vec3(v.x * (1 + a), v.y * (1 - a), v.z * (1 + a * v.x));
+  return p;
+}
+
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+// One client's run. Fills `replies` when `reference` is null, else compares.
+// Returns false when the client could not finish.
+bool RunClient(const std::string& target, const std::string& id,
+               const Mesh& mesh, int iterations, Clock::time_point stop_at,
+               std::vector<Reply>* replies, const std::vector<Reply>* reference,
+               Stats& stats) {
+  client::RemoteClient c(target);
+  const v1::SdfParameters params = client::ToWireParams({});
+  const std::vector<double> ones(mesh.num_vertices(), 1.0);
+  auto timed = [&](const char* rpc, auto call) {
+    const auto start = Clock::now();
+    auto r = call();
+    const double s = std::chrono::duration<double>(Clock::now() - start).count();
+    if (r.ok()) stats.Latency(rpc, s);
+    else stats.Error(rpc, r.status());
+    return r;
+  };
+  auto create = [&](const std::vector<Vec3>& positions) {
+    Mesh m = mesh;
+    m.positions = positions;
+    (void)c.Delete(id);  // a leftover from an earlier run, if any.
+    return timed("CreateSession", [&] { return c.Upload(m, id); }).ok();
+  };
+  if (!create(mesh.positions)) return false;
+  int64_t generation = 0;
+  for (int it = 0; it < iterations; ++it) {
+    if (Clock::now() > stop_at) return false;
+    const std::vector<Vec3> positions = Deform(mesh, it);
+    bool lost = false;
+    auto up = timed("UpdatePositions", [&] {
+      return c.UpdatePositions(id, generation, 3, positions);
+    });
+    absl::StatusOr<client::RemoteSdf> sdf = absl::UnknownError("not run");
+    absl::StatusOr<v1::ComputeVjpResponse> vjp = absl::UnknownError("not run");
+    if (up.ok()) {
+      generation = up->generation();
+      sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
+      if (sdf.ok()) {
+        vjp = timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
+      }
+    }
+    const absl::Status failed =
+        !up.ok() ? up.status() : (!sdf.ok() ? sdf.status() : vjp.status());
+    if (!failed.ok()) {
+      lost = failed.code() == absl::StatusCode::kNotFound ||
+             failed.code() == absl::StatusCode::kUnavailable;
+      if (!(lost && absl::GetFlag(FLAGS_recreate))) return false;
+      // Re-create at the positions of this iteration and redo it.
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      bool ok = false;
+      for (int attempt = 0; attempt < 20 && !ok; ++attempt) {
+        ok = create(positions);
+        if (!ok) std::this_thread::sleep_for(std::chrono::milliseconds(250));
+      }
+      if (!ok) return false;
+      {
+        std::lock_guard<std::mutex> l(stats.mu);
+        ++stats.recreated;
+      }
+      generation = 0;
+      --it;  // retry: the session now already holds these positions...
+      // ...so move them again to the same positions (a no-op deformation).
+      continue;
+    }
+    Reply reply{sdf->values, {vjp->gradient().begin(), vjp->gradient().end()}};
+    std::lock_guard<std::mutex> l(stats.mu);
+    ++stats.iterations;
+    if (reference == nullptr) {
+      replies->push_back(std::move(reply));
+    } else if (!SameBits(reply.values, (*reference)[it].values) ||
+               !SameBits(reply.gradient, (*reference)[it].gradient)) {
+      ++stats.mismatches;
+    }
+  }
+  (void)c.Delete(id);
+  return true;
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * v.size()))];
+}
+
+int Run() {
+  const std::string target = absl::GetFlag(FLAGS_target);
+  const int clients = std::clamp(absl::GetFlag(FLAGS_clients), 1, 256);
+  const int iterations = std::clamp(absl::GetFlag(FLAGS_iterations), 1, 10000);
+  const Mesh mesh = MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
+  const auto stop_at =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                         std::chrono::duration<double>(
+                             absl::GetFlag(FLAGS_time_limit_seconds)));
+  const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
+  Stats ref_stats;
+  std::vector<Reply> reference;
+  if (!RunClient(target, prefix + "-reference", mesh, iterations, stop_at,
+                 &reference, nullptr, ref_stats)) {
+    std::printf("reference run failed\n");
+    for (const auto& [k, n] : ref_stats.errors) std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
+    return 1;
+  }
+  Stats stats;
+  std::atomic<int> finished{0};
+  const auto start = Clock::now();
+  std::vector<std::thread> threads;
+  for (int i = 0; i < clients; ++i) {
+    threads.emplace_back([&, i] {
+      if (RunClient(target, absl::StrCat(prefix, "-", i), mesh, iterations,
+                    stop_at, nullptr, &reference, stats)) {
+        ++finished;
+      }
+    });
+  }
+  for (auto& t : threads) t.join();
+  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+  int64_t errors = 0;
+  for (const auto& [k, n] : stats.errors) errors += n;
+  std::printf("target %s: %d clients x %d iterations, %lld vertices, %.2f s\n",
+              target.c_str(), clients, iterations,
+              static_cast<long long>(mesh.num_vertices()), wall);
+  std::printf("throughput: %.2f iterations/s (%lld iterations), %d/%d clients "
+              "finished, %lld sessions re-created\n",
+              stats.iterations / wall, static_cast<long long>(stats.iterations),
+              finished.load(), clients, static_cast<long long>(stats.recreated));
+  std::printf("| RPC | calls | p50 ms | p95 ms | p99 ms |\n| --- | --- | --- | --- | --- |\n");
+  for (const auto& [rpc, v] : stats.latency) {
+    std::printf("| %s | %zu | %.1f | %.1f | %.1f |\n", rpc.c_str(), v.size(),
+                1e3 * Percentile(v, 0.5), 1e3 * Percentile(v, 0.95),
+                1e3 * Percentile(v, 0.99));
+  }
+  std::printf("errors: %lld\n", static_cast<long long>(errors));
+  for (const auto& [k, n] : stats.errors) {
+    std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
+  }
+  std::printf("mismatches against the single-client reference: %lld\n",
+              static_cast<long long>(stats.mismatches));
+  const bool pass = stats.mismatches == 0 &&
+                    (absl::GetFlag(FLAGS_recreate) ? finished == clients
+                                                   : errors == 0 && finished == clients);
+  std::printf("%s\n", pass ? "PASS" : "FAIL");
+  return pass ? 0 : 1;
+}
+
+}  // namespace
+}  // namespace meshgauge::bench
+
+int main(int argc, char** argv) {
+  absl::ParseCommandLine(argc, argv);
+  return meshgauge::bench::Run();
+}
