@@ -1,7 +1,6 @@
 // Server lifecycle: health, cancellation and deadlines inside long
 // computations, metrics exposition, graceful drain with a call in flight.
 #include <gmock/gmock.h>
-#include <grpcpp/generic/generic_stub.h>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -20,28 +19,12 @@ using ::testing::HasSubstr;
 using ::testing::Not;
 using Clock = std::chrono::steady_clock;
 
-// grpc.health.v1.Health/Check for the whole server, by hand-encoded bytes:
-// the request is empty; the response is field 1 (status) as a varint.
-// Returns 1 SERVING, 2 NOT_SERVING, -1 on an RPC error.
+// 1 SERVING, 2 NOT_SERVING, -1 on an RPC error.
 int HealthStatus(const std::string& target) {
-  auto channel =
-      grpc::CreateChannel(target, grpc::InsecureChannelCredentials());
-  grpc::GenericStub stub(channel);
-  grpc::ClientContext ctx;
-  ctx.set_deadline(std::chrono::system_clock::now() + std::chrono::seconds(2));
-  grpc::ByteBuffer request, response;
-  grpc::Slice empty("");
-  request = grpc::ByteBuffer(&empty, 1);
-  std::promise<grpc::Status> done;
-  stub.UnaryCall(&ctx, "/grpc.health.v1.Health/Check", grpc::StubOptions(),
-                 &request, &response,
-                 [&done](grpc::Status s) { done.set_value(s); });
-  if (!done.get_future().get().ok()) return -1;
-  std::vector<grpc::Slice> slices;
-  if (!response.Dump(&slices).ok()) return -1;
-  std::string bytes;
-  for (const auto& s : slices) bytes += std::string(s.begin(), s.end());
-  return bytes.size() == 2 && bytes[0] == 0x08 ? bytes[1] : -1;
+  client::RemoteClient c(target);
+  auto serving = c.Serving();
+  if (!serving.ok()) return -1;
+  return *serving ? 1 : 2;
 }
 
 double SecondsSince(Clock::time_point t) {

@@ -28,7 +28,8 @@ namespace meshgauge::cli {
 namespace {
 
 constexpr char kUsage[] =
-    "usage: meshgauge remote upload MESH [--session-id ID] | list | info ID | "
+    "usage: meshgauge remote upload MESH [--session-id ID] | list | health | "
+    "info ID | "
     "delete ID | sdf ID [--csv FILE] | grad ID [--weights FILE] [--vjp FILE] | "
     "penalty ID --t-min T [--phi ...] [--power n] [--grad FILE] | update ID "
     "--positions MESH [--generation G]   (all take --server host:port)";
@@ -181,6 +182,14 @@ absl::Status RunRemote(const std::vector<std::string>& args) {
   client::RemoteClient c(absl::GetFlag(FLAGS_server));
   const std::string& verb = args[0];
   if (verb == "upload") return Upload(c, args);
+  if (verb == "health") {
+    // Exit status 0 only when SERVING (container health checks).
+    auto serving = c.Serving();
+    if (!serving.ok()) return serving.status();
+    if (!*serving) return absl::UnavailableError("NOT_SERVING (draining)");
+    std::cout << "SERVING\n";
+    return absl::OkStatus();
+  }
   if (verb == "list") {
     auto all = c.List();
     if (!all.ok()) return all.status();

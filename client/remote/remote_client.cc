@@ -2,7 +2,10 @@
 
 #include <zlib.h>
 
+#include <grpcpp/generic/generic_stub.h>
+
 #include <chrono>
+#include <future>
 
 #include "absl/strings/str_cat.h"
 
@@ -138,6 +141,31 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
   writer->WritesDone();
   if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
   return response.session();
+}
+
+absl::StatusOr<bool> RemoteClient::Serving() {
+  // The health protocol by hand-encoded bytes (no generated health stubs):
+  // the request is empty; the response is field 1 (status) as a varint,
+  // 1 = SERVING, 2 = NOT_SERVING.
+  grpc::GenericStub stub(channel_);
+  auto ctx = Context("");
+  grpc::Slice empty("");
+  grpc::ByteBuffer request(&empty, 1), response;
+  std::promise<grpc::Status> done;
+  stub.UnaryCall(ctx.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(),
+                 &request, &response,
+                 [&done](grpc::Status s) { done.set_value(std::move(s)); });
+  if (absl::Status s = FromGrpc(done.get_future().get()); !s.ok()) return s;
+  std::vector<grpc::Slice> slices;
+  if (!response.Dump(&slices).ok()) {
+    return absl::DataLossError("unreadable health response");
+  }
+  std::string bytes;
+  for (const auto& s : slices) bytes.append(s.begin(), s.end());
+  if (bytes.size() != 2 || bytes[0] != 0x08) {
+    return absl::DataLossError("unexpected health response");
+  }
+  return bytes[1] == 1;
 }
 
 absl::StatusOr<v1::SessionInfo> RemoteClient::Get(const std::string& id) {

@@ -83,6 +83,10 @@ class RemoteClient {
       const std::string& session_id, const v1::SdfParameters& params,
       double t_min, double equal_tolerance = 0, int bins = 0);
 
+  // grpc.health.v1.Health/Check for the whole server: true when SERVING,
+  // false when NOT_SERVING (draining). Errors: the call's status.
+  absl::StatusOr<bool> Serving();
+
   v1::MeshGauge::Stub& stub() { return *stub_; }
   // A context with the deadline and the session routing key.
   std::unique_ptr<grpc::ClientContext> Context(
