@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "absl/strings/str_cat.h"
@@ -68,6 +69,29 @@ const char* VertexStatusName(VertexStatus status) {
       return "DEGENERATE_NORMAL";
   }
   return "UNKNOWN";
+}
+
+ValueStats SummarizeValues(const std::vector<double>& values) {
+  std::vector<double> ok;
+  for (double v : values) {
+    if (std::isfinite(v)) ok.push_back(v);
+  }
+  ValueStats s;
+  s.count = std::ssize(ok);
+  if (ok.empty()) {
+    s.min = s.max = s.mean = s.median =
+        std::numeric_limits<double>::quiet_NaN();
+    return s;
+  }
+  std::sort(ok.begin(), ok.end());
+  const size_t n = ok.size();
+  double sum = 0;
+  for (double v : ok) sum += v;
+  s.min = ok.front();
+  s.max = ok.back();
+  s.mean = sum / static_cast<double>(n);
+  s.median = n % 2 ? ok[n / 2] : (ok[n / 2 - 1] + ok[n / 2]) / 2;
+  return s;
 }
 
 int64_t SdfResult::CountStatus(VertexStatus s) const {

@@ -75,6 +75,16 @@ struct SdfResult {
   int64_t CountStatus(VertexStatus s) const;
 };
 
+// Statistics of the finite entries of a per-vertex array (NaN entries, the
+// vertices without a value, are skipped). All fields but count are NaN when
+// no entry is finite; the median of an even count is the mean of the two
+// middle values.
+struct ValueStats {
+  int64_t count = 0;
+  double min, max, mean, median;
+};
+ValueStats SummarizeValues(const std::vector<double>& values);
+
 // Hooks for long computations. Both may be called from worker threads, never
 // concurrently with themselves.
 struct ComputeControl {

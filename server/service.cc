@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <optional>
 
 #include "absl/strings/str_cat.h"
@@ -275,19 +274,10 @@ grpc::Status MeshGaugeService::ComputeSdf(
     s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
     s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
     s->set_degenerate_normal(r.CountStatus(VertexStatus::kDegenerateNormal));
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0;
-    int64_t n = 0;
-    for (double v : r.values) {
-      if (!std::isfinite(v)) continue;
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-      sum += v;
-      ++n;
-    }
-    const double nan = std::numeric_limits<double>::quiet_NaN();
-    s->set_sdf_min(n ? lo : nan);
-    s->set_sdf_max(n ? hi : nan);
-    s->set_sdf_mean(n ? sum / n : nan);
+    const ValueStats stats = SummarizeValues(r.values);
+    s->set_sdf_min(stats.min);
+    s->set_sdf_max(stats.max);
+    s->set_sdf_mean(stats.mean);
     s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
     s->set_rays(r.rays_traced);
     s->set_reused_hits(pass->reused);
@@ -359,12 +349,7 @@ grpc::Status MeshGaugeService::ComputePenalty(
       AppendFlattened(pen->gradient, ev.mesh().dimension,
                       response->mutable_gradient());
     }
-    double lo = std::numeric_limits<double>::infinity();
-    for (double v : values) {
-      if (std::isfinite(v)) lo = std::min(lo, v);
-    }
-    response->set_sdf_min(
-        std::isfinite(lo) ? lo : std::numeric_limits<double>::quiet_NaN());
+    response->set_sdf_min(SummarizeValues(values).min);
     response->set_reused_hits(pass->reused);
     response->set_seconds(Seconds(start));
     return absl::OkStatus();

@@ -113,6 +113,26 @@ absl::StatusOr<SdfParams> SdfParamsFromFlags() {
   return p;
 }
 
+absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags() {
+  PenaltyParams pp;
+  pp.t_min = absl::GetFlag(FLAGS_t_min);
+  pp.power = absl::GetFlag(FLAGS_power);
+  const std::string phi = absl::GetFlag(FLAGS_phi);
+  if (phi == "one-sided") {
+    pp.form = PenaltyForm::kOneSided;
+  } else if (phi == "thesis") {
+    pp.form = PenaltyForm::kThesis;
+  } else {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
+  }
+  if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--t-min/--power: ", s.message()));
+  }
+  return pp;
+}
+
 namespace {
 
 absl::Status ApplyRegionDirections(Mesh& mesh) {

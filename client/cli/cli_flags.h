@@ -8,6 +8,7 @@
 #include "absl/flags/declare.h"
 #include "absl/status/statusor.h"
 #include "lib/mesh.h"
+#include "lib/penalty.h"
 #include "lib/sdf_types.h"
 
 ABSL_DECLARE_FLAG(std::string, method);
@@ -45,6 +46,10 @@ std::vector<std::string> NormalizeArgs(int argc, char** argv);
 // SdfParams from --method --cone-angle --rays --kappa --threads
 // --max-distance --normals. Errors: InvalidArgument naming the flag.
 absl::StatusOr<SdfParams> SdfParamsFromFlags();
+
+// PenaltyParams from --t-min --phi --power, validated. Errors:
+// InvalidArgument naming the flag.
+absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags();
 
 // A mesh read from a file with --region-direction and --reorient applied.
 struct LoadedMesh {

@@ -106,22 +106,10 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
 }
 
 absl::Status RunPenalty(const std::vector<std::string>& args) {
-  PenaltyParams pp;
-  pp.t_min = absl::GetFlag(FLAGS_t_min);
-  pp.power = absl::GetFlag(FLAGS_power);
+  auto penalty = PenaltyParamsFromFlags();
+  if (!penalty.ok()) return penalty.status();
+  const PenaltyParams& pp = *penalty;
   const std::string phi = absl::GetFlag(FLAGS_phi);
-  if (phi == "one-sided") {
-    pp.form = PenaltyForm::kOneSided;
-  } else if (phi == "thesis") {
-    pp.form = PenaltyForm::kThesis;
-  } else {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
-  }
-  if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--t-min/--power: ", s.message()));
-  }
   auto prep = Prepare(args,
                       "usage: meshgauge penalty MESH --t-min T "
                       "[--phi one-sided|thesis] [--power n] [--grad FILE]",

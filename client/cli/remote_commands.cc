@@ -129,18 +129,16 @@ absl::Status Grad(client::RemoteClient& c, const std::string& id) {
 absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
   auto params = SdfParamsFromFlags();
   if (!params.ok()) return params.status();
-  const std::string phi = absl::GetFlag(FLAGS_phi);
-  if (phi != "one-sided" && phi != "thesis") {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
-  }
+  auto penalty = PenaltyParamsFromFlags();
+  if (!penalty.ok()) return penalty.status();
   const std::string grad_path = absl::GetFlag(FLAGS_grad);
   auto info = c.Get(id);
   if (!info.ok()) return info.status();
-  auto r = c.ComputePenalty(
-      id, client::ToWireParams(*params), absl::GetFlag(FLAGS_t_min),
-      phi == "thesis" ? v1::PENALTY_FORM_THESIS : v1::PENALTY_FORM_ONE_SIDED,
-      absl::GetFlag(FLAGS_power), !grad_path.empty());
+  auto r = c.ComputePenalty(id, client::ToWireParams(*params), penalty->t_min,
+                            penalty->form == PenaltyForm::kThesis
+                                ? v1::PENALTY_FORM_THESIS
+                                : v1::PENALTY_FORM_ONE_SIDED,
+                            penalty->power, !grad_path.empty());
   if (!r.ok()) return r.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(

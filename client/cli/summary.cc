@@ -13,10 +13,6 @@ namespace meshgauge::cli {
 
 nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
                            double seconds) {
-  std::vector<double> ok;
-  for (double v : result.values) {
-    if (std::isfinite(v)) ok.push_back(v);
-  }
   nlohmann::json j;
   j["vertices"] = loaded.mesh.num_vertices();
   j["faces"] = loaded.mesh.num_faces();
@@ -29,19 +25,16 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j["no_hit"] = result.CountStatus(VertexStatus::kNoHit);
   j["no_faces"] = result.CountStatus(VertexStatus::kNoFaces);
   j["degenerate_normal"] = result.CountStatus(VertexStatus::kDegenerateNormal);
-  if (ok.empty()) {
+  const ValueStats stats = SummarizeValues(result.values);
+  if (stats.count == 0) {
     for (const char* key : {"sdf_min", "sdf_median", "sdf_max", "sdf_mean"}) {
       j[key] = nullptr;
     }
   } else {
-    std::sort(ok.begin(), ok.end());
-    const size_t n = ok.size();
-    double sum = 0;
-    for (double v : ok) sum += v;
-    j["sdf_min"] = ok.front();
-    j["sdf_max"] = ok.back();
-    j["sdf_median"] = n % 2 ? ok[n / 2] : (ok[n / 2 - 1] + ok[n / 2]) / 2;
-    j["sdf_mean"] = sum / static_cast<double>(n);
+    j["sdf_min"] = stats.min;
+    j["sdf_max"] = stats.max;
+    j["sdf_median"] = stats.median;
+    j["sdf_mean"] = stats.mean;
   }
   const IntegralResult integral = IntegrateNodal(loaded.mesh, result.values);
   j["integral"] = integral.value;
