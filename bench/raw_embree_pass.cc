@@ -74,8 +74,7 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
           rtcInitIntersectContext(&ctx);
           for (int64_t p = r.begin(); p < r.end(); ++p) {
             if (topo.vertex_faces.Of(p).empty()) continue;
-            const VertexCone vc =
-                MakeVertexCone(3, normals[p], topo.vertex_direction[p]);
+            const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
             if (!vc.valid) continue;
             const Vec3& x = mesh.positions[p];
             for (const ConeRay& ray : *cone) {

@@ -28,22 +28,33 @@ ConeEstimate EstimateCone(absl::Span<const double> t,
   const double sigma = std::sqrt(var / static_cast<double>(n));
   const size_t mid = n / 2;
   std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
-  double median = scratch[mid];
-  if (n % 2 == 0) {
-    median =
-        (median + *std::max_element(scratch.begin(), scratch.begin() + mid)) /
-        2;
+  const double upper = scratch[mid];
+  const double lower =
+      n % 2 == 0 ? *std::max_element(scratch.begin(), scratch.begin() + mid)
+                 : upper;
+  const double median = (lower + upper) / 2;
+  const double tolerance = 1e-12 * std::abs(median);
+  const double bound = kappa * sigma + tolerance;
+  auto keep = [&](auto&& accept) {
+    double num = 0;
+    for (size_t k = 0; k < t.size(); ++k) {
+      if (std::isnan(t[k]) || !accept(t[k])) continue;
+      kept[k] = 1;
+      ++est.kept;
+      num += cone[k].weight * t[k];
+      est.weight_sum += cone[k].weight;
+    }
+    est.value = num / est.weight_sum;
+  };
+  keep([&](double tk) { return std::abs(tk - median) <= bound; });
+  // SPEC v2 §7, kappa = 0 with an even count whose two middle distances
+  // differ: no ray equals the median, so keep the two middle ones.
+  if (est.kept == 0) {
+    keep([&](double tk) {
+      return std::abs(tk - lower) <= tolerance ||
+             std::abs(tk - upper) <= tolerance;
+    });
   }
-  const double bound = kappa * sigma + 1e-12 * std::abs(median);
-  double num = 0;
-  for (size_t k = 0; k < t.size(); ++k) {
-    if (std::isnan(t[k]) || std::abs(t[k] - median) > bound) continue;
-    kept[k] = 1;
-    ++est.kept;
-    num += cone[k].weight * t[k];
-    est.weight_sum += cone[k].weight;
-  }
-  est.value = num / est.weight_sum;
   return est;
 }
 

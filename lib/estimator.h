@@ -20,7 +20,9 @@ struct ConeEstimate {
 // kept[k] = 1 for rays kept by the filter |t_k - median| <= kappa sigma
 // (sigma: population standard deviation of the hit distances; the median of
 // an even count is the mean of the two middle values; the comparison allows
-// 1e-12 |median| so equal distances are all kept). `scratch` is reused
+// 1e-12 |median| so equal distances are all kept; if that keeps none, which
+// only kappa = 0 with an even count can cause, the rays at the two middle
+// distances are kept, SPEC v2 §7). `scratch` is reused
 // storage. Deterministic: the result depends only on the inputs.
 ConeEstimate EstimateCone(absl::Span<const double> t,
                           absl::Span<const ConeRay> cone, double kappa,

@@ -33,6 +33,12 @@ RayScene::~RayScene() {
 
 absl::Status RayScene::Init(const Mesh& mesh) {
   dimension_ = mesh.dimension;
+  // The BVH is single precision: storing coordinates relative to the
+  // vertices' centroid keeps their relative precision whatever the part's
+  // offset from the origin (CAD coordinates), so hits do not depend on a
+  // translation of the mesh.
+  for (const Vec3& p : mesh.positions) origin_ += p;
+  if (!mesh.positions.empty()) origin_ = origin_ / std::ssize(mesh.positions);
   device_ = rtcNewDevice(nullptr);
   if (!device_) return absl::InternalError("rtcNewDevice failed");
   scene_ = rtcNewScene(device_);
@@ -95,7 +101,7 @@ absl::Status RayScene::Init(const Mesh& mesh) {
 void RayScene::FillVertices(const Mesh& mesh) {
   const size_t nv = mesh.positions.size();
   for (size_t i = 0; i < nv; ++i) {
-    const Vec3& p = mesh.positions[i];
+    const Vec3 p = mesh.positions[i] - origin_;
     if (dimension_ == 3) {
       float* dst = vertex_buffer_ + 4 * i;
       dst[0] = static_cast<float>(p.x);
@@ -158,7 +164,7 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
                                   float t_near, float t_far) const {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
-  RTCRayHit rh = MakeRayHit(origin, dir, t_near, t_far);
+  RTCRayHit rh = MakeRayHit(origin - origin_, dir, t_near, t_far);
   rtcIntersect1(scene_, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};

@@ -46,7 +46,8 @@ class RayScene {
   absl::Status UpdatePositions(const Mesh& mesh);
 
   // Closest hit of origin + t * dir with t in [t_near, t_far] (single
-  // precision, plain rtcIntersect1). `prim` indexes
+  // precision, plain rtcIntersect1, in coordinates relative to the mesh's
+  // centroid at creation). `prim` indexes
   // MeshTopology::primitives; -1 for a miss. Thread-safe. The one-ring
   // exclusion of SPEC §4 is the caller's (TraceExcluding in sdf_pass.h), so
   // that its face lookup can use prefetched memory.
@@ -73,6 +74,7 @@ class RayScene {
   BvhUpdatePolicy policy_;
   int dimension_ = 3;
   float extrude_half_height_ = 1;
+  Vec3 origin_;  // subtracted (in double) from every coordinate Embree sees.
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   RTCGeometry geometry_ = nullptr;

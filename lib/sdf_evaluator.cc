@@ -148,7 +148,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
   }
 
   ControlGate gate(control, nv);
-  std::atomic<int64_t> rays_traced{0};
+  std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
   const auto start = std::chrono::steady_clock::now();
   const float t_min_f = static_cast<float>(t_min);
   // Slightly beyond t_max so the double-precision check below decides.
@@ -163,19 +163,19 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     std::vector<uint8_t> kept(num_rays);
     std::vector<double> scratch;
     scratch.reserve(num_rays);
-    int64_t traced = 0;
+    int64_t traced = 0, world_frames = 0;
     for (int64_t p = range.begin(); p < range.end(); ++p) {
       const auto one_ring = topo_.vertex_faces.Of(p);
       if (one_ring.empty()) {
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
-      const VertexCone vc = MakeVertexCone(mesh_.dimension, normals[p],
-                                           topo_.vertex_direction[p]);
+      const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals[p]);
       if (!vc.valid) {
         result.status[p] = VertexStatus::kDegenerateNormal;
         continue;
       }
+      world_frames += vc.world_frame;
       const Vec3& x = mesh_.positions[p];
       // Trace all rays first, prefetching each hit's corners, then evaluate
       // the hits in double precision once the memory has arrived.
@@ -215,6 +215,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       }
     }
     rays_traced += traced;
+    world_frame_vertices += world_frames;
     gate.Done(range.size());
   };
   const int threads =
@@ -229,7 +230,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
   result.rays_traced = rays_traced;
+  result.world_frame_vertices = world_frame_vertices;
   result.normalized = NormalizedSdf(result.values);
+  result.missing = CountMissing(mesh_, result.values);
   if (keep_hits) {
     hits->resolved = resolved;
     hits->cone = std::move(cone);

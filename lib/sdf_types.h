@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "lib/missing_values.h"
 #include "lib/normals.h"
 
 namespace meshgauge {
@@ -69,10 +70,19 @@ struct SdfResult {
   std::vector<int32_t> hits;  // rays that hit, per vertex.
   std::vector<int32_t> kept;  // rays kept by the filter, per vertex.
   int64_t rays_traced = 0;
+  // 3D vertices with a value whose one-ring gave no frame edge, so their
+  // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D.
+  int64_t world_frame_vertices = 0;
+  // Vertices without a value and the share of the surface they cover.
+  MissingValues missing;
   double trace_seconds = 0;  // wall time of the ray pass.
   ResolvedParams resolved;
 
   int64_t CountStatus(VertexStatus s) const;
+  MissingCauses Causes() const {
+    return {CountStatus(VertexStatus::kNoHit),
+            CountStatus(VertexStatus::kDegenerateNormal)};
+  }
 };
 
 // Statistics of the finite entries of a per-vertex array (NaN entries, the

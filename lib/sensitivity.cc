@@ -42,8 +42,7 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const auto& cone = ctx.hits.cone;
   const int num_rays = static_cast<int>(cone.size());
   if (topo.vertex_faces.Of(p).empty()) return;
-  const VertexCone vc =
-      MakeVertexCone(mesh.dimension, ctx.normals[p], topo.vertex_direction[p]);
+  const VertexCone vc = MakeVertexCone(mesh, topo, p, ctx.normals[p]);
   if (!vc.valid) return;
   const Vec3& x = mesh.positions[p];
   const auto row = ctx.hits.Row(p);
@@ -80,9 +79,15 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     g_v += g_d * cone[k].local.y;
     g_a += g_d * cone[k].local.z;
   }
+  // Direction -> frame -> (axis, reference edge e = x_q - x_p); the axis
+  // -> n -> N.
+  const FrameGradient gf = FrameVjp(mesh.dimension, vc.frame, g_u, g_v);
+  if (vc.frame.reference >= 0) {
+    d_origin -= gf.edge;
+    terms.push_back({vc.frame.reference, gf.edge});
+  }
   terms.push_back({static_cast<int32_t>(p), d_origin});
-  // Direction -> axis (through the frame) -> n -> N.
-  const Vec3 g_axis = g_a + FrameVjp(mesh.dimension, vc.frame.axis, g_u, g_v);
+  const Vec3 g_axis = g_a + gf.axis;
   const Vec3 g_n = g_axis * vc.sign;
   const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
   Vec3 grad[3];

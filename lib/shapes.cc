@@ -130,55 +130,74 @@ Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv) {
   return mesh;
 }
 
-Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
+Mesh MakeVoxelSolid(const std::array<int, 3>& cells,
+                    const std::array<double, 3>& spacing,
+                    const std::function<bool(int, int, int)>& filled,
+                    bool quads) {
   Mesh mesh;
-  std::map<std::tuple<int64_t, int64_t, int64_t>, int32_t> index;
-  const double size[3] = {sx, sy, sz};
-  int n[3];
-  for (int a = 0; a < 3; ++a) {
-    n[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell)));
-  }
-  auto vertex = [&](int i, int j, int k) {
-    auto key = std::make_tuple(i, j, k);
-    auto it = index.find(key);
-    if (it != index.end()) return it->second;
-    mesh.positions.push_back({sx * i / n[0], sy * j / n[1], sz * k / n[2]});
-    const int32_t id = static_cast<int32_t>(mesh.positions.size() - 1);
-    index[key] = id;
-    return id;
+  std::map<std::tuple<int, int, int>, int32_t> index;
+  auto vertex = [&](const int g[3]) {
+    auto key = std::make_tuple(g[0], g[1], g[2]);
+    auto [it, inserted] = index.try_emplace(key, 0);
+    if (inserted) {
+      mesh.positions.push_back(
+          {spacing[0] * g[0], spacing[1] * g[1], spacing[2] * g[2]});
+      it->second = static_cast<int32_t>(mesh.positions.size() - 1);
+    }
+    return it->second;
   };
-  // For each axis a and side s, a grid over the other two axes (b, c) with
-  // b x c = +a, flipped on the low side so normals point out.
+  auto solid = [&](int i, int j, int k) {
+    return i >= 0 && j >= 0 && k >= 0 && i < cells[0] && j < cells[1] &&
+           k < cells[2] && filled(i, j, k);
+  };
   for (int a = 0; a < 3; ++a) {
+    // (b, c) with b x c = +a; the low side is flipped so normals point out.
     const int b = (a + 1) % 3, c = (a + 2) % 3;
     for (int side = 0; side < 2; ++side) {
-      for (int i = 0; i < n[b]; ++i) {
-        for (int j = 0; j < n[c]; ++j) {
-          int32_t q[4];
-          const int di[4] = {0, 1, 1, 0}, dj[4] = {0, 0, 1, 1};
-          for (int k = 0; k < 4; ++k) {
-            int idx[3];
-            idx[a] = side * n[a];
-            idx[b] = i + di[k];
-            idx[c] = j + dj[k];
-            q[k] = vertex(idx[0], idx[1], idx[2]);
-          }
-          if (quads) {
-            mesh.faces.push_back(side == 0
-                                     ? Face::Quad(q[0], q[3], q[2], q[1])
-                                     : Face::Quad(q[0], q[1], q[2], q[3]));
-          } else if (side == 0) {
-            mesh.faces.push_back(Face::Triangle(q[0], q[2], q[1]));
-            mesh.faces.push_back(Face::Triangle(q[0], q[3], q[2]));
-          } else {
-            mesh.faces.push_back(Face::Triangle(q[0], q[1], q[2]));
-            mesh.faces.push_back(Face::Triangle(q[0], q[2], q[3]));
+      for (int i = 0; i < cells[0]; ++i) {
+        for (int j = 0; j < cells[1]; ++j) {
+          for (int k = 0; k < cells[2]; ++k) {
+            int cell[3] = {i, j, k};
+            int next[3] = {i, j, k};
+            next[a] += side == 0 ? -1 : 1;
+            if (!solid(i, j, k) || solid(next[0], next[1], next[2])) continue;
+            int32_t q[4];
+            const int db[4] = {0, 1, 1, 0}, dc[4] = {0, 0, 1, 1};
+            for (int n = 0; n < 4; ++n) {
+              int g[3];
+              g[a] = cell[a] + side;
+              g[b] = cell[b] + db[n];
+              g[c] = cell[c] + dc[n];
+              q[n] = vertex(g);
+            }
+            if (quads) {
+              mesh.faces.push_back(side == 0
+                                       ? Face::Quad(q[0], q[3], q[2], q[1])
+                                       : Face::Quad(q[0], q[1], q[2], q[3]));
+            } else if (side == 0) {
+              mesh.faces.push_back(Face::Triangle(q[0], q[2], q[1]));
+              mesh.faces.push_back(Face::Triangle(q[0], q[3], q[2]));
+            } else {
+              mesh.faces.push_back(Face::Triangle(q[0], q[1], q[2]));
+              mesh.faces.push_back(Face::Triangle(q[0], q[2], q[3]));
+            }
           }
         }
       }
     }
   }
   return mesh;
+}
+
+Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
+  const double size[3] = {sx, sy, sz};
+  std::array<int, 3> n;
+  std::array<double, 3> spacing;
+  for (int a = 0; a < 3; ++a) {
+    n[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell)));
+    spacing[a] = size[a] / n[a];
+  }
+  return MakeVoxelSolid(n, spacing, [](int, int, int) { return true; }, quads);
 }
 
 Mesh MakeHollowSquare(double side, double hole_radius, double h) {

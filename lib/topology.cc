@@ -1,5 +1,7 @@
 #include "lib/topology.h"
 
+#include <algorithm>
+
 namespace meshgauge {
 namespace {
 
@@ -16,6 +18,36 @@ Incidence BuildIncidence(int64_t num_vertices, ForEachPair for_each_pair) {
   inc.items.resize(inc.offsets[num_vertices]);
   std::vector<int32_t> fill(inc.offsets.begin(), inc.offsets.end() - 1);
   for_each_pair([&](int32_t v, int32_t item) { inc.items[fill[v]++] = item; });
+  return inc;
+}
+
+// Both directions of every face edge, then each vertex's list sorted and
+// made unique.
+Incidence BuildNeighbors(const Mesh& mesh) {
+  const int64_t nv = mesh.num_vertices();
+  Incidence inc = BuildIncidence(nv, [&](auto&& emit) {
+    for (const Face& face : mesh.faces) {
+      const int edges = face.size == 2 ? 1 : face.size;
+      for (int k = 0; k < edges; ++k) {
+        const int32_t a = face.v[k], b = face.v[(k + 1) % face.size];
+        emit(a, b);
+        emit(b, a);
+      }
+    }
+  });
+  int32_t out = 0;
+  for (int64_t v = 0; v < nv; ++v) {
+    auto begin = inc.items.begin() + inc.offsets[v];
+    auto end = inc.items.begin() + inc.offsets[v + 1];
+    std::sort(begin, end);
+    end = std::unique(begin, end);
+    const int32_t start = out;
+    out = static_cast<int32_t>(
+        std::copy(begin, end, inc.items.begin() + out) - inc.items.begin());
+    inc.offsets[v] = start;
+  }
+  inc.offsets[nv] = out;
+  inc.items.resize(out);
   return inc;
 }
 
@@ -49,6 +81,7 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
       }
     }
   });
+  topo.vertex_neighbors = BuildNeighbors(mesh);
   topo.vertex_direction.assign(nv, ConeDirection::kInward);
   for (int64_t f = 0; f < mesh.num_faces(); ++f) {
     const ConeDirection dir = mesh.DirectionOfRegion(mesh.RegionOf(f));

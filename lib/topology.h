@@ -34,6 +34,11 @@ struct MeshTopology {
   Incidence vertex_faces;
   // Primitives containing each vertex, ascending: the sums of SPEC §2.
   Incidence vertex_primitives;
+  // Edge-neighbours of each vertex, ascending and unique: vertices joined to
+  // it by a face edge (a quad's four sides, not its split diagonal; a
+  // segment's other end). The frame of SPEC v2 §3 takes the first that
+  // qualifies.
+  Incidence vertex_neighbors;
   // Cone direction of each vertex (from its faces; kInward if it has none).
   std::vector<ConeDirection> vertex_direction;
 

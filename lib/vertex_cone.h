@@ -1,8 +1,12 @@
 // Per-vertex cone set-up shared by the value pass and the sensitivities.
 #pragma once
 
+#include <cmath>
+#include <cstdint>
+
 #include "lib/cone.h"
 #include "lib/mesh.h"
+#include "lib/topology.h"
 
 namespace meshgauge {
 
@@ -12,17 +16,29 @@ struct VertexCone {
   double normal_length = 0;  // |N_p|.
   Vec3 n;                    // N_p / |N_p|.
   ConeFrame frame;
+  // True for a 3D vertex whose one-ring gave no frame edge (SPEC v2 §3
+  // fallback to the world frame); counted in SdfResult.
+  bool world_frame = false;
 };
 
-inline VertexCone MakeVertexCone(int dimension, const Vec3& normal_sum,
-                                 ConeDirection direction) {
+// The cone of vertex p: its axis from the unnormalised normal sum N_p
+// (SPEC §2) and its frame, attached to the mesh in 3D (SPEC v2 §3).
+inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
+                                 int64_t p, const Vec3& normal_sum) {
   VertexCone vc;
-  vc.sign = direction == ConeDirection::kInward ? -1.0 : 1.0;
+  vc.sign = topo.vertex_direction[p] == ConeDirection::kInward ? -1.0 : 1.0;
   vc.normal_length = Norm(normal_sum);
   if (!(vc.normal_length > 0) || !std::isfinite(vc.normal_length)) return vc;
   vc.valid = true;
   vc.n = normal_sum / vc.normal_length;
-  vc.frame = MakeFrame(dimension, vc.n * vc.sign);
+  const Vec3 axis = vc.n * vc.sign;
+  if (mesh.dimension == 2) {
+    vc.frame = MakeWorldFrame(2, axis);
+  } else {
+    vc.frame = MakeAttachedFrame(axis, mesh.positions[p],
+                                 topo.vertex_neighbors.Of(p), mesh.positions);
+    vc.world_frame = vc.frame.reference < 0;
+  }
   return vc;
 }
 

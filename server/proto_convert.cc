@@ -59,6 +59,10 @@ absl::StatusOr<PenaltyParams> ToPenaltyParams(
   PenaltyParams p;
   p.t_min = r.t_min();
   p.power = r.power() == 0 ? 2.0 : r.power();
+  if (r.rho() != 0) p.rho = r.rho();
+  if (r.has_max_missing_fraction()) {
+    p.max_missing_fraction = r.max_missing_fraction();
+  }
   switch (r.form()) {
     case v1::PENALTY_FORM_UNSPECIFIED:
     case v1::PENALTY_FORM_ONE_SIDED:
@@ -66,6 +70,9 @@ absl::StatusOr<PenaltyParams> ToPenaltyParams(
       break;
     case v1::PENALTY_FORM_THESIS:
       p.form = PenaltyForm::kThesis;
+      break;
+    case v1::PENALTY_FORM_KS:
+      p.form = PenaltyForm::kKs;
       break;
     default:
       return absl::InvalidArgumentError(absl::StrCat(
@@ -87,6 +94,12 @@ v1::VertexStatus ToProto(VertexStatus s) {
       return v1::VERTEX_STATUS_DEGENERATE_NORMAL;
   }
   return v1::VERTEX_STATUS_UNSPECIFIED;
+}
+
+void ToProto(const MissingValues& m, v1::MissingValues* out) {
+  out->set_vertices(m.vertices);
+  out->set_faces(m.faces);
+  out->set_area_fraction(m.area_fraction);
 }
 
 void ToProto(const SessionSnapshot& s, double now, v1::SessionInfo* out) {

@@ -20,6 +20,7 @@ absl::StatusOr<PenaltyParams> ToPenaltyParams(
     const v1::ComputePenaltyRequest& r);
 
 v1::VertexStatus ToProto(VertexStatus s);
+void ToProto(const MissingValues& m, v1::MissingValues* out);
 void ToProto(const SessionSnapshot& s, double now, v1::SessionInfo* out);
 
 // Flattens per-vertex 3-vectors into `dimension` doubles per vertex.

@@ -278,6 +278,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
     s->set_sdf_min(stats.min);
     s->set_sdf_max(stats.max);
     s->set_sdf_mean(stats.mean);
+    s->set_sdf_median(stats.median);
+    s->set_world_frame_vertices(r.world_frame_vertices);
+    ToProto(r.missing, s->mutable_missing());
     s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
     s->set_rays(r.rays_traced);
     s->set_reused_hits(pass->reused);
@@ -337,19 +340,21 @@ grpc::Status MeshGaugeService::ComputePenalty(
     auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
     if (!pass.ok()) return pass.status();
     metrics_->RecordHitCache(pass->reused);
-    const std::vector<double>& values = pass->pass->result.values;
+    const SdfResult& sdf = pass->pass->result;
     auto pen = meshgauge::ComputePenalty(
-        ev, values, *pp, request->with_gradient() ? &pass->pass->hits : nullptr,
+        ev, sdf, *pp, request->with_gradient() ? &pass->pass->hits : nullptr,
         Control(ctx), options_.compute_threads);
     if (!pen.ok()) return Interrupted(ctx, pen.status());
     response->set_generation(ev.generation());
     response->set_value(pen->value);
-    response->set_skipped_faces(pen->skipped_faces);
+    response->set_skipped_faces(pen->missing.faces);
+    ToProto(pen->missing, response->mutable_missing());
+    response->set_world_frame_vertices(sdf.world_frame_vertices);
     if (request->with_gradient()) {
       AppendFlattened(pen->gradient, ev.mesh().dimension,
                       response->mutable_gradient());
     }
-    response->set_sdf_min(SummarizeValues(values).min);
+    response->set_sdf_min(SummarizeValues(sdf.values).min);
     response->set_reused_hits(pass->reused);
     response->set_seconds(Seconds(start));
     return absl::OkStatus();

@@ -172,7 +172,10 @@ TEST(CliDerivativesTest, PenaltyPrintsValueAndWritesGradient) {
   ASSERT_EQ(r.exit_code, 0) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_GT(j["penalty"].get<double>(), 0);
-  EXPECT_EQ(j["phi"], "one-sided");
+  EXPECT_EQ(j["form"], "one-sided");
+  EXPECT_EQ(j["missing_vertices"], 0);
+  EXPECT_EQ(j["missing_area_fraction"], 0.0);
+  EXPECT_EQ(j["world_frame_vertices"], 0);
   int lines = 0;
   std::ifstream in(grad);
   for (std::string l; std::getline(in, l);) ++lines;
@@ -182,9 +185,57 @@ TEST(CliDerivativesTest, PenaltyPrintsValueAndWritesGradient) {
   EXPECT_EQ(no_tmin.exit_code, 1);
   EXPECT_THAT(no_tmin.out, HasSubstr("t_min must be a finite number > 0"));
   const CliRun bad_phi = RunCli(
-      "penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --phi x");
-  EXPECT_THAT(bad_phi.out, HasSubstr("--phi must be one-sided or thesis"));
+      "penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --form x");
+  EXPECT_THAT(bad_phi.out, HasSubstr("--form must be one-sided, thesis or ks"));
   std::filesystem::remove(grad);
+}
+
+TEST(CliDerivativesTest, KsConstraintFormPrintsConstraint) {
+  const CliRun r = RunCli("penalty " + SharedMesh("decimated-knight.off") +
+                          " --t-min 0.3 --form ks --rho 30 --rays 20 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["form"], "ks");
+  EXPECT_EQ(j["rho"], 30.0);
+  EXPECT_LT(j["constraint"].get<double>(), 1.0);
+  const CliRun text = RunCli("penalty " + SharedMesh("decimated-knight.off") +
+                             " --t-min 0.3 --form ks --rays 20");
+  EXPECT_THAT(text.out, HasSubstr("constraint G = "));
+}
+
+TEST(CliDerivativesTest, PenaltyOnMostlyMissingValuesFailsNamingTheCause) {
+  // The shared horse is inward oriented: most cones look outside.
+  const CliRun r =
+      RunCli("penalty " + SharedMesh("horse.ply") + " --t-min 0.01 --rays 10");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("mostly missing"));
+  EXPECT_THAT(r.out, HasSubstr("reorient"));
+  const CliRun sdf = RunCli("sdf " + SharedMesh("horse.ply") + " --rays 10");
+  EXPECT_EQ(sdf.exit_code, 0);
+  EXPECT_THAT(sdf.out, HasSubstr("warning: "));
+  EXPECT_THAT(sdf.out, HasSubstr("of the area has no value"));
+}
+
+TEST(CliDerivativesTest, GradcheckPassesOnKnightAndPrintsTable) {
+  const CliRun r =
+      RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
+             " --rays 20 --samples 4 --seed 3 --t-min 0.3");
+  EXPECT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("analytic"));
+  EXPECT_THAT(r.out, HasSubstr("verdict: PASS"));
+  const CliRun json = RunCli("gradcheck " +
+                             SharedMesh("decimated-knight.off") +
+                             " --rays 20 --samples 2 --json");
+  EXPECT_EQ(json.exit_code, 0) << json.out;
+  EXPECT_TRUE(nlohmann::json::parse(json.out)["passed"].get<bool>());
+}
+
+TEST(CliDerivativesTest, GradcheckFailsWhenTheToleranceCannotBeMet) {
+  // A tolerance below the round-off of central differences must fail.
+  const CliRun r = RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
+                          " --rays 20 --samples 3 --fd-tolerance 1e-15");
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("verdict: FAIL"));
 }
 
 TEST(CliDerivativesTest, CalibrateReportsAlphas) {

@@ -74,10 +74,10 @@ TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {
   EXPECT_EQ(client::FromFlattened(vjp->gradient(), 3),
             *ComputeVjp(**ev, hits, g));
 
-  auto pen = client_->ComputePenalty("k", ToWireParams({}), 0.1,
-                                     v1::PENALTY_FORM_ONE_SIDED, 2, true);
+  auto pen = client_->ComputePenalty("k", ToWireParams({}), {.t_min = 0.1},
+                                     true);
   ASSERT_TRUE(pen.ok()) << pen.status();
-  auto local = ComputePenalty(**ev, values->values, {.t_min = 0.1}, &hits);
+  auto local = ComputePenalty(**ev, *values, {.t_min = 0.1}, &hits);
   EXPECT_EQ(pen->value(), local->value);
   EXPECT_EQ(client::FromFlattened(pen->gradient(), 3), local->gradient);
   EXPECT_TRUE(pen->reused_hits());
@@ -178,8 +178,8 @@ TEST_F(ServerTest, StatusCodePaths) {
   EXPECT_EQ(code(client_->ComputeVjp("a", ToWireParams(angle),
                                      std::vector<double>(502, 1.0))),
             absl::StatusCode::kFailedPrecondition);
-  EXPECT_EQ(code(client_->ComputePenalty("a", ToWireParams({}), -1,
-                                         v1::PENALTY_FORM_ONE_SIDED, 2, false)),
+  EXPECT_EQ(code(client_->ComputePenalty("a", ToWireParams({}), {.t_min = -1},
+                                         false)),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(code(client_->UpdatePositions("a", 0, 3, {Vec3(0, 0, 0)})),
             absl::StatusCode::kInvalidArgument);

@@ -42,8 +42,15 @@ ABSL_FLAG(std::string, vjp, "",
 ABSL_FLAG(std::string, jacobian, "",
           "meshgauge grad: write the sparse Jacobian as CSV row,col,dx,dy,dz");
 ABSL_FLAG(double, t_min, 0, "minimum thickness (penalty, calibrate), > 0");
-ABSL_FLAG(std::string, phi, "one-sided",
-          "penalty form: one-sided max(0,1-t/t_min)^n or thesis (t/t_min-1)^n");
+ABSL_FLAG(std::string, form, "one-sided",
+          "penalty form: one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, "
+          "or ks, the aggregated constraint (1/rho) ln(mean exp(rho(1-t/t_min)))");
+ABSL_FLAG(double, rho, 50, "meshgauge penalty --form ks: aggregation rho > 0");
+ABSL_FLAG(double, max_missing_fraction, 0.5,
+          "penalty: fail when faces without values cover more than this "
+          "fraction of the surface, [0, 1]");
+ABSL_FLAG(int, samples, 12, "meshgauge gradcheck: vertices sampled, >= 1");
+ABSL_FLAG(uint64_t, seed, 1, "meshgauge gradcheck: sampling seed");
 ABSL_FLAG(double, power, 2, "penalty power n >= 1");
 ABSL_FLAG(std::string, grad, "",
           "meshgauge penalty: write dP/dx as CSV vertex,dx,dy,dz");
@@ -117,18 +124,23 @@ absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags() {
   PenaltyParams pp;
   pp.t_min = absl::GetFlag(FLAGS_t_min);
   pp.power = absl::GetFlag(FLAGS_power);
-  const std::string phi = absl::GetFlag(FLAGS_phi);
-  if (phi == "one-sided") {
+  pp.rho = absl::GetFlag(FLAGS_rho);
+  pp.max_missing_fraction = absl::GetFlag(FLAGS_max_missing_fraction);
+  const std::string form = absl::GetFlag(FLAGS_form);
+  if (form == "one-sided") {
     pp.form = PenaltyForm::kOneSided;
-  } else if (phi == "thesis") {
+  } else if (form == "thesis") {
     pp.form = PenaltyForm::kThesis;
+  } else if (form == "ks") {
+    pp.form = PenaltyForm::kKs;
   } else {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--phi must be one-sided or thesis, got '", phi, "'"));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--form must be one-sided, thesis or ks, got '", form, "'"));
   }
   if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("--t-min/--power: ", s.message()));
+        absl::StrCat("--t-min/--power/--rho/--max-missing-fraction: ",
+                     s.message()));
   }
   return pp;
 }

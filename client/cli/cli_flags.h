@@ -30,7 +30,11 @@ ABSL_DECLARE_FLAG(std::string, weights);
 ABSL_DECLARE_FLAG(std::string, vjp);
 ABSL_DECLARE_FLAG(std::string, jacobian);
 ABSL_DECLARE_FLAG(double, t_min);
-ABSL_DECLARE_FLAG(std::string, phi);
+ABSL_DECLARE_FLAG(std::string, form);
+ABSL_DECLARE_FLAG(double, rho);
+ABSL_DECLARE_FLAG(double, max_missing_fraction);
+ABSL_DECLARE_FLAG(int, samples);
+ABSL_DECLARE_FLAG(uint64_t, seed);
 ABSL_DECLARE_FLAG(double, power);
 ABSL_DECLARE_FLAG(std::string, grad);
 ABSL_DECLARE_FLAG(double, tolerance);
@@ -47,7 +51,8 @@ std::vector<std::string> NormalizeArgs(int argc, char** argv);
 // --max-distance --normals. Errors: InvalidArgument naming the flag.
 absl::StatusOr<SdfParams> SdfParamsFromFlags();
 
-// PenaltyParams from --t-min --phi --power, validated. Errors:
+// PenaltyParams from --t-min --form --power --rho
+// --max-missing-fraction, validated. Errors:
 // InvalidArgument naming the flag.
 absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags();
 

@@ -16,9 +16,14 @@ absl::Status RunSdf(const std::vector<std::string>& args);
 // sensitivities of the SDF (SPEC §6).
 absl::Status RunGrad(const std::vector<std::string>& args);
 
-// meshgauge penalty MESH --t-min T [--phi one-sided|thesis] [--power n]
-// [--grad FILE]: minimum-thickness penalty and its gradient (SPEC §7).
+// meshgauge penalty MESH --t-min T [--form one-sided|thesis|ks] [--power n]
+// [--rho R] [--grad FILE]: minimum-thickness penalty or aggregated
+// constraint and its gradient (SPEC §7).
 absl::Status RunPenalty(const std::vector<std::string>& args);
+
+// meshgauge gradcheck MESH [--samples N] [--seed S] [--t-min T]: central
+// differences against the analytic derivatives (SPEC §6); exit 1 on FAIL.
+absl::Status RunGradcheck(const std::vector<std::string>& args);
 
 // meshgauge calibrate MESH --t-min T [--tolerance R] [--bins N] [--json]:
 // SDF vs physical thickness (SPEC §8).

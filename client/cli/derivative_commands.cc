@@ -109,34 +109,52 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
   auto penalty = PenaltyParamsFromFlags();
   if (!penalty.ok()) return penalty.status();
   const PenaltyParams& pp = *penalty;
-  const std::string phi = absl::GetFlag(FLAGS_phi);
   auto prep = Prepare(args,
                       "usage: meshgauge penalty MESH --t-min T "
-                      "[--phi one-sided|thesis] [--power n] [--grad FILE]",
+                      "[--form one-sided|thesis|ks] [--power n] [--rho R] "
+                      "[--grad FILE]",
                       true);
   if (!prep.ok()) return prep.status();
   const std::string grad_path = absl::GetFlag(FLAGS_grad);
-  auto pen = ComputePenalty(*prep->evaluator, prep->result.values, pp,
+  auto pen = ComputePenalty(*prep->evaluator, prep->result, pp,
                             grad_path.empty() ? nullptr : &prep->hits);
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok())
       return s;
   }
+  const bool ks = pp.form == PenaltyForm::kKs;
   nlohmann::json j;
-  j["penalty"] = pen->value;
+  j[ks ? "constraint" : "penalty"] = pen->value;
   j["t_min"] = pp.t_min;
-  j["phi"] = phi;
-  j["power"] = pp.power;
-  j["skipped_faces"] = pen->skipped_faces;
+  j["form"] = PenaltyFormName(pp.form);
+  if (ks) {
+    j["rho"] = pp.rho;
+  } else {
+    j["power"] = pp.power;
+  }
+  j["skipped_faces"] = pen->missing.faces;
+  j["missing_vertices"] = pen->missing.vertices;
+  j["missing_area_fraction"] = pen->missing.area_fraction;
+  j["world_frame_vertices"] = prep->result.world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
   if (absl::GetFlag(FLAGS_json)) {
     std::cout << j.dump() << "\n";
-  } else {
-    std::cout << absl::StrFormat(
-        "penalty P = %.10g (phi %s, t_min %g, n %g; %d faces skipped)\n",
-        pen->value, phi, pp.t_min, pp.power, pen->skipped_faces);
+    return absl::OkStatus();
   }
+  if (ks) {
+    std::cout << absl::StrFormat("constraint G = %.10g (ks, t_min %g, rho %g",
+                                 pen->value, pp.t_min, pp.rho);
+  } else {
+    std::cout << absl::StrFormat("penalty P = %.10g (%s, t_min %g, n %g",
+                                 pen->value, PenaltyFormName(pp.form),
+                                 pp.t_min, pp.power);
+  }
+  std::cout << absl::StrFormat(
+      "; %d faces skipped, %.2f%% of the area, %d vertices without a "
+      "value)\n",
+      pen->missing.faces, 100 * pen->missing.area_fraction,
+      pen->missing.vertices);
   return absl::OkStatus();
 }
 

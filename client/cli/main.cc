@@ -15,6 +15,8 @@ constexpr char kUsage[] =
     "  sdf MESH        SDF per vertex (summary; --csv, --ply, --json)\n"
     "  grad MESH       sensitivities: --vjp FILE (g^T J), --jacobian FILE\n"
     "  penalty MESH    minimum-thickness penalty --t-min T [--grad FILE]\n"
+    "                  (--form ks: the aggregated constraint, --rho R)\n"
+    "  gradcheck MESH  check derivatives by finite differences [--samples N]\n"
     "  calibrate MESH  SDF vs physical thickness --t-min T\n"
     "  shape KIND      write an analytic shape: circle|sphere|torus|hollow\n"
     "  remote VERB     upload|list|info|delete|sdf|grad|penalty|update via\n"
@@ -44,6 +46,8 @@ int main(int argc, char** argv) {
     status = meshgauge::cli::RunGrad(args);
   } else if (verb == "penalty") {
     status = meshgauge::cli::RunPenalty(args);
+  } else if (verb == "gradcheck") {
+    status = meshgauge::cli::RunGradcheck(args);
   } else if (verb == "calibrate") {
     status = meshgauge::cli::RunCalibrate(args);
   } else if (verb == "remote") {

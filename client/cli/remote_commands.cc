@@ -134,11 +134,8 @@ absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
   const std::string grad_path = absl::GetFlag(FLAGS_grad);
   auto info = c.Get(id);
   if (!info.ok()) return info.status();
-  auto r = c.ComputePenalty(id, client::ToWireParams(*params), penalty->t_min,
-                            penalty->form == PenaltyForm::kThesis
-                                ? v1::PENALTY_FORM_THESIS
-                                : v1::PENALTY_FORM_ONE_SIDED,
-                            penalty->power, !grad_path.empty());
+  auto r = c.ComputePenalty(id, client::ToWireParams(*params), *penalty,
+                            !grad_path.empty());
   if (!r.ok()) return r.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(
@@ -148,8 +145,13 @@ absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
     }
   }
   Print({{"generation", r->generation()},
-         {"penalty", r->value()},
-         {"skipped_faces", r->skipped_faces()},
+         {penalty->form == PenaltyForm::kKs ? "constraint" : "penalty",
+          r->value()},
+         {"form", PenaltyFormName(penalty->form)},
+         {"skipped_faces", r->missing().faces()},
+         {"missing_vertices", r->missing().vertices()},
+         {"missing_area_fraction", r->missing().area_fraction()},
+         {"world_frame_vertices", r->world_frame_vertices()},
          {"sdf_min", r->sdf_min()},
          {"reused_hits", r->reused_hits()}});
   return absl::OkStatus();

@@ -8,6 +8,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "lib/integrals.h"
+#include "lib/penalty.h"
 
 namespace meshgauge::cli {
 
@@ -48,7 +49,19 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j[loaded.mesh.dimension == 3 ? "signed_volume" : "signed_area"] =
       loaded.signed_volume;
   j["reoriented"] = loaded.reoriented;
-  j["warnings"] = loaded.warnings;
+  j["world_frame_vertices"] = result.world_frame_vertices;
+  j["missing_vertices"] = result.missing.vertices;
+  j["missing_faces"] = result.missing.faces;
+  j["missing_area_fraction"] = result.missing.area_fraction;
+  std::vector<std::string> warnings = loaded.warnings;
+  // The default allowance of penalties (SPEC v2 §7): over it, say why.
+  if (result.missing.area_fraction > PenaltyParams{}.max_missing_fraction) {
+    warnings.push_back(absl::StrFormat(
+        "%.1f%% of the area has no value (%d vertices): %s",
+        100 * result.missing.area_fraction, result.missing.vertices,
+        LikelyMissingCause(loaded.mesh, result.Causes())));
+  }
+  j["warnings"] = warnings;
   return j;
 }
 
@@ -62,7 +75,9 @@ std::string SummaryText(const nlohmann::json& j) {
       "method: %s, %g deg cone, %d rays per vertex\n"
       "vertices: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
       "sdf: min %s  median %s  max %s  mean %s\n"
-      "integral of sdf over the surface: %.8g (%d faces skipped)\n"
+      "integral of sdf over the surface: %.8g (%d faces skipped, %.2f%% of "
+      "the area)\n"
+      "frames: %d vertices fell back to the world frame\n"
       "rays: %d in %.3f s (%.3g rays/s in the ray pass)\n",
       j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
@@ -72,6 +87,8 @@ std::string SummaryText(const nlohmann::json& j) {
       j["degenerate_normal"].get<int64_t>(), num(j["sdf_min"]),
       num(j["sdf_median"]), num(j["sdf_max"]), num(j["sdf_mean"]),
       j["integral"].get<double>(), j["integral_skipped_faces"].get<int64_t>(),
+      100 * j["missing_area_fraction"].get<double>(),
+      j["world_frame_vertices"].get<int64_t>(),
       j["rays"].get<int64_t>(), j["seconds"].get<double>(),
       j["rays_per_second"].get<double>());
   for (const auto& w : j["warnings"]) {

@@ -296,16 +296,28 @@ absl::StatusOr<v1::ComputeVjpResponse> RemoteClient::ComputeVjp(
 }
 
 absl::StatusOr<v1::ComputePenaltyResponse> RemoteClient::ComputePenalty(
-    const std::string& id, const v1::SdfParameters& params, double t_min,
-    v1::PenaltyForm form, double power, bool with_gradient,
+    const std::string& id, const v1::SdfParameters& params,
+    const PenaltyParams& penalty, bool with_gradient,
     std::optional<int64_t> expected_generation) {
   auto ctx = Context(id);
   v1::ComputePenaltyRequest req;
   req.set_session_id(id);
   *req.mutable_params() = params;
-  req.set_t_min(t_min);
-  req.set_form(form);
-  req.set_power(power);
+  req.set_t_min(penalty.t_min);
+  switch (penalty.form) {
+    case PenaltyForm::kOneSided:
+      req.set_form(v1::PENALTY_FORM_ONE_SIDED);
+      break;
+    case PenaltyForm::kThesis:
+      req.set_form(v1::PENALTY_FORM_THESIS);
+      break;
+    case PenaltyForm::kKs:
+      req.set_form(v1::PENALTY_FORM_KS);
+      break;
+  }
+  req.set_power(penalty.power);
+  req.set_rho(penalty.rho);
+  req.set_max_missing_fraction(penalty.max_missing_fraction);
   req.set_with_gradient(with_gradient);
   if (expected_generation) req.set_expected_generation(*expected_generation);
   v1::ComputePenaltyResponse resp;

@@ -12,6 +12,7 @@
 
 #include "absl/status/statusor.h"
 #include "lib/mesh.h"
+#include "lib/penalty.h"
 #include "lib/sdf_types.h"
 #include "lib/sensitivity.h"
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
@@ -77,7 +78,7 @@ class RemoteClient {
       std::optional<int64_t> expected_generation = std::nullopt);
   absl::StatusOr<v1::ComputePenaltyResponse> ComputePenalty(
       const std::string& session_id, const v1::SdfParameters& params,
-      double t_min, v1::PenaltyForm form, double power, bool with_gradient,
+      const PenaltyParams& penalty, bool with_gradient,
       std::optional<int64_t> expected_generation = std::nullopt);
   absl::StatusOr<v1::CalibrateResponse> Calibrate(
       const std::string& session_id, const v1::SdfParameters& params,
