@@ -18,7 +18,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "client/remote/remote_client.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/sdf.h"
 #include "lib/sensitivity.h"
 #include "server/server.h"

@@ -17,7 +17,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "bench/raw_embree_pass.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/sdf.h"
 #include "lib/sensitivity.h"
 

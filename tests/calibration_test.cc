@@ -4,7 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/shapes.h"
 #include "tests/test_util.h"
 

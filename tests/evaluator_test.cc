@@ -5,7 +5,7 @@
 
 #include <cstring>
 
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/sdf.h"
 #include "lib/shapes.h"
 #include "tests/test_util.h"

@@ -8,7 +8,7 @@
 #include <random>
 
 #include "lib/cone.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/sensitivity.h"
 #include "lib/shapes.h"
 #include "tests/fd_check.h"
@@ -97,7 +97,10 @@ Pose RandomPose(uint64_t seed) {
   std::normal_distribution<double> n;
   double q[4];
   double norm = 0;
-  for (double& c : q) norm += (c = n(rng)) * c;
+  for (double& c : q) {
+    c = n(rng);
+    norm += c * c;
+  }
   for (double& c : q) c /= std::sqrt(norm);
   const double w = q[0], x = q[1], y = q[2], z = q[3];
   Pose pose;

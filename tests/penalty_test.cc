@@ -9,7 +9,7 @@
 
 #include "lib/gradcheck.h"
 #include "lib/integrals.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/shapes.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"

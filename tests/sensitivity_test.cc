@@ -7,7 +7,7 @@
 #include <cmath>
 #include <numbers>
 
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/shapes.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"

@@ -6,7 +6,7 @@
 #include <cstring>
 #include <thread>
 
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/penalty.h"
 #include "lib/sdf.h"
 #include "lib/sensitivity.h"
@@ -50,6 +50,48 @@ TEST_F(ServerTest, ComputeSdfMatchesLibraryBitForBit) {
     EXPECT_NEAR(remote->summary.integral(),
                 IntegrateNodal(mesh, local->values).value, 1e-15);
   }
+}
+
+TEST_F(ServerTest, KsConstraintMatchesLibraryAndReportsMissingValues) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "ks").ok());
+  auto ev = SdfEvaluator::Create(mesh);
+  HitTable hits;
+  auto values = (*ev)->Compute({}, {}, &hits);
+  const PenaltyParams ks{.t_min = 0.3, .form = PenaltyForm::kKs, .rho = 30};
+  auto local = ComputePenalty(**ev, *values, ks, &hits);
+  auto remote = client_->ComputePenalty("ks", ToWireParams({}), ks, true);
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  EXPECT_EQ(remote->value(), local->value);
+  EXPECT_EQ(client::FromFlattened(remote->gradient(), 3), local->gradient);
+  EXPECT_EQ(remote->missing().vertices(), 0);
+  EXPECT_EQ(remote->world_frame_vertices(), 0);
+  auto sdf = client_->ComputeSdf("ks", ToWireParams({}));
+  ASSERT_TRUE(sdf.ok());
+  EXPECT_EQ(sdf->summary.missing().area_fraction(), 0.0);
+  EXPECT_EQ(sdf->summary.sdf_median(), SummarizeValues(values->values).median);
+}
+
+TEST_F(ServerTest, PenaltyOverMostlyMissingValuesIsFailedPrecondition) {
+  // The shared horse is inward oriented: most cones look outside.
+  const Mesh horse = *ReadMesh(testing::SharedMesh("horse.ply"));
+  ASSERT_TRUE(client_->Upload(horse, "horse").ok());
+  SdfParams few;
+  few.rays = 8;
+  auto pen = client_->ComputePenalty("horse", ToWireParams(few),
+                                     {.t_min = 0.01}, false);
+  EXPECT_EQ(pen.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_THAT(std::string(pen.status().message()), HasSubstr("reorient"));
+  auto sdf = client_->ComputeSdf("horse", ToWireParams(few));
+  ASSERT_TRUE(sdf.ok());
+  EXPECT_GT(sdf->summary.missing().area_fraction(), 0.5);
+  EXPECT_GT(sdf->summary.missing().vertices(), 0);
+  // The caller may allow it explicitly.
+  auto allowed = client_->ComputePenalty(
+      "horse", ToWireParams(few), {.t_min = 0.01, .max_missing_fraction = 1},
+      false);
+  EXPECT_TRUE(allowed.ok()) << allowed.status();
+  EXPECT_GT(allowed->missing().area_fraction(), 0.5);
 }
 
 TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {

@@ -7,7 +7,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(std::string, method, "cone",
           "SDF method: cone (Shapira et al.) or normal (one ray along the "

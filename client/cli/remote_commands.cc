@@ -12,7 +12,7 @@
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
 #include "client/remote/remote_client.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(std::string, server, "127.0.0.1:50051",
           "meshgauge remote: server address host:port");

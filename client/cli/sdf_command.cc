@@ -7,7 +7,7 @@
 #include "client/cli/commands.h"
 #include "client/cli/progress_bar.h"
 #include "client/cli/summary.h"
-#include "lib/mesh_io.h"
+#include "lib/io/mesh_io.h"
 #include "lib/sdf.h"
 
 namespace meshgauge::cli {

@@ -6,36 +6,10 @@
 #include "absl/strings/str_cat.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
+#include "lib/io/mesh_io.h"
 #include "lib/shapes.h"
 
 namespace meshgauge::cli {
-namespace {
-
-absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
-  std::ofstream out(path);
-  if (!out)
-    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
-  out.precision(17);
-  for (const Vec3& p : mesh.positions) {
-    out << "v " << p.x << " " << p.y << " " << p.z << "\n";
-  }
-  int32_t region = 0;
-  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
-    if (mesh.RegionOf(f) != region || f == 0) {
-      region = mesh.RegionOf(f);
-      out << "g " << region << "\n";
-    }
-    const Face& face = mesh.faces[f];
-    out << (face.size == 2 ? "l" : "f");
-    for (int k = 0; k < face.size; ++k) out << " " << face.v[k] + 1;
-    out << "\n";
-  }
-  if (!out)
-    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
-  return absl::OkStatus();
-}
-
-}  // namespace
 
 absl::Status RunShape(const std::vector<std::string>& args) {
   const std::string out = absl::GetFlag(FLAGS_out);

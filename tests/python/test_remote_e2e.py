@@ -19,6 +19,7 @@ from meshgauge_client import MeshGaugeClient, MeshGaugeError
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
+import thicken_plate  # noqa: E402
 
 import grpc  # noqa: E402
 
@@ -117,6 +118,34 @@ class RemoteEndToEnd(unittest.TestCase):
         print(open(os.path.join(self.tmp, "optimiser.log")).read()[-400:])
         self.assertLess(history[0], 0.35)
         self.assertGreaterEqual(history[-1], 0.6)
+
+    def test_3b_slsqp_ks_constraint_on_z_up_plate_converges(self):
+        out = open(os.path.join(self.tmp, "plate.log"), "w")
+        result, g, sdf_min = thicken_plate.optimise(self.client, out=out)
+        out.close()
+        print(open(os.path.join(self.tmp, "plate.log")).read()[-300:])
+        self.assertTrue(result.success, result.message)
+        self.assertLessEqual(g, 1e-6)
+        # From 0.08 (SDF 0.081) to within the KS slack of t_min = 0.15.
+        self.assertGreater(sdf_min, 0.13)
+
+    def test_3c_ks_form_and_missing_values(self):
+        v, f = octahedron()
+        sid = self.client.upload(v, f, session_id="ks-octa").session_id
+        g, grad, resp = self.client.penalty(sid, 5.0, form="ks", rho=20)
+        self.assertGreater(g, 0)  # every SDF is below t_min = 5
+        self.assertEqual(grad.shape, (6, 3))
+        self.assertEqual(resp.missing.vertices, 0)
+        with self.assertRaises(ValueError):
+            self.client.penalty(sid, 1.0, form="cones")
+        # Inside out: the cones look outside, every value is missing.
+        sid2 = self.client.upload(v, f[:, ::-1], session_id="ks-inside-out").session_id
+        with self.assertRaises(MeshGaugeError) as e:
+            self.client.penalty(sid2, 1.0, form="ks")
+        self.assertEqual(e.exception.code, grpc.StatusCode.FAILED_PRECONDITION)
+        self.assertIn("reorient", e.exception.details)
+        self.client.delete(sid)
+        self.client.delete(sid2)
 
     def test_4_prometheus_over_http(self):
         text = urllib.request.urlopen(

@@ -202,14 +202,28 @@ class MeshGaugeClient:
         resp = self._call(self._stub.ComputeVjp, req, session_id)
         return np.array(resp.gradient).reshape(-1, self._dim(session_id))
 
+    _FORMS = {"one-sided": pb.PENALTY_FORM_ONE_SIDED,
+              "thesis": pb.PENALTY_FORM_THESIS,
+              "ks": pb.PENALTY_FORM_KS}
+
     def penalty(self, session_id, t_min, form="one-sided", power=2.0,
-                with_gradient=True, expected_generation=None, **params):
-        """(P, dP/dx as (N, d) array or None, ComputePenaltyResponse)."""
+                rho=50.0, max_missing_fraction=0.5, with_gradient=True,
+                expected_generation=None, **params):
+        """Penalty P (form one-sided or thesis, power n) or the aggregated
+        KS constraint G (form "ks", rho), SPEC v2 §7.
+
+        Returns (value, d value/dx as an (N, d) array or None,
+        ComputePenaltyResponse with missing and world_frame_vertices).
+        Raises MeshGaugeError FAILED_PRECONDITION when faces without values
+        cover more than max_missing_fraction of the surface."""
+        if form not in self._FORMS:
+            raise ValueError("form must be one of %s, got %r"
+                             % (sorted(self._FORMS), form))
         req = pb.ComputePenaltyRequest(
             session_id=session_id, params=_params(**params), t_min=t_min,
-            form={"one-sided": pb.PENALTY_FORM_ONE_SIDED,
-                  "thesis": pb.PENALTY_FORM_THESIS}[form],
-            power=power, with_gradient=with_gradient)
+            form=self._FORMS[form], power=power, rho=rho,
+            max_missing_fraction=max_missing_fraction,
+            with_gradient=with_gradient)
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputePenalty, req, session_id)

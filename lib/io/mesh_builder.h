@@ -1,0 +1,47 @@
+// Collects what a reader parses and builds the Mesh: faces are checked as
+// they arrive (indices in range, no repeat inside a polygon) with the
+// location the reader gives, and polygons with more than four corners are
+// triangulated (SPEC v2 §1) when the mesh is finished.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/io/mesh_file.h"
+
+namespace meshgauge::io {
+
+class MeshBuilder {
+ public:
+  MeshBuilder(std::string path, int dimension) : path_(std::move(path)) {
+    file_.mesh.dimension = dimension;
+  }
+  void ReservePositions(int64_t n) { file_.mesh.positions.reserve(n); }
+  void AddVertex(const Vec3& p) { file_.mesh.positions.push_back(p); }
+  int64_t num_vertices() const { return file_.mesh.num_vertices(); }
+  // `where` names the face's place in the file ("line 12", "byte 4096") for
+  // errors. Corner indices are 0-based. Errors: InvalidArgument for fewer
+  // than 2 (segments) or 3 corners, an index out of range [0, #V) or, in a
+  // polygon with more than four corners, a repeated index.
+  absl::Status AddFace(absl::Span<const int64_t> corners, int32_t region,
+                       const std::string& where);
+  int64_t num_faces() const { return std::ssize(sizes_); }
+  // Triangulates the polygons and returns the mesh (not validated).
+  // Errors: InvalidArgument naming the polygon's face id and place.
+  absl::StatusOr<MeshFile> Finish(std::string format);
+
+ private:
+  std::string path_;
+  MeshFile file_;
+  std::vector<int32_t> sizes_;
+  std::vector<int32_t> corners_;
+  std::vector<int32_t> regions_;
+  bool any_region_ = false;
+  // For polygons only (the messages of Finish).
+  std::vector<std::pair<int64_t, std::string>> polygon_places_;
+};
+
+}  // namespace meshgauge::io

@@ -1,0 +1,144 @@
+#include "lib/io/mesh_io.h"
+
+#include <filesystem>
+#include <fstream>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/str_cat.h"
+#include "lib/io/readers.h"
+
+namespace meshgauge {
+namespace {
+
+using Parser = absl::StatusOr<io::MeshFile> (*)(absl::string_view,
+                                                const std::string&);
+
+// The parser of a file extension, or null.
+Parser ParserFor(absl::string_view extension) {
+  const std::string ext = absl::AsciiStrToLower(extension);
+  if (ext == ".obj") return io::ParseObj;
+  if (ext == ".off") return io::ParseOff;
+  if (ext == ".ply") return io::ParsePly;
+  if (ext == ".stl") return io::ParseStl;
+  return nullptr;
+}
+
+absl::Status Unsupported(absl::string_view ext, const std::string& name) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("unsupported mesh format '", ext, "' for '", name,
+                   "' (use .obj, .off, .ply or .stl)"));
+}
+
+}  // namespace
+
+absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
+                                               absl::string_view extension,
+                                               const std::string& name) {
+  const Parser parse = ParserFor(extension);
+  if (!parse) return Unsupported(extension, name);
+  return parse(contents, name);
+}
+
+absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return absl::NotFoundError(absl::StrCat("cannot open mesh file '", path,
+                                            "': no such regular file"));
+  }
+  const std::string ext = std::filesystem::path(path).extension().string();
+  if (!ParserFor(ext)) return Unsupported(ext, path);
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec || size > static_cast<uintmax_t>(kMaxMeshFileBytes)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("'", path, "' is larger than the limit of ",
+                     kMaxMeshFileBytes, " bytes"));
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::string contents(size, '\0');
+  if (!in || !in.read(contents.data(), static_cast<std::streamsize>(size))) {
+    return absl::NotFoundError(
+        absl::StrCat("cannot read mesh file '", path, "'"));
+  }
+  return ParseMeshContents(contents, ext, path);
+}
+
+absl::StatusOr<Mesh> ReadMesh(const std::string& path) {
+  auto file = ReadMeshFile(path);
+  if (!file.ok()) return file.status();
+  return std::move(file->mesh);
+}
+
+absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
+  std::ofstream out(path);
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  out.precision(17);
+  for (const Vec3& p : mesh.positions) {
+    out << "v " << p.x << " " << p.y << " " << p.z << "\n";
+  }
+  int32_t region = 0;
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    if (mesh.RegionOf(f) != region || f == 0) {
+      region = mesh.RegionOf(f);
+      out << "g " << region << "\n";
+    }
+    const Face& face = mesh.faces[f];
+    out << (face.size == 2 ? "l" : "f");
+    for (int k = 0; k < face.size; ++k) out << " " << face.v[k] + 1;
+    out << "\n";
+  }
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  return absl::OkStatus();
+}
+
+absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
+                             const std::vector<double>& values) {
+  std::ofstream out(path, std::ios::binary);
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  const bool curve = mesh.dimension == 2;
+  out << "ply\nformat binary_little_endian 1.0\n"
+      << "comment meshgauge SDF in property quality\n"
+      << "element vertex " << mesh.positions.size() << "\n"
+      << "property float x\nproperty float y\nproperty float z\n"
+      << "property float quality\n";
+  if (curve) {
+    out << "element edge " << mesh.faces.size() << "\n"
+        << "property int vertex1\nproperty int vertex2\n";
+  } else {
+    int64_t tris = 0;
+    for (const Face& f : mesh.faces) tris += f.size - 2;
+    out << "element face " << tris << "\n"
+        << "property list uchar int vertex_indices\n";
+  }
+  out << "end_header\n";
+  auto put = [&out](auto v) {
+    out.write(reinterpret_cast<const char*>(&v), sizeof(v));
+  };
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    const Vec3& p = mesh.positions[i];
+    put(static_cast<float>(p.x));
+    put(static_cast<float>(p.y));
+    put(static_cast<float>(p.z));
+    put(static_cast<float>(values[i]));
+  }
+  for (const Face& f : mesh.faces) {
+    if (curve) {
+      put(static_cast<int32_t>(f.v[0]));
+      put(static_cast<int32_t>(f.v[1]));
+      continue;
+    }
+    for (int t = 0; t + 2 < f.size; ++t) {
+      put(static_cast<uint8_t>(3));
+      put(static_cast<int32_t>(f.v[0]));
+      put(static_cast<int32_t>(f.v[t + 1]));
+      put(static_cast<int32_t>(f.v[t + 2]));
+    }
+  }
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge

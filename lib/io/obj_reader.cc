@@ -1,0 +1,122 @@
+// Wavefront OBJ: `v` vertices (extra numbers such as w or colours are
+// parsed and ignored), `f` faces and `l` polylines (2D curves), `g ID` with
+// an integer ID sets the region of what follows. Every other statement
+// (vt, vn, mtllib, usemtl, o, s, ...) is ignored: no side file is opened.
+#include "lib/io/readers.h"
+
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
+#include "lib/io/mesh_builder.h"
+#include "lib/io/scan.h"
+
+namespace meshgauge::io {
+namespace {
+
+// The vertex part of `i`, `i/t`, `i//n`, `i/t/n`; 1-based, negative
+// relative to the vertices defined so far.
+bool ParseObjIndex(absl::string_view token, int64_t defined, int64_t* out) {
+  const size_t slash = token.find('/');
+  int64_t i = 0;
+  if (!ParseInt64(token.substr(0, slash), &i) || i == 0) return false;
+  *out = i > 0 ? i - 1 : defined + i;
+  return true;
+}
+
+}  // namespace
+
+absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
+                                  const std::string& path) {
+  // Two passes: the first decides 2D (only `l`) or 3D (`f`), so that faces
+  // are built for the right dimension.
+  bool has_f = false, has_l = false;
+  {
+    TokenScanner scan(text, '#');
+    absl::string_view tok;
+    while (scan.Next(&tok)) {
+      has_f |= tok == "f";
+      has_l |= tok == "l";
+      scan.SkipLine();
+    }
+  }
+  if (has_f && has_l) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": mixes faces (f) and polylines (l); a mesh is either 3D "
+              "faces or a 2D curve"));
+  }
+  const int dimension = has_l ? 2 : 3;
+  MeshBuilder builder(path, dimension);
+  TokenScanner scan(text, '#');
+  absl::string_view tok;
+  std::vector<int64_t> corners;
+  int32_t region = 0;
+  while (scan.Next(&tok)) {
+    const int64_t line = scan.line();
+    const std::string where = absl::StrCat("line ", line);
+    if (tok == "v") {
+      double xyz[3];
+      int count = 0;
+      while (scan.NextOnLine(&tok)) {
+        double value;
+        if (!ParseDouble(tok, &value)) {
+          return LineError(path, line,
+                           absl::StrCat("vertex ", builder.num_vertices(),
+                                        ": ", Quote(tok),
+                                        " is not a finite number"));
+        }
+        if (count < 3) xyz[count] = value;
+        ++count;
+      }
+      if (count < 3 || count > 7) {
+        return LineError(path, line,
+                         absl::StrCat("vertex ", builder.num_vertices(),
+                                      " has ", count,
+                                      " numbers (3 coordinates, optionally w "
+                                      "or a colour)"));
+      }
+      builder.AddVertex({xyz[0], xyz[1], xyz[2]});
+    } else if (tok == "f" || tok == "l") {
+      const bool polyline = tok == "l";
+      corners.clear();
+      while (scan.NextOnLine(&tok)) {
+        int64_t index;
+        if (!ParseObjIndex(tok, builder.num_vertices(), &index)) {
+          return LineError(path, line,
+                           absl::StrCat(Quote(tok), " is not a vertex index"));
+        }
+        corners.push_back(index);
+      }
+      if (!polyline) {
+        if (absl::Status s = builder.AddFace(corners, region, where); !s.ok())
+          return s;
+        continue;
+      }
+      if (corners.size() < 2) {
+        return LineError(path, line, "a polyline needs at least 2 vertices");
+      }
+      for (size_t k = 0; k + 1 < corners.size(); ++k) {
+        const int64_t seg[2] = {corners[k], corners[k + 1]};
+        if (absl::Status s = builder.AddFace(seg, region, where); !s.ok())
+          return s;
+      }
+    } else if (tok == "g") {
+      absl::string_view name;
+      int64_t id = 0;
+      region = scan.NextOnLine(&name) && ParseInt64(name, &id) &&
+                       id >= INT32_MIN && id <= INT32_MAX
+                   ? static_cast<int32_t>(id)
+                   : 0;
+      scan.SkipLine();
+    } else {
+      scan.SkipLine();
+    }
+  }
+  if (builder.num_faces() == 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": no faces (f) or polylines (l)"));
+  }
+  return builder.Finish(dimension == 2 ? "obj (2D polylines)" : "obj");
+}
+
+}  // namespace meshgauge::io

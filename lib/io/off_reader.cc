@@ -1,0 +1,127 @@
+// ASCII OFF (and COFF, NOFF, CNOFF: extra numbers per vertex are parsed and
+// ignored): a header, the counts "V F E", one vertex per line, then one face
+// per line "n i_1 ... i_n [colour]". Binary OFF is not supported.
+#include <vector>
+
+#include "absl/strings/str_cat.h"
+#include "lib/io/mesh_builder.h"
+#include "lib/io/readers.h"
+#include "lib/io/scan.h"
+
+namespace meshgauge::io {
+namespace {
+
+bool ReadCount(TokenScanner& scan, int64_t* out) {
+  absl::string_view tok;
+  return scan.Next(&tok) && ParseInt64(tok, out);
+}
+
+}  // namespace
+
+absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
+                                  const std::string& path) {
+  TokenScanner scan(text, '#');
+  absl::string_view tok;
+  if (!scan.Next(&tok) || (tok != "OFF" && tok != "COFF" && tok != "NOFF" &&
+                           tok != "CNOFF")) {
+    return LineError(path, scan.line(), "not an OFF file (no OFF header)");
+  }
+  absl::string_view next;
+  if (scan.NextOnLine(&next) && next == "BINARY") {
+    return LineError(path, scan.line(),
+                     "binary OFF is not supported; convert it to ASCII OFF, "
+                     "PLY or STL");
+  }
+  int64_t nv = 0, nf = 0, ne = 0;
+  // The counts may follow the header on its line or on the next.
+  bool have_nv = !next.empty() && ParseInt64(next, &nv);
+  if (!next.empty() && !have_nv) {
+    return LineError(path, scan.line(),
+                     absl::StrCat("unexpected ", Quote(next), " after OFF"));
+  }
+  if ((!have_nv && !ReadCount(scan, &nv)) || !ReadCount(scan, &nf) ||
+      !ReadCount(scan, &ne)) {
+    return LineError(path, scan.line(),
+                     "expected the counts 'vertices faces edges'");
+  }
+  const size_t left = text.size() - scan.offset();
+  // A vertex line holds at least "0 0 0\n" (6 bytes), a face "3 0 1 2\n".
+  if (absl::Status s = CheckDeclaredCount(path, "vertices", nv, 6, left);
+      !s.ok())
+    return s;
+  if (absl::Status s = CheckDeclaredCount(path, "faces", nf, 8, left - 6 * nv);
+      !s.ok())
+    return s;
+  MeshBuilder builder(path, 3);
+  builder.ReservePositions(nv);
+  for (int64_t v = 0; v < nv; ++v) {
+    double xyz[3];
+    for (int c = 0; c < 3; ++c) {
+      const bool got = c == 0 ? scan.Next(&tok) : scan.NextOnLine(&tok);
+      if (!got) {
+        return LineError(path, scan.line(),
+                         absl::StrCat("vertex ", v, " of ", nv,
+                                      ": expected 3 coordinates"));
+      }
+      if (!ParseDouble(tok, &xyz[c])) {
+        return LineError(path, scan.line(),
+                         absl::StrCat("vertex ", v, ": ", Quote(tok),
+                                      " is not a finite number"));
+      }
+    }
+    while (scan.NextOnLine(&tok)) {  // colour or normal: numbers only.
+      double ignored;
+      if (!ParseDouble(tok, &ignored)) {
+        return LineError(path, scan.line(),
+                         absl::StrCat("vertex ", v, ": unexpected ",
+                                      Quote(tok)));
+      }
+    }
+    builder.AddVertex({xyz[0], xyz[1], xyz[2]});
+  }
+  std::vector<int64_t> corners;
+  for (int64_t f = 0; f < nf; ++f) {
+    int64_t n = 0;
+    if (!scan.Next(&tok)) {
+      return LineError(path, scan.line(),
+                       absl::StrCat("the file ends after ", f, " of ", nf,
+                                    " declared faces"));
+    }
+    const int64_t line = scan.line();
+    if (!ParseInt64(tok, &n) || n < 3) {
+      return LineError(path, line,
+                       absl::StrCat("face ", f, ": ", Quote(tok),
+                                    " is not a corner count >= 3"));
+    }
+    corners.clear();
+    for (int64_t k = 0; k < n; ++k) {
+      int64_t index;
+      if (!scan.NextOnLine(&tok) || !ParseInt64(tok, &index)) {
+        return LineError(path, line,
+                         absl::StrCat("face ", f, ": expected ", n,
+                                      " vertex indices"));
+      }
+      corners.push_back(index);
+      if (k > kMaxCornersPerRecord) break;  // AddFace reports the excess.
+    }
+    while (scan.NextOnLine(&tok)) {  // an optional colour.
+      double ignored;
+      if (!ParseDouble(tok, &ignored)) {
+        return LineError(path, line,
+                         absl::StrCat("face ", f, ": unexpected ", Quote(tok)));
+      }
+    }
+    if (absl::Status s =
+            builder.AddFace(corners, 0, absl::StrCat("line ", line));
+        !s.ok())
+      return s;
+  }
+  if (!scan.AtEnd()) {
+    return LineError(path, scan.line(),
+                     absl::StrCat("unexpected data after the ", nf,
+                                  " declared faces"));
+  }
+  return builder.Finish("off");
+}
+
+}  // namespace meshgauge::io
