@@ -41,6 +41,8 @@ bool TriangleIsDegenerate(const Vec3& a, const Vec3& b, const Vec3& c) {
   return !(area2 > 1e-14 * longest);
 }
 
+}  // namespace
+
 bool FaceIsDegenerate(const Mesh& mesh, const Face& f) {
   const auto& p = mesh.positions;
   if (f.size == 2) return p[f.v[0]] == p[f.v[1]];
@@ -48,7 +50,25 @@ bool FaceIsDegenerate(const Mesh& mesh, const Face& f) {
   return f.size == 4 && TriangleIsDegenerate(p[f.v[0]], p[f.v[2]], p[f.v[3]]);
 }
 
-}  // namespace
+int64_t DropDegenerateFaces(Mesh& mesh) {
+  int64_t kept = 0;
+  const bool regions = !mesh.face_regions.empty();
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    const Face& face = mesh.faces[f];
+    bool in_range = face.size >= 2 && face.size <= 4;
+    for (int k = 0; k < face.size && in_range; ++k) {
+      in_range = face.v[k] >= 0 && face.v[k] < mesh.num_vertices();
+    }
+    if (in_range && FaceIsDegenerate(mesh, face)) continue;
+    mesh.faces[kept] = face;
+    if (regions) mesh.face_regions[kept] = mesh.face_regions[f];
+    ++kept;
+  }
+  const int64_t dropped = mesh.num_faces() - kept;
+  mesh.faces.resize(kept);
+  if (regions) mesh.face_regions.resize(kept);
+  return dropped;
+}
 
 absl::Status ValidateMesh(const Mesh& mesh) {
   if (mesh.dimension != 2 && mesh.dimension != 3) {
@@ -150,20 +170,33 @@ absl::Status ValidateMesh(const Mesh& mesh) {
       absl::StrCat("invalid mesh: ", absl::StrJoin(problems, "; ")));
 }
 
-double SignedVolume(const Mesh& mesh) {
+double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces) {
   const auto& p = mesh.positions;
+  if (faces.empty()) return 0;
+  // Relative to one vertex of the faces: the same value in exact
+  // arithmetic, without the cancellation of large coordinates.
+  const Vec3 o = p[mesh.faces[faces[0]].v[0]];
   double sum = 0;
-  for (const Face& f : mesh.faces) {
+  for (int32_t id : faces) {
+    const Face& f = mesh.faces[id];
     if (f.size == 2) {
       // Shoelace: counter-clockwise curves give positive area.
-      sum += (p[f.v[0]].x * p[f.v[1]].y - p[f.v[1]].x * p[f.v[0]].y) / 2;
+      const Vec3 a = p[f.v[0]] - o, b = p[f.v[1]] - o;
+      sum += (a.x * b.y - b.x * a.y) / 2;
       continue;
     }
     for (int t = 0; t + 2 < f.size; ++t) {
-      sum += Dot(p[f.v[0]], Cross(p[f.v[t + 1]], p[f.v[t + 2]])) / 6;
+      sum += Dot(p[f.v[0]] - o,
+                 Cross(p[f.v[t + 1]] - o, p[f.v[t + 2]] - o)) / 6;
     }
   }
   return sum;
+}
+
+double SignedVolume(const Mesh& mesh) {
+  std::vector<int32_t> all(mesh.faces.size());
+  for (size_t f = 0; f < all.size(); ++f) all[f] = static_cast<int32_t>(f);
+  return SignedVolumeOfFaces(mesh, all);
 }
 
 bool IsClosed(const Mesh& mesh) {
@@ -189,8 +222,16 @@ bool IsClosed(const Mesh& mesh) {
                      [](const auto& e) { return e.second == 2; });
 }
 
+void ReverseFace(Face& f) {
+  if (f.size == 2) {
+    std::swap(f.v[0], f.v[1]);
+  } else {
+    std::reverse(f.v.begin() + 1, f.v.begin() + f.size);
+  }
+}
+
 void ReverseFaces(Mesh& mesh) {
-  for (Face& f : mesh.faces) std::reverse(f.v.begin(), f.v.begin() + f.size);
+  for (Face& f : mesh.faces) ReverseFace(f);
 }
 
 double MeanEdgeLength(const Mesh& mesh) {

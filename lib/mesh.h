@@ -77,18 +77,31 @@ struct Mesh {
 // valid.
 absl::Status ValidateMesh(const Mesh& mesh);
 
+// True when the face has zero area (zero length), by ValidateMesh's rule.
+// Precondition: the face's indices are in range.
+bool FaceIsDegenerate(const Mesh& mesh, const Face& face);
+
+// The opt-in repair --drop-degenerate-faces: removes every face with zero
+// area (including repeated indices) and its region entry; returns how many.
+// Faces with indices out of range are kept for ValidateMesh to report.
+int64_t DropDegenerateFaces(Mesh& mesh);
+
 // Signed volume sum a.(b x c)/6 over triangles (quads split); positive when
 // faces point outward. Meaningful only for closed 3D meshes; 2D: the signed
 // area enclosed by the segments (positive for counter-clockwise curves).
 double SignedVolume(const Mesh& mesh);
+// The same over a subset of faces (a connected component).
+double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces);
 
 // True when every undirected edge (3D) is used by exactly two faces, or every
 // vertex (2D) by exactly two segments: the "closed" of shared/meshes/README.
 bool IsClosed(const Mesh& mesh);
 
-// Reverses the orientation of every face (the --reorient fix for meshes that
-// are closed but inward oriented).
+// Reverses the orientation of every face: (a, b, c) -> (a, c, b) and
+// (a, b, c, d) -> (a, d, c, b), so a quad keeps its split diagonal a-c.
 void ReverseFaces(Mesh& mesh);
+// The same for one face.
+void ReverseFace(Face& face);
 
 // Mean length of all face edges (each face's edges counted once per face);
 // h of SPEC §4. Precondition: mesh validated.

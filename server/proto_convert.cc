@@ -114,6 +114,7 @@ void ToProto(const SessionSnapshot& s, double now, v1::SessionInfo* out) {
   out->set_idle_seconds(std::max(0.0, now - s.last_used));
   out->set_signed_volume(s.signed_volume);
   out->set_closed(s.closed);
+  for (const std::string& w : s.warnings) out->add_warnings(w);
 }
 
 void AppendFlattened(const std::vector<Vec3>& v, int dimension,

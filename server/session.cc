@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
+#include "lib/components.h"
 
 namespace meshgauge::server {
 namespace {
@@ -41,6 +42,7 @@ Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
       num_faces_(mesh.num_faces()),
       signed_volume_(SignedVolume(mesh)),
       closed_(IsClosed(mesh)),
+      warnings_(DiagnoseMesh(mesh).warnings),
       base_bytes_(EstimateBaseBytes(mesh)),
       pending_mesh_(std::move(mesh)),
       last_used_(now) {}
@@ -138,6 +140,7 @@ SessionSnapshot Session::Snapshot() const {
   s.last_used = last_used_;
   s.signed_volume = signed_volume_;
   s.closed = closed_;
+  s.warnings = warnings_;
   return s;
 }
 

@@ -41,6 +41,7 @@ struct SessionSnapshot {
   double last_used = 0;
   double signed_volume = 0;
   bool closed = false;
+  std::vector<std::string> warnings;  // DiagnoseMesh at upload.
 };
 
 struct UpdateOutcome {
@@ -98,6 +99,7 @@ class Session {
   const int64_t num_vertices_, num_faces_;
   const double signed_volume_;
   const bool closed_;
+  const std::vector<std::string> warnings_;
   const int64_t base_bytes_;
   mutable std::shared_mutex mu_;
   Mesh pending_mesh_;  // until the evaluator takes it.

@@ -85,9 +85,69 @@ TEST(CliTest, HorseWarnsAndReorientsOnRequest) {
       RunCli("sdf " + SharedMesh("horse.ply") + " --rays 4 --reorient --json");
   ASSERT_EQ(fixed.exit_code, 0) << fixed.out;
   const auto j = nlohmann::json::parse(fixed.out);
-  EXPECT_TRUE(j["reoriented"].get<bool>());
+  EXPECT_EQ(j["reoriented_components"], 1);
+  EXPECT_EQ(j["inward_components"].size(), 0u);
   // Reoriented, the cones look into the solid: almost every vertex hits.
   EXPECT_GT(j["ok"].get<int64_t>(), 48000);
+}
+
+TEST(CliTest, SummaryNamesInwardComponentsAndPolygons) {
+  // Two cubes written as quads and one hexagon-capped prism; the second
+  // cube is inside out.
+  const std::string obj = Tmp("two_bodies.obj");
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n"
+                        "v 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n"
+                        "f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\n"
+                        "f 3 4 8 7\nf 4 1 5 8\n"
+                        "v 3 0 0\nv 4 0 0\nv 4 1 0\nv 3 1 0\n"
+                        "v 3 0 1\nv 4 0 1\nv 4 1 1\nv 3 1 1\n"
+                        "f 9 10 11 12\nf 13 16 15 14\nf 9 13 14 10\n"
+                        "f 10 14 15 11\nf 11 15 16 12\nf 12 16 13 9\n";
+  const CliRun r = RunCli("sdf " + obj + " --rays 8 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["components"], 2);
+  EXPECT_EQ(j["inward_components"], nlohmann::json::array({1}));
+  EXPECT_THAT(r.out, HasSubstr("1 of 2 components are closed with negative"));
+  const CliRun fixed = RunCli("sdf " + obj + " --rays 8 --json --reorient");
+  const auto k = nlohmann::json::parse(fixed.out);
+  EXPECT_EQ(k["reoriented_components"], 1);
+  EXPECT_EQ(k["inward_components"].size(), 0u);
+  EXPECT_EQ(k["no_hit"], 0);
+  std::filesystem::remove(obj);
+}
+
+TEST(CliTest, DegenerateFacesAreRejectedUnlessDroppingIsAsked) {
+  const std::string obj = Tmp("degenerate.obj");
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 2 0 0\n"
+                        "f 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\nf 1 2 5\n";
+  const CliRun r = RunCli("sdf " + obj + " --rays 8");
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_THAT(r.out, HasSubstr("1 faces have zero area (first face ids: 4)"));
+  EXPECT_THAT(r.out, HasSubstr("--drop-degenerate-faces"));
+  const CliRun d =
+      RunCli("sdf " + obj + " --rays 8 --drop-degenerate-faces --json");
+  ASSERT_EQ(d.exit_code, 0) << d.out;
+  const auto j = nlohmann::json::parse(d.out);
+  EXPECT_EQ(j["dropped_degenerate_faces"], 1);
+  EXPECT_EQ(j["faces"], 4);
+  EXPECT_EQ(j["vertices"], 5);  // nothing renumbered.
+  std::filesystem::remove(obj);
+}
+
+TEST(CliTest, DoubleSidedAndOpenMeshesAreNamed) {
+  const std::string obj = Tmp("double.obj");
+  std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n";
+  const CliRun r = RunCli("sdf " + obj + " --rays 8 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["double_sided_faces"], 2);
+  EXPECT_THAT(r.out, HasSubstr("double-sided"));
+  const CliRun open = RunCli("sdf " + SharedMesh("stanford-bunny.obj") +
+                             " --rays 4 --json");
+  EXPECT_GT(nlohmann::json::parse(open.out)["boundary_edges"].get<int64_t>(), 0);
+  EXPECT_THAT(open.out, HasSubstr("the mesh is open"));
+  std::filesystem::remove(obj);
 }
 
 TEST(CliTest, TwoDimensionalHollowShapeWithRegionDirections) {

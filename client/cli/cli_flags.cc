@@ -22,7 +22,11 @@ ABSL_FLAG(std::vector<std::string>, region_direction, {},
           "cone direction per region, ID=inward|outward; repeat the flag or "
           "separate with commas");
 ABSL_FLAG(bool, reorient, false,
-          "reverse all faces of a closed mesh whose signed volume is negative");
+          "reverse the faces of every closed component whose signed volume "
+          "is negative (and only those)");
+ABSL_FLAG(bool, drop_degenerate_faces, false,
+          "remove zero-area faces (and say how many) instead of rejecting "
+          "the mesh");
 ABSL_FLAG(std::string, csv, "",
           "write per-vertex CSV: vertex,x,y,z,sdf,normalized,hits,kept,status");
 ABSL_FLAG(std::string, ply, "",
@@ -165,31 +169,42 @@ absl::Status ApplyRegionDirections(Mesh& mesh) {
 }  // namespace
 
 absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path) {
-  auto read = ReadMesh(path);
+  auto read = ReadMeshFile(path);
   if (!read.ok()) return read.status();
   LoadedMesh loaded;
-  loaded.mesh = std::move(*read);
+  loaded.mesh = std::move(read->mesh);
+  loaded.format = read->format;
+  loaded.polygons_triangulated = read->polygons_triangulated;
   if (absl::Status s = ApplyRegionDirections(loaded.mesh); !s.ok()) return s;
+  if (absl::GetFlag(FLAGS_drop_degenerate_faces)) {
+    loaded.dropped_faces = DropDegenerateFaces(loaded.mesh);
+    if (loaded.dropped_faces > 0) {
+      loaded.warnings.push_back(absl::StrCat(
+          loaded.dropped_faces,
+          " zero-area faces dropped (--drop-degenerate-faces)"));
+    }
+  }
   if (absl::Status s = ValidateMesh(loaded.mesh); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": ", s.message()));
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": ", s.message(),
+        absl::StrContains(s.message(), "zero area")
+            ? " (--drop-degenerate-faces removes them)"
+            : ""));
+  }
+  if (absl::GetFlag(FLAGS_reorient)) {
+    loaded.reoriented = ReorientInwardComponents(loaded.mesh);
+    if (loaded.reoriented > 0) {
+      loaded.warnings.push_back(absl::StrCat(
+          loaded.reoriented,
+          " inward-oriented closed components reversed (--reorient)"));
+    }
+  }
+  loaded.diagnostics = DiagnoseMesh(loaded.mesh);
+  for (const std::string& w : loaded.diagnostics.warnings) {
+    loaded.warnings.push_back(w);
   }
   loaded.closed = IsClosed(loaded.mesh);
   loaded.signed_volume = SignedVolume(loaded.mesh);
-  if (loaded.closed && loaded.signed_volume < 0) {
-    if (absl::GetFlag(FLAGS_reorient)) {
-      ReverseFaces(loaded.mesh);
-      loaded.reoriented = true;
-      loaded.warnings.push_back(absl::StrCat(
-          "mesh was inward oriented (signed volume ", loaded.signed_volume,
-          "); all faces reversed (--reorient)"));
-      loaded.signed_volume = -loaded.signed_volume;
-    } else {
-      loaded.warnings.push_back(absl::StrCat(
-          "closed mesh has negative signed volume ", loaded.signed_volume,
-          ": faces point into the solid, so INWARD cones look outside; "
-          "rerun with --reorient to reverse every face"));
-    }
-  }
   return loaded;
 }
 

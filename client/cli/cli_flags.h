@@ -7,6 +7,7 @@
 
 #include "absl/flags/declare.h"
 #include "absl/status/statusor.h"
+#include "lib/components.h"
 #include "lib/mesh.h"
 #include "lib/penalty.h"
 #include "lib/sdf_types.h"
@@ -18,6 +19,7 @@ ABSL_DECLARE_FLAG(double, kappa);
 ABSL_DECLARE_FLAG(int, threads);
 ABSL_DECLARE_FLAG(std::vector<std::string>, region_direction);
 ABSL_DECLARE_FLAG(bool, reorient);
+ABSL_DECLARE_FLAG(bool, drop_degenerate_faces);
 ABSL_DECLARE_FLAG(std::string, csv);
 ABSL_DECLARE_FLAG(std::string, ply);
 ABSL_DECLARE_FLAG(bool, json);
@@ -56,17 +58,23 @@ absl::StatusOr<SdfParams> SdfParamsFromFlags();
 // InvalidArgument naming the flag.
 absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags();
 
-// A mesh read from a file with --region-direction and --reorient applied.
+// A mesh read from a file with --region-direction, --drop-degenerate-faces
+// and --reorient applied.
 struct LoadedMesh {
   Mesh mesh;
+  std::string format;
+  int64_t polygons_triangulated = 0;
+  int64_t dropped_faces = 0;
   double signed_volume = 0;
   bool closed = false;
-  bool reoriented = false;
+  int64_t reoriented = 0;  // components reversed.
+  MeshDiagnostics diagnostics;  // after the fixes.
   std::vector<std::string> warnings;
 };
 
-// Reads and validates `path`; a closed mesh with negative signed volume is
-// reported in `warnings` and reversed only with --reorient.
+// Reads and validates `path`; inward-oriented closed components, double-
+// sided faces and open meshes are reported in `warnings`; the inward
+// components are reversed only with --reorient.
 absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path);
 
 }  // namespace meshgauge::cli

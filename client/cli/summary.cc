@@ -48,7 +48,14 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j["closed"] = loaded.closed;
   j[loaded.mesh.dimension == 3 ? "signed_volume" : "signed_area"] =
       loaded.signed_volume;
-  j["reoriented"] = loaded.reoriented;
+  j["format"] = loaded.format;
+  j["polygons_triangulated"] = loaded.polygons_triangulated;
+  j["dropped_degenerate_faces"] = loaded.dropped_faces;
+  j["components"] = loaded.diagnostics.components;
+  j["inward_components"] = loaded.diagnostics.inward_components;
+  j["double_sided_faces"] = loaded.diagnostics.double_sided_faces;
+  j["boundary_edges"] = loaded.diagnostics.boundary_edges;
+  j["reoriented_components"] = loaded.reoriented;
   j["world_frame_vertices"] = result.world_frame_vertices;
   j["missing_vertices"] = result.missing.vertices;
   j["missing_faces"] = result.missing.faces;
@@ -71,7 +78,8 @@ std::string SummaryText(const nlohmann::json& j) {
                        : absl::StrFormat("%.6g", v.get<double>());
   };
   std::string s = absl::StrFormat(
-      "mesh: %dD, %d vertices, %d faces, %s\n"
+      "mesh: %dD, %d vertices, %d faces, %s, %d components, %d polygons "
+      "triangulated (%s)\n"
       "method: %s, %g deg cone, %d rays per vertex\n"
       "vertices: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
       "sdf: min %s  median %s  max %s  mean %s\n"
@@ -81,6 +89,8 @@ std::string SummaryText(const nlohmann::json& j) {
       "rays: %d in %.3f s (%.3g rays/s in the ray pass)\n",
       j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
+      j["components"].get<int64_t>(), j["polygons_triangulated"].get<int64_t>(),
+      j["format"].get<std::string>(),
       j["method"].get<std::string>(), j["cone_angle_degrees"].get<double>(),
       j["rays_per_vertex"].get<int>(), j["ok"].get<int64_t>(),
       j["no_hit"].get<int64_t>(), j["no_faces"].get<int64_t>(),

@@ -1,0 +1,88 @@
+// Components, per-component orientation and the diagnostics of loaded
+// meshes; quads keep their diagonal when reversed.
+#include "lib/components.h"
+
+#include <gtest/gtest.h>
+
+#include "lib/shapes.h"
+
+namespace meshgauge {
+namespace {
+
+Mesh TwoBoxes(bool second_inward) {
+  Mesh a = MakeBox(1, 1, 1, 0.5, /*quads=*/true);
+  Mesh b = MakeBox(1, 1, 1, 0.5, /*quads=*/true);
+  const int32_t offset = static_cast<int32_t>(a.positions.size());
+  for (Vec3 p : b.positions) a.positions.push_back(p + Vec3(3, 0, 0));
+  for (Face f : b.faces) {
+    for (int k = 0; k < f.size; ++k) f.v[k] += offset;
+    if (second_inward) ReverseFace(f);
+    a.faces.push_back(f);
+  }
+  return a;
+}
+
+TEST(ComponentsTest, FindsTheInwardComponentAndFlipsOnlyIt) {
+  Mesh m = TwoBoxes(true);
+  ASSERT_TRUE(ValidateMesh(m).ok());
+  const auto comps = ConnectedComponents(m);
+  ASSERT_EQ(comps.size(), 2u);
+  EXPECT_TRUE(comps[0].closed && comps[1].closed);
+  EXPECT_NEAR(comps[0].signed_volume, 1, 1e-12);
+  EXPECT_NEAR(comps[1].signed_volume, -1, 1e-12);
+  // The total volume is zero: a whole-mesh test would see nothing wrong.
+  EXPECT_NEAR(SignedVolume(m), 0, 1e-12);
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  EXPECT_EQ(d.inward_components, std::vector<int64_t>{1});
+  const Mesh before = m;
+  EXPECT_EQ(ReorientInwardComponents(m), 1);
+  for (size_t f = 0; f < comps[0].faces.size(); ++f) {
+    EXPECT_EQ(m.faces[f].v, before.faces[f].v);  // first body untouched.
+  }
+  EXPECT_TRUE(DiagnoseMesh(m).inward_components.empty());
+  EXPECT_NEAR(SignedVolume(m), 2, 1e-12);
+}
+
+TEST(ComponentsTest, ReversedQuadKeepsItsDiagonal) {
+  Face q = Face::Quad(10, 11, 12, 13);
+  ReverseFace(q);
+  EXPECT_EQ(q.v, (std::array<int32_t, 4>{10, 13, 12, 11}));
+  // The split (0,1,2), (0,2,3) still uses the diagonal 10-12.
+  EXPECT_EQ(q.v[0], 10);
+  EXPECT_EQ(q.v[2], 12);
+  Face s = Face::Segment(1, 2);
+  ReverseFace(s);
+  EXPECT_EQ(s.v[0], 2);
+  EXPECT_EQ(s.v[1], 1);
+}
+
+TEST(ComponentsTest, CountsDoubleSidedFacesAndBoundaryEdges) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(1, 2, 0),
+             Face::Triangle(0, 2, 1), Face::Triangle(1, 3, 2)};
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  EXPECT_EQ(d.double_sided_faces, 3);  // 0 and 1 face 2 (a rotation of 0).
+  EXPECT_GT(d.boundary_edges, 0);
+  EXPECT_EQ(d.warnings.size(), 2u);
+}
+
+TEST(ComponentsTest, DropDegenerateFacesKeepsVerticesAndRegions) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {2, 0, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(0, 1, 3),
+             Face::Triangle(2, 2, 1)};
+  m.face_regions = {4, 5, 6};
+  EXPECT_EQ(DropDegenerateFaces(m), 2);
+  EXPECT_EQ(m.num_vertices(), 4);
+  EXPECT_EQ(m.face_regions, std::vector<int32_t>{4});
+}
+
+TEST(ComponentsTest, SignedVolumeIsExactFarFromTheOrigin) {
+  Mesh box = MakeBox(1, 1, 1, 1);
+  for (Vec3& p : box.positions) p += Vec3(1e7, 1e7, 1e7);
+  EXPECT_NEAR(SignedVolume(box), 1, 1e-6);
+}
+
+}  // namespace
+}  // namespace meshgauge
