@@ -26,8 +26,8 @@
 #include "absl/flags/parse.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/io/mesh_io.h"
-#include "lib/sdf.h"
-#include "lib/shapes.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/shapes.h"
 
 ABSL_FLAG(int, rays, 25, "rays per cone (CGAL's default is 25)");
 ABSL_FLAG(double, cone_angle, 120, "cone angle in degrees (CGAL: 2/3 pi)");

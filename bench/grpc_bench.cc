@@ -19,8 +19,8 @@
 #include "absl/flags/parse.h"
 #include "client/remote/remote_client.h"
 #include "lib/io/mesh_io.h"
-#include "lib/sdf.h"
-#include "lib/sensitivity.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/sensitivity.h"
 #include "server/server.h"
 
 ABSL_FLAG(int, iterations, 5, "repetitions of each measurement (best kept)");

@@ -30,7 +30,7 @@
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
 #include "client/remote/remote_client.h"
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
 
 ABSL_FLAG(std::string, target, "127.0.0.1:50051", "server or balancer");
 ABSL_FLAG(int, clients, 4, "concurrent clients, 1..256");

@@ -9,10 +9,10 @@
 #include <chrono>
 #include <limits>
 
-#include "lib/normals.h"
-#include "lib/ray_scene.h"
-#include "lib/topology.h"
-#include "lib/vertex_cone.h"
+#include "lib/core/normals.h"
+#include "lib/embree/ray_hit.h"
+#include "lib/core/topology.h"
+#include "lib/core/vertex_cone.h"
 
 namespace meshgauge::bench {
 

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "lib/mesh.h"
-#include "lib/sdf_types.h"
+#include "lib/core/mesh.h"
+#include "lib/core/sdf_types.h"
 
 namespace meshgauge::bench {
 

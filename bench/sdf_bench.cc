@@ -18,8 +18,8 @@
 #include "absl/flags/parse.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/io/mesh_io.h"
-#include "lib/sdf.h"
-#include "lib/sensitivity.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/sensitivity.h"
 
 ABSL_FLAG(int, repeat, 4, "runs of each pass; the best is reported");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");

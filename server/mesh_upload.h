@@ -8,7 +8,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 #include "meshgauge/v1/meshgauge.pb.h"
 #include "server/server_options.h"
 

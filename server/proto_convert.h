@@ -4,8 +4,8 @@
 #include <grpcpp/support/status.h>
 
 #include "absl/status/statusor.h"
-#include "lib/penalty.h"
-#include "lib/sdf_types.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
 #include "meshgauge/v1/meshgauge.pb.h"
 #include "server/session.h"
 

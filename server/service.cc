@@ -5,10 +5,10 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
-#include "lib/calibration.h"
-#include "lib/integrals.h"
-#include "lib/penalty.h"
-#include "lib/sensitivity.h"
+#include "lib/embree/calibration.h"
+#include "lib/core/integrals.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sensitivity.h"
 #include "server/mesh_upload.h"
 #include "server/proto_convert.h"
 

@@ -3,7 +3,7 @@
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
-#include "lib/components.h"
+#include "lib/core/components.h"
 
 namespace meshgauge::server {
 namespace {

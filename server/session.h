@@ -16,7 +16,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
-#include "lib/sdf_evaluator.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
 

@@ -1,11 +1,11 @@
 // SPEC §8 calibration report.
-#include "lib/calibration.h"
+#include "lib/embree/calibration.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "lib/io/mesh_io.h"
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

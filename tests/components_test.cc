@@ -1,10 +1,10 @@
 // Components, per-component orientation and the diagnostics of loaded
 // meshes; quads keep their diagonal when reversed.
-#include "lib/components.h"
+#include "lib/core/components.h"
 
 #include <gtest/gtest.h>
 
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
 
 namespace meshgauge {
 namespace {

@@ -1,6 +1,6 @@
 // SPEC §5 filter and weights on given distances, and the kappa = 0 rule of
 // SPEC v2 §7.
-#include "lib/estimator.h"
+#include "lib/core/estimator.h"
 
 #include <gtest/gtest.h>
 

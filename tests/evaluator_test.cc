@@ -6,8 +6,8 @@
 #include <cstring>
 
 #include "lib/io/mesh_io.h"
-#include "lib/sdf.h"
-#include "lib/shapes.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/shapes.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "lib/gradcheck.h"
+#include "lib/embree/gradcheck.h"
 
 namespace meshgauge::testing {
 

@@ -7,10 +7,11 @@
 #include <cmath>
 #include <random>
 
-#include "lib/cone.h"
+#include "lib/core/cone.h"
 #include "lib/io/mesh_io.h"
-#include "lib/sensitivity.h"
-#include "lib/shapes.h"
+#include "lib/core/sensitivity.h"
+#include "lib/core/shapes.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 

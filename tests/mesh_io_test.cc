@@ -9,7 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "lib/sdf.h"
+#include "lib/embree/sdf.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

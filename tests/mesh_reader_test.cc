@@ -14,7 +14,7 @@
 #include <fstream>
 
 #include "lib/io/mesh_io.h"
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 #include "tests/openmesh_reference.h"
 #include "tests/test_util.h"
 

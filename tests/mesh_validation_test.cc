@@ -5,9 +5,9 @@
 
 #include <limits>
 
-#include "lib/mesh.h"
-#include "lib/sdf.h"
-#include "lib/shapes.h"
+#include "lib/core/mesh.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/shapes.h"
 
 namespace meshgauge {
 namespace {

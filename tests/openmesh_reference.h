@@ -7,7 +7,7 @@
 #include <string>
 
 #include "absl/status/statusor.h"
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 
 namespace meshgauge::testing {
 

@@ -1,16 +1,17 @@
 // SPEC §7: the penalty and its gradient, including the explicit derivative of
 // the element measures, against central finite differences.
-#include "lib/penalty.h"
+#include "lib/core/penalty.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "lib/gradcheck.h"
-#include "lib/integrals.h"
+#include "lib/embree/gradcheck.h"
+#include "lib/core/integrals.h"
 #include "lib/io/mesh_io.h"
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 

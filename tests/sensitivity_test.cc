@@ -1,5 +1,5 @@
 // SPEC §6: every derivative against central finite differences.
-#include "lib/sensitivity.h"
+#include "lib/core/sensitivity.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -8,7 +8,8 @@
 #include <numbers>
 
 #include "lib/io/mesh_io.h"
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 

@@ -8,7 +8,7 @@
 #include <future>
 #include <thread>
 
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
 #include "tests/server_test_util.h"
 
 namespace meshgauge {

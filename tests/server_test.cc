@@ -7,10 +7,10 @@
 #include <thread>
 
 #include "lib/io/mesh_io.h"
-#include "lib/penalty.h"
-#include "lib/sdf.h"
-#include "lib/sensitivity.h"
-#include "lib/shapes.h"
+#include "lib/core/penalty.h"
+#include "lib/embree/sdf.h"
+#include "lib/core/sensitivity.h"
+#include "lib/core/shapes.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
 

@@ -7,10 +7,10 @@
 
 #include "absl/flags/declare.h"
 #include "absl/status/statusor.h"
-#include "lib/components.h"
-#include "lib/mesh.h"
-#include "lib/penalty.h"
-#include "lib/sdf_types.h"
+#include "lib/core/components.h"
+#include "lib/core/mesh.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
 
 ABSL_DECLARE_FLAG(std::string, method);
 ABSL_DECLARE_FLAG(double, cone_angle);

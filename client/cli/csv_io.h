@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "lib/vec3.h"
+#include "lib/core/vec3.h"
 
 namespace meshgauge::cli {
 

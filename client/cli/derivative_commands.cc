@@ -13,9 +13,9 @@
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
 #include "client/cli/progress_bar.h"
-#include "lib/calibration.h"
-#include "lib/penalty.h"
-#include "lib/sensitivity.h"
+#include "lib/embree/calibration.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sensitivity.h"
 
 namespace meshgauge::cli {
 namespace {

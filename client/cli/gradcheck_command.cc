@@ -7,7 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
-#include "lib/gradcheck.h"
+#include "lib/embree/gradcheck.h"
 
 ABSL_FLAG(double, fd_tolerance, 1e-5,
           "meshgauge gradcheck: relative error allowed on clean samples");

@@ -8,7 +8,7 @@
 #include "client/cli/progress_bar.h"
 #include "client/cli/summary.h"
 #include "lib/io/mesh_io.h"
-#include "lib/sdf.h"
+#include "lib/embree/sdf.h"
 
 namespace meshgauge::cli {
 

@@ -7,7 +7,7 @@
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 #include "lib/io/mesh_io.h"
-#include "lib/shapes.h"
+#include "lib/core/shapes.h"
 
 namespace meshgauge::cli {
 

@@ -7,8 +7,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "lib/integrals.h"
-#include "lib/penalty.h"
+#include "lib/core/integrals.h"
+#include "lib/core/penalty.h"
 
 namespace meshgauge::cli {
 

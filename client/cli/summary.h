@@ -6,7 +6,7 @@
 
 #include "absl/status/status.h"
 #include "client/cli/cli_flags.h"
-#include "lib/sdf_types.h"
+#include "lib/core/sdf_types.h"
 
 namespace meshgauge::cli {
 

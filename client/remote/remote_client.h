@@ -11,10 +11,10 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "lib/mesh.h"
-#include "lib/penalty.h"
-#include "lib/sdf_types.h"
-#include "lib/sensitivity.h"
+#include "lib/core/mesh.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
+#include "lib/core/sensitivity.h"
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 
 namespace meshgauge::client {

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
-#include "lib/polygon.h"
+#include "lib/core/polygon.h"
 
 namespace meshgauge::io {
 

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 
 namespace meshgauge::io {
 

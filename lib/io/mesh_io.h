@@ -19,7 +19,7 @@
 
 #include "absl/status/statusor.h"
 #include "lib/io/mesh_file.h"
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 
 namespace meshgauge {
 

@@ -1,0 +1,64 @@
+// Surface integrals of nodal values (SPEC §7): values are interpolated
+// linearly on each face and integrated with a 2-point Gauss rule (segments)
+// or the 3-point degree-2 rule (triangles; quads as two triangles).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "lib/core/mesh.h"
+
+namespace meshgauge {
+
+struct IntegralResult {
+  double value = 0;           // integral, in (value units) x length^(dim-1).
+  double measure = 0;         // total length/area of the faces used.
+  int64_t skipped_faces = 0;  // faces with a vertex whose value is not finite.
+};
+
+// Integral of phi(t) over the surface, t the interpolated nodal values
+// (#V, NaN where there is no value). Faces with any non-finite vertex value
+// are skipped and counted. phi defaults to the identity (the integral of the
+// SDF, SPEC §7 first bullet).
+IntegralResult IntegrateNodal(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::function<double(double)>& phi = nullptr);
+
+// One integration element: a segment (n = 2) or a triangle (n = 3; a quad
+// gives two) with its vertex ids and measure (length or area).
+struct Element {
+  int n = 0;
+  int32_t v[3] = {-1, -1, -1};
+  double measure = 0;
+};
+
+// A quadrature point of an element: weight (summing to 1 over the element)
+// and the linear shape functions N_i at the point.
+struct QuadraturePoint {
+  double weight;
+  double shape[3];
+};
+
+// The rule of SPEC §7 for an element with n vertices: 2 Gauss points on a
+// segment, 3 points (degree 2) on a triangle.
+const std::vector<QuadraturePoint>& QuadratureRule(int n);
+
+// Calls fn(element) for every integration element of every face, in face
+// order; `face` is the mesh face index.
+void ForEachElement(
+    const Mesh& mesh,
+    const std::function<void(int64_t face, const Element&)>& fn);
+
+// Calls fn(e, t) for every element whose vertices all have finite values,
+// t[q] the value interpolated at quadrature point q of QuadratureRule(e.n);
+// returns the number of faces skipped (a face with any non-finite vertex
+// value).
+int64_t ForEachValuedElement(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::function<void(const Element&, const double* t)>& fn);
+
+// d(measure)/dx for the element's vertices (3 entries; z = 0 in 2D).
+void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]);
+
+}  // namespace meshgauge

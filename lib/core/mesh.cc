@@ -1,0 +1,266 @@
+#include "lib/core/mesh.h"
+
+#include <algorithm>
+#include <limits>
+#include <unordered_map>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+
+namespace meshgauge {
+namespace {
+
+constexpr int kMaxIdsInMessage = 5;
+
+// Collects offending ids of one defect class for a precise message.
+class DefectList {
+ public:
+  explicit DefectList(std::string what) : what_(std::move(what)) {}
+  void Add(int64_t id) {
+    if (count_ < kMaxIdsInMessage) first_.push_back(id);
+    ++count_;
+  }
+  bool empty() const { return count_ == 0; }
+  // "<count> <what> (first <kind> ids: 1, 2, 3)".
+  std::string Message(const char* kind) const {
+    return absl::StrCat(count_, " ", what_, " (first ", kind,
+                        " ids: ", absl::StrJoin(first_, ", "), ")");
+  }
+
+ private:
+  std::string what_;
+  int64_t count_ = 0;
+  std::vector<int64_t> first_;
+};
+
+// |(b-a) x (c-a)| <= 1e-14 * longest edge^2.
+bool TriangleIsDegenerate(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double area2 = Norm(Cross(b - a, c - a));
+  const double longest =
+      std::max({Dot(b - a, b - a), Dot(c - b, c - b), Dot(a - c, a - c)});
+  return !(area2 > 1e-14 * longest);
+}
+
+}  // namespace
+
+bool FaceIsDegenerate(const Mesh& mesh, const Face& f) {
+  const auto& p = mesh.positions;
+  if (f.size == 2) return p[f.v[0]] == p[f.v[1]];
+  if (TriangleIsDegenerate(p[f.v[0]], p[f.v[1]], p[f.v[2]])) return true;
+  return f.size == 4 && TriangleIsDegenerate(p[f.v[0]], p[f.v[2]], p[f.v[3]]);
+}
+
+int64_t DropDegenerateFaces(Mesh& mesh) {
+  int64_t kept = 0;
+  const bool regions = !mesh.face_regions.empty();
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    const Face& face = mesh.faces[f];
+    bool in_range = face.size >= 2 && face.size <= 4;
+    for (int k = 0; k < face.size && in_range; ++k) {
+      in_range = face.v[k] >= 0 && face.v[k] < mesh.num_vertices();
+    }
+    if (in_range && FaceIsDegenerate(mesh, face)) continue;
+    mesh.faces[kept] = face;
+    if (regions) mesh.face_regions[kept] = mesh.face_regions[f];
+    ++kept;
+  }
+  const int64_t dropped = mesh.num_faces() - kept;
+  mesh.faces.resize(kept);
+  if (regions) mesh.face_regions.resize(kept);
+  return dropped;
+}
+
+absl::Status ValidateMesh(const Mesh& mesh) {
+  if (mesh.dimension != 2 && mesh.dimension != 3) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("dimension must be 2 or 3, got ", mesh.dimension));
+  }
+  if (mesh.positions.empty() || mesh.faces.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("empty mesh: ", mesh.positions.size(), " vertices and ",
+                     mesh.faces.size(), " faces (need at least one of each)"));
+  }
+  if (mesh.positions.size() >
+          static_cast<size_t>(std::numeric_limits<int32_t>::max()) ||
+      mesh.faces.size() >
+          static_cast<size_t>(std::numeric_limits<int32_t>::max() / 2)) {
+    return absl::InvalidArgumentError("mesh too large for 32-bit indices");
+  }
+  if (!mesh.face_regions.empty() &&
+      mesh.face_regions.size() != mesh.faces.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "face_regions has ", mesh.face_regions.size(),
+        " entries but the mesh has ", mesh.faces.size(), " faces"));
+  }
+  std::vector<std::string> problems;
+  DefectList non_finite("vertices have non-finite coordinates");
+  DefectList nonzero_z("vertices of a 2D mesh have z != 0 (mixed dimensions)");
+  for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
+    if (!IsFinite(mesh.positions[i]))
+      non_finite.Add(i);
+    else if (mesh.dimension == 2 && mesh.positions[i].z != 0)
+      nonzero_z.Add(i);
+  }
+  if (!non_finite.empty()) problems.push_back(non_finite.Message("vertex"));
+  if (!nonzero_z.empty()) problems.push_back(nonzero_z.Message("vertex"));
+
+  DefectList bad_arity(mesh.dimension == 2
+                           ? "faces are not segments in a 2D mesh (mixed "
+                             "dimensions)"
+                           : "faces are neither triangles nor quads in a 3D "
+                             "mesh (mixed dimensions)");
+  DefectList out_of_range(absl::StrCat(
+      "faces have vertex indices out of range [0, ", mesh.num_vertices(), ")"));
+  DefectList repeated("faces repeat a vertex index");
+  DefectList degenerate(mesh.dimension == 2 ? "segments have zero length"
+                                            : "faces have zero area");
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    const Face& face = mesh.faces[f];
+    const bool arity_ok = mesh.dimension == 2
+                              ? face.size == 2
+                              : (face.size == 3 || face.size == 4);
+    if (!arity_ok) {
+      bad_arity.Add(f);
+      continue;
+    }
+    bool in_range = true;
+    for (int k = 0; k < face.size; ++k) {
+      if (face.v[k] < 0 || face.v[k] >= mesh.num_vertices()) in_range = false;
+    }
+    if (!in_range) {
+      out_of_range.Add(f);
+      continue;
+    }
+    bool has_repeat = false;
+    for (int a = 0; a < face.size; ++a) {
+      for (int b = a + 1; b < face.size; ++b) {
+        if (face.v[a] == face.v[b]) has_repeat = true;
+      }
+    }
+    if (has_repeat) {
+      repeated.Add(f);
+      continue;
+    }
+    if (non_finite.empty() && FaceIsDegenerate(mesh, face)) degenerate.Add(f);
+  }
+  for (const DefectList* list :
+       {&bad_arity, &out_of_range, &repeated, &degenerate}) {
+    if (!list->empty()) problems.push_back(list->Message("face"));
+  }
+  if (problems.empty()) {
+    // Direction conflicts: 0 = unseen, 1 = inward, 2 = outward, 3 = both.
+    std::vector<uint8_t> seen(mesh.positions.size(), 0);
+    for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+      const uint8_t bit =
+          mesh.DirectionOfRegion(mesh.RegionOf(f)) == ConeDirection::kInward
+              ? 1
+              : 2;
+      const Face& face = mesh.faces[f];
+      for (int k = 0; k < face.size; ++k) seen[face.v[k]] |= bit;
+    }
+    DefectList conflict(
+        "vertices touch faces of regions with different cone directions");
+    for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
+      if (seen[i] == 3) conflict.Add(i);
+    }
+    if (!conflict.empty()) problems.push_back(conflict.Message("vertex"));
+  }
+  if (problems.empty()) return absl::OkStatus();
+  return absl::InvalidArgumentError(
+      absl::StrCat("invalid mesh: ", absl::StrJoin(problems, "; ")));
+}
+
+double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces) {
+  const auto& p = mesh.positions;
+  if (faces.empty()) return 0;
+  // Relative to one vertex of the faces: the same value in exact
+  // arithmetic, without the cancellation of large coordinates.
+  const Vec3 o = p[mesh.faces[faces[0]].v[0]];
+  double sum = 0;
+  for (int32_t id : faces) {
+    const Face& f = mesh.faces[id];
+    if (f.size == 2) {
+      // Shoelace: counter-clockwise curves give positive area.
+      const Vec3 a = p[f.v[0]] - o, b = p[f.v[1]] - o;
+      sum += (a.x * b.y - b.x * a.y) / 2;
+      continue;
+    }
+    for (int t = 0; t + 2 < f.size; ++t) {
+      sum += Dot(p[f.v[0]] - o,
+                 Cross(p[f.v[t + 1]] - o, p[f.v[t + 2]] - o)) / 6;
+    }
+  }
+  return sum;
+}
+
+double SignedVolume(const Mesh& mesh) {
+  std::vector<int32_t> all(mesh.faces.size());
+  for (size_t f = 0; f < all.size(); ++f) all[f] = static_cast<int32_t>(f);
+  return SignedVolumeOfFaces(mesh, all);
+}
+
+bool IsClosed(const Mesh& mesh) {
+  if (mesh.dimension == 2) {
+    std::vector<int> uses(mesh.positions.size(), 0);
+    for (const Face& f : mesh.faces) {
+      ++uses[f.v[0]];
+      ++uses[f.v[1]];
+    }
+    return std::all_of(uses.begin(), uses.end(),
+                       [](int u) { return u == 0 || u == 2; });
+  }
+  std::unordered_map<uint64_t, int> edge_uses;
+  for (const Face& f : mesh.faces) {
+    for (int k = 0; k < f.size; ++k) {
+      uint64_t a = static_cast<uint32_t>(f.v[k]);
+      uint64_t b = static_cast<uint32_t>(f.v[(k + 1) % f.size]);
+      if (a > b) std::swap(a, b);
+      ++edge_uses[(a << 32) | b];
+    }
+  }
+  return std::all_of(edge_uses.begin(), edge_uses.end(),
+                     [](const auto& e) { return e.second == 2; });
+}
+
+void ReverseFace(Face& f) {
+  if (f.size == 2) {
+    std::swap(f.v[0], f.v[1]);
+  } else {
+    std::reverse(f.v.begin() + 1, f.v.begin() + f.size);
+  }
+}
+
+void ReverseFaces(Mesh& mesh) {
+  for (Face& f : mesh.faces) ReverseFace(f);
+}
+
+double MeanEdgeLength(const Mesh& mesh) {
+  double sum = 0;
+  int64_t count = 0;
+  for (const Face& f : mesh.faces) {
+    const int edges = f.size == 2 ? 1 : f.size;
+    for (int k = 0; k < edges; ++k) {
+      sum +=
+          Norm(mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]]);
+      ++count;
+    }
+  }
+  return count == 0 ? 0.0 : sum / static_cast<double>(count);
+}
+
+double BoundingBoxDiagonal(const Mesh& mesh) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  Vec3 lo(kInf, kInf, kInf), hi(-kInf, -kInf, -kInf);
+  for (const Face& f : mesh.faces) {
+    for (int k = 0; k < f.size; ++k) {
+      const Vec3& p = mesh.positions[f.v[k]];
+      for (int c = 0; c < 3; ++c) {
+        lo[c] = std::min(lo[c], p[c]);
+        hi[c] = std::max(hi[c], p[c]);
+      }
+    }
+  }
+  return mesh.faces.empty() ? 0.0 : Norm(hi - lo);
+}
+
+}  // namespace meshgauge

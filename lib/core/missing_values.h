@@ -1,0 +1,43 @@
+// Vertices without a value and the surface they cost the integrals (SPEC v2
+// §7: missing values are never a silent zero).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "lib/core/mesh.h"
+
+namespace meshgauge {
+
+struct MissingValues {
+  int64_t vertices = 0;      // vertices on a face but without a value.
+  int64_t faces = 0;         // faces with such a vertex (integrals skip them).
+  double area_fraction = 0;  // their measure / the whole surface's, [0, 1].
+};
+
+// values: #V, NaN where there is no value. Vertices on no face are not
+// counted (they have no surface). Precondition: mesh validated.
+MissingValues CountMissing(const Mesh& mesh, const std::vector<double>& values);
+
+// Counts of the statuses of the vertices without a value, for the diagnosis.
+struct MissingCauses {
+  int64_t no_hit = 0;
+  int64_t degenerate_normal = 0;
+};
+
+// A one-sentence likely cause of missing values: inward orientation
+// (negative signed volume of a closed mesh: reorient), a double-sided mesh
+// (most missing vertices have a degenerate normal), or an open or planar mesh
+// (rays escape).
+std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes);
+
+// OK when missing.area_fraction <= max_fraction; otherwise
+// FailedPrecondition naming `what`, the fraction, the allowed fraction and
+// the likely cause.
+absl::Status CheckMissing(const Mesh& mesh, const MissingValues& missing,
+                          const MissingCauses& causes, double max_fraction,
+                          const std::string& what);
+
+}  // namespace meshgauge

@@ -1,0 +1,193 @@
+#include "lib/core/penalty.h"
+
+#include <cmath>
+#include <functional>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "lib/core/integrals.h"
+#include "lib/core/sensitivity.h"
+
+namespace meshgauge {
+namespace {
+
+struct Phi {
+  PenaltyParams p;
+  double Value(double t) const {
+    if (p.form == PenaltyForm::kThesis)
+      return std::pow(t / p.t_min - 1, p.power);
+    return std::pow(std::max(0.0, 1 - t / p.t_min), p.power);
+  }
+  double Derivative(double t) const {
+    if (p.form == PenaltyForm::kThesis) {
+      return p.power * std::pow(t / p.t_min - 1, p.power - 1) / p.t_min;
+    }
+    const double base = 1 - t / p.t_min;
+    if (base <= 0) return 0;
+    return -p.power * std::pow(base, p.power - 1) / p.t_min;
+  }
+};
+
+// I = integral of f(t) over the faces with values, with dI/dt_p and (with
+// `measure_terms`) the explicit dI/dx of the element measures.
+struct NodalIntegral {
+  double value = 0;
+  std::vector<double> d_dt;
+  std::vector<Vec3> d_measure;
+};
+
+NodalIntegral Integrate(const Mesh& mesh, const std::vector<double>& values,
+                        const std::function<double(double)>& f,
+                        const std::function<double(double)>& df,
+                        bool measure_terms) {
+  NodalIntegral r;
+  r.d_dt.assign(mesh.num_vertices(), 0.0);
+  if (measure_terms) r.d_measure.assign(mesh.num_vertices(), Vec3());
+  ForEachValuedElement(mesh, values, [&](const Element& e, const double* t) {
+    const auto& rule = QuadratureRule(e.n);
+    double f_sum = 0;
+    for (size_t q = 0; q < rule.size(); ++q) {
+      f_sum += rule[q].weight * f(t[q]);
+      const double dfq = rule[q].weight * e.measure * df(t[q]);
+      for (int i = 0; i < e.n; ++i) r.d_dt[e.v[i]] += dfq * rule[q].shape[i];
+    }
+    r.value += e.measure * f_sum;
+    if (measure_terms) {
+      Vec3 grad[3];
+      ElementMeasureGradient(mesh, e, grad);
+      for (int i = 0; i < e.n; ++i) r.d_measure[e.v[i]] += grad[i] * f_sum;
+    }
+  });
+  return r;
+}
+
+// G = M + ln(I / A) / rho with I = integral of exp(rho (s - M)), s = 1 -
+// t/t_min, M = max of s over the quadrature points (no exp overflows, and
+// I >= the weight of the point where s = M), A = |Gamma| of the valued faces.
+NodalIntegral KsConstraint(const Mesh& mesh, const std::vector<double>& values,
+                           const PenaltyParams& p, bool measure_terms) {
+  double shift = -std::numeric_limits<double>::infinity();
+  ForEachValuedElement(mesh, values, [&](const Element& e, const double* t) {
+    for (size_t q = 0; q < QuadratureRule(e.n).size(); ++q) {
+      shift = std::max(shift, 1 - t[q] / p.t_min);
+    }
+  });
+  auto exp_s = [&](double t) {
+    return std::exp(p.rho * ((1 - t / p.t_min) - shift));
+  };
+  const NodalIntegral ki = Integrate(
+      mesh, values, exp_s,
+      [&](double t) { return -p.rho / p.t_min * exp_s(t); }, measure_terms);
+  const NodalIntegral area = Integrate(
+      mesh, values, [](double) { return 1.0; }, [](double) { return 0.0; },
+      measure_terms);
+  NodalIntegral g;
+  g.value = shift + std::log(ki.value / area.value) / p.rho;
+  g.d_dt.resize(ki.d_dt.size());
+  for (size_t i = 0; i < g.d_dt.size(); ++i) {
+    g.d_dt[i] = ki.d_dt[i] / (p.rho * ki.value);
+  }
+  if (measure_terms) {
+    g.d_measure.resize(ki.d_measure.size());
+    for (size_t i = 0; i < g.d_measure.size(); ++i) {
+      g.d_measure[i] = (ki.d_measure[i] / ki.value -
+                        area.d_measure[i] / area.value) /
+                       p.rho;
+    }
+  }
+  return g;
+}
+
+}  // namespace
+
+absl::Status ValidatePenaltyParams(const PenaltyParams& p) {
+  if (!(p.t_min > 0) || !std::isfinite(p.t_min)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("t_min must be a finite number > 0, got ", p.t_min));
+  }
+  if (p.form != PenaltyForm::kKs && (!(p.power >= 1) || !std::isfinite(p.power))) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("penalty power n must be >= 1, got ", p.power));
+  }
+  if (p.form == PenaltyForm::kThesis && p.power != std::floor(p.power)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the thesis penalty (t/t_min - 1)^n needs an integer n, got ",
+        p.power));
+  }
+  if (p.form == PenaltyForm::kKs && (!(p.rho > 0) || !std::isfinite(p.rho))) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the KS aggregation parameter rho must be a finite number > 0, got ",
+        p.rho));
+  }
+  if (!(p.max_missing_fraction >= 0 && p.max_missing_fraction <= 1)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the allowed missing fraction must be in [0, 1], got ",
+                     p.max_missing_fraction));
+  }
+  return absl::OkStatus();
+}
+
+const char* PenaltyFormName(PenaltyForm form) {
+  switch (form) {
+    case PenaltyForm::kOneSided:
+      return "one-sided";
+    case PenaltyForm::kThesis:
+      return "thesis";
+    case PenaltyForm::kKs:
+      return "ks";
+  }
+  return "unknown";
+}
+
+absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
+                                             const SdfResult& sdf,
+                                             const PenaltyParams& params,
+                                             const HitTable* hits_for_gradient,
+                                             const ComputeControl& control,
+                                             int threads) {
+  const bool with_gradient = hits_for_gradient != nullptr;
+  if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
+  const Mesh& mesh = geometry.mesh();
+  const std::vector<double>& values = sdf.values;
+  if (std::ssize(values) != mesh.num_vertices()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "expected ", mesh.num_vertices(), " values, got ", values.size()));
+  }
+  PenaltyResult r;
+  r.missing = CountMissing(mesh, values);
+  const char* what =
+      params.form == PenaltyForm::kKs ? "constraint" : "penalty";
+  if (absl::Status s = CheckMissing(mesh, r.missing, sdf.Causes(),
+                                    params.max_missing_fraction, what);
+      !s.ok()) {
+    return s;
+  }
+  if (r.missing.faces == mesh.num_faces()) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "no face has values at all its vertices: the ", what,
+        " is undefined; ", LikelyMissingCause(mesh, sdf.Causes())));
+  }
+  NodalIntegral integral;
+  if (params.form == PenaltyForm::kKs) {
+    integral = KsConstraint(mesh, values, params, with_gradient);
+  } else {
+    const Phi phi{params};
+    integral = Integrate(
+        mesh, values, [&](double t) { return phi.Value(t); },
+        [&](double t) { return phi.Derivative(t); }, with_gradient);
+  }
+  r.value = integral.value;
+  r.dp_dt = std::move(integral.d_dt);
+  if (!with_gradient) return r;
+  r.measure_gradient = std::move(integral.d_measure);
+  auto vjp =
+      ComputeVjp(geometry, *hits_for_gradient, r.dp_dt, control, threads);
+  if (!vjp.ok()) return vjp.status();
+  r.gradient = std::move(*vjp);
+  for (size_t i = 0; i < r.gradient.size(); ++i) {
+    r.gradient[i] += r.measure_gradient[i];
+  }
+  return r;
+}
+
+}  // namespace meshgauge

@@ -1,0 +1,122 @@
+#include "lib/core/polygon.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge {
+namespace {
+
+struct P2 {
+  double x, y;
+};
+
+double Cross2(const P2& o, const P2& a, const P2& b) {
+  return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
+
+// Closed segments ab and cd share a point (proper crossing, touching or
+// collinear overlap), with a tolerance relative to the polygon's size.
+bool SegmentsMeet(const P2& a, const P2& b, const P2& c, const P2& d,
+                  double eps) {
+  const double d1 = Cross2(a, b, c), d2 = Cross2(a, b, d);
+  const double d3 = Cross2(c, d, a), d4 = Cross2(c, d, b);
+  auto sign = [eps](double v) { return v > eps ? 1 : (v < -eps ? -1 : 0); };
+  const int s1 = sign(d1), s2 = sign(d2), s3 = sign(d3), s4 = sign(d4);
+  if (s1 * s2 < 0 && s3 * s4 < 0) return true;
+  auto on = [](const P2& p, const P2& q, const P2& r) {
+    return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) &&
+           std::min(p.y, q.y) <= r.y && r.y <= std::max(p.y, q.y);
+  };
+  return (s1 == 0 && on(a, b, c)) || (s2 == 0 && on(a, b, d)) ||
+         (s3 == 0 && on(c, d, a)) || (s4 == 0 && on(c, d, b));
+}
+
+// p strictly inside or on the triangle abc (counter-clockwise).
+bool InTriangle(const P2& p, const P2& a, const P2& b, const P2& c,
+                double eps) {
+  return Cross2(a, b, p) >= -eps && Cross2(b, c, p) >= -eps &&
+         Cross2(c, a, p) >= -eps;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
+    absl::Span<const Vec3> corners) {
+  const int n = static_cast<int>(corners.size());
+  if (n < 3 || n > kMaxPolygonCorners) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("a polygon needs 3 to ", kMaxPolygonCorners,
+                     " corners, got ", n));
+  }
+  // Newell normal and an orthonormal basis of its plane.
+  Vec3 normal, centre;
+  for (int i = 0; i < n; ++i) {
+    const Vec3& a = corners[i];
+    const Vec3& b = corners[(i + 1) % n];
+    normal += Vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x),
+                   (a.x - b.x) * (a.y + b.y));
+    centre += a;
+  }
+  centre = centre / n;
+  double size = 0;
+  for (const Vec3& c : corners) size = std::max(size, Norm(c - centre));
+  const double area2 = Norm(normal);
+  if (!(area2 > 1e-14 * size * size)) {
+    return absl::InvalidArgumentError(
+        "the polygon has no area in its best-fit plane");
+  }
+  const Vec3 nz = normal / area2;
+  const Vec3 helper = std::abs(nz.x) < 0.9 ? Vec3(1, 0, 0) : Vec3(0, 1, 0);
+  const Vec3 ux = Cross(helper, nz) / Norm(Cross(helper, nz));
+  const Vec3 uy = Cross(nz, ux);
+  std::vector<P2> p(n);
+  for (int i = 0; i < n; ++i) {
+    const Vec3 d = corners[i] - centre;
+    p[i] = {Dot(d, ux), Dot(d, uy)};  // counter-clockwise about nz.
+  }
+  const double eps = 1e-12 * size * size;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      const bool adjacent = j == i + 1 || (i == 0 && j == n - 1);
+      if (adjacent) continue;
+      if (SegmentsMeet(p[i], p[(i + 1) % n], p[j], p[(j + 1) % n], eps)) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "the polygon is not simple in its best-fit plane: edge ", i, "-",
+            (i + 1) % n, " meets edge ", j, "-", (j + 1) % n));
+      }
+    }
+  }
+  std::vector<int32_t> ring(n);
+  for (int i = 0; i < n; ++i) ring[i] = i;
+  std::vector<std::array<int32_t, 3>> out;
+  out.reserve(n - 2);
+  while (ring.size() > 3) {
+    const int m = static_cast<int>(ring.size());
+    bool clipped = false;
+    for (int k = 0; k < m && !clipped; ++k) {
+      const int32_t a = ring[(k + m - 1) % m], b = ring[k], c = ring[(k + 1) % m];
+      if (Cross2(p[a], p[b], p[c]) <= eps) continue;  // reflex or flat.
+      bool empty = true;
+      for (int32_t q : ring) {
+        if (q == a || q == b || q == c) continue;
+        if (InTriangle(p[q], p[a], p[b], p[c], eps)) {
+          empty = false;
+          break;
+        }
+      }
+      if (!empty) continue;
+      out.push_back({a, b, c});
+      ring.erase(ring.begin() + k);
+      clipped = true;
+    }
+    if (!clipped) {
+      return absl::InvalidArgumentError(
+          "the polygon could not be triangulated (collinear corners)");
+    }
+  }
+  out.push_back({ring[0], ring[1], ring[2]});
+  return out;
+}
+
+}  // namespace meshgauge

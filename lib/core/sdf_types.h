@@ -1,0 +1,108 @@
+// Parameters and results of the shape diameter computation (SPEC §3-5).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "lib/core/missing_values.h"
+#include "lib/core/normals.h"
+
+namespace meshgauge {
+
+enum class SdfMethod {
+  kCone,       // Shapira et al.: cone of rays, median +- kappa sigma filter,
+               // 1/angle weights (SPEC §5).
+  kNormalRay,  // one ray along the cone axis: physical thickness.
+};
+
+struct SdfParams {
+  SdfMethod method = SdfMethod::kCone;
+  // Full opening angle alpha in degrees, in (0, 180).
+  double cone_angle_degrees = 30;
+  // Ray count K in [1, 4096]; 0 selects the default (100 in 3D, 32 in 2D).
+  // Ignored (always 1) for kNormalRay.
+  int rays = 0;
+  // theta_min in radians, > 0; 0 selects alpha / (2 K).
+  double min_weight_angle = 0;
+  // Outlier filter width kappa >= 0 (SPEC §5).
+  double kappa = 1.0;
+  // Hits closer than self_hit_epsilon * (mean edge length) are ignored; >= 0.
+  double self_hit_epsilon = 1e-6;
+  // Rays with no hit closer than this are misses (mesh units); 0 selects the
+  // bounding-box diagonal.
+  double max_distance = 0;
+  // Worker threads for the ray pass; 0 = all cores. Results do not depend
+  // on it (bit for bit).
+  int threads = 0;
+  NormalWeighting normal_weighting = NormalWeighting::kArea;
+};
+
+// Checks ranges; returns InvalidArgument naming the bad parameter.
+absl::Status ValidateParams(const SdfParams& params);
+
+// Defaults resolved for a mesh of the given dimension.
+struct ResolvedParams {
+  SdfParams params;
+  int rays = 0;
+  double aperture_radians = 0;
+  double min_weight_angle = 0;
+};
+ResolvedParams ResolveParams(const SdfParams& params, int dimension);
+
+enum class VertexStatus : uint8_t {
+  kOk = 0,
+  kNoHit = 1,             // no ray hit (or, rarely, none passed the filter).
+  kNoFaces = 2,           // the vertex is on no face.
+  kDegenerateNormal = 3,  // N_p = 0 (e.g. a fold): no cone axis.
+};
+const char* VertexStatusName(VertexStatus status);
+
+struct SdfResult {
+  // Per vertex (#V): SDF in mesh units; NaN unless status is kOk.
+  std::vector<double> values;
+  // Shapira's normalised SDF in [0, 1] over the kOk values (SPEC §5); NaN
+  // unless kOk; 0 everywhere when all values are equal.
+  std::vector<double> normalized;
+  std::vector<VertexStatus> status;
+  std::vector<int32_t> hits;  // rays that hit, per vertex.
+  std::vector<int32_t> kept;  // rays kept by the filter, per vertex.
+  int64_t rays_traced = 0;
+  // 3D vertices with a value whose one-ring gave no frame edge, so their
+  // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D.
+  int64_t world_frame_vertices = 0;
+  // Vertices without a value and the share of the surface they cover.
+  MissingValues missing;
+  double trace_seconds = 0;  // wall time of the ray pass.
+  ResolvedParams resolved;
+
+  int64_t CountStatus(VertexStatus s) const;
+  MissingCauses Causes() const {
+    return {CountStatus(VertexStatus::kNoHit),
+            CountStatus(VertexStatus::kDegenerateNormal)};
+  }
+};
+
+// Statistics of the finite entries of a per-vertex array (NaN entries, the
+// vertices without a value, are skipped). All fields but count are NaN when
+// no entry is finite; the median of an even count is the mean of the two
+// middle values.
+struct ValueStats {
+  int64_t count = 0;
+  double min, max, mean, median;
+};
+ValueStats SummarizeValues(const std::vector<double>& values);
+
+// Hooks for long computations. Both may be called from worker threads, never
+// concurrently with themselves.
+struct ComputeControl {
+  // Polled between blocks of vertices; returning true aborts the call with
+  // absl::CancelledError.
+  std::function<bool()> cancelled;
+  // Progress in vertices, monotone, called at most about 100 times per pass.
+  std::function<void(int64_t done, int64_t total)> progress;
+};
+
+}  // namespace meshgauge

@@ -1,0 +1,252 @@
+#include "lib/core/sensitivity.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "lib/core/hit.h"
+#include "lib/core/normals.h"
+#include "lib/core/vertex_cone.h"
+
+namespace meshgauge {
+namespace {
+
+// Vertices per batch: terms of a batch are computed in parallel, then
+// scattered serially in vertex order (deterministic sums).
+constexpr int64_t kBatch = 4096;
+
+struct Term {
+  int32_t vertex;
+  Vec3 d;
+};
+
+// Everything a vertex's gradient needs, shared read-only by the workers.
+struct Context {
+  const MeshGeometry& ev;
+  const HitTable& hits;
+  std::vector<Vec3> normals;
+};
+
+// Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for vertex p.
+// Leaves `terms` empty when p has no value.
+void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
+                 std::vector<uint8_t>& kept, std::vector<HitGeometry>& geo) {
+  terms.clear();
+  const MeshGeometry& ev = ctx.ev;
+  const Mesh& mesh = ev.mesh();
+  const MeshTopology& topo = ev.topology();
+  const auto& cone = ctx.hits.cone;
+  const int num_rays = static_cast<int>(cone.size());
+  if (topo.vertex_faces.Of(p).empty()) return;
+  const VertexCone vc = MakeVertexCone(mesh, topo, p, ctx.normals[p]);
+  if (!vc.valid) return;
+  const Vec3& x = mesh.positions[p];
+  const auto row = ctx.hits.Row(p);
+  // The kept set is frozen in the hit table (SPEC §6): only kept rays are
+  // evaluated, in double precision, at the current positions.
+  const auto kept_row = ctx.hits.KeptRow(p);
+  double weight_sum = 0;
+  for (int k = 0; k < num_rays; ++k) {
+    kept[k] = kept_row[k];
+    if (!kept[k]) continue;
+    if (!EvaluateHit(ev.corners()[row[k]], x, RayDirection(vc.frame, cone[k]),
+                     &geo[k])) {
+      // Cannot happen at the positions of the ray pass; after a move the
+      // table's generation no longer matches (MakeContext rejects it).
+      kept[k] = 0;
+      continue;
+    }
+    weight_sum += cone[k].weight;
+  }
+  if (weight_sum == 0) return;
+  Vec3 d_origin, g_u, g_v, g_a;
+  for (int k = 0; k < num_rays; ++k) {
+    if (!kept[k]) continue;
+    const HitGeometry& h = geo[k];
+    const double c = cone[k].weight / weight_sum;
+    const Vec3 dt_dx = h.m * (c / h.d_dot_m);  // c * m / (d.m)
+    d_origin -= dt_dx;
+    const Primitive& prim = topo.primitives[row[k]];
+    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
+      terms.push_back({prim.v[j], dt_dx * h.lambda[j]});
+    }
+    const Vec3 g_d = dt_dx * (-h.t);  // c * dt/dd
+    g_u += g_d * cone[k].local.x;
+    g_v += g_d * cone[k].local.y;
+    g_a += g_d * cone[k].local.z;
+  }
+  // Direction -> frame -> (axis, reference edge e = x_q - x_p); the axis
+  // -> n -> N.
+  const FrameGradient gf = FrameVjp(mesh.dimension, vc.frame, g_u, g_v);
+  if (vc.frame.reference >= 0) {
+    d_origin -= gf.edge;
+    terms.push_back({vc.frame.reference, gf.edge});
+  }
+  terms.push_back({static_cast<int32_t>(p), d_origin});
+  const Vec3 g_axis = g_a + gf.axis;
+  const Vec3 g_n = g_axis * vc.sign;
+  const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
+  Vec3 grad[3];
+  for (int32_t prim_id : topo.vertex_primitives.Of(p)) {
+    const Primitive& prim = topo.primitives[prim_id];
+    PrimitiveNormalVjp(mesh, prim, g_big_n, grad);
+    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
+      terms.push_back({prim.v[j], grad[j]});
+    }
+  }
+}
+
+// Starts loading the corners of every primitive vertex p's rays hit, so
+// they are in cache when VertexTerms(p) runs (called one vertex ahead).
+void PrefetchVertex(const Context& ctx, int64_t p) {
+  for (int32_t prim : ctx.hits.Row(p)) {
+    if (prim < 0) continue;
+    const char* line = reinterpret_cast<const char*>(&ctx.ev.corners()[prim]);
+    __builtin_prefetch(line);
+    __builtin_prefetch(line + sizeof(PrimitiveCorners) - 1);
+  }
+}
+
+absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
+                                    const HitTable& table) {
+  const HitTable* hits = &table;
+  if (hits->generation != ev.generation() ||
+      std::ssize(hits->primitives) !=
+          ev.mesh().num_vertices() * std::ssize(hits->cone)) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "sensitivities need the hit table of a ray pass at the current "
+        "positions (generation ",
+        ev.generation(), "), got one from generation ", hits->generation));
+  }
+  if (hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
+    return absl::FailedPreconditionError(
+        "sensitivities are only available with area-weighted normals; "
+        "recompute with NormalWeighting::kArea");
+  }
+  return Context{
+      ev, *hits,
+      UnnormalizedNormals(ev.mesh(), ev.topology(), NormalWeighting::kArea)};
+}
+
+// Computes the terms of every vertex, a batch of kBatch vertices at a time
+// in parallel, and hands each batch to consume(arena, begin, end, rows)
+// (rows[i] are the terms of vertex begin + i).
+template <typename Consume>
+absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
+                          int threads, Consume consume) {
+  const int64_t nv = ctx.ev.mesh().num_vertices();
+  const size_t num_rays = ctx.hits.cone.size();
+  std::vector<std::vector<Term>> rows(std::min(nv, kBatch));
+  tbb::task_arena arena(threads > 0 ? threads
+                                    : tbb::info::default_concurrency());
+  for (int64_t begin = 0; begin < nv; begin += kBatch) {
+    if (control.cancelled && control.cancelled()) {
+      return absl::CancelledError("sensitivity computation cancelled");
+    }
+    const int64_t end = std::min(nv, begin + kBatch);
+    arena.execute([&] {
+      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
+                        [&](const tbb::blocked_range<int64_t>& r) {
+                          std::vector<uint8_t> kept(num_rays);
+                          std::vector<HitGeometry> geo(num_rays);
+                          PrefetchVertex(ctx, r.begin());
+                          for (int64_t p = r.begin(); p < r.end(); ++p) {
+                            if (p + 1 < r.end()) PrefetchVertex(ctx, p + 1);
+                            VertexTerms(ctx, p, rows[p - begin], kept, geo);
+                          }
+                        });
+    });
+    consume(arena, begin, end, rows);
+    if (control.progress) control.progress(end, nv);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
+                                               const HitTable& hits,
+                                               const ComputeControl& control,
+                                               int threads) {
+  auto ctx = MakeContext(geometry, hits);
+  if (!ctx.ok()) return ctx.status();
+  SparseJacobian jac;
+  jac.row_offsets.push_back(0);
+  absl::Status s = ForEachBatch(
+      *ctx, control, threads,
+      [&jac](tbb::task_arena&, int64_t begin, int64_t end,
+             std::vector<std::vector<Term>>& rows) {
+        for (int64_t p = begin; p < end; ++p) {
+          std::vector<Term>& terms = rows[p - begin];
+          std::stable_sort(
+              terms.begin(), terms.end(),
+              [](const Term& a, const Term& b) { return a.vertex < b.vertex; });
+          for (size_t i = 0; i < terms.size();) {
+            Vec3 sum;
+            size_t j = i;
+            for (; j < terms.size() && terms[j].vertex == terms[i].vertex;
+                 ++j) {
+              sum += terms[j].d;
+            }
+            jac.columns.push_back(terms[i].vertex);
+            jac.values.push_back(sum);
+            i = j;
+          }
+          jac.row_offsets.push_back(jac.nonzeros());
+        }
+      });
+  if (!s.ok()) return s;
+  return jac;
+}
+
+absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
+                                             const HitTable& hits,
+                                             absl::Span<const double> g,
+                                             const ComputeControl& control,
+                                             int threads) {
+  const int64_t nv = geometry.mesh().num_vertices();
+  if (std::ssize(g) != nv) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("VJP weights must have one value per vertex: expected ",
+                     nv, ", got ", g.size()));
+  }
+  for (int64_t i = 0; i < nv; ++i) {
+    if (!std::isfinite(g[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("VJP weight of vertex ", i, " is not finite"));
+    }
+  }
+  auto ctx = MakeContext(geometry, hits);
+  if (!ctx.ok()) return ctx.status();
+  std::vector<Vec3> out(nv);
+  // Scatter in parallel over destination ranges; every destination still
+  // sums its terms in vertex order, so the result does not depend on the
+  // number of threads.
+  absl::Status s = ForEachBatch(
+      *ctx, control, threads,
+      [&](tbb::task_arena& arena, int64_t begin, int64_t end,
+          const std::vector<std::vector<Term>>& rows) {
+        const int parts = arena.max_concurrency();
+        arena.execute([&] {
+          tbb::parallel_for(0, parts, [&](int part) {
+            const int64_t lo = nv * part / parts, hi = nv * (part + 1) / parts;
+            for (int64_t p = begin; p < end; ++p) {
+              if (g[p] == 0) continue;
+              for (const Term& term : rows[p - begin]) {
+                if (term.vertex >= lo && term.vertex < hi) {
+                  out[term.vertex] += term.d * g[p];
+                }
+              }
+            }
+          });
+        });
+      });
+  if (!s.ok()) return s;
+  return out;
+}
+
+}  // namespace meshgauge

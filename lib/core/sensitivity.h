@@ -1,0 +1,53 @@
+// Exact sensitivities of the SDF (SPEC §6) with hit primitives and kept sets
+// frozen at the last ray pass.
+//
+// For vertex p with kept rays k (weights w_k, W = sum w_k):
+//   SDF_p = sum_k w_k t_k / W,  t_k = ((a_k - x_p) . m_k) / (d_k . m_k)
+//   dt/dx_p = -m/(d.m),  dt/dd = -t m/(d.m),  dt/dx_j = lambda_j m/(d.m)
+//   d_k = l_x u + l_y v + l_z a,  a = +-n,  n = N/|N|,
+//   dn/dN = (I - n n^T)/|N|,  N = sum over primitives containing p.
+// docs/sensitivities.md derives the chain and says what is frozen.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/core/hit_table.h"
+#include "lib/core/mesh_geometry.h"
+
+namespace meshgauge {
+
+// Row-compressed sparse Jacobian dSDF/dx: row p lists (column vertex j,
+// dSDF_p/dx_j as a 3-vector; z = 0 in 2D), columns ascending and unique.
+// Rows of vertices without a value are empty.
+struct SparseJacobian {
+  std::vector<int64_t> row_offsets;  // #V + 1
+  std::vector<int32_t> columns;
+  std::vector<Vec3> values;
+  int64_t nonzeros() const { return std::ssize(columns); }
+};
+
+// `hits` is the table an SdfEvaluator's Compute(params, control, &hits)
+// filled at the geometry's current generation (an SdfEvaluator is a
+// MeshGeometry). Errors: FailedPrecondition when it is from another
+// generation (the vertices moved since) or when the values used
+// angle-weighted normals (no derivative is provided for them); Cancelled via
+// control.
+absl::StatusOr<SparseJacobian> ComputeJacobian(
+    const MeshGeometry& geometry, const HitTable& hits,
+    const ComputeControl& control = {}, int threads = 0);
+
+// Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
+// g has #V entries (ignored where a vertex has no value; must be finite).
+// O(#V) memory, no dense matrix; deterministic for any thread count.
+// Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
+// g.
+absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
+                                             const HitTable& hits,
+                                             absl::Span<const double> g,
+                                             const ComputeControl& control = {},
+                                             int threads = 0);
+
+}  // namespace meshgauge

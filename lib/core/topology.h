@@ -1,0 +1,49 @@
+// Derived connectivity of a validated Mesh: ray primitives and incidences.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "absl/types/span.h"
+#include "lib/core/mesh.h"
+
+namespace meshgauge {
+
+// A ray-tracing primitive: a triangle (3D; quads contribute (0,1,2) and
+// (0,2,3)) or a segment (2D, v[2] == -1). `face` is the mesh face it comes
+// from.
+struct Primitive {
+  std::array<int32_t, 3> v = {-1, -1, -1};
+  int32_t face = -1;
+};
+
+// Compressed incidence lists (CSR).
+struct Incidence {
+  std::vector<int32_t> offsets;  // #V + 1
+  std::vector<int32_t> items;
+  absl::Span<const int32_t> Of(int64_t vertex) const {
+    return absl::MakeConstSpan(items.data() + offsets[vertex],
+                               offsets[vertex + 1] - offsets[vertex]);
+  }
+};
+
+struct MeshTopology {
+  std::vector<Primitive> primitives;
+  // Faces incident to each vertex, ascending: the one-ring a ray ignores.
+  Incidence vertex_faces;
+  // Primitives containing each vertex, ascending: the sums of SPEC §2.
+  Incidence vertex_primitives;
+  // Edge-neighbours of each vertex, ascending and unique: vertices joined to
+  // it by a face edge (a quad's four sides, not its split diagonal; a
+  // segment's other end). The frame of SPEC v2 §3 takes the first that
+  // qualifies.
+  Incidence vertex_neighbors;
+  // Cone direction of each vertex (from its faces; kInward if it has none).
+  std::vector<ConeDirection> vertex_direction;
+
+  // Precondition: ValidateMesh(mesh) is OK.
+  static MeshTopology Build(const Mesh& mesh);
+};
+
+}  // namespace meshgauge

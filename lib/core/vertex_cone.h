@@ -1,0 +1,49 @@
+// Per-vertex cone set-up shared by the value pass and the sensitivities.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "lib/core/cone.h"
+#include "lib/core/mesh.h"
+#include "lib/core/topology.h"
+
+namespace meshgauge {
+
+struct VertexCone {
+  bool valid = false;        // false when |N_p| == 0 (no axis).
+  double sign = -1;          // axis = sign * n: -1 INWARD, +1 OUTWARD.
+  double normal_length = 0;  // |N_p|.
+  Vec3 n;                    // N_p / |N_p|.
+  ConeFrame frame;
+  // True for a 3D vertex whose one-ring gave no frame edge (SPEC v2 §3
+  // fallback to the world frame); counted in SdfResult.
+  bool world_frame = false;
+};
+
+// The cone of vertex p: its axis from the unnormalised normal sum N_p
+// (SPEC §2) and its frame, attached to the mesh in 3D (SPEC v2 §3).
+inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
+                                 int64_t p, const Vec3& normal_sum) {
+  VertexCone vc;
+  vc.sign = topo.vertex_direction[p] == ConeDirection::kInward ? -1.0 : 1.0;
+  vc.normal_length = Norm(normal_sum);
+  if (!(vc.normal_length > 0) || !std::isfinite(vc.normal_length)) return vc;
+  vc.valid = true;
+  vc.n = normal_sum / vc.normal_length;
+  const Vec3 axis = vc.n * vc.sign;
+  if (mesh.dimension == 2) {
+    vc.frame = MakeWorldFrame(2, axis);
+  } else {
+    vc.frame = MakeAttachedFrame(axis, mesh.positions[p],
+                                 topo.vertex_neighbors.Of(p), mesh.positions);
+    vc.world_frame = vc.frame.reference < 0;
+  }
+  return vc;
+}
+
+inline Vec3 RayDirection(const ConeFrame& f, const ConeRay& ray) {
+  return f.u * ray.local.x + f.v * ray.local.y + f.axis * ray.local.z;
+}
+
+}  // namespace meshgauge

@@ -1,0 +1,209 @@
+#include "lib/embree/gradcheck.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "lib/core/sensitivity.h"
+
+namespace meshgauge {
+namespace {
+
+// One ray pass (and the penalty, when asked) at the evaluator's positions.
+struct Pass {
+  SdfResult sdf;
+  HitTable hits;
+  double penalty = 0;
+};
+
+absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
+                              const GradCheckOptions& options,
+                              const ComputeControl& control) {
+  Pass pass;
+  auto r = ev.Compute(params, control, &pass.hits);
+  if (!r.ok()) return r.status();
+  pass.sdf = std::move(*r);
+  if (options.penalty) {
+    auto pen = ComputePenalty(ev, pass.sdf, *options.penalty, nullptr);
+    if (!pen.ok()) return pen.status();
+    pass.penalty = pen->value;
+  }
+  return pass;
+}
+
+bool SameRow(const HitTable& a, const HitTable& b, int64_t p) {
+  const auto ra = a.Row(p), rb = b.Row(p);
+  const auto ka = a.KeptRow(p), kb = b.KeptRow(p);
+  return std::equal(ra.begin(), ra.end(), rb.begin()) &&
+         std::equal(ka.begin(), ka.end(), kb.begin());
+}
+
+absl::Status ValidateOptions(const GradCheckOptions& o, const Mesh& mesh) {
+  if (o.vertices.empty() && o.samples < 1) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("gradcheck samples must be >= 1, got ", o.samples));
+  }
+  for (int32_t v : o.vertices) {
+    if (v < 0 || v >= mesh.num_vertices()) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "gradcheck vertex ", v, " is out of range [0, ", mesh.num_vertices(),
+          ")"));
+    }
+  }
+  if (!(o.relative_step > 0 && o.relative_step < 1e-2)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "gradcheck relative step must be in (0, 0.01), got ", o.relative_step));
+  }
+  if (!(o.tolerance > 0) || !(o.min_clean_fraction >= 0) ||
+      !(o.min_clean_fraction <= 1)) {
+    return absl::InvalidArgumentError(
+        "gradcheck tolerance must be > 0 and the clean fraction in [0, 1]");
+  }
+  return absl::OkStatus();
+}
+
+// The vertices to move: the explicit list, or `samples` distinct vertices
+// with a face drawn with the seed.
+std::vector<int32_t> PickVertices(const GradCheckOptions& o,
+                                  const SdfEvaluator& ev) {
+  if (!o.vertices.empty()) return o.vertices;
+  std::vector<int32_t> candidates;
+  for (int32_t v = 0; v < ev.mesh().num_vertices(); ++v) {
+    if (!ev.topology().vertex_faces.Of(v).empty()) candidates.push_back(v);
+  }
+  std::mt19937_64 rng(o.seed);
+  std::shuffle(candidates.begin(), candidates.end(), rng);
+  candidates.resize(std::min<size_t>(candidates.size(), o.samples));
+  std::sort(candidates.begin(), candidates.end());
+  return candidates;
+}
+
+void SummarizeJacobian(const SparseJacobian& jac, GradCheckReport& rep) {
+  std::vector<double> norms;
+  norms.reserve(jac.values.size());
+  for (const Vec3& d : jac.values) {
+    if (Norm(d) > 0) norms.push_back(Norm(d));
+  }
+  if (norms.empty()) return;
+  const size_t mid = norms.size() / 2;
+  std::nth_element(norms.begin(), norms.begin() + mid, norms.end());
+  rep.median_abs_derivative = norms[mid];
+  rep.max_abs_derivative = *std::max_element(norms.begin(), norms.end());
+}
+
+}  // namespace
+
+double GradCheckRelativeError(double fd, double analytic) {
+  return std::abs(fd - analytic) /
+         std::max({std::abs(analytic), std::abs(fd), 1e-2});
+}
+
+bool GradCheckReport::Passed() const {
+  const int64_t samples = std::ssize(rows);
+  return samples > 0 && clean >= min_clean_fraction * samples &&
+         passed == clean && vjp_passed == vjp_checks &&
+         penalty_passed == penalty_clean;
+}
+
+absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
+                                             const SdfParams& params,
+                                             const GradCheckOptions& options,
+                                             const ComputeControl& control) {
+  if (absl::Status s = ValidateOptions(options, mesh); !s.ok()) return s;
+  auto created = SdfEvaluator::Create(mesh);
+  if (!created.ok()) return created.status();
+  SdfEvaluator& ev = **created;
+  auto base = Evaluate(ev, params, options, control);
+  if (!base.ok()) return base.status();
+  auto jac = ComputeJacobian(ev, base->hits, control, params.threads);
+  if (!jac.ok()) return jac.status();
+  const int64_t nv = mesh.num_vertices();
+  std::vector<double> g(nv);
+  for (int64_t i = 0; i < nv; ++i) g[i] = std::sin(1.0 + 7.3 * i);
+  auto vjp = ComputeVjp(ev, base->hits, g, control, params.threads);
+  if (!vjp.ok()) return vjp.status();
+  PenaltyResult pen;
+  if (options.penalty) {
+    auto p = ComputePenalty(ev, base->sdf, *options.penalty, &base->hits,
+                            control, params.threads);
+    if (!p.ok()) return p.status();
+    pen = std::move(*p);
+  }
+
+  GradCheckReport rep;
+  rep.min_clean_fraction = options.min_clean_fraction;
+  rep.world_frame_vertices = base->sdf.world_frame_vertices;
+  SummarizeJacobian(*jac, rep);
+  const double step = options.relative_step * BoundingBoxDiagonal(mesh);
+  auto move = [&ev](int32_t j, const Vec3& x) {
+    return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
+  };
+  for (int32_t j : PickVertices(options, ev)) {
+    const Vec3 x0 = mesh.positions[j];
+    for (int c = 0; c < mesh.dimension; ++c) {
+      Pass at[2];
+      for (int s = 0; s < 2; ++s) {
+        Vec3 x = x0;
+        x[c] += (s == 0 ? 1 : -1) * step;
+        if (absl::Status st = move(j, x); !st.ok()) return st;
+        auto pass = Evaluate(ev, params, options, control);
+        if (!pass.ok()) return pass.status();
+        at[s] = std::move(*pass);
+      }
+      if (absl::Status st = move(j, x0); !st.ok()) return st;
+      bool all_clean = true;
+      double fd_dot = 0;
+      for (int64_t p = 0; p < nv; ++p) {
+        GradCheckRow row{static_cast<int32_t>(p), j, c};
+        for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
+             ++e) {
+          if (jac->columns[e] == j) row.analytic = jac->values[e][c];
+        }
+        const double plus = at[0].sdf.values[p], minus = at[1].sdf.values[p];
+        const bool finite = std::isfinite(plus) && std::isfinite(minus) &&
+                            std::isfinite(base->sdf.values[p]);
+        row.fd = finite ? (plus - minus) / (2 * step) : 0;
+        if (row.analytic == 0 && (row.fd == 0 || !finite)) continue;
+        row.clean = finite && SameRow(base->hits, at[0].hits, p) &&
+                    SameRow(base->hits, at[1].hits, p);
+        all_clean &= row.clean;
+        if (row.clean) {
+          fd_dot += g[p] * row.fd;
+          row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+          ++rep.clean;
+          rep.passed += row.relative_error <= options.tolerance;
+          rep.worst = std::max(rep.worst, row.relative_error);
+        }
+        rep.rows.push_back(row);
+      }
+      if (all_clean) {
+        ++rep.vjp_checks;
+        rep.vjp_passed += GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <=
+                          options.tolerance;
+      }
+      if (options.penalty) {
+        GradCheckRow row{-1, j, c};
+        row.analytic = pen.gradient[j][c];
+        row.measure_part = pen.measure_gradient[j][c];
+        row.fd = (at[0].penalty - at[1].penalty) / (2 * step);
+        row.clean = base->hits.primitives == at[0].hits.primitives &&
+                    base->hits.primitives == at[1].hits.primitives &&
+                    base->hits.kept == at[0].hits.kept &&
+                    base->hits.kept == at[1].hits.kept;
+        if (row.analytic == 0 && row.fd == 0) continue;
+        row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+        if (row.clean) {
+          ++rep.penalty_clean;
+          rep.penalty_passed += row.relative_error <= options.tolerance;
+        }
+        rep.penalty_rows.push_back(row);
+      }
+    }
+  }
+  return rep;
+}
+
+}  // namespace meshgauge

@@ -1,0 +1,180 @@
+#include "lib/embree/ray_scene.h"
+
+#include <embree3/rtcore.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "absl/strings/str_cat.h"
+#include "lib/embree/ray_hit.h"
+
+namespace meshgauge {
+namespace {
+
+absl::Status DeviceStatus(RTCDevice device, const char* what) {
+  const RTCError err = rtcGetDeviceError(device);
+  if (err == RTC_ERROR_NONE) return absl::OkStatus();
+  return absl::InternalError(
+      absl::StrCat("Embree error ", static_cast<int>(err), " in ", what));
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<RayScene>> RayScene::Create(
+    const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy) {
+  std::unique_ptr<RayScene> scene(new RayScene(topo, policy));
+  if (absl::Status s = scene->Init(mesh); !s.ok()) return s;
+  return scene;
+}
+
+RayScene::~RayScene() {
+  if (geometry_) rtcReleaseGeometry(geometry_);
+  if (scene_) rtcReleaseScene(scene_);
+}
+
+absl::Status RayScene::Init(const Mesh& mesh) {
+  dimension_ = mesh.dimension;
+  // The BVH is single precision: storing coordinates relative to the
+  // vertices' centroid keeps their relative precision whatever the part's
+  // offset from the origin (CAD coordinates), so hits do not depend on a
+  // translation of the mesh.
+  for (const Vec3& p : mesh.positions) origin_ += p;
+  if (!mesh.positions.empty()) origin_ = origin_ / std::ssize(mesh.positions);
+  device_ = SharedDevice();
+  if (!device_) return absl::InternalError("rtcNewDevice failed");
+  scene_ = rtcNewScene(device_);
+  // ROBUST: watertight intersection, so a ray through a shared edge or
+  // vertex (common on symmetric meshes) cannot slip between primitives.
+  // DYNAMIC (with LOW quality and a REFIT geometry): without it Embree 3
+  // rebuilds on every commit instead of refitting (measured: 50 ms vs 4 ms
+  // for 320k triangles).
+  rtcSetSceneFlags(scene_,
+                   policy_ == BvhUpdatePolicy::kRefit
+                       ? static_cast<RTCSceneFlags>(RTC_SCENE_FLAG_ROBUST |
+                                                    RTC_SCENE_FLAG_DYNAMIC)
+                       : RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
+                                      ? RTC_BUILD_QUALITY_LOW
+                                      : RTC_BUILD_QUALITY_MEDIUM);
+  const size_t nv = mesh.positions.size();
+  const size_t np = topo_.primitives.size();
+  if (dimension_ == 3) {
+    geometry_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* idx = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry_, RTC_BUFFER_TYPE_INDEX, 0,
+                                RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), np));
+    if (!idx) return DeviceStatus(device_, "index buffer");
+    for (size_t i = 0; i < np; ++i) {
+      for (int k = 0; k < 3; ++k) idx[3 * i + k] = topo_.primitives[i].v[k];
+    }
+  } else {
+    // Vertex i at z = -H is 2i, at z = +H is 2i + 1.
+    extrude_half_height_ = static_cast<float>(BoundingBoxDiagonal(mesh) + 1);
+    geometry_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_QUAD);
+    auto* idx = static_cast<uint32_t*>(
+        rtcSetNewGeometryBuffer(geometry_, RTC_BUFFER_TYPE_INDEX, 0,
+                                RTC_FORMAT_UINT4, 4 * sizeof(uint32_t), np));
+    if (!idx) return DeviceStatus(device_, "index buffer");
+    for (size_t i = 0; i < np; ++i) {
+      const uint32_t a = topo_.primitives[i].v[0];
+      const uint32_t b = topo_.primitives[i].v[1];
+      idx[4 * i + 0] = 2 * a;
+      idx[4 * i + 1] = 2 * b;
+      idx[4 * i + 2] = 2 * b + 1;
+      idx[4 * i + 3] = 2 * a + 1;
+    }
+  }
+  // Embree reads vertex buffers with 16-byte loads: pad one float.
+  const size_t num_embree_vertices = dimension_ == 3 ? nv : 2 * nv;
+  vertex_buffer_ = static_cast<float*>(rtcSetNewGeometryBuffer(
+      geometry_, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+      4 * sizeof(float), num_embree_vertices));
+  if (!vertex_buffer_) return DeviceStatus(device_, "vertex buffer");
+  FillVertices(mesh);
+  if (policy_ == BvhUpdatePolicy::kRefit) {
+    rtcSetGeometryBuildQuality(geometry_, RTC_BUILD_QUALITY_REFIT);
+  }
+  rtcCommitGeometry(geometry_);
+  rtcAttachGeometry(scene_, geometry_);
+  return Commit();
+}
+
+void RayScene::FillVertices(const Mesh& mesh) {
+  const size_t nv = mesh.positions.size();
+  for (size_t i = 0; i < nv; ++i) {
+    const Vec3 p = mesh.positions[i] - origin_;
+    if (dimension_ == 3) {
+      float* dst = vertex_buffer_ + 4 * i;
+      dst[0] = static_cast<float>(p.x);
+      dst[1] = static_cast<float>(p.y);
+      dst[2] = static_cast<float>(p.z);
+      dst[3] = 0;
+    } else {
+      for (int level = 0; level < 2; ++level) {
+        float* dst = vertex_buffer_ + 4 * (2 * i + level);
+        dst[0] = static_cast<float>(p.x);
+        dst[1] = static_cast<float>(p.y);
+        dst[2] = level == 0 ? -extrude_half_height_ : extrude_half_height_;
+        dst[3] = 0;
+      }
+    }
+  }
+}
+
+absl::Status RayScene::Commit() {
+  rtcCommitScene(scene_);
+  ++builds_;
+  return DeviceStatus(device_, "rtcCommitScene");
+}
+
+absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
+  FillVertices(mesh);
+  rtcUpdateGeometryBuffer(geometry_, RTC_BUFFER_TYPE_VERTEX, 0);
+  rtcCommitGeometry(geometry_);
+  rtcCommitScene(scene_);
+  if (policy_ == BvhUpdatePolicy::kRefit) {
+    ++refits_;
+  } else {
+    ++builds_;
+  }
+  return DeviceStatus(device_, "rtcCommitScene (update)");
+}
+
+RTCDevice SharedDevice() {
+  static RTCDevice device = rtcNewDevice(nullptr);
+  return device;
+}
+
+RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
+                     float t_far) {
+  RTCRayHit rh;
+  rh.ray.org_x = static_cast<float>(origin.x);
+  rh.ray.org_y = static_cast<float>(origin.y);
+  rh.ray.org_z = static_cast<float>(origin.z);
+  rh.ray.dir_x = static_cast<float>(dir.x);
+  rh.ray.dir_y = static_cast<float>(dir.y);
+  rh.ray.dir_z = static_cast<float>(dir.z);
+  rh.ray.tnear = t_near;
+  rh.ray.tfar = t_far;
+  rh.ray.time = 0.0f;
+  rh.ray.mask = std::numeric_limits<unsigned>::max();
+  rh.ray.id = 0;
+  rh.ray.flags = 0;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.primID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  return rh;
+}
+
+RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
+                                  float t_near, float t_far) const {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh = MakeRayHit(origin - origin_, dir, t_near, t_far);
+  rtcIntersect1(scene_, &ctx, &rh);
+  if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
+  return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
+}
+
+}  // namespace meshgauge

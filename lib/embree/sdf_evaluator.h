@@ -1,0 +1,68 @@
+// Stateful SDF evaluation: owns a validated mesh and its Embree BVH so that
+// an optimiser can move vertices (UpdatePositions, a BVH refit) and evaluate
+// again without rebuilding. The one-shot entry point is ComputeSdf (sdf.h).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/core/cone.h"
+#include "lib/core/hit.h"
+#include "lib/core/hit_table.h"
+#include "lib/core/mesh_geometry.h"
+#include "lib/core/mesh.h"
+#include "lib/embree/ray_scene.h"
+#include "lib/core/sdf_types.h"
+#include "lib/core/topology.h"
+
+namespace meshgauge {
+
+struct EvaluatorOptions {
+  BvhUpdatePolicy bvh_policy = BvhUpdatePolicy::kRefit;
+};
+
+class SdfEvaluator : public MeshGeometry {
+ public:
+  // Validates `mesh` (SPEC §1) and builds the BVH.
+  // Errors: InvalidArgument from ValidateMesh; Internal from Embree.
+  static absl::StatusOr<std::unique_ptr<SdfEvaluator>> Create(
+      Mesh mesh, const EvaluatorOptions& options = {});
+
+  // Computes SDF values for every vertex (SPEC §3-5). When `hits` is not
+  // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
+  // K). Const and thread-safe: concurrent Computes on one evaluator are fine;
+  // UpdatePositions must not run concurrently with anything.
+  // Errors: InvalidArgument for bad params; Cancelled when
+  // control.cancelled() returned true.
+  absl::StatusOr<SdfResult> Compute(const SdfParams& params,
+                                    const ComputeControl& control = {},
+                                    HitTable* hits = nullptr) const;
+
+  // Replaces all vertex positions (#V entries, finite) and refits or
+  // rebuilds the BVH. Topology never changes. The new positions are
+  // validated like a new mesh (no zero-area face); on error nothing changes.
+  // Errors: InvalidArgument (wrong count, non-finite, degenerate faces).
+  absl::Status UpdatePositions(absl::Span<const Vec3> positions);
+  // Same for a subset: positions[i] is the new position of vertex
+  // indices[i] (each index in range, no repeats).
+  absl::Status UpdatePositions(absl::Span<const int32_t> indices,
+                               absl::Span<const Vec3> positions);
+
+  // Rebuilds the BVH from scratch at the current positions (a refitted BVH
+  // stays correct but its quality degrades as vertices move far).
+  absl::Status RebuildBvh();
+
+  const RayScene& scene() const { return *scene_; }
+
+ private:
+  SdfEvaluator() = default;
+  absl::Status CommitPositions(std::vector<Vec3> old_positions);
+
+  BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
+  std::unique_ptr<RayScene> scene_;
+};
+
+}  // namespace meshgauge

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Fuzzes each mesh reader with libFuzzer (clang-14, ASan + UBSan) for
+# SECONDS each (default 60), starting from the committed seed corpus
+# tests/fuzz/corpus/FORMAT. Exits non-zero on any finding (crash, sanitizer
+# report, leak, timeout, out-of-memory); the reproducer is left in
+# build-fuzz/. Prints the executions run per reader.
+#   scripts/fuzz.sh [SECONDS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+SECONDS_EACH="${1:-60}"
+scripts/install_deps.sh
+OUT=build-fuzz
+mkdir -p "$OUT/obj"
+CXX=clang++-14
+FLAGS=(-std=c++20 -O1 -g -I. -fsanitize=fuzzer-no-link,address,undefined
+       -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
+read -r -a ABSL <<<"$(pkg-config --libs absl_strings absl_status absl_statusor \
+  absl_str_format absl_hash)"
+SOURCES=(lib/io/mesh_builder.cc lib/io/mesh_io.cc lib/io/obj_reader.cc
+         lib/io/off_reader.cc lib/io/ply_reader.cc lib/io/scan.cc
+         lib/io/stl_reader.cc lib/core/polygon.cc lib/core/mesh.cc
+         lib/core/components.cc)
+OBJECTS=()
+for src in "${SOURCES[@]}"; do
+  obj="$OUT/obj/$(echo "$src" | tr / _).o"
+  if [ ! -f "$obj" ] || [ "$src" -nt "$obj" ]; then
+    "$CXX" "${FLAGS[@]}" -c "$src" -o "$obj"
+  fi
+  OBJECTS+=("$obj")
+done
+status=0
+for fmt in obj off ply stl; do
+  bin="$OUT/fuzz_$fmt"
+  "$CXX" "${FLAGS[@]}" -fsanitize=fuzzer "-DMESHGAUGE_FUZZ_FORMAT=\".$fmt\"" \
+    tests/fuzz/fuzz_reader.cc "${OBJECTS[@]}" "${ABSL[@]}" -o "$bin"
+  work="$OUT/corpus_$fmt"
+  mkdir -p "$work"
+  log="$OUT/fuzz_$fmt.log"
+  if (cd "$OUT" && "./fuzz_$fmt" -max_total_time="$SECONDS_EACH" \
+        -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
+        "corpus_$fmt" "../tests/fuzz/corpus/$fmt") >"$log" 2>&1; then
+    execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
+    echo "fuzz $fmt: ${SECONDS_EACH} s, $execs executions, no findings"
+  else
+    echo "fuzz $fmt: FINDING (see $log and the crash-*/leak-*/timeout-* file in $OUT)"
+    tail -n 40 "$log"
+    status=1
+  fi
+done
+exit "$status"
