@@ -10,7 +10,7 @@ PACKAGES=(
   prometheus-cpp-dev zlib1g-dev
   libgtest-dev libgmock-dev
   python3 python3-grpcio python3-protobuf python3-numpy python3-scipy
-  clang-14 libfuzzer-14-dev
+  clang-14 libfuzzer-14-dev openssl libssl-dev
 )
 
 missing=()

@@ -18,6 +18,21 @@ ABSL_FLAG(std::string, address, "127.0.0.1:50051",
 ABSL_FLAG(std::string, metrics_address, "127.0.0.1:9464",
           "Prometheus /metrics listen address; empty disables it");
 ABSL_FLAG(bool, reflection, false, "enable gRPC server reflection");
+ABSL_FLAG(std::string, tls_cert_file, "",
+          "PEM certificate chain: serve TLS (with --tls_key_file)");
+ABSL_FLAG(std::string, tls_key_file, "", "PEM private key of --tls_cert_file");
+ABSL_FLAG(std::string, tls_client_ca_file, "",
+          "PEM CA: require client certificates signed by it (mutual TLS)");
+ABSL_FLAG(std::string, auth_tokens_file, "",
+          "lines 'TENANT SHA256HEX': every RPC but health needs "
+          "'authorization: Bearer TOKEN'; empty: open mode");
+ABSL_FLAG(int64_t, max_sessions_per_tenant, 0,
+          "sessions (and uploads in flight) per tenant; 0: --max_sessions");
+ABSL_FLAG(int64_t, memory_budget_bytes_per_tenant, 0,
+          "memory per tenant; 0: --memory_budget_bytes");
+ABSL_FLAG(int64_t, max_concurrent_uploads, 16, "CreateSession calls at once");
+ABSL_FLAG(double, upload_idle_seconds, 30,
+          "an upload silent this long is aborted");
 ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
           "largest gRPC message accepted or sent");
 ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
@@ -44,6 +59,15 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
   o.address = absl::GetFlag(FLAGS_address);
   o.metrics_address = absl::GetFlag(FLAGS_metrics_address);
   o.reflection = absl::GetFlag(FLAGS_reflection);
+  o.tls_cert_file = absl::GetFlag(FLAGS_tls_cert_file);
+  o.tls_key_file = absl::GetFlag(FLAGS_tls_key_file);
+  o.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca_file);
+  o.auth_tokens_file = absl::GetFlag(FLAGS_auth_tokens_file);
+  o.max_sessions_per_tenant = absl::GetFlag(FLAGS_max_sessions_per_tenant);
+  o.memory_budget_bytes_per_tenant =
+      absl::GetFlag(FLAGS_memory_budget_bytes_per_tenant);
+  o.max_concurrent_uploads = absl::GetFlag(FLAGS_max_concurrent_uploads);
+  o.upload_idle_seconds = absl::GetFlag(FLAGS_upload_idle_seconds);
   o.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
   o.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   o.max_vertices = absl::GetFlag(FLAGS_max_vertices);
@@ -63,6 +87,12 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       "meshgauge-server listening on ", o.address, " (port ", port,
       "), metrics on ", o.metrics_address.empty() ? "(off)" : o.metrics_address,
       ", reflection ", o.reflection ? "on" : "off",
+      ", TLS ", o.tls_cert_file.empty()
+                    ? "off"
+                    : (o.tls_client_ca_file.empty() ? "on" : "on, mutual"),
+      ", ", o.auth_tokens_file.empty()
+                ? "UNAUTHENTICATED (open mode: no --auth_tokens_file)"
+                : "tokens required",
       "; max_message_bytes=", o.max_message_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
       " max_faces=", o.max_faces, " max_rays=", o.max_rays,
@@ -70,6 +100,10 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       " session_ttl_seconds=", o.session_ttl_seconds,
       " rebuild_every_updates=", o.rebuild_every_updates,
       " compute_threads=", o.compute_threads,
+      " max_sessions_per_tenant=", o.max_sessions_per_tenant,
+      " memory_budget_bytes_per_tenant=", o.memory_budget_bytes_per_tenant,
+      " max_concurrent_uploads=", o.max_concurrent_uploads,
+      " upload_idle_seconds=", o.upload_idle_seconds,
       " drain_notice_seconds=", o.drain_notice_seconds,
       " shutdown_grace_seconds=", o.shutdown_grace_seconds);
 }
@@ -80,12 +114,9 @@ int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("meshgauge-server [flags]");
   absl::ParseCommandLine(argc, argv);
   const meshgauge::server::ServerOptions options = OptionsFromFlags();
-  if (options.max_rays < 1 || options.max_rays > 4096 ||
-      options.max_sessions < 1 || options.rebuild_every_updates < 1 ||
-      options.shutdown_grace_seconds < 0) {
-    std::cerr << "meshgauge-server: invalid limits: max_rays in [1, 4096], "
-                 "max_sessions >= 1, rebuild_every_updates >= 1, "
-                 "shutdown_grace_seconds >= 0\n";
+  if (absl::Status s = meshgauge::server::ValidateServerOptions(options);
+      !s.ok()) {
+    std::cerr << "meshgauge-server: " << s.message() << "\n";
     return 2;
   }
   // Block the termination signals in every thread; one thread waits for them.

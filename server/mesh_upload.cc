@@ -56,9 +56,11 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
   mesh_.dimension = h.dimension();
   declared_vertices_ = h.num_vertices();
   declared_faces_ = h.num_faces();
-  mesh_.positions.reserve(declared_vertices_);
-  mesh_.faces.reserve(declared_faces_);
   for (const auto& rd : h.region_directions()) {
+    if (mesh_.region_directions.count(rd.region())) {
+      return Invalid(absl::StrCat("region ", rd.region(),
+                                  " is listed twice in region_directions"));
+    }
     if (rd.direction() == v1::CONE_DIRECTION_OUTWARD) {
       mesh_.region_directions[rd.region()] = ConeDirection::kOutward;
     } else if (rd.direction() == v1::CONE_DIRECTION_INWARD ||
@@ -117,6 +119,17 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
         crc32(crc_[2], reinterpret_cast<const Bytef*>(c.face_indices().data()),
               c.face_indices_size() * sizeof(int32_t));
     crc_len_[2] += c.face_indices_size() * sizeof(int32_t);
+    // Nothing may grow past what the header allows: at most 4 indices for
+    // each face still to come (so an upload cannot buffer without bound by
+    // sending indices without sizes).
+    const int64_t room = 4 * (declared_faces_ - mesh_.num_faces()) -
+                         std::ssize(pending_indices_);
+    if (c.face_indices_size() > room) {
+      return Invalid(absl::StrCat(
+          "more face indices than the declared ", declared_faces_,
+          " faces can hold (", mesh_.num_faces(), " complete, ",
+          pending_indices_.size(), " indices pending)"));
+    }
     pending_indices_.insert(pending_indices_.end(), c.face_indices().begin(),
                             c.face_indices().end());
   }

@@ -25,6 +25,10 @@ class MeshAssembler {
   // without footer is "truncated").
   absl::StatusOr<Mesh> Finish();
   const std::string& session_id() const { return session_id_; }
+  // After the header: its declared counts.
+  int dimension() const { return mesh_.dimension; }
+  int64_t declared_vertices() const { return declared_vertices_; }
+  int64_t declared_faces() const { return declared_faces_; }
 
  private:
   absl::Status Header(const v1::CreateSessionRequest::Header& h);

@@ -1,29 +1,95 @@
 #include "server/server.h"
 
-#include <grpcpp/ext/proto_server_reflection_plugin.h>
+#include <dlfcn.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpcpp/security/server_credentials.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
 
 #include "absl/strings/str_cat.h"
 
 namespace meshgauge::server {
+namespace {
 
-MeshGaugeServer::MeshGaugeServer(const ServerOptions& options, Metrics* metrics,
+absl::StatusOr<std::string> ReadPem(const std::string& path,
+                                    const char* flag) {
+  std::ifstream in(path);
+  if (!in) {
+    return absl::NotFoundError(
+        absl::StrCat("cannot read --", flag, " '", path, "'"));
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(
+    const ServerOptions& o) {
+  if (o.tls_cert_file.empty()) return grpc::InsecureServerCredentials();
+  auto cert = ReadPem(o.tls_cert_file, "tls_cert_file");
+  if (!cert.ok()) return cert.status();
+  auto key = ReadPem(o.tls_key_file, "tls_key_file");
+  if (!key.ok()) return key.status();
+  grpc::SslServerCredentialsOptions ssl;
+  ssl.pem_key_cert_pairs.push_back({*key, *cert});
+  if (!o.tls_client_ca_file.empty()) {
+    auto ca = ReadPem(o.tls_client_ca_file, "tls_client_ca_file");
+    if (!ca.ok()) return ca.status();
+    ssl.pem_root_certs = *ca;
+    ssl.client_certificate_request =
+        GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+  }
+  return grpc::SslServerCredentials(ssl);
+}
+
+// gRPC's reflection library registers its plugin for every server when it
+// is loaded, so it is not linked: it is loaded here, only on request.
+absl::Status LoadReflection() {
+  static void* handle =
+      dlopen(MESHGAUGE_GRPC_REFLECTION_LIBRARY, RTLD_NOW | RTLD_GLOBAL);
+  if (!handle) {
+    return absl::UnavailableError(absl::StrCat(
+        "--reflection: cannot load ", MESHGAUGE_GRPC_REFLECTION_LIBRARY, ": ",
+        dlerror()));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
+                                 Authenticator auth, Metrics* metrics,
                                  const Clock* clock)
     : options_(options),
+      auth_(std::move(auth)),
       store_(options, metrics, clock),
-      service_(options, &store_, metrics, clock) {}
+      uploads_(options.max_concurrent_uploads, options.upload_idle_seconds,
+               clock),
+      service_(options, &store_, &uploads_, &auth_, metrics, clock) {}
 
 absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
     const ServerOptions& options, Metrics* metrics, const Clock* clock) {
-  std::unique_ptr<MeshGaugeServer> s(
-      new MeshGaugeServer(options, metrics, clock));
-  grpc::EnableDefaultHealthCheckService(true);
-  if (options.reflection) {
-    grpc::reflection::InitProtoReflectionServerBuilderPlugin();
+  if (absl::Status s = ValidateServerOptions(options); !s.ok()) return s;
+  Authenticator auth;
+  if (!options.auth_tokens_file.empty()) {
+    auto loaded = Authenticator::FromFile(options.auth_tokens_file);
+    if (!loaded.ok()) return loaded.status();
+    auth = std::move(*loaded);
   }
+  auto creds = Credentials(options);
+  if (!creds.ok()) return creds.status();
+  if (options.reflection) {
+    if (absl::Status s = LoadReflection(); !s.ok()) return s;
+  }
+  std::unique_ptr<MeshGaugeServer> s(
+      new MeshGaugeServer(options, std::move(auth), metrics, clock));
+  grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.address, grpc::InsecureServerCredentials(),
-                           &s->port_);
+  builder.AddListeningPort(options.address, *creds, &s->port_);
+  // A second server on a taken port must fail, not split the clients.
+  builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&s->service_);
   const int max_bytes =
       static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
@@ -31,8 +97,9 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   builder.SetMaxSendMessageSize(max_bytes);
   s->server_ = builder.BuildAndStart();
   if (!s->server_ || s->port_ == 0) {
-    return absl::UnavailableError(
-        absl::StrCat("cannot listen on ", options.address));
+    return absl::UnavailableError(absl::StrCat(
+        "cannot listen on ", options.address,
+        " (invalid address, or the port is taken)"));
   }
   s->server_->GetHealthCheckService()->SetServingStatus(true);
   s->sweeper_ = std::thread([raw = s.get()] { raw->SweepLoop(); });
@@ -45,13 +112,21 @@ MeshGaugeServer::~MeshGaugeServer() {
 }
 
 void MeshGaugeServer::SweepLoop() {
+  // Idle uploads are checked four times per allowed idle time.
+  const double period = std::min(options_.sweep_interval_seconds,
+                                 options_.upload_idle_seconds / 4);
+  double since_sweep = 0;
   std::unique_lock<std::mutex> lock(mu_);
   while (!stopping_) {
-    cv_.wait_for(
-        lock, std::chrono::duration<double>(options_.sweep_interval_seconds));
+    cv_.wait_for(lock, std::chrono::duration<double>(period));
     if (stopping_) break;
     lock.unlock();
-    store_.Sweep();
+    uploads_.AbortIdle();
+    since_sweep += period;
+    if (since_sweep >= options_.sweep_interval_seconds) {
+      store_.Sweep();
+      since_sweep = 0;
+    }
     lock.lock();
   }
 }
@@ -63,6 +138,8 @@ void MeshGaugeServer::Shutdown() {
     stopping_ = true;
   }
   cv_.notify_all();
+  if (sweeper_.joinable()) sweeper_.join();
+  if (!server_) return;  // never started.
   server_->GetHealthCheckService()->SetServingStatus(false);
   std::this_thread::sleep_for(
       std::chrono::duration<double>(options_.drain_notice_seconds));
@@ -71,9 +148,10 @@ void MeshGaugeServer::Shutdown() {
       std::chrono::duration_cast<std::chrono::system_clock::duration>(
           std::chrono::duration<double>(options_.shutdown_grace_seconds));
   server_->Shutdown(deadline);
-  if (sweeper_.joinable()) sweeper_.join();
 }
 
-void MeshGaugeServer::Wait() { server_->Wait(); }
+void MeshGaugeServer::Wait() {
+  if (server_) server_->Wait();
+}
 
 }  // namespace meshgauge::server

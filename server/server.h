@@ -11,19 +11,24 @@
 #include <thread>
 
 #include "absl/status/statusor.h"
+#include "server/auth.h"
 #include "server/clock.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/service.h"
 #include "server/session_store.h"
+#include "server/upload_watch.h"
 
 namespace meshgauge::server {
 
 class MeshGaugeServer {
  public:
-  // Binds options.address (port 0: any free port) and starts serving.
-  // options, metrics and clock must outlive the server.
-  // Errors: UNAVAILABLE when the address cannot be bound.
+  // Validates the options, loads the tokens file and TLS files, binds
+  // options.address (port 0: any free port; SO_REUSEPORT off) and starts
+  // serving. options, metrics and clock must outlive the server.
+  // Errors: INVALID_ARGUMENT (an option out of range, a bad tokens file),
+  // NOT_FOUND (an unreadable file), UNAVAILABLE when the address cannot be
+  // bound or reflection cannot be loaded.
   static absl::StatusOr<std::unique_ptr<MeshGaugeServer>> Start(
       const ServerOptions& options, Metrics* metrics, const Clock* clock);
   ~MeshGaugeServer();
@@ -40,12 +45,15 @@ class MeshGaugeServer {
   void Wait();
 
  private:
-  MeshGaugeServer(const ServerOptions& options, Metrics* metrics,
-                  const Clock* clock);
+  MeshGaugeServer(const ServerOptions& options, Authenticator auth,
+                  Metrics* metrics, const Clock* clock);
+  // TTL sweeps and idle-upload aborts until Shutdown.
   void SweepLoop();
 
   const ServerOptions& options_;
+  Authenticator auth_;
   SessionStore store_;
+  UploadWatch uploads_;
   MeshGaugeService service_;
   std::unique_ptr<grpc::Server> server_;
   int port_ = 0;

@@ -1,9 +1,11 @@
 // Configuration of the meshgauge gRPC server. Built from flags in main.cc
-// only; tests construct it directly.
+// only (the field names are the flag names); tests construct it directly.
 #pragma once
 
 #include <cstdint>
 #include <string>
+
+#include "absl/status/status.h"
 
 namespace meshgauge::server {
 
@@ -11,12 +13,22 @@ struct ServerOptions {
   std::string address = "127.0.0.1:50051";         // gRPC listen address.
   std::string metrics_address = "127.0.0.1:9464";  // Prometheus; "" = off.
   bool reflection = false;                         // gRPC server reflection.
+  // TLS: PEM files; both or neither. With tls_client_ca_file, clients must
+  // present a certificate signed by that CA (mutual TLS).
+  std::string tls_cert_file, tls_key_file, tls_client_ca_file;
+  // `TENANT SHA256HEX` lines; empty: open mode (no authentication).
+  std::string auth_tokens_file;
   int64_t max_message_bytes = 256ll << 20;  // per gRPC message, both ways.
-  int64_t max_sessions = 64;
+  int64_t max_sessions = 64;                // sessions and uploads in flight.
   int64_t max_vertices = 5'000'000;         // per session.
   int64_t max_faces = 10'000'000;           // per session.
   int max_rays = 1024;                      // per vertex, <= 4096.
   int64_t memory_budget_bytes = 8ll << 30;  // all sessions, LRU eviction.
+  // Per tenant (0: the server-wide value).
+  int64_t max_sessions_per_tenant = 0;
+  int64_t memory_budget_bytes_per_tenant = 0;
+  int64_t max_concurrent_uploads = 16;
+  double upload_idle_seconds = 30;  // an upload silent this long is aborted.
   double session_ttl_seconds = 3600;        // idle sessions are evicted.
   int rebuild_every_updates = 32;           // BVH refits between full rebuilds.
   int compute_threads = 0;                  // per computation; 0 = all cores.
@@ -25,6 +37,18 @@ struct ServerOptions {
   double drain_notice_seconds = 1;
   double shutdown_grace_seconds = 20;  // in-flight calls may finish.
   double sweep_interval_seconds = 5;   // TTL sweep period.
+
+  int64_t SessionsPerTenant() const {
+    return max_sessions_per_tenant > 0 ? max_sessions_per_tenant : max_sessions;
+  }
+  int64_t BudgetPerTenant() const {
+    return memory_budget_bytes_per_tenant > 0 ? memory_budget_bytes_per_tenant
+                                              : memory_budget_bytes;
+  }
 };
+
+// Checks every limit against its range; InvalidArgument names the flag
+// (--field) and the range.
+absl::Status ValidateServerOptions(const ServerOptions& options);
 
 }  // namespace meshgauge::server

@@ -11,6 +11,7 @@
 #include "lib/core/sensitivity.h"
 #include "server/mesh_upload.h"
 #include "server/proto_convert.h"
+#include "server/session_store.h"
 
 namespace meshgauge::server {
 namespace {
@@ -53,15 +54,35 @@ double Seconds(std::chrono::steady_clock::time_point start) {
 }  // namespace
 
 MeshGaugeService::MeshGaugeService(const ServerOptions& options,
-                                   SessionStore* store, Metrics* metrics,
+                                   SessionStore* store, UploadWatch* uploads,
+                                   const Authenticator* auth, Metrics* metrics,
                                    const Clock* clock)
-    : options_(options), store_(store), metrics_(metrics), clock_(clock) {}
+    : options_(options),
+      store_(store),
+      uploads_(uploads),
+      auth_(auth),
+      metrics_(metrics),
+      clock_(clock) {}
+
+absl::Status MeshGaugeService::CheckReplySize(int64_t values) const {
+  // Packed doubles plus a small envelope.
+  const int64_t bytes = values * 8 + 256;
+  if (bytes <= options_.max_message_bytes) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "the reply would be about ", bytes, " bytes, over the server's limit of ",
+      options_.max_message_bytes, " bytes (--max_message_bytes); refused "
+      "before computing"));
+}
 
 template <typename Body>
-grpc::Status MeshGaugeService::Instrumented(const char* method, Body body) {
+grpc::Status MeshGaugeService::Instrumented(const char* method,
+                                            const grpc::ServerContext* ctx,
+                                            Body body) {
   const auto start = std::chrono::steady_clock::now();
   store_->Sweep();
-  grpc::Status status = ToGrpc(body());
+  auto tenant = auth_->Authenticate(*ctx);
+  grpc::Status status =
+      ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
   metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
   return status;
 }
@@ -82,9 +103,10 @@ absl::Status MeshGaugeService::Interrupted(grpc::ServerContext* ctx,
 }
 
 absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
-    const std::string& session_id, const v1::SdfParameters& params,
-    bool has_expected_generation, int64_t expected_generation) {
-  auto session = store_->Get(session_id);
+    const std::string& tenant, const std::string& session_id,
+    const v1::SdfParameters& params, bool has_expected_generation,
+    int64_t expected_generation) {
+  auto session = store_->Get(tenant, session_id);
   if (!session.ok()) return session.status();
   auto sdf_params =
       ToSdfParams(params, options_.max_rays, options_.compute_threads);
@@ -94,7 +116,7 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
   const int64_t generation = reader->evaluator->generation();
   if (has_expected_generation && expected_generation != generation) {
     return absl::AbortedError(absl::StrCat(
-        "session '", session_id, "' is at generation ", generation,
+        "session ", QuoteId(session_id), " is at generation ", generation,
         ", the request expected generation ", expected_generation));
   }
   return Prepared{std::move(*session), std::move(*reader), *sdf_params};
@@ -121,29 +143,63 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
 }
 
 grpc::Status MeshGaugeService::CreateSession(
-    grpc::ServerContext*, grpc::ServerReader<v1::CreateSessionRequest>* reader,
+    grpc::ServerContext* ctx,
+    grpc::ServerReader<v1::CreateSessionRequest>* reader,
     v1::CreateSessionResponse* response) {
-  return Instrumented("CreateSession", [&]() -> absl::Status {
-    MeshAssembler assembler(options_);
-    v1::CreateSessionRequest request;
-    while (reader->Read(&request)) {
-      if (absl::Status s = assembler.Add(request); !s.ok()) return s;
-    }
-    auto mesh = assembler.Finish();
-    if (!mesh.ok()) return mesh.status();
-    auto session = store_->Create(assembler.session_id(), std::move(*mesh));
-    if (!session.ok()) return session.status();
-    ToProto((*session)->Snapshot(), clock_->NowSeconds(),
-            response->mutable_session());
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "CreateSession", ctx, [&](const std::string& tenant) -> absl::Status {
+        auto upload = uploads_->Start(ctx);
+        if (!upload.ok()) return upload.status();
+        absl::Status s = ReceiveUpload(ctx, reader, tenant, *upload, response);
+        if (uploads_->Finish(*upload)) {
+          return absl::DeadlineExceededError(absl::StrCat(
+              "CreateSession: the upload was idle for more than ",
+              uploads_->idle_seconds(), " s (--upload_idle_seconds)"));
+        }
+        return s;
+      });
 }
 
-grpc::Status MeshGaugeService::GetSession(grpc::ServerContext*,
+absl::Status MeshGaugeService::ReceiveUpload(
+    grpc::ServerContext* ctx,
+    grpc::ServerReader<v1::CreateSessionRequest>* reader,
+    const std::string& tenant, int64_t upload, v1::CreateSessionResponse* response) {
+  MeshAssembler assembler(options_);
+  UploadReservation ticket;
+  bool reserved = false;
+  v1::CreateSessionRequest request;
+  while (reader->Read(&request)) {
+    uploads_->Touch(upload);
+    if (absl::Status s = assembler.Add(request); !s.ok()) return s;
+    if (!reserved) {
+      // The header's declared size is claimed before any data is buffered.
+      auto r = store_->Reserve(
+          tenant, Session::EstimateBytes(assembler.declared_vertices(),
+                                         assembler.declared_faces(),
+                                         assembler.declared_faces()));
+      if (!r.ok()) return r.status();
+      ticket = std::move(*r);
+      reserved = true;
+    }
+  }
+  if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
+  auto mesh = assembler.Finish();
+  if (!mesh.ok()) return mesh.status();
+  auto session = store_->Create(tenant, assembler.session_id(),
+                                std::move(*mesh), std::move(ticket));
+  if (!session.ok()) return session.status();
+  // Quads take two primitives: account the session's true size now.
+  store_->EnforceBudget(session->get());
+  ToProto((*session)->Snapshot(), clock_->NowSeconds(),
+          response->mutable_session());
+  return absl::OkStatus();
+}
+
+grpc::Status MeshGaugeService::GetSession(grpc::ServerContext* ctx,
                                           const v1::GetSessionRequest* request,
                                           v1::GetSessionResponse* response) {
-  return Instrumented("GetSession", [&]() -> absl::Status {
-    auto session = store_->Get(request->session_id());
+  return Instrumented("GetSession", ctx, [&](const std::string& tenant) -> absl::Status {
+    auto session = store_->Get(tenant, request->session_id());
     if (!session.ok()) return session.status();
     ToProto((*session)->Snapshot(), clock_->NowSeconds(),
             response->mutable_session());
@@ -152,9 +208,9 @@ grpc::Status MeshGaugeService::GetSession(grpc::ServerContext*,
 }
 
 grpc::Status MeshGaugeService::ListSessions(
-    grpc::ServerContext*, const v1::ListSessionsRequest* request,
+    grpc::ServerContext* ctx, const v1::ListSessionsRequest* request,
     v1::ListSessionsResponse* response) {
-  return Instrumented("ListSessions", [&]() -> absl::Status {
+  return Instrumented("ListSessions", ctx, [&](const std::string& tenant) -> absl::Status {
     int page_size = request->page_size() == 0 ? 100 : request->page_size();
     if (page_size < 1 || page_size > 1000) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -163,7 +219,7 @@ grpc::Status MeshGaugeService::ListSessions(
     std::string next;
     const double now = clock_->NowSeconds();
     for (const SessionSnapshot& s :
-         store_->List(request->page_token(), page_size, &next)) {
+         store_->List(tenant, request->page_token(), page_size, &next)) {
       ToProto(s, now, response->add_sessions());
     }
     response->set_next_page_token(next);
@@ -172,18 +228,18 @@ grpc::Status MeshGaugeService::ListSessions(
 }
 
 grpc::Status MeshGaugeService::DeleteSession(
-    grpc::ServerContext*, const v1::DeleteSessionRequest* request,
+    grpc::ServerContext* ctx, const v1::DeleteSessionRequest* request,
     v1::DeleteSessionResponse*) {
-  return Instrumented("DeleteSession", [&]() -> absl::Status {
-    return store_->Delete(request->session_id());
+  return Instrumented("DeleteSession", ctx, [&](const std::string& tenant) -> absl::Status {
+    return store_->Delete(tenant, request->session_id());
   });
 }
 
 grpc::Status MeshGaugeService::UpdatePositions(
-    grpc::ServerContext*, const v1::UpdatePositionsRequest* request,
+    grpc::ServerContext* ctx, const v1::UpdatePositionsRequest* request,
     v1::UpdatePositionsResponse* response) {
-  return Instrumented("UpdatePositions", [&]() -> absl::Status {
-    auto session = store_->Get(request->session_id());
+  return Instrumented("UpdatePositions", ctx, [&](const std::string& tenant) -> absl::Status {
+    auto session = store_->Get(tenant, request->session_id());
     if (!session.ok()) return session.status();
     const int dim = (*session)->dimension();
     auto points = ToPoints(request->positions(), dim, "positions");
@@ -211,7 +267,7 @@ grpc::Status MeshGaugeService::UpdatePositions(
 grpc::Status MeshGaugeService::ComputeSdf(
     grpc::ServerContext* ctx, const v1::ComputeSdfRequest* request,
     grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
-  return Instrumented("ComputeSdf", [&]() -> absl::Status {
+  return Instrumented("ComputeSdf", ctx, [&](const std::string& tenant) -> absl::Status {
     const auto start = std::chrono::steady_clock::now();
     int chunk = request->chunk_vertices() == 0 ? kDefaultChunkVertices
                                                : request->chunk_vertices();
@@ -220,7 +276,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
           absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
                        "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
     }
-    auto prep = Prepare(request->session_id(), request->params(),
+    auto prep = Prepare(tenant, request->session_id(), request->params(),
                         request->has_expected_generation(),
                         request->expected_generation());
     if (!prep.ok()) return prep.status();
@@ -237,11 +293,25 @@ grpc::Status MeshGaugeService::ComputeSdf(
     }
     const int64_t nv = ev.mesh().num_vertices();
     const int dim = ev.mesh().dimension;
-    for (int64_t begin = 0; begin < nv; begin += chunk) {
+    // Per vertex about 30 bytes of values; per Jacobian entry 4 + 8 dim.
+    const int64_t budget = options_.max_message_bytes / 2;
+    for (int64_t begin = 0, end = 0; begin < nv; begin = end) {
       if (ctx->IsCancelled()) {
         return Interrupted(ctx, absl::CancelledError("cancelled"));
       }
-      const int64_t end = std::min(nv, begin + chunk);
+      end = std::min(nv, begin + chunk);
+      if (jac) {
+        // End the chunk early so that its rows fit in one message.
+        int64_t bytes = 0;
+        for (int64_t p = begin; p < end; ++p) {
+          bytes += 40 + (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
+                            (4 + 8 * dim);
+          if (bytes > budget && p > begin) {
+            end = p;
+            break;
+          }
+        }
+      }
       v1::ComputeSdfResponse msg;
       v1::SdfChunk* c = msg.mutable_chunk();
       c->set_vertex_begin(begin);
@@ -295,13 +365,18 @@ grpc::Status MeshGaugeService::ComputeSdf(
 grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
                                           const v1::ComputeVjpRequest* request,
                                           v1::ComputeVjpResponse* response) {
-  return Instrumented("ComputeVjp", [&]() -> absl::Status {
+  return Instrumented("ComputeVjp", ctx, [&](const std::string& tenant) -> absl::Status {
     const auto start = std::chrono::steady_clock::now();
-    auto prep = Prepare(request->session_id(), request->params(),
+    auto prep = Prepare(tenant, request->session_id(), request->params(),
                         request->has_expected_generation(),
                         request->expected_generation());
     if (!prep.ok()) return prep.status();
     const SdfEvaluator& ev = *prep->reader.evaluator;
+    if (absl::Status s =
+            CheckReplySize(ev.mesh().num_vertices() * ev.mesh().dimension);
+        !s.ok()) {
+      return s;
+    }
     if (request->weights_size() != ev.mesh().num_vertices()) {
       return absl::InvalidArgumentError(
           absl::StrCat("weights holds ", request->weights_size(),
@@ -328,15 +403,22 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
 grpc::Status MeshGaugeService::ComputePenalty(
     grpc::ServerContext* ctx, const v1::ComputePenaltyRequest* request,
     v1::ComputePenaltyResponse* response) {
-  return Instrumented("ComputePenalty", [&]() -> absl::Status {
+  return Instrumented("ComputePenalty", ctx, [&](const std::string& tenant) -> absl::Status {
     const auto start = std::chrono::steady_clock::now();
     auto pp = ToPenaltyParams(*request);
     if (!pp.ok()) return pp.status();
-    auto prep = Prepare(request->session_id(), request->params(),
+    auto prep = Prepare(tenant, request->session_id(), request->params(),
                         request->has_expected_generation(),
                         request->expected_generation());
     if (!prep.ok()) return prep.status();
     const SdfEvaluator& ev = *prep->reader.evaluator;
+    if (request->with_gradient()) {
+      if (absl::Status s =
+              CheckReplySize(ev.mesh().num_vertices() * ev.mesh().dimension);
+          !s.ok()) {
+        return s;
+      }
+    }
     auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
     if (!pass.ok()) return pass.status();
     metrics_->RecordHitCache(pass->reused);
@@ -364,8 +446,8 @@ grpc::Status MeshGaugeService::ComputePenalty(
 grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
                                          const v1::CalibrateRequest* request,
                                          v1::CalibrateResponse* response) {
-  return Instrumented("Calibrate", [&]() -> absl::Status {
-    auto prep = Prepare(request->session_id(), request->params(), false, 0);
+  return Instrumented("Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
+    auto prep = Prepare(tenant, request->session_id(), request->params(), false, 0);
     if (!prep.ok()) return prep.status();
     CalibrationParams cp;
     cp.t_min = request->t_min();

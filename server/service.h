@@ -8,17 +8,21 @@
 #include <memory>
 
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
+#include "server/auth.h"
 #include "server/clock.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/session_store.h"
+#include "server/upload_watch.h"
 
 namespace meshgauge::server {
 
 class MeshGaugeService final : public v1::MeshGauge::Service {
  public:
-  // All pointers must outlive the service.
+  // All pointers must outlive the service. Every RPC authenticates through
+  // `auth` (open mode: tenant "") and works in its tenant's namespace.
   MeshGaugeService(const ServerOptions& options, SessionStore* store,
+                   UploadWatch* uploads, const Authenticator* auth,
                    Metrics* metrics, const Clock* clock);
 
   grpc::Status CreateSession(
@@ -66,18 +70,31 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
     Session::Reader reader;
     SdfParams params;
   };
-  absl::StatusOr<Prepared> Prepare(const std::string& session_id,
+  absl::StatusOr<Prepared> Prepare(const std::string& tenant,
+                                   const std::string& session_id,
                                    const v1::SdfParameters& params,
                                    bool has_expected_generation,
                                    int64_t expected_generation);
   ComputeControl Control(grpc::ServerContext* ctx) const;
   absl::Status Interrupted(grpc::ServerContext* ctx, absl::Status s) const;
-  // Runs body, records the RPC's code and latency.
+  // Authenticates, runs body(tenant), records the RPC's code and latency.
   template <typename Body>
-  grpc::Status Instrumented(const char* method, Body body);
+  grpc::Status Instrumented(const char* method, const grpc::ServerContext* ctx,
+                            Body body);
+  // The CreateSession stream after its upload slot was taken.
+  absl::Status ReceiveUpload(
+      grpc::ServerContext* ctx,
+      grpc::ServerReader<v1::CreateSessionRequest>* reader,
+      const std::string& tenant, int64_t upload,
+      v1::CreateSessionResponse* response);
+  // RESOURCE_EXHAUSTED when a reply of `values` doubles would exceed
+  // --max_message_bytes (checked before computing).
+  absl::Status CheckReplySize(int64_t values) const;
 
   const ServerOptions& options_;
   SessionStore* store_;
+  UploadWatch* uploads_;
+  const Authenticator* auth_;
   Metrics* metrics_;
   const Clock* clock_;
 };

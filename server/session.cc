@@ -23,13 +23,18 @@ bool SameSdfParams(const SdfParams& a, const SdfParams& b) {
          a.normal_weighting == b.normal_weighting;
 }
 
+int64_t Session::EstimateBytes(int64_t vertices, int64_t faces,
+                               int64_t primitives) {
+  // Mesh (positions, faces, regions), topology (primitives, incidences,
+  // directions), packed corners, Embree vertex/index buffers and BVH nodes.
+  return vertices * (24 + 8 + 1 + 32) + faces * (20 + 4 + 12) +
+         primitives * (16 + 12 + 80 + 16 + 96);
+}
+
 int64_t Session::EstimateBaseBytes(const Mesh& mesh) {
   int64_t prims = 0;
   for (const Face& f : mesh.faces) prims += f.size == 4 ? 2 : 1;
-  // Mesh (positions, faces, regions), topology (primitives, incidences,
-  // directions), packed corners, Embree vertex/index buffers and BVH nodes.
-  return mesh.num_vertices() * (24 + 8 + 1 + 32) +
-         mesh.num_faces() * (20 + 4 + 12) + prims * (16 + 12 + 80 + 16 + 96);
+  return EstimateBytes(mesh.num_vertices(), mesh.num_faces(), prims);
 }
 
 Session::Session(std::string id, Mesh mesh, const ServerOptions& options,

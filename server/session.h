@@ -88,6 +88,9 @@ class Session {
   // Estimated bytes of a mesh's session without a cached pass: mesh,
   // topology, packed corners and the Embree BVH.
   static int64_t EstimateBaseBytes(const Mesh& mesh);
+  // The same from counts (an upload's header: primitives <= 2 x faces).
+  static int64_t EstimateBytes(int64_t vertices, int64_t faces,
+                               int64_t primitives);
 
  private:
   absl::Status EnsureEvaluator();

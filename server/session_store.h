@@ -1,11 +1,14 @@
 // All sessions of a server: creation with limits, lookup, listing, deletion,
-// idle-TTL and memory-budget (LRU) eviction.
+// idle-TTL and memory-budget (LRU) eviction, and the reservations of uploads
+// in flight. Sessions live in their tenant's namespace: one tenant cannot
+// see, touch or squat another's ids (in open mode every caller is tenant "").
 #pragma once
 
 #include <map>
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -16,24 +19,57 @@
 
 namespace meshgauge::server {
 
+class SessionStore;
+
+// An upload's claim on a session slot and memory, taken at its header
+// before any data is buffered; released when destroyed or consumed by
+// SessionStore::Create.
+class UploadReservation {
+ public:
+  UploadReservation() = default;
+  UploadReservation(UploadReservation&& o) noexcept { *this = std::move(o); }
+  UploadReservation& operator=(UploadReservation&& o) noexcept;
+  ~UploadReservation();
+  int64_t bytes() const { return bytes_; }
+
+ private:
+  friend class SessionStore;
+  SessionStore* store_ = nullptr;
+  std::string tenant_;
+  int64_t bytes_ = 0;
+};
+
 class SessionStore {
  public:
   // options, metrics and clock must outlive the store.
   SessionStore(const ServerOptions& options, Metrics* metrics,
                const Clock* clock);
 
-  // Adds a session for a validated mesh. Empty id: a random one is chosen.
-  // Errors: INVALID_ARGUMENT (bad id), ALREADY_EXISTS, RESOURCE_EXHAUSTED
-  // (session count limit, or the mesh alone exceeds the memory budget).
-  // Least recently used sessions are evicted to make room in the budget.
-  absl::StatusOr<std::shared_ptr<Session>> Create(std::string id, Mesh mesh);
+  // Claims a slot and `bytes` for an upload of `tenant`. Errors:
+  // RESOURCE_EXHAUSTED when the sessions plus uploads would exceed
+  // --max_sessions or the tenant's limit, or the memory (sessions'
+  // accounted bytes plus reservations, after evicting what LRU allows)
+  // would exceed the server's or the tenant's budget.
+  absl::StatusOr<UploadReservation> Reserve(const std::string& tenant,
+                                            int64_t bytes);
 
-  // NOT_FOUND names the id (and says it may have been evicted).
-  absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& id);
-  absl::Status Delete(const std::string& id);
+  // Adds a session for a validated mesh under `tenant`, consuming the
+  // upload's reservation. Empty id: a random one is chosen. Errors:
+  // INVALID_ARGUMENT (bad id), ALREADY_EXISTS (in this tenant's namespace).
+  absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& tenant,
+                                                  std::string id, Mesh mesh,
+                                                  UploadReservation ticket);
 
-  // Sessions with id > page_token, in id order, at most page_size.
-  std::vector<SessionSnapshot> List(const std::string& page_token,
+  // NOT_FOUND names the id (and says it may have been evicted); the same
+  // for another tenant's session, so ids do not leak.
+  absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& tenant,
+                                               const std::string& id);
+  absl::Status Delete(const std::string& tenant, const std::string& id);
+
+  // The tenant's sessions with id > page_token, in id order, at most
+  // page_size.
+  std::vector<SessionSnapshot> List(const std::string& tenant,
+                                    const std::string& page_token,
                                     int page_size, std::string* next_token);
 
   // Evicts sessions idle longer than the TTL.
@@ -42,21 +78,38 @@ class SessionStore {
   // memory exceeds the budget; call after a session's cache grew.
   void EnforceBudget(const Session* keep);
   int64_t size() const;
+  // Reservations of uploads in flight (server-wide).
+  int64_t reserved_uploads() const;
 
  private:
-  void EvictLocked(std::map<std::string, std::shared_ptr<Session>>::iterator,
-                   const std::string& reason);
+  friend class UploadReservation;
+  using Key = std::pair<std::string, std::string>;  // (tenant, id).
+  using Map = std::map<Key, std::shared_ptr<Session>>;
+  void Release(const std::string& tenant, int64_t bytes);
+  void ReleaseLocked(const std::string& tenant, int64_t bytes);
+  void EvictLocked(Map::iterator it, const std::string& reason);
   int64_t TotalBytesLocked() const;
+  int64_t TenantBytesLocked(const std::string& tenant) const;
+  int64_t TenantSessionsLocked(const std::string& tenant) const;
   void PublishLocked();
 
   const ServerOptions& options_;
   Metrics* metrics_;
   const Clock* clock_;
   mutable std::mutex mu_;
-  std::map<std::string, std::shared_ptr<Session>> sessions_;
+  Map sessions_;
+  struct Reserved {
+    int64_t uploads = 0, bytes = 0;
+  };
+  std::map<std::string, Reserved> reserved_;  // by tenant.
+  Reserved reserved_total_;
 };
 
 // Session ids: [A-Za-z0-9._-]{1,64}.
 bool ValidSessionId(const std::string& id);
+
+// An id or name for a message: at most 80 characters, control and
+// non-ASCII characters escaped, quoted.
+std::string QuoteId(const std::string& id);
 
 }  // namespace meshgauge::server

@@ -64,12 +64,18 @@ void Expect(const PenaltyFd& rep) {
   EXPECT_GT(rep.measure_term_matters, rep.clean / 2);
 }
 
-TEST(PenaltyTest, OneSidedOnNoisyCircleMatchesFd) {
+// r(theta) = 1 + 0.05 sin(6 theta) with 120 segments.
+Mesh NoisyCircle() {
   Mesh m = MakeCircle(1, 120);
   for (Vec3& p : m.positions)
     p *= 1 + 0.05 * std::sin(6 * std::atan2(p.y, p.x));
-  Expect(CheckPenalty(
-      m, {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2}, 40));
+  return m;
+}
+
+TEST(PenaltyTest, OneSidedOnNoisyCircleMatchesFd) {
+  Expect(CheckPenalty(NoisyCircle(),
+                      {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2},
+                      40));
 }
 
 TEST(PenaltyTest, ThesisFormOnHollowSquareMatchesFd) {
@@ -102,11 +108,8 @@ TEST(PenaltyTest, ValueOfConstantThicknessIsClosedForm) {
 }
 
 TEST(PenaltyTest, KsConstraintOnNoisyCircleMatchesFd) {
-  Mesh m = MakeCircle(1, 120);
-  for (Vec3& p : m.positions)
-    p *= 1 + 0.05 * std::sin(6 * std::atan2(p.y, p.x));
-  Expect(CheckPenalty(
-      m, {.t_min = 2.5, .form = PenaltyForm::kKs, .rho = 20}, 40));
+  Expect(CheckPenalty(NoisyCircle(),
+                      {.t_min = 2.5, .form = PenaltyForm::kKs, .rho = 20}, 40));
 }
 
 TEST(PenaltyTest, KsConstraintOnKnightMatchesFd) {

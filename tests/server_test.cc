@@ -85,6 +85,11 @@ TEST_F(ServerTest, PenaltyOverMostlyMissingValuesIsFailedPrecondition) {
   auto sdf = client_->ComputeSdf("horse", ToWireParams(few));
   ASSERT_TRUE(sdf.ok());
   EXPECT_GT(sdf->summary.missing().area_fraction(), 0.5);
+  // The upload's diagnostics said why.
+  auto info = client_->Get("horse");
+  ASSERT_TRUE(info.ok());
+  ASSERT_EQ(info->warnings_size(), 1);
+  EXPECT_THAT(info->warnings(0), HasSubstr("negative signed volume"));
   EXPECT_GT(sdf->summary.missing().vertices(), 0);
   // The caller may allow it explicitly.
   auto allowed = client_->ComputePenalty(

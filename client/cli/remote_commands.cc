@@ -23,6 +23,15 @@ ABSL_FLAG(std::string, positions, "",
           "vertex count)");
 ABSL_FLAG(int64_t, generation, -1,
           "meshgauge remote update: expected generation (-1: the current)");
+ABSL_FLAG(std::string, tls_ca_file, "",
+          "meshgauge remote: connect with TLS, trusting this PEM CA");
+ABSL_FLAG(std::string, tls_cert_file, "",
+          "meshgauge remote: client certificate (PEM) for mutual TLS");
+ABSL_FLAG(std::string, tls_key_file, "",
+          "meshgauge remote: private key (PEM) of --tls-cert-file");
+ABSL_FLAG(std::string, token_file, "",
+          "meshgauge remote: file whose first line is the bearer token "
+          "(default: the MESHGAUGE_TOKEN environment variable)");
 
 namespace meshgauge::cli {
 namespace {
@@ -39,7 +48,11 @@ nlohmann::json InfoJson(const v1::SessionInfo& s) {
           {"vertices", s.num_vertices()},    {"faces", s.num_faces()},
           {"generation", s.generation()},    {"memory_bytes", s.memory_bytes()},
           {"bvh_builds", s.bvh_builds()},    {"bvh_refits", s.bvh_refits()},
-          {"idle_seconds", s.idle_seconds()}};
+          {"idle_seconds", s.idle_seconds()},
+          {"signed_volume", s.signed_volume()},
+          {"closed", s.closed()},
+          {"warnings", std::vector<std::string>(s.warnings().begin(),
+                                                s.warnings().end())}};
 }
 
 void Print(const nlohmann::json& j) {
@@ -179,7 +192,20 @@ absl::Status Update(client::RemoteClient& c, const std::string& id) {
 
 absl::Status RunRemote(const std::vector<std::string>& args) {
   if (args.empty()) return absl::InvalidArgumentError(kUsage);
-  client::RemoteClient c(absl::GetFlag(FLAGS_server));
+  client::ClientOptions options;
+  if (absl::Status s = client::LoadClientSecrets(
+          absl::GetFlag(FLAGS_tls_ca_file), absl::GetFlag(FLAGS_tls_cert_file),
+          absl::GetFlag(FLAGS_tls_key_file), absl::GetFlag(FLAGS_token_file),
+          &options);
+      !s.ok()) {
+    return s;
+  }
+  if (options.tls_ca_pem.empty() &&
+      !(options.tls_cert_pem.empty() && options.tls_key_pem.empty())) {
+    return absl::InvalidArgumentError(
+        "--tls-cert-file/--tls-key-file need --tls-ca-file");
+  }
+  client::RemoteClient c(absl::GetFlag(FLAGS_server), options);
   const std::string& verb = args[0];
   if (verb == "upload") return Upload(c, args);
   if (verb == "health") {

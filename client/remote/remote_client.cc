@@ -1,5 +1,10 @@
 #include "client/remote/remote_client.h"
 
+#include <algorithm>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
 #include <zlib.h>
 
 #include <grpcpp/generic/generic_stub.h>
@@ -7,6 +12,7 @@
 #include <chrono>
 #include <future>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 
 namespace meshgauge::client {
@@ -70,6 +76,48 @@ std::vector<Vec3> FromFlattened(
   return out;
 }
 
+namespace {
+
+absl::StatusOr<std::string> ReadText(const std::string& path,
+                                     const char* what) {
+  std::ifstream in(path);
+  if (!in) {
+    return absl::NotFoundError(
+        absl::StrCat("cannot read the ", what, " '", path, "'"));
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+}  // namespace
+
+absl::Status LoadClientSecrets(const std::string& ca_file,
+                               const std::string& cert_file,
+                               const std::string& key_file,
+                               const std::string& token_file,
+                               ClientOptions* options) {
+  const std::pair<const std::string*, std::string*> pems[] = {
+      {&ca_file, &options->tls_ca_pem},
+      {&cert_file, &options->tls_cert_pem},
+      {&key_file, &options->tls_key_pem}};
+  for (const auto& [path, out] : pems) {
+    if (path->empty()) continue;
+    auto text = ReadText(*path, "TLS file");
+    if (!text.ok()) return text.status();
+    *out = std::move(*text);
+  }
+  if (!token_file.empty()) {
+    auto text = ReadText(token_file, "token file");
+    if (!text.ok()) return text.status();
+    options->token = std::string(absl::StripAsciiWhitespace(
+        absl::string_view(*text).substr(0, text->find('\n'))));
+  } else if (const char* env = std::getenv("MESHGAUGE_TOKEN")) {
+    options->token = std::string(absl::StripAsciiWhitespace(env));
+  }
+  return absl::OkStatus();
+}
+
 RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
     : options_(options) {
   grpc::ChannelArguments args;
@@ -77,8 +125,16 @@ RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
       static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
   args.SetMaxReceiveMessageSize(max_bytes);
   args.SetMaxSendMessageSize(max_bytes);
-  channel_ = grpc::CreateCustomChannel(
-      target, grpc::InsecureChannelCredentials(), args);
+  std::shared_ptr<grpc::ChannelCredentials> creds =
+      grpc::InsecureChannelCredentials();
+  if (!options.tls_ca_pem.empty()) {
+    grpc::SslCredentialsOptions ssl;
+    ssl.pem_root_certs = options.tls_ca_pem;
+    ssl.pem_cert_chain = options.tls_cert_pem;
+    ssl.pem_private_key = options.tls_key_pem;
+    creds = grpc::SslCredentials(ssl);
+  }
+  channel_ = grpc::CreateCustomChannel(target, creds, args);
   stub_ = v1::MeshGauge::NewStub(channel_);
 }
 
@@ -89,7 +145,18 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
       std::chrono::system_clock::now() +
       std::chrono::duration_cast<std::chrono::system_clock::duration>(
           std::chrono::duration<double>(options_.deadline_seconds)));
-  if (!session_id.empty()) ctx->AddMetadata(kSessionMetadataKey, session_id);
+  // Metadata values must be printable ASCII (gRPC aborts the process on
+  // others); an id that is not gets no routing key, and the server rejects
+  // it with a precise message.
+  const bool printable =
+      std::all_of(session_id.begin(), session_id.end(),
+                  [](char c) { return c >= 0x20 && c <= 0x7e; });
+  if (!session_id.empty() && printable) {
+    ctx->AddMetadata(kSessionMetadataKey, session_id);
+  }
+  if (!options_.token.empty()) {
+    ctx->AddMetadata(kAuthorizationMetadataKey, "Bearer " + options_.token);
+  }
   return ctx;
 }
 

@@ -21,11 +21,28 @@ namespace meshgauge::client {
 
 inline constexpr char kSessionMetadataKey[] = "x-meshgauge-session";
 
+inline constexpr char kAuthorizationMetadataKey[] = "authorization";
+
 struct ClientOptions {
   double deadline_seconds = 600;      // per call.
   int upload_chunk_vertices = 65536;  // vertices (and faces) per chunk.
   int64_t max_message_bytes = 256ll << 20;
+  // Sent as `authorization: Bearer <token>` on every call when not empty.
+  std::string token;
+  // TLS when tls_ca_pem is set: the server must present a certificate signed
+  // by this CA (PEM text, not a path); with tls_cert_pem and tls_key_pem the
+  // client presents its own (mutual TLS).
+  std::string tls_ca_pem, tls_cert_pem, tls_key_pem;
 };
+
+// ClientOptions' PEM fields from files (empty paths are skipped) and the
+// token from a file (its first line) or, without one, from the
+// MESHGAUGE_TOKEN environment variable. Errors: NotFound naming the file.
+absl::Status LoadClientSecrets(const std::string& ca_file,
+                               const std::string& cert_file,
+                               const std::string& key_file,
+                               const std::string& token_file,
+                               ClientOptions* options);
 
 // Values of a ComputeSdf stream, reassembled.
 struct RemoteSdf {
@@ -50,8 +67,8 @@ std::vector<Vec3> FromFlattened(
 
 class RemoteClient {
  public:
-  // `target` is host:port. The channel is insecure (loopback, or a trusted
-  // network behind the balancer).
+  // `target` is host:port. The channel is insecure unless options carry a
+  // TLS CA (then TLS, mutual with a client certificate).
   explicit RemoteClient(const std::string& target, ClientOptions options = {});
 
   // Uploads a mesh (validate it first for a clearer error) as a new session;

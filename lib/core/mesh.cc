@@ -1,6 +1,7 @@
 #include "lib/core/mesh.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <unordered_map>
 
@@ -33,12 +34,33 @@ class DefectList {
   std::vector<int64_t> first_;
 };
 
-// |(b-a) x (c-a)| <= 1e-14 * longest edge^2.
+// |(b-a) x (c-a)| <= 1e-14 * longest edge^2, evaluated on the edges scaled
+// by their largest component so that no product overflows or underflows.
 bool TriangleIsDegenerate(const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double area2 = Norm(Cross(b - a, c - a));
-  const double longest =
-      std::max({Dot(b - a, b - a), Dot(c - b, c - b), Dot(a - c, a - c)});
+  Vec3 u = b - a, v = c - a;
+  const double scale = std::max({std::abs(u.x), std::abs(u.y), std::abs(u.z),
+                                 std::abs(v.x), std::abs(v.y), std::abs(v.z)});
+  if (!(scale > 0)) return true;
+  u = u / scale;
+  v = v / scale;
+  const Vec3 w = v - u;
+  const double area2 = Norm(Cross(u, v));
+  const double longest = std::max({Dot(u, u), Dot(v, v), Dot(w, w)});
   return !(area2 > 1e-14 * longest);
+}
+
+// Products of two edges (face normals, areas) must not overflow: every
+// edge component must stay below 1e150.
+constexpr double kMaxEdgeComponent = 1e150;
+
+bool EdgesOverflow(const Mesh& mesh, const Face& f) {
+  for (int k = 0; k < f.size; ++k) {
+    const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]];
+    for (int c = 0; c < 3; ++c) {
+      if (!(std::abs(e[c]) < kMaxEdgeComponent)) return true;
+    }
+  }
+  return false;
 }
 
 }  // namespace
@@ -114,6 +136,9 @@ absl::Status ValidateMesh(const Mesh& mesh) {
   DefectList repeated("faces repeat a vertex index");
   DefectList degenerate(mesh.dimension == 2 ? "segments have zero length"
                                             : "faces have zero area");
+  DefectList overflow(
+      "faces have edges too long for double precision (an edge component "
+      "of 1e150 or more overflows the face normals; rescale the mesh)");
   for (int64_t f = 0; f < mesh.num_faces(); ++f) {
     const Face& face = mesh.faces[f];
     const bool arity_ok = mesh.dimension == 2
@@ -141,10 +166,15 @@ absl::Status ValidateMesh(const Mesh& mesh) {
       repeated.Add(f);
       continue;
     }
-    if (non_finite.empty() && FaceIsDegenerate(mesh, face)) degenerate.Add(f);
+    if (!non_finite.empty()) continue;
+    if (EdgesOverflow(mesh, face)) {
+      overflow.Add(f);
+    } else if (FaceIsDegenerate(mesh, face)) {
+      degenerate.Add(f);
+    }
   }
   for (const DefectList* list :
-       {&bad_arity, &out_of_range, &repeated, &degenerate}) {
+       {&bad_arity, &out_of_range, &repeated, &overflow, &degenerate}) {
     if (!list->empty()) problems.push_back(list->Message("face"));
   }
   if (problems.empty()) {

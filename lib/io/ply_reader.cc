@@ -70,53 +70,33 @@ struct Element {
 
 enum class Format { kAscii, kLittle, kBig };
 
+template <typename T>
+bool ReadAs(ByteReader& in, double* out) {
+  T v;
+  if (!in.Get(&v)) return false;
+  *out = static_cast<double>(v);
+  return true;
+}
+
 // Reads one binary scalar of type t as a double (exact for every type).
 bool ReadBinary(ByteReader& in, Type t, double* out) {
   switch (t) {
-    case Type::kInt8: {
-      int8_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kUint8: {
-      uint8_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kInt16: {
-      int16_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kUint16: {
-      uint16_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kInt32: {
-      int32_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kUint32: {
-      uint32_t v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
-    case Type::kFloat32: {
-      float v;
-      if (!in.Get(&v)) return false;
-      *out = v;
-      return true;
-    }
+    case Type::kInt8:
+      return ReadAs<int8_t>(in, out);
+    case Type::kUint8:
+      return ReadAs<uint8_t>(in, out);
+    case Type::kInt16:
+      return ReadAs<int16_t>(in, out);
+    case Type::kUint16:
+      return ReadAs<uint16_t>(in, out);
+    case Type::kInt32:
+      return ReadAs<int32_t>(in, out);
+    case Type::kUint32:
+      return ReadAs<uint32_t>(in, out);
+    case Type::kFloat32:
+      return ReadAs<float>(in, out);
     case Type::kFloat64:
-      return in.Get(out);
+      return ReadAs<double>(in, out);
   }
   return false;
 }

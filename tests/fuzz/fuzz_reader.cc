@@ -5,9 +5,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "lib/components.h"
+#include "lib/core/components.h"
 #include "lib/io/mesh_io.h"
-#include "lib/mesh.h"
+#include "lib/core/mesh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const absl::string_view contents(reinterpret_cast<const char*>(data), size);

@@ -6,6 +6,7 @@ sequences. Every call of a session sends the metadata key
 ``x-meshgauge-session`` (the routing key of a session-affine balancer).
 """
 
+import os
 import zlib
 
 import grpc
@@ -60,14 +61,37 @@ def _params(method="cone", cone_angle=0.0, rays=0, kappa=None,
     return p
 
 
-class MeshGaugeClient:
-    """Client of one meshgauge server (``target`` = "host:port")."""
+def _read(path):
+    with open(path, "rb") as f:
+        return f.read()
 
-    def __init__(self, target, deadline=600.0, max_message_bytes=256 << 20,
-                 chunk=65536):
+
+class MeshGaugeClient:
+    """Client of one meshgauge server (``target`` = "host:port").
+
+    ``token`` is sent as ``authorization: Bearer <token>`` on every call
+    (default: the MESHGAUGE_TOKEN environment variable). With ``tls_ca_file``
+    the channel is TLS, trusting that PEM CA; ``tls_cert_file`` and
+    ``tls_key_file`` add a client certificate (mutual TLS)."""
+
+    def __init__(self, target, token=None, deadline=600.0,
+                 max_message_bytes=256 << 20, chunk=65536, tls_ca_file=None,
+                 tls_cert_file=None, tls_key_file=None):
         options = [("grpc.max_send_message_length", max_message_bytes),
                    ("grpc.max_receive_message_length", max_message_bytes)]
-        self._channel = grpc.insecure_channel(target, options=options)
+        if (tls_cert_file or tls_key_file) and not tls_ca_file:
+            raise ValueError("tls_cert_file/tls_key_file need tls_ca_file")
+        if tls_ca_file:
+            creds = grpc.ssl_channel_credentials(
+                root_certificates=_read(tls_ca_file),
+                private_key=_read(tls_key_file) if tls_key_file else None,
+                certificate_chain=_read(tls_cert_file) if tls_cert_file else None)
+            self._channel = grpc.secure_channel(target, creds, options=options)
+        else:
+            self._channel = grpc.insecure_channel(target, options=options)
+        if token is None:
+            token = os.environ.get("MESHGAUGE_TOKEN") or None
+        self._auth = [("authorization", "Bearer " + token)] if token else []
         self._stub = pb_grpc.MeshGaugeStub(self._channel)
         self._deadline = deadline
         self._chunk = chunk
@@ -82,8 +106,11 @@ class MeshGaugeClient:
     def __exit__(self, *exc):
         self.close()
 
+    def _metadata(self, session_id=""):
+        return ([(SESSION_KEY, session_id)] if session_id else []) + self._auth
+
     def _call(self, method, request, session_id=""):
-        metadata = [(SESSION_KEY, session_id)] if session_id else None
+        metadata = self._metadata(session_id)
         try:
             return method(request, timeout=self._deadline, metadata=metadata)
         except grpc.RpcError as e:
@@ -173,7 +200,7 @@ class MeshGaugeClient:
         if expected_generation is not None:
             req.expected_generation = expected_generation
         values, status, hits, kept, normalized, summary = [], [], [], [], [], None
-        metadata = [(SESSION_KEY, session_id)]
+        metadata = self._metadata(session_id)
         try:
             for msg in self._stub.ComputeSdf(req, timeout=self._deadline,
                                              metadata=metadata):

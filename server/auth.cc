@@ -1,0 +1,105 @@
+#include "server/auth.h"
+
+#include <openssl/evp.h>
+
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
+#include "server/session_store.h"
+
+namespace meshgauge::server {
+
+std::string Sha256Hex(const std::string& data) {
+  unsigned char digest[EVP_MAX_MD_SIZE];
+  unsigned int size = 0;
+  EVP_Digest(data.data(), data.size(), digest, &size, EVP_sha256(), nullptr);
+  static const char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (unsigned int i = 0; i < size; ++i) {
+    out.push_back(kHex[digest[i] >> 4]);
+    out.push_back(kHex[digest[i] & 15]);
+  }
+  return out;
+}
+
+bool ValidTenantName(const std::string& name) { return ValidSessionId(name); }
+
+absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
+                                                      const std::string& name) {
+  Authenticator a;
+  a.enabled_ = true;
+  std::set<std::string> tenants;
+  int line_no = 0;
+  for (absl::string_view raw : absl::StrSplit(text, '\n')) {
+    ++line_no;
+    absl::string_view line = absl::StripAsciiWhitespace(raw);
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> fields =
+        absl::StrSplit(line, absl::ByAnyChar(" \t"), absl::SkipEmpty());
+    auto bad = [&](const std::string& why) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(name, ": line ", line_no, ": ", why));
+    };
+    if (fields.size() != 2) return bad("expected 'TENANT SHA256HEX'");
+    const std::string hash = absl::AsciiStrToLower(fields[1]);
+    if (!ValidTenantName(fields[0])) {
+      return bad("the tenant name must be 1 to 64 characters from [A-Za-z0-9._-]");
+    }
+    if (hash.size() != 64 ||
+        hash.find_first_not_of("0123456789abcdef") != std::string::npos) {
+      return bad("the token hash must be 64 hex digits (sha256sum of the token)");
+    }
+    if (!tenants.insert(fields[0]).second) {
+      return bad(absl::StrCat("tenant '", fields[0], "' is listed twice"));
+    }
+    if (!a.by_hash_.emplace(hash, fields[0]).second) {
+      return bad("this token hash is already given to another tenant");
+    }
+  }
+  if (a.by_hash_.empty()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(name, ": no tenants (one 'TENANT SHA256HEX' per line)"));
+  }
+  return a;
+}
+
+absl::StatusOr<Authenticator> Authenticator::FromFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) {
+    return absl::NotFoundError(
+        absl::StrCat("cannot read the tokens file '", path, "'"));
+  }
+  std::stringstream text;
+  text << in.rdbuf();
+  return FromText(text.str(), path);
+}
+
+absl::StatusOr<std::string> Authenticator::Authenticate(
+    const grpc::ServerContext& ctx) const {
+  if (!enabled_) return std::string();
+  const auto& md = ctx.client_metadata();
+  const auto it = md.find("authorization");
+  if (it == md.end()) {
+    return absl::UnauthenticatedError(
+        "missing 'authorization: Bearer <token>' metadata");
+  }
+  const absl::string_view value(it->second.data(), it->second.size());
+  constexpr absl::string_view kBearer = "Bearer ";
+  if (!absl::StartsWith(value, kBearer) || value.size() == kBearer.size()) {
+    return absl::UnauthenticatedError(
+        "the authorization metadata must be 'Bearer <token>'");
+  }
+  const auto tenant =
+      by_hash_.find(Sha256Hex(std::string(value.substr(kBearer.size()))));
+  if (tenant == by_hash_.end()) {
+    return absl::UnauthenticatedError("unknown token");
+  }
+  return tenant->second;
+}
+
+}  // namespace meshgauge::server

@@ -1,0 +1,48 @@
+// Bearer-token authentication of callers into tenants.
+//
+// The tokens file holds one `TENANT SHA256HEX` per line (the hex SHA-256 of
+// the token, never the token itself; `#` comments and blank lines allowed).
+// A call authenticates with the metadata `authorization: Bearer TOKEN`;
+// the token is hashed and looked up, and is never logged or echoed.
+#pragma once
+
+#include <grpcpp/grpcpp.h>
+
+#include <map>
+#include <string>
+
+#include "absl/status/statusor.h"
+
+namespace meshgauge::server {
+
+class Authenticator {
+ public:
+  // Open mode: every caller is the tenant "" (no authentication).
+  Authenticator() = default;
+  // Parses a tokens file. Errors: NotFound (unreadable), InvalidArgument
+  // naming the line (bad tenant name, not 64 hex digits, repeated hash or
+  // tenant), or an empty file.
+  static absl::StatusOr<Authenticator> FromFile(const std::string& path);
+  // The same from the file's text (tests).
+  static absl::StatusOr<Authenticator> FromText(const std::string& text,
+                                                const std::string& name);
+
+  bool enabled() const { return enabled_; }
+  int64_t tenants() const { return std::ssize(by_hash_); }
+  // The caller's tenant. Errors: UNAUTHENTICATED (no or malformed
+  // authorization metadata, unknown token) without echoing the token.
+  absl::StatusOr<std::string> Authenticate(
+      const grpc::ServerContext& ctx) const;
+
+ private:
+  bool enabled_ = false;
+  std::map<std::string, std::string> by_hash_;  // hex sha256 -> tenant.
+};
+
+// Lower-case hex SHA-256 of `data`.
+std::string Sha256Hex(const std::string& data);
+
+// Tenant names: [A-Za-z0-9._-]{1,64} (like session ids).
+bool ValidTenantName(const std::string& name);
+
+}  // namespace meshgauge::server

@@ -1,0 +1,62 @@
+#include "server/server_options.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge::server {
+namespace {
+
+template <typename T>
+absl::Status InRange(const char* flag, T value, T lo, T hi) {
+  if (value >= lo && value <= hi) return absl::OkStatus();
+  return absl::InvalidArgumentError(absl::StrCat(
+      "--", flag, " must be in [", lo, ", ", hi, "], got ", value));
+}
+
+}  // namespace
+
+absl::Status ValidateServerOptions(const ServerOptions& o) {
+  constexpr int64_t kInt32 = 2147483647;
+  const absl::Status checks[] = {
+      InRange<int64_t>("max_message_bytes", o.max_message_bytes, 4096, kInt32),
+      InRange<int64_t>("max_sessions", o.max_sessions, 1, 1'000'000),
+      InRange<int64_t>("max_vertices", o.max_vertices, 1, kInt32),
+      InRange<int64_t>("max_faces", o.max_faces, 1, kInt32 / 2),
+      InRange<int>("max_rays", o.max_rays, 1, 4096),
+      InRange<int64_t>("memory_budget_bytes", o.memory_budget_bytes, 1 << 20,
+                       int64_t{1} << 50),
+      InRange<int64_t>("max_sessions_per_tenant", o.max_sessions_per_tenant, 0,
+                       1'000'000),
+      InRange<int64_t>("memory_budget_bytes_per_tenant",
+                       o.memory_budget_bytes_per_tenant, 0, int64_t{1} << 50),
+      InRange<int64_t>("max_concurrent_uploads", o.max_concurrent_uploads, 1,
+                       1024),
+      InRange<double>("upload_idle_seconds", o.upload_idle_seconds, 0.01,
+                      86400),
+      InRange<double>("session_ttl_seconds", o.session_ttl_seconds, 0.001,
+                      1e9),
+      InRange<int>("rebuild_every_updates", o.rebuild_every_updates, 1,
+                   1'000'000),
+      InRange<int>("compute_threads", o.compute_threads, 0, 1024),
+      InRange<double>("drain_notice_seconds", o.drain_notice_seconds, 0, 3600),
+      InRange<double>("shutdown_grace_seconds", o.shutdown_grace_seconds, 0,
+                      3600),
+      InRange<double>("sweep_interval_seconds", o.sweep_interval_seconds,
+                      0.001, 3600),
+  };
+  for (const absl::Status& s : checks) {
+    if (!s.ok()) return s;
+  }
+  if (o.tls_cert_file.empty() != o.tls_key_file.empty()) {
+    return absl::InvalidArgumentError(
+        "--tls_cert_file and --tls_key_file go together");
+  }
+  if (!o.tls_client_ca_file.empty() && o.tls_cert_file.empty()) {
+    return absl::InvalidArgumentError(
+        "--tls_client_ca_file needs --tls_cert_file and --tls_key_file");
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge::server

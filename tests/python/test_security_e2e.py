@@ -1,0 +1,228 @@
+"""The meshgauge-server process as an operator and an attacker meet it:
+flags out of range exit 2 naming the flag, a taken or invalid address exits 1
+with one line (no crash), reflection exists only with --reflection, and TLS
+with tenant tokens works from the Python client and the CLI."""
+
+import hashlib
+import json
+import os
+import socket
+import subprocess
+import tempfile
+import time
+import unittest
+
+import grpc
+import numpy as np
+
+from meshgauge_client import MeshGaugeClient, MeshGaugeError
+
+SERVER = os.environ["MESHGAUGE_SERVER"]
+CLI = os.environ["MESHGAUGE_CLI"]
+HERE = os.path.dirname(os.path.abspath(__file__))
+REFLECTION = "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo"
+
+
+def octahedron():
+    v = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1],
+                  [0, 0, -1]], dtype=float)
+    f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5],
+                  [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    return v, f
+
+
+class Server:
+    """A meshgauge-server process on a free loopback port."""
+
+    def __init__(self, *flags):
+        self.tmp = tempfile.mkdtemp()
+        port_file = os.path.join(self.tmp, "port")
+        self.log = open(os.path.join(self.tmp, "server.log"), "w+")
+        self.proc = subprocess.Popen(
+            [SERVER, "--address=127.0.0.1:0", "--metrics_address=",
+             f"--port_file={port_file}", "--drain_notice_seconds=0",
+             *flags], stderr=self.log)
+        deadline = time.time() + 20
+        while not self._read(port_file):
+            if time.time() > deadline or self.proc.poll() is not None:
+                self.log.seek(0)
+                raise RuntimeError("server did not start: " + self.log.read())
+            time.sleep(0.05)
+        self.port = int(self._read(port_file))
+        self.target = f"127.0.0.1:{self.port}"
+
+    @staticmethod
+    def _read(path):
+        if not os.path.exists(path):
+            return ""
+        with open(path) as f:
+            return f.read().strip()
+
+    def stop(self):
+        self.proc.terminate()
+        self.proc.wait(timeout=20)
+        self._final = self.stderr()
+        self.log.close()
+
+    def stderr(self):
+        if self.log.closed:
+            return self._final
+        self.log.seek(0)
+        return self.log.read()
+
+
+def run_server(*flags, timeout=20):
+    return subprocess.run([SERVER, "--metrics_address=", *flags],
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def list_services_by_reflection(target):
+    """A raw reflection request (list_services = "", field 7): the response
+    bytes, or the grpc error code."""
+    with grpc.insecure_channel(target) as channel:
+        call = channel.stream_stream(REFLECTION)
+        try:
+            return b"".join(call(iter([b"\x3a\x00"]), timeout=5))
+        except grpc.RpcError as e:
+            return e.code()
+
+
+class StartupAndFlags(unittest.TestCase):
+    def test_limit_flags_out_of_range_exit_2_naming_the_flag(self):
+        for flag, value in [("max_message_bytes", "-1"),
+                            ("compute_threads", "-1"),
+                            ("compute_threads", "5000"),
+                            ("session_ttl_seconds", "-1"),
+                            ("memory_budget_bytes", "-1"),
+                            ("max_vertices", "-5"),
+                            ("upload_idle_seconds", "0")]:
+            p = run_server(f"--{flag}={value}", "--address=127.0.0.1:0")
+            self.assertEqual(p.returncode, 2, (flag, value, p.stderr))
+            self.assertIn(f"--{flag} must be in [", p.stderr)
+            self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
+
+    def test_taken_and_invalid_addresses_exit_1_with_one_line(self):
+        with socket.socket() as holder:
+            holder.bind(("127.0.0.1", 0))
+            holder.listen()
+            port = holder.getsockname()[1]
+            p = run_server(f"--address=127.0.0.1:{port}")
+            self.assertEqual(p.returncode, 1, p.stderr)
+            self.assertIn(f"cannot listen on 127.0.0.1:{port}", p.stderr)
+        p = run_server("--address=this is not an address")
+        self.assertEqual(p.returncode, 1, p.stderr)
+        self.assertIn("cannot listen on", p.stderr)
+
+    def test_a_second_server_on_the_same_port_fails(self):
+        first = Server()
+        try:
+            p = run_server(f"--address=127.0.0.1:{first.port}")
+            self.assertEqual(p.returncode, 1, p.stderr)
+            self.assertIn("cannot listen on", p.stderr)
+        finally:
+            first.stop()
+
+    def test_reflection_only_with_the_flag(self):
+        off = Server()
+        try:
+            self.assertEqual(list_services_by_reflection(off.target),
+                             grpc.StatusCode.UNIMPLEMENTED)
+            self.assertIn("reflection off", off.stderr())
+        finally:
+            off.stop()
+        on = Server("--reflection")
+        try:
+            reply = list_services_by_reflection(on.target)
+            self.assertIsInstance(reply, bytes)
+            self.assertIn(b"meshgauge.v1.MeshGauge", reply)
+        finally:
+            on.stop()
+
+    def test_open_mode_is_logged(self):
+        s = Server()
+        try:
+            self.assertIn("UNAUTHENTICATED (open mode", s.stderr())
+        finally:
+            s.stop()
+
+
+class TlsAndTokens(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.pki = tempfile.mkdtemp()
+        subprocess.run(["bash", os.path.join(HERE, "..", "make_test_pki.sh"),
+                        cls.pki], check=True)
+        tokens = os.path.join(cls.pki, "tokens")
+        with open(tokens, "w") as f:
+            for tenant in ("alice", "bob"):
+                digest = hashlib.sha256(f"{tenant}-token".encode()).hexdigest()
+                f.write(f"{tenant} {digest}\n")
+        cls.server = Server(f"--tls_cert_file={cls.pki}/server.crt",
+                            f"--tls_key_file={cls.pki}/server.key",
+                            f"--tls_client_ca_file={cls.pki}/ca.crt",
+                            f"--auth_tokens_file={tokens}")
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.server.stop()
+        log = cls.server.stderr()
+        assert "alice-token" not in log and "bob-token" not in log, log
+
+    def client(self, token):
+        p = self.pki
+        return MeshGaugeClient(self.server.target, token=token, deadline=10,
+                               tls_ca_file=f"{p}/ca.crt",
+                               tls_cert_file=f"{p}/client.crt",
+                               tls_key_file=f"{p}/client.key")
+
+    def test_python_client_with_tls_and_tokens(self):
+        v, f = octahedron()
+        with self.client("alice-token") as alice, self.client("bob-token") as bob:
+            sid = alice.upload(v, f, session_id="oct").session_id
+            self.assertEqual(alice.sdf(sid)["values"].shape, (6,))
+            with self.assertRaises(MeshGaugeError) as e:
+                bob.sdf(sid)
+            self.assertEqual(e.exception.code, grpc.StatusCode.NOT_FOUND)
+            self.assertEqual(bob.list(), [])
+            alice.delete(sid)
+        with self.client("wrong") as mallory:
+            with self.assertRaises(MeshGaugeError) as e:
+                mallory.list()
+            self.assertEqual(e.exception.code, grpc.StatusCode.UNAUTHENTICATED)
+
+    def test_cli_with_tls_and_token_file_or_environment(self):
+        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+                              "decimated-knight.off")
+        token_file = os.path.join(self.pki, "alice.token")
+        with open(token_file, "w") as f:
+            f.write("alice-token\n")
+        tls = ["--server", self.server.target,
+               "--tls-ca-file", f"{self.pki}/ca.crt",
+               "--tls-cert-file", f"{self.pki}/client.crt",
+               "--tls-key-file", f"{self.pki}/client.key"]
+        env = dict(os.environ)
+        env.pop("MESHGAUGE_TOKEN", None)
+        up = subprocess.run([CLI, "remote", "upload", knight, "--session-id",
+                             "k", "--token-file", token_file, *tls],
+                            capture_output=True, text=True, env=env, timeout=60)
+        self.assertEqual(up.returncode, 0, up.stderr)
+        env["MESHGAUGE_TOKEN"] = "alice-token"
+        info = subprocess.run([CLI, "remote", "info", "k", "--json", *tls],
+                              capture_output=True, text=True, env=env,
+                              timeout=60)
+        self.assertEqual(info.returncode, 0, info.stderr)
+        self.assertEqual(json.loads(info.stdout)["vertices"], 502)
+        env["MESHGAUGE_TOKEN"] = "bob-token"
+        other = subprocess.run([CLI, "remote", "info", "k", *tls],
+                               capture_output=True, text=True, env=env,
+                               timeout=60)
+        self.assertEqual(other.returncode, 1)
+        self.assertIn("no session 'k'", other.stderr)
+        plain = subprocess.run([CLI, "remote", "list", "--server",
+                                self.server.target], capture_output=True,
+                               text=True, env=env, timeout=60)
+        self.assertEqual(plain.returncode, 1)
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)

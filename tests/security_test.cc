@@ -1,0 +1,433 @@
+// The server against an attacker: authentication, tenant isolation, bounded
+// uploads, replies over the message limit, TLS, start-up on a taken port,
+// escaped ids, overflowing meshes. Every test plays the attacker and checks
+// what the attacker and the victim see.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "absl/strings/str_replace.h"
+#include "lib/core/shapes.h"
+#include "server/auth.h"
+#include "tests/server_test_util.h"
+#include "tests/tls_test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using client::ClientOptions;
+using client::RemoteClient;
+using client::ToWireParams;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+absl::StatusCode Code(const absl::Status& s) { return s.code(); }
+template <typename T>
+absl::StatusCode Code(const absl::StatusOr<T>& s) {
+  return s.status().code();
+}
+
+std::string TempFile(const std::string& name, const std::string& text) {
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("meshgauge_sec_" + std::to_string(::getpid()) +
+                             "_" + name))
+                               .string();
+  std::ofstream(path) << text;
+  return path;
+}
+
+class SecurityTest : public testing::ServerFixture {
+ protected:
+  void SetUp() override {
+    server::ServerOptions o;
+    o.auth_tokens_file = TempFile(
+        "tokens", "# tenant sha256(token)\nalice " +
+                      server::Sha256Hex("alice-secret") + "\nbob " +
+                      server::Sha256Hex("bob-secret") + "\n");
+    StartServer(o);
+    alice_ = Client("alice-secret");
+    bob_ = Client("bob-secret");
+  }
+  std::unique_ptr<RemoteClient> Client(const std::string& token) {
+    ClientOptions o;
+    o.token = token;
+    return std::make_unique<RemoteClient>(target_, o);
+  }
+  std::unique_ptr<RemoteClient> alice_, bob_;
+};
+
+TEST_F(SecurityTest, CallsWithoutAValidTokenAreUnauthenticated) {
+  const Mesh m = MakeIcosphere(1, 2);
+  EXPECT_EQ(Code(client_->Upload(m, "x")),
+            absl::StatusCode::kUnauthenticated);
+  EXPECT_EQ(Code(client_->List()), absl::StatusCode::kUnauthenticated);
+  auto wrong = Client("guessed-token");
+  auto r = wrong->Upload(m, "x");
+  EXPECT_EQ(Code(r), absl::StatusCode::kUnauthenticated);
+  EXPECT_THAT(std::string(r.status().message()), Not(HasSubstr("guessed")));
+  // Health needs no token (load balancers and container checks).
+  auto serving = client_->Serving();
+  ASSERT_TRUE(serving.ok()) << serving.status();
+  EXPECT_TRUE(*serving);
+}
+
+TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
+  const Mesh victim_mesh = MakeIcosphere(1, 3);
+  ASSERT_TRUE(alice_->Upload(victim_mesh, "shared-name").ok());
+  auto assigned = alice_->Upload(victim_mesh);
+  ASSERT_TRUE(assigned.ok());
+  const std::string hidden = assigned->session_id();
+  auto before = alice_->ComputeSdf("shared-name", ToWireParams({}));
+  ASSERT_TRUE(before.ok());
+  // Bob lists nothing, and every call on Alice's ids is NOT_FOUND with the
+  // same message as for an id nobody has.
+  auto listed = bob_->List();
+  ASSERT_TRUE(listed.ok());
+  EXPECT_TRUE(listed->empty());
+  for (const std::string& id : {std::string("shared-name"), hidden}) {
+    EXPECT_EQ(Code(bob_->Get(id)), absl::StatusCode::kNotFound);
+    EXPECT_EQ(Code(bob_->ComputeSdf(id, ToWireParams({}))),
+              absl::StatusCode::kNotFound);
+    std::vector<Vec3> moved = victim_mesh.positions;
+    for (Vec3& p : moved) p *= 0.5;
+    EXPECT_EQ(Code(bob_->UpdatePositions(id, 0, 3, moved)),
+              absl::StatusCode::kNotFound);
+    EXPECT_EQ(Code(bob_->Delete(id)), absl::StatusCode::kNotFound);
+  }
+  auto missing = bob_->Get("nobody-has-this");
+  auto theirs = bob_->Get("shared-name");
+  EXPECT_EQ(std::string(theirs.status().message()),
+            absl::StrReplaceAll(std::string(missing.status().message()),
+                                {{"nobody-has-this", "shared-name"}}));
+  // No squatting: Bob's own "shared-name" is a different session.
+  ASSERT_TRUE(bob_->Upload(MakeIcosphere(2, 2), "shared-name").ok());
+  std::vector<Vec3> moved = MakeIcosphere(2, 2).positions;
+  for (Vec3& p : moved) p *= 0.5;
+  ASSERT_TRUE(bob_->UpdatePositions("shared-name", 0, 3, moved).ok());
+  // Alice's session is untouched: same generation, same values bit for bit.
+  auto info = alice_->Get("shared-name");
+  ASSERT_TRUE(info.ok());
+  EXPECT_EQ(info->generation(), 0);
+  EXPECT_EQ(info->num_vertices(), victim_mesh.num_vertices());
+  auto after = alice_->ComputeSdf("shared-name", ToWireParams({}));
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->values, before->values);
+  EXPECT_EQ(alice_->List()->size(), 2u);
+}
+
+TEST_F(SecurityTest, PerTenantSessionLimit) {
+  server::ServerOptions o = options_;
+  o.max_sessions_per_tenant = 1;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  const Mesh m = MakeIcosphere(1, 2);
+  ASSERT_TRUE(alice_->Upload(m, "a1").ok());
+  auto second = alice_->Upload(m, "a2");
+  EXPECT_EQ(Code(second), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(second.status().message()),
+              HasSubstr("--max_sessions_per_tenant"));
+  EXPECT_TRUE(bob_->Upload(m, "b1").ok()) << "Alice's limit is not Bob's";
+}
+
+TEST(AuthenticatorTest, RejectsMalformedTokenFiles) {
+  EXPECT_THAT(std::string(server::Authenticator::FromText("alice xyz\n", "f")
+                              .status()
+                              .message()),
+              HasSubstr("f: line 1: the token hash must be 64 hex digits"));
+  const std::string h = server::Sha256Hex("t");
+  EXPECT_THAT(std::string(server::Authenticator::FromText(
+                              "a " + h + "\nb " + h + "\n", "f")
+                              .status()
+                              .message()),
+              HasSubstr("line 2: this token hash is already given"));
+  EXPECT_THAT(std::string(server::Authenticator::FromText("# none\n", "f")
+                              .status()
+                              .message()),
+              HasSubstr("no tenants"));
+  EXPECT_EQ(server::Sha256Hex("abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+// Raw CreateSession streams, as an attacker writes them.
+class UploadAttackTest : public testing::ServerFixture {
+ protected:
+  using Writer = grpc::ClientWriter<v1::CreateSessionRequest>;
+  std::unique_ptr<Writer> Open(grpc::ClientContext* ctx,
+                               v1::CreateSessionResponse* resp) {
+    return client_->stub().CreateSession(ctx, resp);
+  }
+  static v1::CreateSessionRequest Header(int64_t nv, int64_t nf,
+                                         const std::string& id = "") {
+    v1::CreateSessionRequest r;
+    auto* h = r.mutable_header();
+    h->set_session_id(id);
+    h->set_dimension(3);
+    h->set_num_vertices(nv);
+    h->set_num_faces(nf);
+    return r;
+  }
+};
+
+TEST_F(UploadAttackTest, DeclaredSizeOverTheBudgetIsRefusedAtTheHeader) {
+  server::ServerOptions o;
+  o.memory_budget_bytes = 64 << 20;
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
+  // The server answers without waiting for any data.
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(s.error_message(), HasSubstr("memory budget"));
+}
+
+TEST_F(UploadAttackTest, IndicesWithoutSizesStopAtTheFirstExcessChunk) {
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(3, 1)));
+  v1::CreateSessionRequest chunk;
+  for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
+  int written = 0;
+  while (written < 25 && w->Write(chunk)) ++written;
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("more face indices than the declared 1"));
+  EXPECT_EQ(server_->store().reserved_uploads(), 0);
+}
+
+TEST_F(UploadAttackTest, UploadsInFlightCountAgainstTheSessionLimit) {
+  server::ServerOptions o;
+  o.max_sessions = 2;
+  RestartServer(o);
+  grpc::ClientContext c1, c2;
+  v1::CreateSessionResponse r1, r2;
+  auto w1 = Open(&c1, &r1);
+  auto w2 = Open(&c2, &r2);
+  ASSERT_TRUE(w1->Write(Header(3, 1)));
+  ASSERT_TRUE(w2->Write(Header(3, 1)));
+  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 2; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(server_->store().reserved_uploads(), 2);
+  auto third = client_->Upload(MakeIcosphere(1, 1), "third");
+  EXPECT_EQ(Code(third), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(third.status().message()), HasSubstr("in flight"));
+  c1.TryCancel();
+  c2.TryCancel();
+  w1->Finish();
+  w2->Finish();
+  for (int i = 0; i < 200 && server_->store().reserved_uploads() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(server_->store().reserved_uploads(), 0);
+  EXPECT_TRUE(client_->Upload(MakeIcosphere(1, 1), "third").ok());
+}
+
+TEST_F(UploadAttackTest, ConcurrentUploadsAreCapped) {
+  server::ServerOptions o;
+  o.max_concurrent_uploads = 1;
+  RestartServer(o);
+  grpc::ClientContext c1;
+  v1::CreateSessionResponse r1;
+  auto w1 = Open(&c1, &r1);
+  ASSERT_TRUE(w1->Write(Header(3, 1)));
+  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 1; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  auto second = client_->Upload(MakeIcosphere(1, 1), "second");
+  EXPECT_EQ(Code(second), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(second.status().message()),
+              HasSubstr("--max_concurrent_uploads"));
+  c1.TryCancel();
+  w1->Finish();
+}
+
+TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
+  server::ServerOptions o;
+  o.upload_idle_seconds = 0.2;  // checked every 0.05 s of real time.
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(3, 1)));
+  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 1; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(server_->store().reserved_uploads(), 1);
+  clock_.Advance(1);  // the upload is now idle on the server's clock.
+  const grpc::Status s = w->Finish();
+  EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
+  for (int i = 0; i < 200 && server_->store().reserved_uploads() > 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(server_->store().reserved_uploads(), 0);
+}
+
+TEST_F(UploadAttackTest, DuplicateRegionDirectionsAreRejected) {
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  v1::CreateSessionRequest h = Header(3, 1);
+  for (int i = 0; i < 2; ++i) {
+    auto* rd = h.mutable_header()->add_region_directions();
+    rd->set_region(4);
+    rd->set_direction(i == 0 ? v1::CONE_DIRECTION_INWARD
+                             : v1::CONE_DIRECTION_OUTWARD);
+  }
+  w->Write(h);
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_THAT(s.error_message(), HasSubstr("region 4 is listed twice"));
+}
+
+class LimitsTest : public testing::ServerFixture {};
+
+TEST_F(LimitsTest, RepliesOverTheMessageLimitAreRefusedBeforeComputing) {
+  server::ServerOptions o;
+  o.max_message_bytes = 64 << 10;
+  RestartServer(o);
+  ClientOptions co;
+  co.upload_chunk_vertices = 1000;
+  RemoteClient c(target_, co);
+  const Mesh sphere = MakeIcosphere(1, 20);  // 4002 vertices: 96 kB replies.
+  ASSERT_TRUE(c.Upload(sphere, "s").ok());
+  auto vjp = c.ComputeVjp("s", ToWireParams({}),
+                          std::vector<double>(sphere.num_vertices(), 1.0));
+  EXPECT_EQ(Code(vjp), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(vjp.status().message()),
+              HasSubstr("refused before computing"));
+  auto pen = c.ComputePenalty("s", ToWireParams({}), {.t_min = 1}, true);
+  EXPECT_EQ(Code(pen), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(metrics_.Text(), HasSubstr("meshgauge_rays_traced_total 0"));
+  // The SDF stream, with its Jacobian, is split to fit the limit instead.
+  auto sdf = c.ComputeSdf("s", ToWireParams({}), true, std::nullopt, 4002);
+  ASSERT_TRUE(sdf.ok()) << sdf.status();
+  EXPECT_EQ(sdf->values.size(), 4002u);
+  EXPECT_TRUE(sdf->jacobian.has_value());
+}
+
+TEST_F(LimitsTest, IdsWithControlCharactersAreEscapedInMessages) {
+  auto r = client_->Get("evil\x01\x1b[2Jid");
+  EXPECT_EQ(Code(r), absl::StatusCode::kNotFound);
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("evil\\x01\\x1b[2Jid"));
+  EXPECT_THAT(std::string(r.status().message()), Not(HasSubstr("\x1b")));
+  auto up = client_->Upload(MakeIcosphere(1, 1), "bad\nid");
+  EXPECT_EQ(Code(up), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(up.status().message()), HasSubstr("bad\\nid"));
+}
+
+TEST_F(LimitsTest, AMeshTooLargeForDoublesIsNamedAsOverflow) {
+  Mesh huge = MakeIcosphere(1, 2);
+  for (Vec3& p : huge.positions) p *= 1e160;
+  auto r = client_->Upload(huge, "huge");
+  EXPECT_EQ(Code(r), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(r.status().message()),
+              HasSubstr("too long for double precision"));
+  EXPECT_THAT(std::string(r.status().message()), Not(HasSubstr("zero area")));
+}
+
+TEST(StartupTest, ATakenPortFailsCleanlyWithoutReusePort) {
+  server::Metrics metrics;
+  server::FakeClock clock;
+  server::ServerOptions a;
+  a.address = "127.0.0.1:0";
+  a.metrics_address = "";
+  auto first = server::MeshGaugeServer::Start(a, &metrics, &clock);
+  ASSERT_TRUE(first.ok());
+  server::ServerOptions b = a;
+  b.address = "127.0.0.1:" + std::to_string((*first)->port());
+  server::Metrics metrics_b;
+  auto second = server::MeshGaugeServer::Start(b, &metrics_b, &clock);
+  EXPECT_EQ(Code(second), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(std::string(second.status().message()),
+              HasSubstr("cannot listen on " + b.address));
+  server::ServerOptions bad = a;
+  bad.address = "not an address:::";
+  EXPECT_EQ(Code(server::MeshGaugeServer::Start(bad, &metrics_b, &clock)),
+            absl::StatusCode::kUnavailable);
+  server::ServerOptions limits = a;
+  limits.max_message_bytes = -1;
+  EXPECT_THAT(std::string(server::MeshGaugeServer::Start(limits, &metrics_b,
+                                                         &clock)
+                              .status()
+                              .message()),
+              HasSubstr("--max_message_bytes must be in [4096, 2147483647]"));
+}
+
+class TlsTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(testing::MakeTestPki(&pki_)); }
+  void TearDown() override {
+    server_.reset();
+    std::filesystem::remove_all(pki_.dir);
+  }
+  void Start(bool mutual) {
+    options_.address = "127.0.0.1:0";
+    options_.metrics_address = "";
+    options_.drain_notice_seconds = 0;
+    options_.tls_cert_file = pki_.server_crt;
+    options_.tls_key_file = pki_.server_key;
+    if (mutual) options_.tls_client_ca_file = pki_.ca_crt;
+    auto s = server::MeshGaugeServer::Start(options_, &metrics_, &clock_);
+    ASSERT_TRUE(s.ok()) << s.status();
+    server_ = std::move(*s);
+    target_ = "127.0.0.1:" + std::to_string(server_->port());
+  }
+  ClientOptions Tls(const std::string& ca, bool with_cert) {
+    ClientOptions o;
+    o.deadline_seconds = 5;
+    o.tls_ca_pem = testing::ReadFileText(ca);
+    if (with_cert) {
+      o.tls_cert_pem = testing::ReadFileText(pki_.client_crt);
+      o.tls_key_pem = testing::ReadFileText(pki_.client_key);
+    }
+    return o;
+  }
+  testing::TestPki pki_;
+  server::ServerOptions options_;
+  server::Metrics metrics_;
+  server::FakeClock clock_;
+  std::unique_ptr<server::MeshGaugeServer> server_;
+  std::string target_;
+};
+
+TEST_F(TlsTest, TlsServerServesTlsClientsOnly) {
+  Start(/*mutual=*/false);
+  RemoteClient good(target_, Tls(pki_.ca_crt, false));
+  EXPECT_TRUE(good.Upload(MakeIcosphere(1, 1), "t").ok());
+  ClientOptions plain;
+  plain.deadline_seconds = 2;
+  RemoteClient insecure(target_, plain);
+  EXPECT_EQ(Code(insecure.Get("t")), absl::StatusCode::kUnavailable);
+  // A client that trusts another CA refuses the server's certificate.
+  RemoteClient wrong_ca(target_, Tls(pki_.other_ca_crt, false));
+  EXPECT_EQ(Code(wrong_ca.Get("t")), absl::StatusCode::kUnavailable);
+}
+
+TEST_F(TlsTest, MutualTlsNeedsAClientCertificate) {
+  Start(/*mutual=*/true);
+  RemoteClient with_cert(target_, Tls(pki_.ca_crt, true));
+  EXPECT_TRUE(with_cert.Upload(MakeIcosphere(1, 1), "m").ok());
+  RemoteClient without(target_, Tls(pki_.ca_crt, false));
+  EXPECT_EQ(Code(without.Get("m")), absl::StatusCode::kUnavailable);
+}
+
+TEST_F(TlsTest, UnreadableCertificateFilesFailTheStart) {
+  options_.address = "127.0.0.1:0";
+  options_.metrics_address = "";
+  options_.tls_cert_file = pki_.dir + "/missing.crt";
+  options_.tls_key_file = pki_.server_key;
+  auto s = server::MeshGaugeServer::Start(options_, &metrics_, &clock_);
+  EXPECT_EQ(Code(s), absl::StatusCode::kNotFound);
+  EXPECT_THAT(std::string(s.status().message()), HasSubstr("--tls_cert_file"));
+}
+
+}  // namespace
+}  // namespace meshgauge
