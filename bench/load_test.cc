@@ -39,6 +39,9 @@ ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
 ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
 ABSL_FLAG(bool, recreate, false, "re-create lost sessions and continue");
 ABSL_FLAG(std::string, session_prefix, "load", "session ids: PREFIX-<n>");
+ABSL_FLAG(std::string, tls_ca_file, "", "connect with TLS, trusting this CA");
+ABSL_FLAG(std::string, token_file, "",
+          "bearer token file (default: MESHGAUGE_TOKEN)");
 
 namespace meshgauge::bench {
 namespace {
@@ -82,11 +85,12 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
 
 // One client's run. Fills `replies` when `reference` is null, else compares.
 // Returns false when the client could not finish.
-bool RunClient(const std::string& target, const std::string& id,
+bool RunClient(const std::string& target, const client::ClientOptions& options,
+               const std::string& id,
                const Mesh& mesh, int iterations, Clock::time_point stop_at,
                std::vector<Reply>* replies, const std::vector<Reply>* reference,
                Stats& stats) {
-  client::RemoteClient c(target);
+  client::RemoteClient c(target, options);
   const v1::SdfParameters params = client::ToWireParams({});
   const std::vector<double> ones(mesh.num_vertices(), 1.0);
   auto timed = [&](const char* rpc, auto call) {
@@ -170,6 +174,14 @@ double Percentile(std::vector<double> v, double q) {
 
 int Run() {
   const std::string target = absl::GetFlag(FLAGS_target);
+  client::ClientOptions options;
+  if (absl::Status s = client::LoadClientSecrets(
+          absl::GetFlag(FLAGS_tls_ca_file), "", "",
+          absl::GetFlag(FLAGS_token_file), &options);
+      !s.ok()) {
+    std::printf("%s\n", std::string(s.message()).c_str());
+    return 2;
+  }
   const int clients = std::clamp(absl::GetFlag(FLAGS_clients), 1, 256);
   const int iterations = std::clamp(absl::GetFlag(FLAGS_iterations), 1, 10000);
   const Mesh mesh = MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
@@ -180,7 +192,7 @@ int Run() {
   const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
   Stats ref_stats;
   std::vector<Reply> reference;
-  if (!RunClient(target, prefix + "-reference", mesh, iterations, stop_at,
+  if (!RunClient(target, options, prefix + "-reference", mesh, iterations, stop_at,
                  &reference, nullptr, ref_stats)) {
     std::printf("reference run failed\n");
     for (const auto& [k, n] : ref_stats.errors) std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
@@ -192,7 +204,7 @@ int Run() {
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
-      if (RunClient(target, absl::StrCat(prefix, "-", i), mesh, iterations,
+      if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh, iterations,
                     stop_at, nullptr, &reference, stats)) {
         ++finished;
       }

@@ -10,32 +10,44 @@ FRONT=127.0.0.1:8080
 PROM=http://127.0.0.1:9090
 
 ./make-base-image.sh
+./make-secrets.sh
 $COMPOSE build
 cleanup() { $COMPOSE down -v --remove-orphans >/dev/null 2>&1 || true; }
 trap cleanup EXIT
 $COMPOSE up -d
 
-# Tools run from the meshgauge image on the host network (loopback only).
-tool() { docker run --rm --network host --entrypoint "$1" meshgauge:latest "${@:2}"; }
-mg() { tool meshgauge remote "$@" --server "$FRONT"; }
+# Tools run from the meshgauge image on the host network (loopback only),
+# with the stack's CA and token: TLS to nginx, the token to the replicas.
+SECRETS=(-v "$PWD/secrets:/secrets:ro")
+TLS=(--tls-ca-file /secrets/ca.crt --token-file /secrets/token)
+tool() { docker run --rm --network host "${SECRETS[@]}" --entrypoint "$1" meshgauge:latest "${@:2}"; }
+mg() { tool meshgauge remote "$@" --server "$FRONT" "${TLS[@]}"; }
 
 for _ in $(seq 1 60); do
   mg health >/dev/null 2>&1 && break
   sleep 1
 done
 echo "== smoke test through nginx ($FRONT)"
-docker run --rm --network host --entrypoint sh meshgauge:latest -c "
+docker run --rm --network host "${SECRETS[@]}" --entrypoint sh meshgauge:latest -c "
   set -e
+  R='--server $FRONT ${TLS[*]}'
   meshgauge shape sphere --radius 0.5 --size 0.05 --out /tmp/s.obj
-  meshgauge remote upload /tmp/s.obj --session-id smoke --server $FRONT --json
-  meshgauge remote sdf smoke --server $FRONT --json
-  meshgauge remote update smoke --positions /tmp/s.obj --server $FRONT --json
-  meshgauge remote grad smoke --server $FRONT --json
-  meshgauge remote penalty smoke --t-min 2 --server $FRONT --json
-  meshgauge remote delete smoke --server $FRONT"
+  meshgauge remote upload /tmp/s.obj --session-id smoke \$R --json
+  meshgauge remote sdf smoke \$R --json
+  meshgauge remote update smoke --positions /tmp/s.obj \$R --json
+  meshgauge remote grad smoke \$R --json
+  meshgauge remote penalty smoke --t-min 2 \$R --json
+  meshgauge remote delete smoke \$R"
+
+echo "== without the token, or without TLS, the front end refuses"
+if tool meshgauge remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
+  echo "FAIL: a call without a token was served"; exit 1; fi
+if tool meshgauge remote list --server "$FRONT" >/dev/null 2>&1; then
+  echo "FAIL: a plaintext call was served"; exit 1; fi
 
 echo "== load test through nginx"
-tool meshgauge-load --target "$FRONT" --clients 6 --iterations 6 --frequency 16 \
+LOADTLS=(--tls_ca_file /secrets/ca.crt --token_file /secrets/token)
+tool meshgauge-load --target "$FRONT" "${LOADTLS[@]}" --clients 6 --iterations 6 --frequency 16 \
   --time_limit_seconds 300 | tee /tmp/meshgauge-load-stack.txt
 
 echo "== Prometheus"
@@ -53,7 +65,7 @@ done
 
 echo "== fault run: meshgauge-2 is killed during the load test"
 ( sleep 2; $COMPOSE kill -s SIGKILL meshgauge-2 >/dev/null 2>&1 ) &
-tool meshgauge-load --target "$FRONT" --clients 6 --iterations 12 --frequency 16 \
+tool meshgauge-load --target "$FRONT" "${LOADTLS[@]}" --clients 6 --iterations 12 --frequency 16 \
   --recreate --session_prefix fault --time_limit_seconds 300 \
   | tee /tmp/meshgauge-load-fault.txt
 grep -q "clients without any error: [1-9]" /tmp/meshgauge-load-fault.txt || {

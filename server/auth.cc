@@ -2,14 +2,13 @@
 
 #include <openssl/evp.h>
 
-#include <fstream>
 #include <set>
-#include <sstream>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
+#include "lib/io/text_file.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
@@ -69,14 +68,9 @@ absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
 }
 
 absl::StatusOr<Authenticator> Authenticator::FromFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) {
-    return absl::NotFoundError(
-        absl::StrCat("cannot read the tokens file '", path, "'"));
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  return FromText(text.str(), path);
+  auto text = ReadTextFile(path, "tokens file");
+  if (!text.ok()) return text.status();
+  return FromText(*text, path);
 }
 
 absl::StatusOr<std::string> Authenticator::Authenticate(

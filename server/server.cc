@@ -5,24 +5,16 @@
 #include <grpcpp/security/server_credentials.h>
 
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 
 #include "absl/strings/str_cat.h"
+#include "lib/io/text_file.h"
 
 namespace meshgauge::server {
 namespace {
 
 absl::StatusOr<std::string> ReadPem(const std::string& path,
                                     const char* flag) {
-  std::ifstream in(path);
-  if (!in) {
-    return absl::NotFoundError(
-        absl::StrCat("cannot read --", flag, " '", path, "'"));
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  return ReadTextFile(path, absl::StrCat("--", flag, " file"));
 }
 
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(

@@ -40,6 +40,14 @@ std::string TempFile(const std::string& name, const std::string& text) {
   return path;
 }
 
+// Polls `done` every 10 ms for up to 2 s.
+template <typename Pred>
+void WaitFor(Pred done) {
+  for (int i = 0; i < 200 && !done(); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
 class SecurityTest : public testing::ServerFixture {
  protected:
   void SetUp() override {
@@ -212,9 +220,7 @@ TEST_F(UploadAttackTest, UploadsInFlightCountAgainstTheSessionLimit) {
   auto w2 = Open(&c2, &r2);
   ASSERT_TRUE(w1->Write(Header(3, 1)));
   ASSERT_TRUE(w2->Write(Header(3, 1)));
-  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 2; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return server_->store().reserved_uploads() >= 2; });
   ASSERT_EQ(server_->store().reserved_uploads(), 2);
   auto third = client_->Upload(MakeIcosphere(1, 1), "third");
   EXPECT_EQ(Code(third), absl::StatusCode::kResourceExhausted);
@@ -223,9 +229,7 @@ TEST_F(UploadAttackTest, UploadsInFlightCountAgainstTheSessionLimit) {
   c2.TryCancel();
   w1->Finish();
   w2->Finish();
-  for (int i = 0; i < 200 && server_->store().reserved_uploads() > 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
   EXPECT_TRUE(client_->Upload(MakeIcosphere(1, 1), "third").ok());
 }
@@ -238,9 +242,7 @@ TEST_F(UploadAttackTest, ConcurrentUploadsAreCapped) {
   v1::CreateSessionResponse r1;
   auto w1 = Open(&c1, &r1);
   ASSERT_TRUE(w1->Write(Header(3, 1)));
-  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 1; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   auto second = client_->Upload(MakeIcosphere(1, 1), "second");
   EXPECT_EQ(Code(second), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(second.status().message()),
@@ -257,16 +259,12 @@ TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
   v1::CreateSessionResponse resp;
   auto w = Open(&ctx, &resp);
   ASSERT_TRUE(w->Write(Header(3, 1)));
-  for (int i = 0; i < 200 && server_->store().reserved_uploads() < 1; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   ASSERT_EQ(server_->store().reserved_uploads(), 1);
   clock_.Advance(1);  // the upload is now idle on the server's clock.
   const grpc::Status s = w->Finish();
   EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
-  for (int i = 0; i < 200 && server_->store().reserved_uploads() > 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
 }
 

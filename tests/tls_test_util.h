@@ -8,9 +8,9 @@
 
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
+
+#include "lib/io/text_file.h"
 
 namespace meshgauge::testing {
 
@@ -21,10 +21,7 @@ struct TestPki {
 };
 
 inline std::string ReadFileText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
+  return ReadTextFile(path, "test file").value_or("");
 }
 
 // Returns false when openssl failed (the test should fail then).

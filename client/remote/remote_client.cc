@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <fstream>
-#include <sstream>
 
 #include <zlib.h>
 
@@ -14,6 +12,7 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "lib/io/text_file.h"
 
 namespace meshgauge::client {
 namespace {
@@ -76,22 +75,6 @@ std::vector<Vec3> FromFlattened(
   return out;
 }
 
-namespace {
-
-absl::StatusOr<std::string> ReadText(const std::string& path,
-                                     const char* what) {
-  std::ifstream in(path);
-  if (!in) {
-    return absl::NotFoundError(
-        absl::StrCat("cannot read the ", what, " '", path, "'"));
-  }
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-}  // namespace
-
 absl::Status LoadClientSecrets(const std::string& ca_file,
                                const std::string& cert_file,
                                const std::string& key_file,
@@ -103,12 +86,12 @@ absl::Status LoadClientSecrets(const std::string& ca_file,
       {&key_file, &options->tls_key_pem}};
   for (const auto& [path, out] : pems) {
     if (path->empty()) continue;
-    auto text = ReadText(*path, "TLS file");
+    auto text = ReadTextFile(*path, "TLS file");
     if (!text.ok()) return text.status();
     *out = std::move(*text);
   }
   if (!token_file.empty()) {
-    auto text = ReadText(token_file, "token file");
+    auto text = ReadTextFile(token_file, "token file");
     if (!text.ok()) return text.status();
     options->token = std::string(absl::StripAsciiWhitespace(
         absl::string_view(*text).substr(0, text->find('\n'))));
