@@ -67,7 +67,13 @@ echo "== fault run: meshgauge-2 is killed during the load test"
 ( sleep 2; $COMPOSE kill -s SIGKILL meshgauge-2 >/dev/null 2>&1 ) &
 tool meshgauge-load --target "$FRONT" "${LOADTLS[@]}" --clients 6 --iterations 12 --frequency 16 \
   --recreate --session_prefix fault --time_limit_seconds 300 \
-  | tee /tmp/meshgauge-load-fault.txt
+  | tee /tmp/meshgauge-load-fault.txt || true
+# Sessions live in one replica's memory until the Redis session store
+# lands (issue 11): the killed replica's clients see errors and re-create
+# their sessions; the other replica's clients must see none, and no reply
+# may differ from the reference.
 grep -q "clients without any error: [1-9]" /tmp/meshgauge-load-fault.txt || {
   echo "FAIL: no client was untouched by the fault"; exit 1; }
+grep -q "mismatches against the single-client reference: 0" \
+  /tmp/meshgauge-load-fault.txt || { echo "FAIL: mismatched replies"; exit 1; }
 echo "stack test: PASS"

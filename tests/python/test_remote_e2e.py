@@ -14,7 +14,7 @@ import urllib.request
 
 import numpy as np
 
-from meshgauge_client import MeshGaugeClient, MeshGaugeError
+from meshgauge_client import MeshGaugeClient, MeshGaugeError, NotFoundError
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
@@ -71,21 +71,21 @@ class RemoteEndToEnd(unittest.TestCase):
         info = self.client.upload(v, f, session_id="octa")
         self.assertEqual(info.num_vertices, 6)
         r = self.client.sdf("octa", rays=50)
-        self.assertEqual(r["values"].shape, (6,))
-        self.assertTrue(np.all(np.isfinite(r["values"])))
-        self.assertEqual(r["summary"].ok, 6)
+        self.assertEqual(r.values.shape, (6,))
+        self.assertTrue(np.all(np.isfinite(r.values)))
+        self.assertEqual(r.summary.ok, 6)
         g = self.client.vjp("octa", np.ones(6), rays=50)
         self.assertEqual(g.shape, (6, 3))
         # Scaling the shape scales the SDF: d(sum SDF)/dx . x = sum SDF.
-        self.assertAlmostEqual(float(np.sum(g * v)), float(np.sum(r["values"])),
+        self.assertAlmostEqual(float(np.sum(g * v)), float(np.sum(r.values)),
                                places=9)
         gen = self.client.update_positions("octa", 2 * v, 0)
         self.assertEqual(gen, 1)
         r2 = self.client.sdf("octa", rays=50, expected_generation=1)
-        np.testing.assert_allclose(r2["values"], 2 * r["values"], rtol=1e-12)
-        p, grad, resp = self.client.penalty("octa", t_min=5.0)
-        self.assertGreater(p, 0)
-        self.assertEqual(grad.shape, (6, 3))
+        np.testing.assert_allclose(r2.values, 2 * r.values, rtol=1e-12)
+        pen = self.client.penalty("octa", t_min=5.0)
+        self.assertGreater(pen.value, 0)
+        self.assertEqual(pen.gradient.shape, (6, 3))
         self.assertIn("octa", [s.session_id for s in self.client.list()])
 
     def test_2_errors_map_to_status_codes(self):
@@ -100,9 +100,19 @@ class RemoteEndToEnd(unittest.TestCase):
         with self.assertRaises(MeshGaugeError) as e:
             self.client.update_positions("dup", v, expected_generation=7)
         self.assertEqual(e.exception.code, grpc.StatusCode.ABORTED)
-        with self.assertRaises(MeshGaugeError) as e:
+        # Argument errors are raised before any call.
+        with self.assertRaises(ValueError):
             self.client.sdf("dup", cone_angle=200)
-        self.assertEqual(e.exception.code, grpc.StatusCode.INVALID_ARGUMENT)
+        with self.assertRaises(ValueError):
+            self.client.sdf("dup", method="cones")
+        with self.assertRaises(TypeError):
+            self.client.sdf("dup", rays="many")
+        with self.assertRaises(ValueError):
+            self.client.upload(v[:, 0], f)
+        # Every status has its own subclass, keeping code and details.
+        with self.assertRaises(NotFoundError) as nf:
+            self.client.info("missing")
+        self.assertIn("no session 'missing'", nf.exception.details)
         bad = v.copy()
         bad[2] = bad[0]  # face (0, 2, 4) collapses
         with self.assertRaises(MeshGaugeError) as e:
@@ -132,10 +142,11 @@ class RemoteEndToEnd(unittest.TestCase):
     def test_3c_ks_form_and_missing_values(self):
         v, f = octahedron()
         sid = self.client.upload(v, f, session_id="ks-octa").session_id
-        g, grad, resp = self.client.penalty(sid, 5.0, form="ks", rho=20)
-        self.assertGreater(g, 0)  # every SDF is below t_min = 5
-        self.assertEqual(grad.shape, (6, 3))
-        self.assertEqual(resp.missing.vertices, 0)
+        g = self.client.constraint(sid, 5.0, rho=20)
+        self.assertGreater(g.value, 0)  # every SDF is below t_min = 5
+        self.assertEqual(g.gradient.shape, (6, 3))
+        self.assertEqual(g.missing_vertices, 0)
+        self.assertEqual(g.form, "ks")
         with self.assertRaises(ValueError):
             self.client.penalty(sid, 1.0, form="cones")
         # Inside out: the cones look outside, every value is missing.

@@ -179,7 +179,7 @@ class TlsAndTokens(unittest.TestCase):
         v, f = octahedron()
         with self.client("alice-token") as alice, self.client("bob-token") as bob:
             sid = alice.upload(v, f, session_id="oct").session_id
-            self.assertEqual(alice.sdf(sid)["values"].shape, (6,))
+            self.assertEqual(alice.sdf(sid).values.shape, (6,))
             with self.assertRaises(MeshGaugeError) as e:
                 bob.sdf(sid)
             self.assertEqual(e.exception.code, grpc.StatusCode.NOT_FOUND)

@@ -17,7 +17,7 @@ inside a trust region (no vertex moves more than a fifth of the element size
 per iteration, so the curve never folds); the minimum SDF is printed every
 iteration until it reaches t_min.
 
-    PYTHONPATH=build/python:client/python \\
+    PYTHONPATH=build/python \\
         python3 client/python/examples/thicken_dumbbell.py --server 127.0.0.1:50051
 """
 
@@ -68,20 +68,20 @@ def optimise(client, t_min=0.6, neck=0.3, max_iterations=200, mu=0.5,
     """Runs the optimisation; returns the list of minimum SDFs per iteration."""
     x0, segments = dumbbell(neck=neck, h=h)
     max_move = 0.2 * h
-    session = client.upload(x0, segments).session_id
+    session = client.session(x0, segments)
     L = laplacian(len(x0))
     LtL = (L.T @ L).tocsr()
     t_target = 1.15 * t_min
-    x, generation = x0.copy(), 0
+    x = x0.copy()
 
-    def objective(x, generation):
-        generation = client.update_positions(session, x, generation)
-        p, grad, resp = client.penalty(session, t_target)
+    def objective(x):
+        session.update(x)
+        pen = session.penalty(t_target)
         reg = 0.5 * mu * np.sum((L @ x) ** 2) + 0.5 * lam * np.sum((x - x0) ** 2)
-        g = grad + mu * (LtL @ x) + lam * (x - x0)
-        return p + reg, g, resp.sdf_min, generation
+        g = pen.gradient + mu * (LtL @ x) + lam * (x - x0)
+        return pen.value + reg, g, pen.sdf_min
 
-    f, g, sdf_min, generation = objective(x, generation)
+    f, g, sdf_min = objective(x)
     history = [sdf_min]
     step = 1.0
     print(f"iteration   0  min SDF {sdf_min:.4f}  objective {f:.6f}", file=out)
@@ -92,7 +92,7 @@ def optimise(client, t_min=0.6, neck=0.3, max_iterations=200, mu=0.5,
         step = min(step, max_move / np.max(np.linalg.norm(g, axis=1)))
         while True:
             x_new = x - step * g
-            f_new, g_new, sdf_new, generation = objective(x_new, generation)
+            f_new, g_new, sdf_new = objective(x_new)
             if f_new <= f - 1e-4 * step * np.sum(g * g) or step < 1e-6:
                 break
             step *= 0.5
@@ -101,7 +101,7 @@ def optimise(client, t_min=0.6, neck=0.3, max_iterations=200, mu=0.5,
         history.append(sdf_min)
         print(f"iteration {it:3d}  min SDF {sdf_min:.4f}  objective {f:.6f}  "
               f"step {step:.3g}", file=out)
-    client.delete(session)
+    session.close()
     return history
 
 

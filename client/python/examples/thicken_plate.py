@@ -19,7 +19,7 @@ slightly thinner than t_min (here the minimum ends about 10 % below,
 where the groove meets the walls); a larger rho or a negative bound
 tightens it.
 
-    PYTHONPATH=build/python:client/python \\
+    PYTHONPATH=build/python \\
         python3 client/python/examples/thicken_plate.py --server 127.0.0.1:50051
 """
 
@@ -66,18 +66,18 @@ def grooved_plate(n=10, height=0.3, groove=0.08, band=(0.35, 0.65)):
 def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout):
     """Runs SLSQP; returns (scipy result, final G, final minimum SDF)."""
     v0, faces, top, z0 = grooved_plate(n)
-    session = client.upload(v0, faces).session_id
-    state = {"generation": 0, "z": None, "g": None, "grad": None, "sdf_min": None}
+    session = client.session(v0, faces)
+    state = {"z": None, "g": None, "grad": None, "sdf_min": None}
 
     def evaluate(z):
         if state["z"] is not None and np.array_equal(z, state["z"]):
             return
         v = v0.copy()
         v[top, 2] = z
-        state["generation"] = client.update_positions(session, v,
-                                                      state["generation"])
-        g, grad, resp = client.penalty(session, t_min, form="ks", rho=rho)
-        state.update(z=z.copy(), g=g, grad=grad[top, 2], sdf_min=resp.sdf_min)
+        session.update(v)
+        g = session.constraint(t_min, rho=rho)
+        state.update(z=z.copy(), g=g.value, grad=g.gradient[top, 2],
+                     sdf_min=g.sdf_min)
 
     def constraint(z):  # SLSQP wants fun(z) >= 0
         evaluate(z)
@@ -105,7 +105,7 @@ def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout):
         constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_jac}],
         callback=report, options={"maxiter": 100, "ftol": 1e-10})
     evaluate(result.x)
-    client.delete(session)
+    session.close()
     return result, state["g"], state["sdf_min"]
 
 

@@ -1,9 +1,37 @@
-"""Python client of the meshgauge gRPC service (numpy in, numpy out).
+"""meshgauge-client: the Python client of the meshgauge shape-diameter
+service (numpy in, numpy out). See docs/python.md.
 
-The stubs come from proto/meshgauge/v1/meshgauge.proto, generated at build
-time into build/python (put that folder and this one on PYTHONPATH).
+    from meshgauge_client import MeshGaugeClient
+    with MeshGaugeClient("127.0.0.1:50051") as client:
+        with client.session(vertices, faces) as s:
+            result = s.penalty(t_min=0.2)       # PenaltyResult
+            result.value, result.gradient       # float, (N, d)
 """
 
-from meshgauge_client.client import MeshGaugeClient, MeshGaugeError, mesh_crc32
+from meshgauge_client.client import SESSION_KEY, MeshGaugeClient, mesh_crc32
+from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
+                                     CancelledError, DataLossError,
+                                     DeadlineExceededError,
+                                     FailedPreconditionError, InternalError,
+                                     InvalidArgumentError, MeshGaugeError,
+                                     NotFoundError, OutOfRangeError,
+                                     PermissionDeniedError,
+                                     ResourceExhaustedError,
+                                     UnauthenticatedError, UnavailableError,
+                                     UnimplementedError, UnknownError)
+from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
+                                      SdfSummary, SessionInfo, VertexStatus)
+from meshgauge_client.session import Session
 
-__all__ = ["MeshGaugeClient", "MeshGaugeError", "mesh_crc32"]
+__version__ = "0.2.0"
+
+__all__ = [
+    "AbortedError", "AlreadyExistsError", "Calibration", "CancelledError",
+    "DataLossError", "DeadlineExceededError", "FailedPreconditionError",
+    "InternalError", "InvalidArgumentError", "MeshGaugeClient",
+    "MeshGaugeError", "NotFoundError", "OutOfRangeError", "PenaltyResult",
+    "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
+    "SdfResult", "SdfSummary", "Session", "SessionInfo",
+    "UnauthenticatedError", "UnavailableError", "UnimplementedError",
+    "UnknownError", "VertexStatus", "mesh_crc32",
+]

@@ -1,44 +1,52 @@
-"""A thin, numpy-friendly wrapper over the meshgauge.v1 gRPC stubs.
+"""MeshGaugeClient: one meshgauge server, numpy in, numpy out.
 
-Arrays: vertices are (N, d) float arrays (d = 2 or 3); faces are an (M, k)
-int array (k = 2 segments, 3 triangles, 4 quads) or a list of index
-sequences. Every call of a session sends the metadata key
-``x-meshgauge-session`` (the routing key of a session-affine balancer).
+Arrays: vertices (N, d) floats (d = 2 or 3); faces an (M, k) int array or a
+list of index sequences (k = 2 segments, 3 triangles, 4 quads). Every call
+of a session sends ``x-meshgauge-session`` (the balancer's routing key) and,
+with a token, ``authorization: Bearer <token>``. The channel retries
+UNAVAILABLE with exponential backoff and waits for the server to be ready.
 """
 
+import json
 import os
+import time
+import uuid
 import zlib
+from typing import (TYPE_CHECKING, Any, Callable, Iterator, List, Optional,
+                    Sequence, Tuple, TypeVar)
 
 import grpc
 import numpy as np
+import scipy.sparse
 
-from meshgauge.v1 import meshgauge_pb2 as pb
-from meshgauge.v1 import meshgauge_pb2_grpc as pb_grpc
+from meshgauge_client import _wire
+from meshgauge_client._stubs import pb
+from meshgauge_client._stubs import pb_grpc
+from meshgauge_client.errors import MeshGaugeError, from_rpc_error
+from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
+                                      SdfResult, SessionInfo)
+
+if TYPE_CHECKING:
+    from meshgauge_client.session import Session
 
 SESSION_KEY = "x-meshgauge-session"
+T = TypeVar("T")
+
+# Transparent retries of UNAVAILABLE (a restarting or draining server).
+_SERVICE_CONFIG = json.dumps({"methodConfig": [{
+    "name": [{"service": "meshgauge.v1.MeshGauge"}],
+    "waitForReady": True,
+    "retryPolicy": {"maxAttempts": 5, "initialBackoff": "0.1s",
+                    "maxBackoff": "2s", "backoffMultiplier": 2,
+                    "retryableStatusCodes": ["UNAVAILABLE"]}}]})
 
 
-class MeshGaugeError(RuntimeError):
-    """A failed call: ``code`` is the grpc.StatusCode, ``details`` the message."""
-
-    def __init__(self, code, details):
-        super().__init__(f"{code.name}: {details}")
-        self.code = code
-        self.details = details
-
-
-def _faces_to_lists(faces):
-    if isinstance(faces, np.ndarray):
-        return [np.asarray(f, dtype=np.int64) for f in faces]
-    return [np.asarray(f, dtype=np.int64) for f in faces]
-
-
-def mesh_crc32(vertices, faces, regions=None):
+def mesh_crc32(vertices: Any, faces: Any, regions: Optional[Any] = None) -> int:
     """CRC-32 of a mesh in the upload footer's canonical order."""
     v = np.ascontiguousarray(vertices, dtype="<f8")
-    faces = _faces_to_lists(faces)
-    sizes = np.array([len(f) for f in faces], dtype="<i4")
-    indices = (np.concatenate(faces).astype("<i4") if faces
+    face_list = [np.asarray(f, dtype=np.int64).ravel() for f in faces]
+    sizes = np.array([len(f) for f in face_list], dtype="<i4")
+    indices = (np.concatenate(face_list).astype("<i4") if face_list
                else np.zeros(0, "<i4"))
     crc = zlib.crc32(v.tobytes())
     crc = zlib.crc32(sizes.tobytes(), crc)
@@ -48,20 +56,7 @@ def mesh_crc32(vertices, faces, regions=None):
     return crc & 0xFFFFFFFF
 
 
-def _params(method="cone", cone_angle=0.0, rays=0, kappa=None,
-            max_distance=0.0, normals="area"):
-    p = pb.SdfParameters(
-        method={"cone": pb.SDF_METHOD_CONE,
-                "normal": pb.SDF_METHOD_NORMAL_RAY}[method],
-        cone_angle_degrees=cone_angle, rays=rays, max_distance=max_distance,
-        normal_weighting={"area": pb.NORMAL_WEIGHTING_AREA,
-                          "angle": pb.NORMAL_WEIGHTING_ANGLE}[normals])
-    if kappa is not None:
-        p.kappa = kappa
-    return p
-
-
-def _read(path):
+def _read(path: str) -> bytes:
     with open(path, "rb") as f:
         return f.read()
 
@@ -69,18 +64,27 @@ def _read(path):
 class MeshGaugeClient:
     """Client of one meshgauge server (``target`` = "host:port").
 
-    ``token`` is sent as ``authorization: Bearer <token>`` on every call
-    (default: the MESHGAUGE_TOKEN environment variable). With ``tls_ca_file``
-    the channel is TLS, trusting that PEM CA; ``tls_cert_file`` and
-    ``tls_key_file`` add a client certificate (mutual TLS)."""
+    token: sent as ``authorization: Bearer <token>`` (default: the
+    MESHGAUGE_TOKEN environment variable). tls_ca_file: TLS, trusting that
+    PEM CA; tls_cert_file and tls_key_file add a client certificate (mutual
+    TLS). deadline: seconds per call. retry_seconds: how long a call keeps
+    retrying UNAVAILABLE (a restarting server) before it fails.
+    """
 
-    def __init__(self, target, token=None, deadline=600.0,
-                 max_message_bytes=256 << 20, chunk=65536, tls_ca_file=None,
-                 tls_cert_file=None, tls_key_file=None):
-        options = [("grpc.max_send_message_length", max_message_bytes),
-                   ("grpc.max_receive_message_length", max_message_bytes)]
+    def __init__(self, target: str, token: Optional[str] = None, *,
+                 deadline: float = 600.0, max_message_bytes: int = 256 << 20,
+                 chunk: int = 65536, tls_ca_file: Optional[str] = None,
+                 tls_cert_file: Optional[str] = None,
+                 tls_key_file: Optional[str] = None,
+                 retry_seconds: float = 30.0) -> None:
+        if not isinstance(target, str) or not target:
+            raise ValueError("target must be 'host:port'")
         if (tls_cert_file or tls_key_file) and not tls_ca_file:
             raise ValueError("tls_cert_file/tls_key_file need tls_ca_file")
+        options = [("grpc.max_send_message_length", max_message_bytes),
+                   ("grpc.max_receive_message_length", max_message_bytes),
+                   ("grpc.enable_retries", 1),
+                   ("grpc.service_config", _SERVICE_CONFIG)]
         if tls_ca_file:
             creds = grpc.ssl_channel_credentials(
                 root_certificates=_read(tls_ca_file),
@@ -95,115 +99,179 @@ class MeshGaugeClient:
         self._stub = pb_grpc.MeshGaugeStub(self._channel)
         self._deadline = deadline
         self._chunk = chunk
-        self._dims = {}
+        self._retry_seconds = retry_seconds
+        self._dims: "dict[str, int]" = {}
 
-    def close(self):
+    def close(self) -> None:
         self._channel.close()
 
-    def __enter__(self):
+    def __enter__(self) -> "MeshGaugeClient":
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def _metadata(self, session_id=""):
+    # Plumbing ---------------------------------------------------------------
+
+    def _metadata(self, session_id: str = "") -> List[Tuple[str, str]]:
         return ([(SESSION_KEY, session_id)] if session_id else []) + self._auth
 
-    def _call(self, method, request, session_id=""):
-        metadata = self._metadata(session_id)
-        try:
-            return method(request, timeout=self._deadline, metadata=metadata)
-        except grpc.RpcError as e:
-            raise MeshGaugeError(e.code(), e.details()) from None
+    def _retrying(self, call: Callable[[], T]) -> T:
+        """Runs call(), retrying UNAVAILABLE with backoff for retry_seconds
+        (the channel's own retries cover short blips; this covers a restart)."""
+        stop = time.monotonic() + self._retry_seconds
+        delay = 0.05
+        while True:
+            try:
+                return call()
+            except grpc.RpcError as e:
+                if (e.code() != grpc.StatusCode.UNAVAILABLE
+                        or time.monotonic() + delay > stop):
+                    raise from_rpc_error(e) from None
+            time.sleep(delay)
+            delay = min(2 * delay, 1.0)
 
-    def _dim(self, session_id):
+    def _call(self, method: Any, request: Any, session_id: str = "") -> Any:
+        metadata = self._metadata(session_id)
+
+        def invoke() -> Any:
+            return method(request, timeout=self._deadline, metadata=metadata,
+                          wait_for_ready=True)
+
+        return self._retrying(invoke)
+
+    def _dim(self, session_id: str) -> int:
         if session_id not in self._dims:
             self._dims[session_id] = self.info(session_id).dimension
         return self._dims[session_id]
 
-    # Sessions -------------------------------------------------------------
+    # Sessions ---------------------------------------------------------------
 
-    def upload(self, vertices, faces, session_id="", regions=None,
-               outward_regions=()):
-        """Creates a session; returns its SessionInfo (``.session_id``)."""
-        vertices = np.asarray(vertices, dtype=np.float64)
-        dim = vertices.shape[1]
-        faces = _faces_to_lists(faces)
+    def upload(self, vertices: Any, faces: Any, session_id: Optional[str] = None,
+               regions: Optional[Sequence[int]] = None,
+               outward_regions: Sequence[int] = ()) -> SessionInfo:
+        """Creates a session from vertices (N, d) and faces; returns its
+        SessionInfo. session_id: [A-Za-z0-9._-]{1,64}; None generates a
+        UUID-based one (every call then carries its routing key). regions:
+        one region id per face; outward_regions: regions whose cone opens
+        along +n (SPEC §1)."""
+        v = _wire.points(vertices, "vertices")
+        dim = v.shape[1]
+        face_list = _wire.faces_list(faces, dim)
+        if regions is not None and len(regions) != len(face_list):
+            raise ValueError(f"regions must have one entry per face "
+                             f"({len(face_list)}), got {len(regions)}")
+        sid = session_id if session_id is not None else f"py-{uuid.uuid4().hex}"
         header = pb.CreateSessionRequest.Header(
-            session_id=session_id, dimension=dim,
-            num_vertices=len(vertices), num_faces=len(faces),
-            region_directions=[
-                pb.RegionDirection(region=r,
-                                   direction=pb.CONE_DIRECTION_OUTWARD)
+            session_id=sid, dimension=dim, num_vertices=len(v),
+            num_faces=len(face_list),
+            region_directions=[pb.RegionDirection(
+                region=r, direction=pb.CONE_DIRECTION_OUTWARD)
                 for r in outward_regions])
+        crc = mesh_crc32(v, face_list, regions)
 
-        def requests():
+        def requests() -> Iterator[Any]:
             yield pb.CreateSessionRequest(header=header)
-            n = max(len(vertices), len(faces))
+            n = max(len(v), len(face_list))
             for b in range(0, n, self._chunk):
-                fs = faces[b:b + self._chunk]
+                fs = face_list[b:b + self._chunk]
                 chunk = pb.CreateSessionRequest.Chunk(
-                    positions=vertices[b:b + self._chunk].ravel(),
+                    positions=v[b:b + self._chunk].ravel(),
                     face_sizes=[len(f) for f in fs],
                     face_indices=(np.concatenate(fs) if fs else []))
                 if regions is not None:
                     chunk.face_regions.extend(regions[b:b + self._chunk])
                 yield pb.CreateSessionRequest(chunk=chunk)
             yield pb.CreateSessionRequest(footer=pb.CreateSessionRequest.Footer(
-                num_vertices=len(vertices), num_faces=len(faces),
-                crc32=mesh_crc32(vertices, faces, regions)))
+                num_vertices=len(v), num_faces=len(face_list), crc32=crc))
 
-        info = self._call(self._stub.CreateSession, requests(),
-                          session_id).session
+        metadata = self._metadata(sid)
+
+        def create() -> Any:
+            return self._stub.CreateSession(requests(), timeout=self._deadline,
+                                            metadata=metadata,
+                                            wait_for_ready=True)
+
+        resp = self._retrying(create)
+        info = _wire.session_info(resp.session)
         self._dims[info.session_id] = dim
         return info
 
-    def info(self, session_id):
-        return self._call(self._stub.GetSession,
-                          pb.GetSessionRequest(session_id=session_id),
-                          session_id).session
+    def session(self, vertices: Any, faces: Any, session_id: Optional[str] = None,
+                regions: Optional[Sequence[int]] = None,
+                outward_regions: Sequence[int] = ()) -> "Session":
+        """Uploads the mesh and returns a Session (a context manager that
+        deletes it on exit and re-creates it if the server lost it)."""
+        from meshgauge_client.session import Session
+        return Session(self, vertices, faces, session_id, regions,
+                       outward_regions)
 
-    def list(self, page_size=100):
-        out, token = [], ""
+    def info(self, session_id: str) -> SessionInfo:
+        """The session's SessionInfo (does not reset its idle clock)."""
+        return _wire.session_info(self._call(
+            self._stub.GetSession, pb.GetSessionRequest(session_id=session_id),
+            session_id).session)
+
+    def list(self, page_size: int = 100) -> List[SessionInfo]:
+        """Every session of the caller's tenant."""
+        out: List[SessionInfo] = []
+        token = ""
         while True:
             resp = self._call(self._stub.ListSessions, pb.ListSessionsRequest(
                 page_size=page_size, page_token=token))
-            out.extend(resp.sessions)
+            out.extend(_wire.session_info(s) for s in resp.sessions)
             token = resp.next_page_token
             if not token:
                 return out
 
-    def delete(self, session_id):
+    def delete(self, session_id: str) -> None:
         self._call(self._stub.DeleteSession,
                    pb.DeleteSessionRequest(session_id=session_id), session_id)
         self._dims.pop(session_id, None)
 
-    def update_positions(self, session_id, positions, expected_generation,
-                         indices=None):
-        """Moves all vertices (or ``indices``); returns the new generation."""
-        positions = np.asarray(positions, dtype=np.float64)
+    def update_positions(self, session_id: str, positions: Any,
+                         expected_generation: int,
+                         indices: Optional[Sequence[int]] = None) -> int:
+        """Moves all vertices ((N, d) positions) or those of ``indices``;
+        returns the new generation. AbortedError when the session is not at
+        expected_generation (another writer moved it)."""
+        p = _wire.points(positions, "positions",
+                         len(indices) if indices is not None else None)
         req = pb.UpdatePositionsRequest(
-            session_id=session_id, expected_generation=expected_generation,
-            positions=positions.ravel())
+            session_id=session_id, expected_generation=int(expected_generation),
+            positions=p.ravel())
         if indices is not None:
             req.indices.extend(int(i) for i in indices)
-        return self._call(self._stub.UpdatePositions, req,
-                          session_id).generation
+        return int(self._call(self._stub.UpdatePositions, req,
+                              session_id).generation)
 
-    # Computations ---------------------------------------------------------
+    # Computations -----------------------------------------------------------
 
-    def sdf(self, session_id, expected_generation=None, **params):
-        """Per-vertex SDF: dict with values (NaN without value), status,
-        hits, kept, normalized (arrays) and summary (SdfSummary)."""
+    def sdf(self, session_id: str, *, expected_generation: Optional[int] = None,
+            jacobian: bool = False, **params: Any) -> SdfResult:
+        """Per-vertex SDF (SdfResult). params: method, cone_angle, rays,
+        kappa, max_distance, normals (the CLI's flags). jacobian=True adds
+        the sparse Jacobian (N, N*d)."""
         req = pb.ComputeSdfRequest(session_id=session_id,
-                                   params=_params(**params))
+                                   params=_wire.sdf_params(**params),
+                                   include_jacobian=jacobian)
         if expected_generation is not None:
             req.expected_generation = expected_generation
-        values, status, hits, kept, normalized, summary = [], [], [], [], [], None
         metadata = self._metadata(session_id)
-        try:
+
+        def stream() -> SdfResult:
+            values: List[float] = []
+            status: List[int] = []
+            hits: List[int] = []
+            kept: List[int] = []
+            normalized: List[float] = []
+            rows: List[int] = [0]
+            cols: List[int] = []
+            data: List[float] = []
+            summary = None
             for msg in self._stub.ComputeSdf(req, timeout=self._deadline,
-                                             metadata=metadata):
+                                             metadata=metadata,
+                                             wait_for_ready=True):
                 if msg.HasField("summary"):
                     summary = msg.summary
                     continue
@@ -213,53 +281,87 @@ class MeshGaugeClient:
                 hits.extend(c.hits)
                 kept.extend(c.kept)
                 normalized.extend(c.normalized)
-        except grpc.RpcError as e:
-            raise MeshGaugeError(e.code(), e.details()) from None
-        return {"values": np.array(values), "status": np.array(status),
-                "hits": np.array(hits), "kept": np.array(kept),
-                "normalized": np.array(normalized), "summary": summary}
+                if jacobian:
+                    base = rows[-1]
+                    rows.extend(base + o for o in list(c.row_offsets)[1:])
+                    cols.extend(c.columns)
+                    data.extend(c.derivatives)
+            n = len(values)
+            jac = None
+            if jacobian:
+                d = len(data) // max(1, len(cols)) if cols else self._dim(session_id)
+                col = np.asarray(cols, dtype=np.int64)
+                full_cols = (col[:, None] * d + np.arange(d)).ravel()
+                counts = np.diff(np.asarray(rows, dtype=np.int64)) * d
+                indptr = np.concatenate([[0], np.cumsum(counts)])
+                jac = scipy.sparse.csr_matrix(
+                    (np.asarray(data, dtype=np.float64), full_cols, indptr),
+                    shape=(n, n * d))
+            return SdfResult(np.asarray(values, dtype=np.float64),
+                             np.asarray(status, dtype=np.int64),
+                             np.asarray(hits, dtype=np.int64),
+                             np.asarray(kept, dtype=np.int64),
+                             np.asarray(normalized, dtype=np.float64),
+                             _wire.summary(summary), jac)
 
-    def vjp(self, session_id, weights, expected_generation=None, **params):
-        """g^T dSDF/dx as an (N, d) array."""
+        return self._retrying(stream)
+
+    def vjp(self, session_id: str, weights: Any, *,
+            expected_generation: Optional[int] = None,
+            **params: Any) -> FloatArray:
+        """g^T dSDF/dx for weights g (N,): an (N, d) array."""
+        g = np.asarray(weights, dtype=np.float64)
+        if g.ndim != 1 or not np.all(np.isfinite(g)):
+            raise ValueError("weights must be a finite (N,) array")
         req = pb.ComputeVjpRequest(session_id=session_id,
-                                   params=_params(**params),
-                                   weights=np.asarray(weights, np.float64))
+                                   params=_wire.sdf_params(**params), weights=g)
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputeVjp, req, session_id)
-        return np.array(resp.gradient).reshape(-1, self._dim(session_id))
+        return _wire.flat(resp.gradient, self._dim(session_id))
 
-    _FORMS = {"one-sided": pb.PENALTY_FORM_ONE_SIDED,
-              "thesis": pb.PENALTY_FORM_THESIS,
-              "ks": pb.PENALTY_FORM_KS}
-
-    def penalty(self, session_id, t_min, form="one-sided", power=2.0,
-                rho=50.0, max_missing_fraction=0.5, with_gradient=True,
-                expected_generation=None, **params):
-        """Penalty P (form one-sided or thesis, power n) or the aggregated
-        KS constraint G (form "ks", rho), SPEC v2 §7.
-
-        Returns (value, d value/dx as an (N, d) array or None,
-        ComputePenaltyResponse with missing and world_frame_vertices).
-        Raises MeshGaugeError FAILED_PRECONDITION when faces without values
+    def penalty(self, session_id: str, t_min: float, *, form: str = "one-sided",
+                power: float = 2.0, rho: float = 50.0,
+                max_missing_fraction: float = 0.5, gradient: bool = True,
+                expected_generation: Optional[int] = None,
+                **params: Any) -> PenaltyResult:
+        """Minimum-thickness penalty (form one-sided or thesis, power n >= 1)
+        or the aggregated KS constraint (form "ks", rho > 0), with its
+        gradient (N, d). FailedPreconditionError when faces without values
         cover more than max_missing_fraction of the surface."""
-        if form not in self._FORMS:
-            raise ValueError("form must be one of %s, got %r"
-                             % (sorted(self._FORMS), form))
+        t = _wire._number("t_min", t_min, 0, np.inf, lo_open=True)
         req = pb.ComputePenaltyRequest(
-            session_id=session_id, params=_params(**params), t_min=t_min,
-            form=self._FORMS[form], power=power, rho=rho,
-            max_missing_fraction=max_missing_fraction,
-            with_gradient=with_gradient)
+            session_id=session_id, params=_wire.sdf_params(**params), t_min=t,
+            form=_wire._choice("form", form, _wire.FORMS),
+            power=_wire._number("power", power, 1, np.inf),
+            rho=_wire._number("rho", rho, 0, np.inf, lo_open=True),
+            max_missing_fraction=_wire._number(
+                "max_missing_fraction", max_missing_fraction, 0, 1),
+            with_gradient=gradient)
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputePenalty, req, session_id)
-        grad = (np.array(resp.gradient).reshape(-1, self._dim(session_id))
-                if with_gradient else None)
-        return resp.value, grad, resp
+        return _wire.penalty(resp, self._dim(session_id), form)
 
-    def calibrate(self, session_id, t_min, equal_tolerance=0.0, bins=0,
-                  **params):
-        return self._call(self._stub.Calibrate, pb.CalibrateRequest(
-            session_id=session_id, params=_params(**params), t_min=t_min,
-            equal_tolerance=equal_tolerance, bins=bins), session_id)
+    def constraint(self, session_id: str, t_min: float, *, rho: float = 50.0,
+                   **kwargs: Any) -> PenaltyResult:
+        """The aggregated constraint G (penalty with form "ks"): bound it by
+        0 in the optimiser."""
+        return self.penalty(session_id, t_min, form="ks", rho=rho, **kwargs)
+
+    def calibrate(self, session_id: str, t_min: float, *,
+                  tolerance: float = 0.01, bins: int = 20,
+                  **params: Any) -> Calibration:
+        """SPEC §8 calibration report (Calibration)."""
+        t = _wire._number("t_min", t_min, 0, np.inf, lo_open=True)
+        if not isinstance(bins, int) or not 1 <= bins <= 1000:
+            raise ValueError(f"bins must be an int in [1, 1000], got {bins!r}")
+        return _wire.calibration(self._call(
+            self._stub.Calibrate, pb.CalibrateRequest(
+                session_id=session_id, params=_wire.sdf_params(**params),
+                t_min=t, equal_tolerance=_wire._number(
+                    "tolerance", tolerance, 0, 1, lo_open=True), bins=bins),
+            session_id))
+
+
+__all__ = ["MeshGaugeClient", "MeshGaugeError", "mesh_crc32", "SESSION_KEY"]

@@ -1,0 +1,114 @@
+"""The one conversion layer between Python arguments and the wire types."""
+
+import math
+from typing import Any, Optional, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from meshgauge_client._stubs import pb
+from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
+                                      SdfSummary, SessionInfo)
+
+METHODS = {"cone": pb.SDF_METHOD_CONE, "normal": pb.SDF_METHOD_NORMAL_RAY}
+NORMALS = {"area": pb.NORMAL_WEIGHTING_AREA, "angle": pb.NORMAL_WEIGHTING_ANGLE}
+FORMS = {"one-sided": pb.PENALTY_FORM_ONE_SIDED,
+         "thesis": pb.PENALTY_FORM_THESIS, "ks": pb.PENALTY_FORM_KS}
+
+
+def _choice(name: str, value: str, table: "dict[str, Any]") -> Any:
+    if not isinstance(value, str) or value not in table:
+        raise ValueError(f"{name} must be one of {sorted(table)}, got {value!r}")
+    return table[value]
+
+
+def _number(name: str, value: float, lo: float, hi: float,
+            lo_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    v = float(value)
+    if not math.isfinite(v) or v < lo or v > hi or (lo_open and v == lo):
+        bracket = "(" if lo_open else "["
+        raise ValueError(f"{name} must be in {bracket}{lo}, {hi}], got {value}")
+    return v
+
+
+def sdf_params(method: str = "cone", cone_angle: float = 30.0, rays: int = 0,
+               kappa: float = 1.0, max_distance: float = 0.0,
+               normals: str = "area") -> Any:
+    """SdfParameters from the CLI's flag names and defaults: method
+    cone|normal, cone_angle in (0, 180) degrees, rays 1..4096 (0: 100 in 3D,
+    32 in 2D), kappa >= 0, max_distance >= 0 (0: bounding-box diagonal),
+    normals area|angle."""
+    if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)):
+        raise TypeError(f"rays must be an int, got {type(rays).__name__}")
+    if not 0 <= int(rays) <= 4096:
+        raise ValueError(f"rays must be in [1, 4096] (0 = default), got {rays}")
+    angle = _number("cone_angle", cone_angle, 0, 180, lo_open=True)
+    if angle == 180:
+        raise ValueError("cone_angle must be below 180 degrees")
+    return pb.SdfParameters(
+        method=_choice("method", method, METHODS),
+        cone_angle_degrees=angle, rays=int(rays),
+        kappa=_number("kappa", kappa, 0, math.inf),
+        max_distance=_number("max_distance", max_distance, 0, math.inf),
+        normal_weighting=_choice("normals", normals, NORMALS))
+
+
+def points(array: Any, name: str, rows: Optional[int] = None) -> FloatArray:
+    """An (n, d) float64 array, d = 2 or 3, finite, n = rows if given."""
+    a = np.asarray(array, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] not in (2, 3):
+        raise ValueError(f"{name} must have shape (N, 2) or (N, 3), got {a.shape}")
+    if rows is not None and a.shape[0] != rows:
+        raise ValueError(f"{name} must have {rows} rows, got {a.shape[0]}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} has non-finite values")
+    return a
+
+
+def faces_list(faces: Any, dimension: int) -> "list[npt.NDArray[np.int64]]":
+    """Faces as int64 index arrays: 2 per segment (2D), 3 or 4 (3D)."""
+    out = [np.asarray(f, dtype=np.int64).ravel() for f in faces]
+    allowed = (2,) if dimension == 2 else (3, 4)
+    for i, f in enumerate(out):
+        if len(f) not in allowed:
+            raise ValueError(f"face {i} has {len(f)} corners; {dimension}D "
+                             f"faces have {' or '.join(map(str, allowed))}")
+    if not out:
+        raise ValueError("faces must not be empty")
+    return out
+
+
+def flat(values: Sequence[float], dimension: int) -> FloatArray:
+    return np.asarray(values, dtype=np.float64).reshape(-1, dimension)
+
+
+def session_info(s: Any) -> SessionInfo:
+    return SessionInfo(s.session_id, s.dimension, s.num_vertices, s.num_faces,
+                       s.generation, s.memory_bytes, s.bvh_builds,
+                       s.bvh_refits, s.idle_seconds, s.signed_volume, s.closed,
+                       tuple(s.warnings))
+
+
+def summary(s: Any) -> SdfSummary:
+    return SdfSummary(s.generation, s.ok, s.no_hit, s.no_faces,
+                      s.degenerate_normal, s.sdf_min, s.sdf_median, s.sdf_max,
+                      s.sdf_mean, s.integral, s.rays, s.seconds, s.reused_hits,
+                      s.world_frame_vertices, s.missing.vertices,
+                      s.missing.faces, s.missing.area_fraction)
+
+
+def penalty(resp: Any, dimension: int, form: str) -> PenaltyResult:
+    gradient = flat(resp.gradient, dimension) if len(resp.gradient) else None
+    return PenaltyResult(resp.value, gradient, resp.sdf_min,
+                         resp.missing.area_fraction, resp.missing.vertices,
+                         resp.missing.faces, resp.world_frame_vertices,
+                         resp.generation, resp.reused_hits, form)
+
+
+def calibration(r: Any) -> Calibration:
+    return Calibration(r.compared, r.sdf_lower, r.sdf_equal, r.sdf_higher,
+                       r.alpha1, r.alpha2, (r.histogram_lo, r.histogram_hi),
+                       np.asarray(r.sdf_histogram, dtype=np.int64),
+                       np.asarray(r.thickness_histogram, dtype=np.int64))

@@ -1,0 +1,122 @@
+"""Frozen results of the calls. Arrays are numpy; lengths are in mesh units;
+N is the vertex count, d the dimension (2 or 3)."""
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Any, List, Optional, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
+
+
+class VertexStatus(IntEnum):
+    """Why a vertex has (OK) or has no value (the wire's VertexStatus)."""
+
+    OK = 1
+    NO_HIT = 2             # no ray hit (or none was kept).
+    NO_FACES = 3           # the vertex is on no face.
+    DEGENERATE_NORMAL = 4  # its faces' normals cancel: no cone axis.
+
+
+@dataclass(frozen=True)
+class SdfSummary:
+    """Counts and statistics of one ray pass."""
+
+    generation: int
+    ok: int
+    no_hit: int
+    no_faces: int
+    degenerate_normal: int
+    sdf_min: float          # NaN when no vertex has a value.
+    sdf_median: float
+    sdf_max: float
+    sdf_mean: float
+    integral: float         # of the SDF over the faces with values.
+    rays: int
+    seconds: float          # server-side compute time.
+    reused_hits: bool       # served from the session's cached ray pass.
+    world_frame_vertices: int  # cones that fell back to the world frame.
+    missing_vertices: int   # vertices on faces but without a value.
+    missing_faces: int
+    missing_fraction: float  # share of the area those faces cover, [0, 1].
+
+
+@dataclass(frozen=True)
+class SdfResult:
+    """Per-vertex shape diameter (SPEC §5).
+
+    values: (N,) SDF, NaN unless status is OK (never a silent zero).
+    status: (N,) VertexStatus values; ``status_names`` gives their names.
+    hits, kept: (N,) rays that hit / that the filter kept.
+    normalized: (N,) Shapira's normalised SDF in [0, 1], NaN unless OK.
+    jacobian: scipy.sparse.csr_matrix (N, N*d) of dSDF_p/dx_j (column
+    j*d + c) when asked for, else None.
+    """
+
+    values: FloatArray
+    status: IntArray
+    hits: IntArray
+    kept: IntArray
+    normalized: FloatArray
+    summary: SdfSummary
+    jacobian: Optional[Any] = None
+
+    def status_names(self) -> List[str]:
+        return [VertexStatus(int(s)).name for s in self.status]
+
+
+@dataclass(frozen=True)
+class PenaltyResult:
+    """A penalty P = integral of phi(t) (length^(d-1)) or the aggregated
+    constraint G (form "ks", dimensionless; bound it by 0) of SPEC v2 §7.
+
+    gradient: (N, d) dP/dx (including the face-measure terms), or None.
+    missing_fraction: share of the surface skipped for missing values.
+    """
+
+    value: float
+    gradient: Optional[FloatArray]
+    sdf_min: float
+    missing_fraction: float
+    missing_vertices: int
+    skipped_faces: int
+    world_frame_vertices: int
+    generation: int
+    reused_hits: bool
+    form: str
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """SPEC §8: SDF (cone) against physical thickness (normal ray)."""
+
+    compared: int
+    lower: int
+    equal: int
+    higher: int
+    alpha1: float  # max(thickness) / t_min.
+    alpha2: float  # min(SDF) / t_min.
+    histogram_range: Tuple[float, float]
+    sdf_histogram: IntArray
+    thickness_histogram: IntArray
+
+
+@dataclass(frozen=True)
+class SessionInfo:
+    """A session on the server."""
+
+    session_id: str
+    dimension: int
+    num_vertices: int
+    num_faces: int
+    generation: int
+    memory_bytes: int
+    bvh_builds: int
+    bvh_refits: int
+    idle_seconds: float
+    signed_volume: float
+    closed: bool
+    warnings: Tuple[str, ...] = field(default_factory=tuple)

@@ -1,0 +1,138 @@
+"""Session: one mesh on the server, as an optimiser uses it.
+
+    with client.session(vertices, faces) as s:
+        s.update(x)                 # a BVH refit on the server
+        g = s.penalty(t_min).gradient
+        G = s.constraint(t_min)     # the KS constraint, bound by 0
+
+It tracks the generation, keeps the original mesh and the latest positions,
+and when the server lost the session (restarted, evicted) it re-creates it
+transparently: re-upload the original mesh, re-apply the latest positions
+(so results stay bit-identical to an undisturbed run), and retry the call.
+UNAVAILABLE is retried with backoff by the client. The session is deleted on
+exit.
+"""
+
+from typing import Any, Callable, Optional, Sequence, TypeVar
+
+from meshgauge_client import _wire
+from meshgauge_client.client import MeshGaugeClient
+from meshgauge_client.errors import NotFoundError
+from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
+                                      SdfResult, SessionInfo)
+
+T = TypeVar("T")
+
+
+class Session:
+    """A server-side session (see the module docstring)."""
+
+    def __init__(self, client: MeshGaugeClient, vertices: Any, faces: Any,
+                 session_id: Optional[str] = None,
+                 regions: Optional[Sequence[int]] = None,
+                 outward_regions: Sequence[int] = ()) -> None:
+        self._client = client
+        self._original = _wire.points(vertices, "vertices").copy()
+        self._faces = _wire.faces_list(faces, self._original.shape[1])
+        self._regions = None if regions is None else list(regions)
+        self._outward = tuple(outward_regions)
+        self._positions = self._original.copy()
+        self._moved = False
+        info = client.upload(self._original, self._faces, session_id,
+                             self._regions, self._outward)
+        self.session_id = info.session_id
+        self.generation = info.generation
+        self.recreated = 0  # how often the server lost it and it came back.
+
+    def __enter__(self) -> "Session":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Deletes the session (a session the server already lost is fine)."""
+        try:
+            self._client.delete(self.session_id)
+        except NotFoundError:
+            pass
+
+    @property
+    def positions(self) -> FloatArray:
+        """The latest positions (N, d) sent with update()."""
+        return self._positions.copy()
+
+    def _recreate(self) -> None:
+        info = self._client.upload(self._original, self._faces,
+                                   self.session_id, self._regions,
+                                   self._outward)
+        self.generation = info.generation
+        if self._moved:
+            self.generation = self._client.update_positions(
+                self.session_id, self._positions, self.generation)
+        self.recreated += 1
+
+    def _with_session(self, call: Callable[[], T]) -> T:
+        try:
+            return call()
+        except NotFoundError:
+            self._recreate()
+            return call()
+
+    def update(self, positions: Any) -> int:
+        """Moves every vertex to positions (N, d); returns the generation."""
+        p = _wire.points(positions, "positions", len(self._original))
+        if p.shape[1] != self._original.shape[1]:
+            raise ValueError(f"positions must have {self._original.shape[1]} "
+                             f"columns, got {p.shape[1]}")
+
+        def move() -> int:
+            return self._client.update_positions(self.session_id, p,
+                                                 self.generation)
+
+        try:
+            self.generation = move()
+        except NotFoundError:
+            self._recreate()
+            self.generation = move()
+        self._positions = p.copy()
+        self._moved = True
+        return self.generation
+
+    def info(self) -> SessionInfo:
+        return self._with_session(lambda: self._client.info(self.session_id))
+
+    def sdf(self, **params: Any) -> SdfResult:
+        """SdfResult at the latest positions (params as MeshGaugeClient.sdf)."""
+        return self._with_session(lambda: self._client.sdf(
+            self.session_id, expected_generation=self.generation, **params))
+
+    def jacobian(self, **params: Any) -> Any:
+        """dSDF/dx as a scipy.sparse.csr_matrix of shape (N, N*d)."""
+        return self._with_session(lambda: self._client.sdf(
+            self.session_id, expected_generation=self.generation,
+            jacobian=True, **params)).jacobian
+
+    def vjp(self, weights: Any, **params: Any) -> FloatArray:
+        """g^T dSDF/dx, (N, d)."""
+        return self._with_session(lambda: self._client.vjp(
+            self.session_id, weights, expected_generation=self.generation,
+            **params))
+
+    def penalty(self, t_min: float, **kwargs: Any) -> PenaltyResult:
+        """MeshGaugeClient.penalty at the latest positions."""
+        return self._with_session(lambda: self._client.penalty(
+            self.session_id, t_min, expected_generation=self.generation,
+            **kwargs))
+
+    def constraint(self, t_min: float, rho: float = 50.0,
+                   **kwargs: Any) -> PenaltyResult:
+        """The aggregated KS constraint G (bound it by 0) and dG/dx."""
+        return self.penalty(t_min, form="ks", rho=rho, **kwargs)
+
+    def calibrate(self, t_min: float, **kwargs: Any) -> Calibration:
+        return self._with_session(lambda: self._client.calibrate(
+            self.session_id, t_min, **kwargs))
+
+
+__all__ = ["Session"]

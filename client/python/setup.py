@@ -1,0 +1,20 @@
+"""Build hook: the stubs are generated from ../../proto at build time."""
+
+import os
+import sys
+
+from setuptools import setup
+from setuptools.command.build_py import build_py
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import gen_stubs  # noqa: E402
+
+
+class BuildWithStubs(build_py):
+    def run(self) -> None:
+        super().run()
+        gen_stubs.generate(os.path.join(self.build_lib, "meshgauge_client",
+                                        "_proto"))
+
+
+setup(cmdclass={"build_py": BuildWithStubs})

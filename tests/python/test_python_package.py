@@ -1,0 +1,199 @@
+"""The meshgauge-client package as a user installs and uses it: a venv
+install that the end-to-end tests then run against (no PYTHONPATH), mypy
+--strict, frozen typed results, the sparse Jacobian, and a Session that
+survives a server restart in the middle of an optimisation with the same
+result as an undisturbed run."""
+
+import dataclasses
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+import unittest
+
+import numpy as np
+import scipy.sparse
+
+import meshgauge_client
+from meshgauge_client import (FailedPreconditionError, MeshGaugeClient,
+                              NotFoundError, PenaltyResult, SdfResult,
+                              VertexStatus)
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SOURCE = os.path.abspath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(SOURCE, "client", "python", "examples"))
+import thicken_dumbbell  # noqa: E402
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class ServerProcess:
+    """meshgauge-server on a fixed loopback port, restartable."""
+
+    def __init__(self, port):
+        self.port = port
+        self.target = f"127.0.0.1:{port}"
+        self.proc = None
+        self.start()
+
+    def start(self):
+        self.proc = subprocess.Popen(
+            [os.environ["MESHGAUGE_SERVER"], f"--address={self.target}",
+             "--metrics_address=", "--drain_notice_seconds=0"],
+            stderr=subprocess.DEVNULL)
+        with MeshGaugeClient(self.target, retry_seconds=20) as c:
+            c.list()  # waits until it serves
+
+    def kill(self):
+        self.proc.send_signal(signal.SIGKILL)
+        self.proc.wait(timeout=20)
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.terminate()
+            self.proc.wait(timeout=20)
+
+
+def descend(client, steps, on_step=None):
+    """A fixed-step gradient descent on the dumbbell's penalty: a
+    deterministic optimisation whose result depends on every value."""
+    x0, segments = thicken_dumbbell.dumbbell(neck=0.3, h=0.05)
+    x = x0.copy()
+    with client.session(x0, segments) as s:
+        for k in range(steps):
+            s.update(x)
+            pen = s.penalty(0.7)
+            x = x - 0.02 * pen.gradient
+            if on_step:
+                on_step(k)
+        return x, pen.value, s.recreated
+
+
+class PackageTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        cls.server = ServerProcess(free_port())
+        cls.client = MeshGaugeClient(cls.server.target, retry_seconds=20)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.client.close()
+        cls.server.stop()
+
+    def test_session_survives_a_server_restart_with_the_same_result(self):
+        undisturbed, p0, n0 = descend(self.client, 12)
+        self.assertEqual(n0, 0)
+
+        def restart(k):
+            if k == 5:
+                self.server.kill()
+                self.server.start()
+
+        disturbed, p1, n1 = descend(self.client, 12, restart)
+        self.assertEqual(n1, 1, "the session was re-created once")
+        np.testing.assert_array_equal(disturbed, undisturbed)
+        self.assertEqual(p1, p0)
+
+    def test_results_are_frozen_typed_and_numpy(self):
+        v, f = thicken_dumbbell.dumbbell(neck=0.3, h=0.1)
+        with self.client.session(v, f) as s:
+            r = s.sdf()
+            self.assertIsInstance(r, SdfResult)
+            self.assertEqual(r.values.shape, (len(v),))
+            self.assertEqual(r.values.dtype, np.float64)
+            self.assertTrue(all(VertexStatus(x) == VertexStatus.OK
+                                for x in r.status))
+            self.assertEqual(set(r.status_names()), {"OK"})
+            with self.assertRaises(dataclasses.FrozenInstanceError):
+                r.values = None
+            pen = s.penalty(0.6)
+            self.assertIsInstance(pen, PenaltyResult)
+            self.assertEqual(pen.gradient.shape, (len(v), 2))
+            self.assertEqual(pen.missing_fraction, 0.0)
+            g = s.constraint(0.6, rho=40)
+            self.assertEqual(g.form, "ks")
+            self.assertGreater(g.value, 0)
+            cal = s.calibrate(0.6)
+            self.assertEqual(cal.compared, len(v))
+
+    def test_jacobian_is_a_sparse_matrix_consistent_with_the_vjp(self):
+        v, f = thicken_dumbbell.dumbbell(neck=0.3, h=0.1)
+        with self.client.session(v, f) as s:
+            jac = s.jacobian()
+            self.assertTrue(scipy.sparse.isspmatrix_csr(jac))
+            self.assertEqual(jac.shape, (len(v), 2 * len(v)))
+            g = np.cos(np.arange(len(v)))
+            np.testing.assert_allclose((jac.T @ g).reshape(-1, 2), s.vjp(g),
+                                       rtol=1e-12, atol=1e-12)
+
+    def test_errors_are_status_subclasses_and_argument_errors_come_first(self):
+        with self.assertRaises(NotFoundError):
+            self.client.info("nobody")
+        v = np.array([[0.0, 0, 0], [1, 0, 0], [0, 1, 0]])
+        with self.client.session(v, [[0, 1, 2]]) as s:  # a planar sheet
+            with self.assertRaises(FailedPreconditionError) as e:
+                s.penalty(1.0)
+            self.assertIn("open or planar", e.exception.details)
+            with self.assertRaises(ValueError):
+                s.penalty(1.0, form="cones")
+            with self.assertRaises(ValueError):
+                s.penalty(-1.0)
+            with self.assertRaises(ValueError):
+                s.update(np.zeros((2, 3)))
+
+    def test_generated_ids_and_deletion_on_exit(self):
+        v, f = thicken_dumbbell.dumbbell(neck=0.3, h=0.1)
+        with self.client.session(v, f) as s:
+            sid = s.session_id
+            self.assertTrue(sid.startswith("py-"))
+            self.assertIn(sid, [i.session_id for i in self.client.list()])
+        self.assertNotIn(sid, [i.session_id for i in self.client.list()])
+
+    def test_mypy_strict_is_clean(self):
+        mypy = shutil.which("mypy", path="/usr/bin")
+        self.assertIsNotNone(mypy, "Debian's mypy is needed (install_deps)")
+        package = os.path.dirname(meshgauge_client.__file__)
+        p = subprocess.run(
+            [mypy, "--config-file",
+             os.path.join(SOURCE, "client", "python", "pyproject.toml"),
+             "-p", "meshgauge_client"], cwd=os.path.dirname(package),
+            capture_output=True, text=True, timeout=300)
+        self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+
+
+class VenvInstallTest(unittest.TestCase):
+    def test_the_readme_install_and_the_e2e_tests_against_it(self):
+        venv = os.path.join(tempfile.mkdtemp(), ".venv")
+        subprocess.run(["/usr/bin/python3", "-m", "venv",
+                        "--system-site-packages", venv], check=True,
+                       timeout=120)
+        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q",
+                        "--no-build-isolation",
+                        os.path.join(SOURCE, "client", "python")],
+                       check=True, timeout=300, cwd=tempfile.gettempdir())
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+        python = os.path.join(venv, "bin", "python")
+        where = subprocess.run(
+            [python, "-c", "import meshgauge_client, importlib.util;"
+             "print(meshgauge_client.__file__);"
+             "print(importlib.util.find_spec('meshgauge'))"],
+            capture_output=True, text=True, env=env, cwd=tempfile.gettempdir(),
+            check=True).stdout.split()
+        self.assertTrue(where[0].startswith(venv), where)
+        self.assertEqual(where[1], "None", "no top-level meshgauge package")
+        p = subprocess.run([python, "-m", "unittest", "test_remote_e2e"],
+                           capture_output=True, text=True, env=env, cwd=HERE,
+                           timeout=300)
+        self.assertEqual(p.returncode, 0, p.stderr[-3000:])
+
+
+if __name__ == "__main__":
+    unittest.main(verbosity=2)
