@@ -25,9 +25,9 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "bench/raw_embree_pass.h"
-#include "lib/io/mesh_io.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(int, rays, 25, "rays per cone (CGAL's default is 25)");
 ABSL_FLAG(double, cone_angle, 120, "cone angle in degrees (CGAL: 2/3 pi)");
@@ -49,7 +49,8 @@ double Since(Clock::time_point t) {
 SurfaceMesh ToCgal(const Mesh& mesh) {
   SurfaceMesh sm;
   std::vector<SurfaceMesh::Vertex_index> v;
-  for (const Vec3& p : mesh.positions) v.push_back(sm.add_vertex({p.x, p.y, p.z}));
+  for (const Vec3& p : mesh.positions)
+    v.push_back(sm.add_vertex({p.x, p.y, p.z}));
   for (const Face& f : mesh.faces) sm.add_face(v[f.v[0]], v[f.v[1]], v[f.v[2]]);
   return sm;
 }
@@ -91,13 +92,14 @@ void Row(const std::string& name, const Mesh& mesh) {
   }
   const double cgal_rays = static_cast<double>(mesh.num_faces()) * rays;
   const double our_rate = ours->rays_traced / ours->trace_seconds;
-  std::printf("| %s | %lld | %lld | %.2f | %.2f | %.3f | %.3f | %.2f | %.0fx | %.0fx | %.2e | %.2e | %.2f |\n",
-              name.c_str(), static_cast<long long>(mesh.num_vertices()),
-              static_cast<long long>(mesh.num_faces()), cgal_default, cgal_raw,
-              one_thread, meshgauge, one_thread / meshgauge,
-              cgal_default / meshgauge, our_rate / (cgal_rays / cgal_raw),
-              cgal_rays / cgal_raw, our_rate,
-              our_rate / (raw->rays / raw->seconds));
+  std::printf(
+      "| %s | %lld | %lld | %.2f | %.2f | %.3f | %.3f | %.2f | %.0fx | %.0fx | "
+      "%.2e | %.2e | %.2f |\n",
+      name.c_str(), static_cast<long long>(mesh.num_vertices()),
+      static_cast<long long>(mesh.num_faces()), cgal_default, cgal_raw,
+      one_thread, meshgauge, one_thread / meshgauge, cgal_default / meshgauge,
+      our_rate / (cgal_rays / cgal_raw), cgal_rays / cgal_raw, our_rate,
+      our_rate / (raw->rays / raw->seconds));
   std::fflush(stdout);
 }
 
@@ -107,14 +109,18 @@ void Row(const std::string& name, const Mesh& mesh) {
 int main(int argc, char** argv) {
   using namespace meshgauge;
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
-  std::printf("rays %d, cone %g degrees; CGAL single-threaded (per facet), "
-              "meshgauge on all cores (per vertex)\n\n",
-              absl::GetFlag(FLAGS_rays), absl::GetFlag(FLAGS_cone_angle));
-  std::printf("| mesh | V | F | CGAL default s | CGAL no post-processing s | "
-              "meshgauge 1 thread s | meshgauge 2 threads s | speed-up | "
-              "CGAL default / meshgauge (time) | meshgauge / CGAL (rays/s) | "
-              "CGAL rays/s | meshgauge rays/s | meshgauge / raw Embree |\n");
-  std::printf("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+  std::printf(
+      "rays %d, cone %g degrees; CGAL single-threaded (per facet), "
+      "meshgauge on all cores (per vertex)\n\n",
+      absl::GetFlag(FLAGS_rays), absl::GetFlag(FLAGS_cone_angle));
+  std::printf(
+      "| mesh | V | F | CGAL default s | CGAL no post-processing s | "
+      "meshgauge 1 thread s | meshgauge 2 threads s | speed-up | "
+      "CGAL default / meshgauge (time) | meshgauge / CGAL (rays/s) | "
+      "CGAL rays/s | meshgauge rays/s | meshgauge / raw Embree |\n");
+  std::printf(
+      "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
+      "| --- |\n");
   for (size_t i = 1; i < args.size(); ++i) {
     auto mesh = ReadMesh(args[i]);
     if (!mesh.ok() || !ValidateMesh(*mesh).ok()) continue;

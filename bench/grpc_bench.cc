@@ -18,9 +18,9 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "client/remote/remote_client.h"
-#include "lib/io/mesh_io.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/sensitivity.h"
+#include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 #include "server/server.h"
 
 ABSL_FLAG(int, iterations, 5, "repetitions of each measurement (best kept)");
@@ -128,9 +128,10 @@ int Run(const std::string& path) {
       "  optimiser iteration (update + SDF + VJP): in-process %.3f s, "
       "gRPC %.3f s, ratio %.3f (goal <= 1.15)\n",
       local, remote, remote / local);
-  std::printf("  VJP reusing the cached ray pass %.3f s vs tracing anew %.3f s: "
-              "%.1fx\n",
-              reused, traced, traced / reused);
+  std::printf(
+      "  VJP reusing the cached ray pass %.3f s vs tracing anew %.3f s: "
+      "%.1fx\n",
+      reused, traced, traced / reused);
   std::printf(
       "  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
       "%.1fx (goal >= 5)\n",

@@ -55,7 +55,7 @@ struct Reply {
 
 struct Stats {
   std::mutex mu;
-  std::map<std::string, int64_t> client_errors;  // session id -> errors.
+  std::map<std::string, int64_t> client_errors;        // session id -> errors.
   std::map<std::string, std::vector<double>> latency;  // per RPC, seconds.
   std::map<std::string, int64_t> errors;               // "RPC CODE" -> n.
   int64_t mismatches = 0, iterations = 0, recreated = 0;
@@ -86,19 +86,21 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
 // One client's run. Fills `replies` when `reference` is null, else compares.
 // Returns false when the client could not finish.
 bool RunClient(const std::string& target, const client::ClientOptions& options,
-               const std::string& id,
-               const Mesh& mesh, int iterations, Clock::time_point stop_at,
-               std::vector<Reply>* replies, const std::vector<Reply>* reference,
-               Stats& stats) {
+               const std::string& id, const Mesh& mesh, int iterations,
+               Clock::time_point stop_at, std::vector<Reply>* replies,
+               const std::vector<Reply>* reference, Stats& stats) {
   client::RemoteClient c(target, options);
   const v1::SdfParameters params = client::ToWireParams({});
   const std::vector<double> ones(mesh.num_vertices(), 1.0);
   auto timed = [&](const char* rpc, auto call) {
     const auto start = Clock::now();
     auto r = call();
-    const double s = std::chrono::duration<double>(Clock::now() - start).count();
-    if (r.ok()) stats.Latency(rpc, s);
-    else stats.Error(id, rpc, r.status());
+    const double s =
+        std::chrono::duration<double>(Clock::now() - start).count();
+    if (r.ok())
+      stats.Latency(rpc, s);
+    else
+      stats.Error(id, rpc, r.status());
     return r;
   };
   auto create = [&](const std::vector<Vec3>& positions) {
@@ -122,7 +124,8 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
       generation = up->generation();
       sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
       if (sdf.ok()) {
-        vjp = timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
+        vjp =
+            timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
       }
     }
     const absl::Status failed =
@@ -175,27 +178,29 @@ double Percentile(std::vector<double> v, double q) {
 int Run() {
   const std::string target = absl::GetFlag(FLAGS_target);
   client::ClientOptions options;
-  if (absl::Status s = client::LoadClientSecrets(
-          absl::GetFlag(FLAGS_tls_ca_file), "", "",
-          absl::GetFlag(FLAGS_token_file), &options);
+  if (absl::Status s =
+          client::LoadClientSecrets(absl::GetFlag(FLAGS_tls_ca_file), "", "",
+                                    absl::GetFlag(FLAGS_token_file), &options);
       !s.ok()) {
     std::printf("%s\n", std::string(s.message()).c_str());
     return 2;
   }
   const int clients = std::clamp(absl::GetFlag(FLAGS_clients), 1, 256);
   const int iterations = std::clamp(absl::GetFlag(FLAGS_iterations), 1, 10000);
-  const Mesh mesh = MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
+  const Mesh mesh =
+      MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
   const auto stop_at =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                         std::chrono::duration<double>(
-                             absl::GetFlag(FLAGS_time_limit_seconds)));
+      Clock::now() +
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+          absl::GetFlag(FLAGS_time_limit_seconds)));
   const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
   Stats ref_stats;
   std::vector<Reply> reference;
-  if (!RunClient(target, options, prefix + "-reference", mesh, iterations, stop_at,
-                 &reference, nullptr, ref_stats)) {
+  if (!RunClient(target, options, prefix + "-reference", mesh, iterations,
+                 stop_at, &reference, nullptr, ref_stats)) {
     std::printf("reference run failed\n");
-    for (const auto& [k, n] : ref_stats.errors) std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
+    for (const auto& [k, n] : ref_stats.errors)
+      std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
     return 1;
   }
   Stats stats;
@@ -204,24 +209,28 @@ int Run() {
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
-      if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh, iterations,
-                    stop_at, nullptr, &reference, stats)) {
+      if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh,
+                    iterations, stop_at, nullptr, &reference, stats)) {
         ++finished;
       }
     });
   }
   for (auto& t : threads) t.join();
-  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+  const double wall =
+      std::chrono::duration<double>(Clock::now() - start).count();
   int64_t errors = 0;
   for (const auto& [k, n] : stats.errors) errors += n;
   std::printf("target %s: %d clients x %d iterations, %lld vertices, %.2f s\n",
               target.c_str(), clients, iterations,
               static_cast<long long>(mesh.num_vertices()), wall);
-  std::printf("throughput: %.2f iterations/s (%lld iterations), %d/%d clients "
-              "finished, %lld sessions re-created\n",
-              stats.iterations / wall, static_cast<long long>(stats.iterations),
-              finished.load(), clients, static_cast<long long>(stats.recreated));
-  std::printf("| RPC | calls | p50 ms | p95 ms | p99 ms |\n| --- | --- | --- | --- | --- |\n");
+  std::printf(
+      "throughput: %.2f iterations/s (%lld iterations), %d/%d clients "
+      "finished, %lld sessions re-created\n",
+      stats.iterations / wall, static_cast<long long>(stats.iterations),
+      finished.load(), clients, static_cast<long long>(stats.recreated));
+  std::printf(
+      "| RPC | calls | p50 ms | p95 ms | p99 ms |\n| --- | --- | --- | --- | "
+      "--- |\n");
   for (const auto& [rpc, v] : stats.latency) {
     std::printf("| %s | %zu | %.1f | %.1f | %.1f |\n", rpc.c_str(), v.size(),
                 1e3 * Percentile(v, 0.5), 1e3 * Percentile(v, 0.95),
@@ -238,9 +247,10 @@ int Run() {
   std::printf("clients without any error: %d/%d\n", untouched, clients);
   std::printf("mismatches against the single-client reference: %lld\n",
               static_cast<long long>(stats.mismatches));
-  const bool pass = stats.mismatches == 0 &&
-                    (absl::GetFlag(FLAGS_recreate) ? finished == clients
-                                                   : errors == 0 && finished == clients);
+  const bool pass =
+      stats.mismatches == 0 &&
+      (absl::GetFlag(FLAGS_recreate) ? finished == clients
+                                     : errors == 0 && finished == clients);
   std::printf("%s\n", pass ? "PASS" : "FAIL");
   return pass ? 0 : 1;
 }

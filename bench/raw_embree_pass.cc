@@ -10,9 +10,9 @@
 #include <limits>
 
 #include "lib/core/normals.h"
-#include "lib/embree/ray_hit.h"
 #include "lib/core/topology.h"
 #include "lib/core/vertex_cone.h"
+#include "lib/embree/ray_hit.h"
 
 namespace meshgauge::bench {
 

@@ -17,9 +17,9 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "bench/raw_embree_pass.h"
-#include "lib/io/mesh_io.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/sensitivity.h"
+#include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(int, repeat, 4, "runs of each pass; the best is reported");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");

@@ -47,11 +47,13 @@ absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
     if (fields.size() != 2) return bad("expected 'TENANT SHA256HEX'");
     const std::string hash = absl::AsciiStrToLower(fields[1]);
     if (!ValidTenantName(fields[0])) {
-      return bad("the tenant name must be 1 to 64 characters from [A-Za-z0-9._-]");
+      return bad(
+          "the tenant name must be 1 to 64 characters from [A-Za-z0-9._-]");
     }
     if (hash.size() != 64 ||
         hash.find_first_not_of("0123456789abcdef") != std::string::npos) {
-      return bad("the token hash must be 64 hex digits (sha256sum of the token)");
+      return bad(
+          "the token hash must be 64 hex digits (sha256sum of the token)");
     }
     if (!tenants.insert(fields[0]).second) {
       return bad(absl::StrCat("tenant '", fields[0], "' is listed twice"));

@@ -86,13 +86,14 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
   return absl::StrCat(
       "meshgauge-server listening on ", o.address, " (port ", port,
       "), metrics on ", o.metrics_address.empty() ? "(off)" : o.metrics_address,
-      ", reflection ", o.reflection ? "on" : "off",
-      ", TLS ", o.tls_cert_file.empty()
-                    ? "off"
-                    : (o.tls_client_ca_file.empty() ? "on" : "on, mutual"),
-      ", ", o.auth_tokens_file.empty()
-                ? "UNAUTHENTICATED (open mode: no --auth_tokens_file)"
-                : "tokens required",
+      ", reflection ", o.reflection ? "on" : "off", ", TLS ",
+      o.tls_cert_file.empty()
+          ? "off"
+          : (o.tls_client_ca_file.empty() ? "on" : "on, mutual"),
+      ", ",
+      o.auth_tokens_file.empty()
+          ? "UNAUTHENTICATED (open mode: no --auth_tokens_file)"
+          : "tokens required",
       "; max_message_bytes=", o.max_message_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
       " max_faces=", o.max_faces, " max_rays=", o.max_rays,

@@ -125,10 +125,10 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
     const int64_t room = 4 * (declared_faces_ - mesh_.num_faces()) -
                          std::ssize(pending_indices_);
     if (c.face_indices_size() > room) {
-      return Invalid(absl::StrCat(
-          "more face indices than the declared ", declared_faces_,
-          " faces can hold (", mesh_.num_faces(), " complete, ",
-          pending_indices_.size(), " indices pending)"));
+      return Invalid(
+          absl::StrCat("more face indices than the declared ", declared_faces_,
+                       " faces can hold (", mesh_.num_faces(), " complete, ",
+                       pending_indices_.size(), " indices pending)"));
     }
     pending_indices_.insert(pending_indices_.end(), c.face_indices().begin(),
                             c.face_indices().end());

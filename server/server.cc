@@ -12,8 +12,7 @@
 namespace meshgauge::server {
 namespace {
 
-absl::StatusOr<std::string> ReadPem(const std::string& path,
-                                    const char* flag) {
+absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag) {
   return ReadTextFile(path, absl::StrCat("--", flag, " file"));
 }
 
@@ -42,9 +41,9 @@ absl::Status LoadReflection() {
   static void* handle =
       dlopen(MESHGAUGE_GRPC_REFLECTION_LIBRARY, RTLD_NOW | RTLD_GLOBAL);
   if (!handle) {
-    return absl::UnavailableError(absl::StrCat(
-        "--reflection: cannot load ", MESHGAUGE_GRPC_REFLECTION_LIBRARY, ": ",
-        dlerror()));
+    return absl::UnavailableError(
+        absl::StrCat("--reflection: cannot load ",
+                     MESHGAUGE_GRPC_REFLECTION_LIBRARY, ": ", dlerror()));
   }
   return absl::OkStatus();
 }
@@ -89,9 +88,9 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   builder.SetMaxSendMessageSize(max_bytes);
   s->server_ = builder.BuildAndStart();
   if (!s->server_ || s->port_ == 0) {
-    return absl::UnavailableError(absl::StrCat(
-        "cannot listen on ", options.address,
-        " (invalid address, or the port is taken)"));
+    return absl::UnavailableError(
+        absl::StrCat("cannot listen on ", options.address,
+                     " (invalid address, or the port is taken)"));
   }
   s->server_->GetHealthCheckService()->SetServingStatus(true);
   s->sweeper_ = std::thread([raw = s.get()] { raw->SweepLoop(); });

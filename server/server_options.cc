@@ -34,16 +34,15 @@ absl::Status ValidateServerOptions(const ServerOptions& o) {
                        1024),
       InRange<double>("upload_idle_seconds", o.upload_idle_seconds, 0.01,
                       86400),
-      InRange<double>("session_ttl_seconds", o.session_ttl_seconds, 0.001,
-                      1e9),
+      InRange<double>("session_ttl_seconds", o.session_ttl_seconds, 0.001, 1e9),
       InRange<int>("rebuild_every_updates", o.rebuild_every_updates, 1,
                    1'000'000),
       InRange<int>("compute_threads", o.compute_threads, 0, 1024),
       InRange<double>("drain_notice_seconds", o.drain_notice_seconds, 0, 3600),
       InRange<double>("shutdown_grace_seconds", o.shutdown_grace_seconds, 0,
                       3600),
-      InRange<double>("sweep_interval_seconds", o.sweep_interval_seconds,
-                      0.001, 3600),
+      InRange<double>("sweep_interval_seconds", o.sweep_interval_seconds, 0.001,
+                      3600),
   };
   for (const absl::Status& s : checks) {
     if (!s.ok()) return s;

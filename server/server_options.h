@@ -28,10 +28,10 @@ struct ServerOptions {
   int64_t max_sessions_per_tenant = 0;
   int64_t memory_budget_bytes_per_tenant = 0;
   int64_t max_concurrent_uploads = 16;
-  double upload_idle_seconds = 30;  // an upload silent this long is aborted.
-  double session_ttl_seconds = 3600;        // idle sessions are evicted.
-  int rebuild_every_updates = 32;           // BVH refits between full rebuilds.
-  int compute_threads = 0;                  // per computation; 0 = all cores.
+  double upload_idle_seconds = 30;    // an upload silent this long is aborted.
+  double session_ttl_seconds = 3600;  // idle sessions are evicted.
+  int rebuild_every_updates = 32;     // BVH refits between full rebuilds.
+  int compute_threads = 0;            // per computation; 0 = all cores.
   // On shutdown, health reports NOT_SERVING for this long while calls are
   // still accepted (so balancers stop routing), then the server drains.
   double drain_notice_seconds = 1;

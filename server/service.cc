@@ -5,10 +5,10 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
-#include "lib/embree/calibration.h"
 #include "lib/core/integrals.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
+#include "lib/embree/calibration.h"
 #include "server/mesh_upload.h"
 #include "server/proto_convert.h"
 #include "server/session_store.h"
@@ -70,7 +70,8 @@ absl::Status MeshGaugeService::CheckReplySize(int64_t values) const {
   if (bytes <= options_.max_message_bytes) return absl::OkStatus();
   return absl::ResourceExhaustedError(absl::StrCat(
       "the reply would be about ", bytes, " bytes, over the server's limit of ",
-      options_.max_message_bytes, " bytes (--max_message_bytes); refused "
+      options_.max_message_bytes,
+      " bytes (--max_message_bytes); refused "
       "before computing"));
 }
 
@@ -81,8 +82,7 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
   const auto start = std::chrono::steady_clock::now();
   store_->Sweep();
   auto tenant = auth_->Authenticate(*ctx);
-  grpc::Status status =
-      ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
+  grpc::Status status = ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
   metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
   return status;
 }
@@ -163,7 +163,8 @@ grpc::Status MeshGaugeService::CreateSession(
 absl::Status MeshGaugeService::ReceiveUpload(
     grpc::ServerContext* ctx,
     grpc::ServerReader<v1::CreateSessionRequest>* reader,
-    const std::string& tenant, int64_t upload, v1::CreateSessionResponse* response) {
+    const std::string& tenant, int64_t upload,
+    v1::CreateSessionResponse* response) {
   MeshAssembler assembler(options_);
   UploadReservation ticket;
   bool reserved = false;
@@ -198,280 +199,298 @@ absl::Status MeshGaugeService::ReceiveUpload(
 grpc::Status MeshGaugeService::GetSession(grpc::ServerContext* ctx,
                                           const v1::GetSessionRequest* request,
                                           v1::GetSessionResponse* response) {
-  return Instrumented("GetSession", ctx, [&](const std::string& tenant) -> absl::Status {
-    auto session = store_->Get(tenant, request->session_id());
-    if (!session.ok()) return session.status();
-    ToProto((*session)->Snapshot(), clock_->NowSeconds(),
-            response->mutable_session());
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "GetSession", ctx, [&](const std::string& tenant) -> absl::Status {
+        auto session = store_->Get(tenant, request->session_id());
+        if (!session.ok()) return session.status();
+        ToProto((*session)->Snapshot(), clock_->NowSeconds(),
+                response->mutable_session());
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::ListSessions(
     grpc::ServerContext* ctx, const v1::ListSessionsRequest* request,
     v1::ListSessionsResponse* response) {
-  return Instrumented("ListSessions", ctx, [&](const std::string& tenant) -> absl::Status {
-    int page_size = request->page_size() == 0 ? 100 : request->page_size();
-    if (page_size < 1 || page_size > 1000) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "page_size must be in [1, 1000] (0 = 100), got ", page_size));
-    }
-    std::string next;
-    const double now = clock_->NowSeconds();
-    for (const SessionSnapshot& s :
-         store_->List(tenant, request->page_token(), page_size, &next)) {
-      ToProto(s, now, response->add_sessions());
-    }
-    response->set_next_page_token(next);
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "ListSessions", ctx, [&](const std::string& tenant) -> absl::Status {
+        int page_size = request->page_size() == 0 ? 100 : request->page_size();
+        if (page_size < 1 || page_size > 1000) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              "page_size must be in [1, 1000] (0 = 100), got ", page_size));
+        }
+        std::string next;
+        const double now = clock_->NowSeconds();
+        for (const SessionSnapshot& s :
+             store_->List(tenant, request->page_token(), page_size, &next)) {
+          ToProto(s, now, response->add_sessions());
+        }
+        response->set_next_page_token(next);
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::DeleteSession(
     grpc::ServerContext* ctx, const v1::DeleteSessionRequest* request,
     v1::DeleteSessionResponse*) {
-  return Instrumented("DeleteSession", ctx, [&](const std::string& tenant) -> absl::Status {
-    return store_->Delete(tenant, request->session_id());
-  });
+  return Instrumented("DeleteSession", ctx,
+                      [&](const std::string& tenant) -> absl::Status {
+                        return store_->Delete(tenant, request->session_id());
+                      });
 }
 
 grpc::Status MeshGaugeService::UpdatePositions(
     grpc::ServerContext* ctx, const v1::UpdatePositionsRequest* request,
     v1::UpdatePositionsResponse* response) {
-  return Instrumented("UpdatePositions", ctx, [&](const std::string& tenant) -> absl::Status {
-    auto session = store_->Get(tenant, request->session_id());
-    if (!session.ok()) return session.status();
-    const int dim = (*session)->dimension();
-    auto points = ToPoints(request->positions(), dim, "positions");
-    if (!points.ok()) return points.status();
-    const bool subset = request->indices_size() > 0;
-    const int64_t expected =
-        subset ? request->indices_size() : (*session)->num_vertices();
-    if (std::ssize(*points) != expected) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "positions holds ", points->size(), " points, expected ", expected,
-          subset ? " (one per index)" : " (one per vertex of the session)"));
-    }
-    std::vector<int32_t> indices(request->indices().begin(),
-                                 request->indices().end());
-    auto outcome = (*session)->UpdatePositions(request->expected_generation(),
-                                               indices, *points);
-    if (!outcome.ok()) return outcome.status();
-    response->set_generation(outcome->generation);
-    response->set_refit(outcome->refit);
-    response->set_bvh_seconds(outcome->bvh_seconds);
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "UpdatePositions", ctx, [&](const std::string& tenant) -> absl::Status {
+        auto session = store_->Get(tenant, request->session_id());
+        if (!session.ok()) return session.status();
+        const int dim = (*session)->dimension();
+        auto points = ToPoints(request->positions(), dim, "positions");
+        if (!points.ok()) return points.status();
+        const bool subset = request->indices_size() > 0;
+        const int64_t expected =
+            subset ? request->indices_size() : (*session)->num_vertices();
+        if (std::ssize(*points) != expected) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("positions holds ", points->size(),
+                           " points, expected ", expected,
+                           subset ? " (one per index)"
+                                  : " (one per vertex of the session)"));
+        }
+        std::vector<int32_t> indices(request->indices().begin(),
+                                     request->indices().end());
+        auto outcome = (*session)->UpdatePositions(
+            request->expected_generation(), indices, *points);
+        if (!outcome.ok()) return outcome.status();
+        response->set_generation(outcome->generation);
+        response->set_refit(outcome->refit);
+        response->set_bvh_seconds(outcome->bvh_seconds);
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::ComputeSdf(
     grpc::ServerContext* ctx, const v1::ComputeSdfRequest* request,
     grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
-  return Instrumented("ComputeSdf", ctx, [&](const std::string& tenant) -> absl::Status {
-    const auto start = std::chrono::steady_clock::now();
-    int chunk = request->chunk_vertices() == 0 ? kDefaultChunkVertices
-                                               : request->chunk_vertices();
-    if (chunk < 1 || chunk > kMaxChunkVertices) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
-                       "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
-    }
-    auto prep = Prepare(tenant, request->session_id(), request->params(),
-                        request->has_expected_generation(),
-                        request->expected_generation());
-    if (!prep.ok()) return prep.status();
-    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
-    if (!pass.ok()) return pass.status();
-    const SdfEvaluator& ev = *prep->reader.evaluator;
-    const SdfResult& r = pass->pass->result;
-    std::optional<SparseJacobian> jac;
-    if (request->include_jacobian()) {
-      auto j = ComputeJacobian(ev, pass->pass->hits, Control(ctx),
-                               options_.compute_threads);
-      if (!j.ok()) return Interrupted(ctx, j.status());
-      jac = std::move(*j);
-    }
-    const int64_t nv = ev.mesh().num_vertices();
-    const int dim = ev.mesh().dimension;
-    // Per vertex about 30 bytes of values; per Jacobian entry 4 + 8 dim.
-    const int64_t budget = options_.max_message_bytes / 2;
-    for (int64_t begin = 0, end = 0; begin < nv; begin = end) {
-      if (ctx->IsCancelled()) {
-        return Interrupted(ctx, absl::CancelledError("cancelled"));
-      }
-      end = std::min(nv, begin + chunk);
-      if (jac) {
-        // End the chunk early so that its rows fit in one message.
-        int64_t bytes = 0;
-        for (int64_t p = begin; p < end; ++p) {
-          bytes += 40 + (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
-                            (4 + 8 * dim);
-          if (bytes > budget && p > begin) {
-            end = p;
-            break;
+  return Instrumented(
+      "ComputeSdf", ctx, [&](const std::string& tenant) -> absl::Status {
+        const auto start = std::chrono::steady_clock::now();
+        int chunk = request->chunk_vertices() == 0 ? kDefaultChunkVertices
+                                                   : request->chunk_vertices();
+        if (chunk < 1 || chunk > kMaxChunkVertices) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
+                           "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
+        }
+        auto prep = Prepare(tenant, request->session_id(), request->params(),
+                            request->has_expected_generation(),
+                            request->expected_generation());
+        if (!prep.ok()) return prep.status();
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        if (!pass.ok()) return pass.status();
+        const SdfEvaluator& ev = *prep->reader.evaluator;
+        const SdfResult& r = pass->pass->result;
+        std::optional<SparseJacobian> jac;
+        if (request->include_jacobian()) {
+          auto j = ComputeJacobian(ev, pass->pass->hits, Control(ctx),
+                                   options_.compute_threads);
+          if (!j.ok()) return Interrupted(ctx, j.status());
+          jac = std::move(*j);
+        }
+        const int64_t nv = ev.mesh().num_vertices();
+        const int dim = ev.mesh().dimension;
+        // Per vertex about 30 bytes of values; per Jacobian entry 4 + 8 dim.
+        const int64_t budget = options_.max_message_bytes / 2;
+        for (int64_t begin = 0, end = 0; begin < nv; begin = end) {
+          if (ctx->IsCancelled()) {
+            return Interrupted(ctx, absl::CancelledError("cancelled"));
+          }
+          end = std::min(nv, begin + chunk);
+          if (jac) {
+            // End the chunk early so that its rows fit in one message.
+            int64_t bytes = 0;
+            for (int64_t p = begin; p < end; ++p) {
+              bytes += 40 + (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
+                                (4 + 8 * dim);
+              if (bytes > budget && p > begin) {
+                end = p;
+                break;
+              }
+            }
+          }
+          v1::ComputeSdfResponse msg;
+          v1::SdfChunk* c = msg.mutable_chunk();
+          c->set_vertex_begin(begin);
+          c->set_vertex_end(end);
+          for (int64_t p = begin; p < end; ++p) {
+            c->add_values(r.values[p]);
+            c->add_status(ToProto(r.status[p]));
+            c->add_hits(r.hits[p]);
+            c->add_kept(r.kept[p]);
+            c->add_normalized(r.normalized[p]);
+          }
+          if (jac) {
+            const int64_t base = jac->row_offsets[begin];
+            for (int64_t p = begin; p <= end; ++p) {
+              c->add_row_offsets(jac->row_offsets[p] - base);
+            }
+            for (int64_t e = base; e < jac->row_offsets[end]; ++e) {
+              c->add_columns(jac->columns[e]);
+              for (int k = 0; k < dim; ++k)
+                c->add_derivatives(jac->values[e][k]);
+            }
+          }
+          if (!writer->Write(msg)) {
+            return absl::CancelledError("client went away during the stream");
           }
         }
-      }
-      v1::ComputeSdfResponse msg;
-      v1::SdfChunk* c = msg.mutable_chunk();
-      c->set_vertex_begin(begin);
-      c->set_vertex_end(end);
-      for (int64_t p = begin; p < end; ++p) {
-        c->add_values(r.values[p]);
-        c->add_status(ToProto(r.status[p]));
-        c->add_hits(r.hits[p]);
-        c->add_kept(r.kept[p]);
-        c->add_normalized(r.normalized[p]);
-      }
-      if (jac) {
-        const int64_t base = jac->row_offsets[begin];
-        for (int64_t p = begin; p <= end; ++p) {
-          c->add_row_offsets(jac->row_offsets[p] - base);
+        v1::ComputeSdfResponse last;
+        v1::SdfSummary* s = last.mutable_summary();
+        s->set_generation(ev.generation());
+        s->set_ok(r.CountStatus(VertexStatus::kOk));
+        s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
+        s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
+        s->set_degenerate_normal(
+            r.CountStatus(VertexStatus::kDegenerateNormal));
+        const ValueStats stats = SummarizeValues(r.values);
+        s->set_sdf_min(stats.min);
+        s->set_sdf_max(stats.max);
+        s->set_sdf_mean(stats.mean);
+        s->set_sdf_median(stats.median);
+        s->set_world_frame_vertices(r.world_frame_vertices);
+        ToProto(r.missing, s->mutable_missing());
+        s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
+        s->set_rays(r.rays_traced);
+        s->set_reused_hits(pass->reused);
+        s->set_seconds(Seconds(start));
+        if (!writer->Write(last)) {
+          return absl::CancelledError("client went away before the summary");
         }
-        for (int64_t e = base; e < jac->row_offsets[end]; ++e) {
-          c->add_columns(jac->columns[e]);
-          for (int k = 0; k < dim; ++k) c->add_derivatives(jac->values[e][k]);
-        }
-      }
-      if (!writer->Write(msg)) {
-        return absl::CancelledError("client went away during the stream");
-      }
-    }
-    v1::ComputeSdfResponse last;
-    v1::SdfSummary* s = last.mutable_summary();
-    s->set_generation(ev.generation());
-    s->set_ok(r.CountStatus(VertexStatus::kOk));
-    s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
-    s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
-    s->set_degenerate_normal(r.CountStatus(VertexStatus::kDegenerateNormal));
-    const ValueStats stats = SummarizeValues(r.values);
-    s->set_sdf_min(stats.min);
-    s->set_sdf_max(stats.max);
-    s->set_sdf_mean(stats.mean);
-    s->set_sdf_median(stats.median);
-    s->set_world_frame_vertices(r.world_frame_vertices);
-    ToProto(r.missing, s->mutable_missing());
-    s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
-    s->set_rays(r.rays_traced);
-    s->set_reused_hits(pass->reused);
-    s->set_seconds(Seconds(start));
-    if (!writer->Write(last)) {
-      return absl::CancelledError("client went away before the summary");
-    }
-    return absl::OkStatus();
-  });
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
                                           const v1::ComputeVjpRequest* request,
                                           v1::ComputeVjpResponse* response) {
-  return Instrumented("ComputeVjp", ctx, [&](const std::string& tenant) -> absl::Status {
-    const auto start = std::chrono::steady_clock::now();
-    auto prep = Prepare(tenant, request->session_id(), request->params(),
-                        request->has_expected_generation(),
-                        request->expected_generation());
-    if (!prep.ok()) return prep.status();
-    const SdfEvaluator& ev = *prep->reader.evaluator;
-    if (absl::Status s =
-            CheckReplySize(ev.mesh().num_vertices() * ev.mesh().dimension);
-        !s.ok()) {
-      return s;
-    }
-    if (request->weights_size() != ev.mesh().num_vertices()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("weights holds ", request->weights_size(),
-                       " values, expected one "
-                       "per vertex (",
-                       ev.mesh().num_vertices(), ")"));
-    }
-    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
-    if (!pass.ok()) return pass.status();
-    metrics_->RecordHitCache(pass->reused);
-    auto vjp = meshgauge::ComputeVjp(
-        ev, pass->pass->hits,
-        absl::MakeConstSpan(request->weights().data(), request->weights_size()),
-        Control(ctx), options_.compute_threads);
-    if (!vjp.ok()) return Interrupted(ctx, vjp.status());
-    response->set_generation(ev.generation());
-    AppendFlattened(*vjp, ev.mesh().dimension, response->mutable_gradient());
-    response->set_reused_hits(pass->reused);
-    response->set_seconds(Seconds(start));
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "ComputeVjp", ctx, [&](const std::string& tenant) -> absl::Status {
+        const auto start = std::chrono::steady_clock::now();
+        auto prep = Prepare(tenant, request->session_id(), request->params(),
+                            request->has_expected_generation(),
+                            request->expected_generation());
+        if (!prep.ok()) return prep.status();
+        const SdfEvaluator& ev = *prep->reader.evaluator;
+        if (absl::Status s =
+                CheckReplySize(ev.mesh().num_vertices() * ev.mesh().dimension);
+            !s.ok()) {
+          return s;
+        }
+        if (request->weights_size() != ev.mesh().num_vertices()) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("weights holds ", request->weights_size(),
+                           " values, expected one "
+                           "per vertex (",
+                           ev.mesh().num_vertices(), ")"));
+        }
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        if (!pass.ok()) return pass.status();
+        metrics_->RecordHitCache(pass->reused);
+        auto vjp =
+            meshgauge::ComputeVjp(ev, pass->pass->hits,
+                                  absl::MakeConstSpan(request->weights().data(),
+                                                      request->weights_size()),
+                                  Control(ctx), options_.compute_threads);
+        if (!vjp.ok()) return Interrupted(ctx, vjp.status());
+        response->set_generation(ev.generation());
+        AppendFlattened(*vjp, ev.mesh().dimension,
+                        response->mutable_gradient());
+        response->set_reused_hits(pass->reused);
+        response->set_seconds(Seconds(start));
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::ComputePenalty(
     grpc::ServerContext* ctx, const v1::ComputePenaltyRequest* request,
     v1::ComputePenaltyResponse* response) {
-  return Instrumented("ComputePenalty", ctx, [&](const std::string& tenant) -> absl::Status {
-    const auto start = std::chrono::steady_clock::now();
-    auto pp = ToPenaltyParams(*request);
-    if (!pp.ok()) return pp.status();
-    auto prep = Prepare(tenant, request->session_id(), request->params(),
-                        request->has_expected_generation(),
-                        request->expected_generation());
-    if (!prep.ok()) return prep.status();
-    const SdfEvaluator& ev = *prep->reader.evaluator;
-    if (request->with_gradient()) {
-      if (absl::Status s =
-              CheckReplySize(ev.mesh().num_vertices() * ev.mesh().dimension);
-          !s.ok()) {
-        return s;
-      }
-    }
-    auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
-    if (!pass.ok()) return pass.status();
-    metrics_->RecordHitCache(pass->reused);
-    const SdfResult& sdf = pass->pass->result;
-    auto pen = meshgauge::ComputePenalty(
-        ev, sdf, *pp, request->with_gradient() ? &pass->pass->hits : nullptr,
-        Control(ctx), options_.compute_threads);
-    if (!pen.ok()) return Interrupted(ctx, pen.status());
-    response->set_generation(ev.generation());
-    response->set_value(pen->value);
-    response->set_skipped_faces(pen->missing.faces);
-    ToProto(pen->missing, response->mutable_missing());
-    response->set_world_frame_vertices(sdf.world_frame_vertices);
-    if (request->with_gradient()) {
-      AppendFlattened(pen->gradient, ev.mesh().dimension,
-                      response->mutable_gradient());
-    }
-    response->set_sdf_min(SummarizeValues(sdf.values).min);
-    response->set_reused_hits(pass->reused);
-    response->set_seconds(Seconds(start));
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "ComputePenalty", ctx, [&](const std::string& tenant) -> absl::Status {
+        const auto start = std::chrono::steady_clock::now();
+        auto pp = ToPenaltyParams(*request);
+        if (!pp.ok()) return pp.status();
+        auto prep = Prepare(tenant, request->session_id(), request->params(),
+                            request->has_expected_generation(),
+                            request->expected_generation());
+        if (!prep.ok()) return prep.status();
+        const SdfEvaluator& ev = *prep->reader.evaluator;
+        if (request->with_gradient()) {
+          if (absl::Status s = CheckReplySize(ev.mesh().num_vertices() *
+                                              ev.mesh().dimension);
+              !s.ok()) {
+            return s;
+          }
+        }
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        if (!pass.ok()) return pass.status();
+        metrics_->RecordHitCache(pass->reused);
+        const SdfResult& sdf = pass->pass->result;
+        auto pen = meshgauge::ComputePenalty(
+            ev, sdf, *pp,
+            request->with_gradient() ? &pass->pass->hits : nullptr,
+            Control(ctx), options_.compute_threads);
+        if (!pen.ok()) return Interrupted(ctx, pen.status());
+        response->set_generation(ev.generation());
+        response->set_value(pen->value);
+        response->set_skipped_faces(pen->missing.faces);
+        ToProto(pen->missing, response->mutable_missing());
+        response->set_world_frame_vertices(sdf.world_frame_vertices);
+        if (request->with_gradient()) {
+          AppendFlattened(pen->gradient, ev.mesh().dimension,
+                          response->mutable_gradient());
+        }
+        response->set_sdf_min(SummarizeValues(sdf.values).min);
+        response->set_reused_hits(pass->reused);
+        response->set_seconds(Seconds(start));
+        return absl::OkStatus();
+      });
 }
 
 grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
                                          const v1::CalibrateRequest* request,
                                          v1::CalibrateResponse* response) {
-  return Instrumented("Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
-    auto prep = Prepare(tenant, request->session_id(), request->params(), false, 0);
-    if (!prep.ok()) return prep.status();
-    CalibrationParams cp;
-    cp.t_min = request->t_min();
-    if (request->equal_tolerance() != 0) {
-      cp.equal_tolerance = request->equal_tolerance();
-    }
-    if (request->bins() != 0) cp.bins = request->bins();
-    cp.sdf = prep->params;
-    auto rep = meshgauge::Calibrate(*prep->reader.evaluator, cp, Control(ctx));
-    if (!rep.ok()) return Interrupted(ctx, rep.status());
-    response->set_compared(rep->compared);
-    response->set_sdf_lower(rep->lower);
-    response->set_sdf_equal(rep->equal);
-    response->set_sdf_higher(rep->higher);
-    response->set_alpha1(rep->alpha1);
-    response->set_alpha2(rep->alpha2);
-    response->set_histogram_lo(rep->sdf_histogram.lo);
-    response->set_histogram_hi(rep->sdf_histogram.hi);
-    for (int64_t c : rep->sdf_histogram.counts) response->add_sdf_histogram(c);
-    for (int64_t c : rep->thickness_histogram.counts) {
-      response->add_thickness_histogram(c);
-    }
-    return absl::OkStatus();
-  });
+  return Instrumented(
+      "Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
+        auto prep =
+            Prepare(tenant, request->session_id(), request->params(), false, 0);
+        if (!prep.ok()) return prep.status();
+        CalibrationParams cp;
+        cp.t_min = request->t_min();
+        if (request->equal_tolerance() != 0) {
+          cp.equal_tolerance = request->equal_tolerance();
+        }
+        if (request->bins() != 0) cp.bins = request->bins();
+        cp.sdf = prep->params;
+        auto rep =
+            meshgauge::Calibrate(*prep->reader.evaluator, cp, Control(ctx));
+        if (!rep.ok()) return Interrupted(ctx, rep.status());
+        response->set_compared(rep->compared);
+        response->set_sdf_lower(rep->lower);
+        response->set_sdf_equal(rep->equal);
+        response->set_sdf_higher(rep->higher);
+        response->set_alpha1(rep->alpha1);
+        response->set_alpha2(rep->alpha2);
+        response->set_histogram_lo(rep->sdf_histogram.lo);
+        response->set_histogram_hi(rep->sdf_histogram.hi);
+        for (int64_t c : rep->sdf_histogram.counts)
+          response->add_sdf_histogram(c);
+        for (int64_t c : rep->thickness_histogram.counts) {
+          response->add_thickness_histogram(c);
+        }
+        return absl::OkStatus();
+      });
 }
 
 }  // namespace meshgauge::server

@@ -51,7 +51,8 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
       bytes > options_.BudgetPerTenant()) {
     return absl::ResourceExhaustedError(absl::StrCat(
         "the mesh needs about ", bytes, " bytes, more than the memory budget ",
-        "of ", std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
+        "of ",
+        std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
         " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
   }
   std::lock_guard<std::mutex> lock(mu_);
@@ -267,9 +268,9 @@ int64_t SessionStore::TenantSessionsLocked(const std::string& tenant) const {
 }
 
 void SessionStore::PublishLocked() {
-  metrics_->SetSessions(static_cast<double>(sessions_.size()),
-                        static_cast<double>(TotalBytesLocked() +
-                                            reserved_total_.bytes));
+  metrics_->SetSessions(
+      static_cast<double>(sessions_.size()),
+      static_cast<double>(TotalBytesLocked() + reserved_total_.bytes));
 }
 
 }  // namespace meshgauge::server

@@ -8,8 +8,9 @@ absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContext* ctx) {
   std::lock_guard<std::mutex> lock(mu_);
   if (std::ssize(uploads_) >= max_) {
     return absl::ResourceExhaustedError(absl::StrCat(
-        max_, " uploads are already in flight (--max_concurrent_uploads); "
-              "retry later"));
+        max_,
+        " uploads are already in flight (--max_concurrent_uploads); "
+        "retry later"));
   }
   const int64_t id = next_++;
   uploads_.emplace(id, Entry{ctx, clock_->NowSeconds()});

@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <numbers>
 
-#include "lib/embree/sdf.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/sdf.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

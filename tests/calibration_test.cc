@@ -4,8 +4,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "lib/io/mesh_io.h"
 #include "lib/core/shapes.h"
+#include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

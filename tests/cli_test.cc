@@ -143,9 +143,10 @@ TEST(CliTest, DoubleSidedAndOpenMeshesAreNamed) {
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["double_sided_faces"], 2);
   EXPECT_THAT(r.out, HasSubstr("double-sided"));
-  const CliRun open = RunCli("sdf " + SharedMesh("stanford-bunny.obj") +
-                             " --rays 4 --json");
-  EXPECT_GT(nlohmann::json::parse(open.out)["boundary_edges"].get<int64_t>(), 0);
+  const CliRun open =
+      RunCli("sdf " + SharedMesh("stanford-bunny.obj") + " --rays 4 --json");
+  EXPECT_GT(nlohmann::json::parse(open.out)["boundary_edges"].get<int64_t>(),
+            0);
   EXPECT_THAT(open.out, HasSubstr("the mesh is open"));
   std::filesystem::remove(obj);
 }
@@ -277,14 +278,12 @@ TEST(CliDerivativesTest, PenaltyOnMostlyMissingValuesFailsNamingTheCause) {
 }
 
 TEST(CliDerivativesTest, GradcheckPassesOnKnightAndPrintsTable) {
-  const CliRun r =
-      RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
-             " --rays 20 --samples 4 --seed 3 --t-min 0.3");
+  const CliRun r = RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
+                          " --rays 20 --samples 4 --seed 3 --t-min 0.3");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("analytic"));
   EXPECT_THAT(r.out, HasSubstr("verdict: PASS"));
-  const CliRun json = RunCli("gradcheck " +
-                             SharedMesh("decimated-knight.off") +
+  const CliRun json = RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
                              " --rays 20 --samples 2 --json");
   EXPECT_EQ(json.exit_code, 0) << json.out;
   EXPECT_TRUE(nlohmann::json::parse(json.out)["passed"].get<bool>());

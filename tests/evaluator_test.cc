@@ -5,9 +5,9 @@
 
 #include <cstring>
 
-#include "lib/io/mesh_io.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {

@@ -48,7 +48,8 @@ inline void PrintReport(const GradCheckReport& rep, const std::string& label) {
 inline GradCheckReport CheckJacobian(const Mesh& mesh, const SdfParams& params,
                                      int columns, const std::string& label,
                                      GradCheckOptions options = {}) {
-  if (options.vertices.empty()) options.vertices = SpreadVertices(mesh, columns);
+  if (options.vertices.empty())
+    options.vertices = SpreadVertices(mesh, columns);
   auto rep = RunGradCheck(mesh, params, options);
   EXPECT_TRUE(rep.ok()) << rep.status();
   if (!rep.ok()) return {};

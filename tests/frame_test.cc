@@ -8,10 +8,10 @@
 #include <random>
 
 #include "lib/core/cone.h"
-#include "lib/io/mesh_io.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 
@@ -61,8 +61,7 @@ TEST(FrameTest, FrameVjpMatchesFiniteDifferences) {
       qm[c] -= h;
       EXPECT_NEAR((loss(ap, pos[1]) - loss(am, pos[1])) / (2 * h), g.axis[c],
                   1e-7);
-      EXPECT_NEAR((loss(axis, qp) - loss(axis, qm)) / (2 * h), g.edge[c],
-                  1e-7);
+      EXPECT_NEAR((loss(axis, qp) - loss(axis, qm)) / (2 * h), g.edge[c], 1e-7);
     }
   }
 }
@@ -71,8 +70,8 @@ TEST(FrameTest, NeedleTipFallsBackToTheWorldFrameAndIsCounted) {
   // A needle: a tiny base triangle and an apex far above. Every edge from
   // the apex is within 1e-3 of its axis.
   Mesh m;
-  m.positions = {{1e-4, 0, 0}, {-5e-5, 8.66e-5, 0}, {-5e-5, -8.66e-5, 0},
-                 {0, 0, 1}};
+  m.positions = {
+      {1e-4, 0, 0}, {-5e-5, 8.66e-5, 0}, {-5e-5, -8.66e-5, 0}, {0, 0, 1}};
   m.faces = {Face::Triangle(0, 2, 1), Face::Triangle(0, 1, 3),
              Face::Triangle(1, 2, 3), Face::Triangle(2, 0, 3)};
   auto ev = SdfEvaluator::Create(m);
@@ -191,8 +190,8 @@ void ExpectPoseOblivious(const std::string& name) {
       }
       if (!same_hits || !same_kept) {
         for (const Evaluated* x : {&base, &e}) {
-          for (int64_t k = x->jac.row_offsets[p];
-               k < x->jac.row_offsets[p + 1]; ++k) {
+          for (int64_t k = x->jac.row_offsets[p]; k < x->jac.row_offsets[p + 1];
+               ++k) {
             tie_fed[x->jac.columns[k]] = 1;
           }
         }
@@ -210,8 +209,8 @@ void ExpectPoseOblivious(const std::string& name) {
         const int64_t k2 = e.jac.row_offsets[p] + (k - base.jac.row_offsets[p]);
         const bool same_column = e.jac.columns[k2] == base.jac.columns[k];
         const Vec3 rotated = pose.Rotate(base.jac.values[k]);
-        row_ok &= same_column &&
-                  Near(rotated, e.jac.values[k2], 1e-9, row_scale);
+        row_ok &=
+            same_column && Near(rotated, e.jac.values[k2], 1e-9, row_scale);
         row_close &= same_column &&
                      Near(rotated, e.jac.values[k2], kConditioned, row_scale);
       }
@@ -298,23 +297,20 @@ TEST(FrameTest, ZUpBox) {
 
 TEST(FrameTest, ZUpPlateWithHoles) {
   // 16 x 10 cells of 0.25, 0.1 thick, three square through-holes.
-  const Mesh plate = MakeVoxelSolid({16, 10, 1}, {0.25, 0.25, 0.1},
-                                    [](int i, int j, int) {
-                                      const bool hole1 = i >= 3 && i < 5 &&
-                                                         j >= 3 && j < 5;
-                                      const bool hole2 = i >= 9 && i < 12 &&
-                                                         j >= 2 && j < 4;
-                                      const bool hole3 = i >= 10 && i < 12 &&
-                                                         j >= 6 && j < 8;
-                                      return !(hole1 || hole2 || hole3);
-                                    });
+  const Mesh plate =
+      MakeVoxelSolid({16, 10, 1}, {0.25, 0.25, 0.1}, [](int i, int j, int) {
+        const bool hole1 = i >= 3 && i < 5 && j >= 3 && j < 5;
+        const bool hole2 = i >= 9 && i < 12 && j >= 2 && j < 4;
+        const bool hole3 = i >= 10 && i < 12 && j >= 6 && j < 8;
+        return !(hole1 || hole2 || hole3);
+      });
   ExpectBoundedAndFdClean(JitterXY(plate, 0.004), 30, "z-up plate, holes");
 }
 
 TEST(FrameTest, ZUpDumbbell) {
   // Two 5x5x4 blocks joined by a 1x1x3 neck along z.
-  const Mesh dumbbell = MakeVoxelSolid(
-      {5, 5, 11}, {0.2, 0.2, 0.2}, [](int i, int j, int k) {
+  const Mesh dumbbell =
+      MakeVoxelSolid({5, 5, 11}, {0.2, 0.2, 0.2}, [](int i, int j, int k) {
         return k < 4 || k >= 7 || (i == 2 && j == 2);
       });
   ExpectBoundedAndFdClean(JitterXY(dumbbell, 0.003), 30, "z-up dumbbell");

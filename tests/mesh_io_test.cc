@@ -157,12 +157,12 @@ TEST_F(MeshFileTest, WeldsAsciiStlByExactCoordinates) {
 }
 
 TEST_F(MeshFileTest, ReadsAsciiPly) {
-  const std::string path = Write(
-      "a.ply",
-      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
-      "property float y\nproperty float z\nelement face 2\n"
-      "property list uchar int vertex_indices\nend_header\n"
-      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
+  const std::string path =
+      Write("a.ply",
+            "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+            "property float y\nproperty float z\nelement face 2\n"
+            "property list uchar int vertex_indices\nend_header\n"
+            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n");
   auto mesh = ReadMesh(path);
   ASSERT_TRUE(mesh.ok()) << mesh.status();
   EXPECT_EQ(mesh->num_vertices(), 4);

@@ -13,8 +13,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "lib/io/mesh_io.h"
 #include "lib/core/mesh.h"
+#include "lib/io/mesh_io.h"
 #include "tests/openmesh_reference.h"
 #include "tests/test_util.h"
 
@@ -40,7 +40,8 @@ TEST(MeshReaderTest, ObjCoordinatesAreDoublePrecision) {
   auto r = ReadMeshFile(Corpus("obj/precision.obj"));
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_EQ(r->mesh.positions[0].x, kPrecise);
-  EXPECT_NE(r->mesh.positions[0].x, static_cast<double>(static_cast<float>(kPrecise)));
+  EXPECT_NE(r->mesh.positions[0].x,
+            static_cast<double>(static_cast<float>(kPrecise)));
 }
 
 TEST(MeshReaderTest, PlyAsciiAndBinaryDoublesAreExact) {
@@ -92,15 +93,17 @@ TEST(MeshReaderTest, PlyWithoutEndHeaderIsAnErrorNotAHang) {
 }
 
 TEST(MeshReaderTest, ObjNonFiniteVertexIsAnErrorNamingTheLine) {
-  EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/nan_vertex.obj"))),
-              HasSubstr("nan_vertex.obj: line 2: vertex 1: 'nan' is not a finite"));
+  EXPECT_THAT(
+      Message(ReadMeshFile(Corpus("obj/nan_vertex.obj"))),
+      HasSubstr("nan_vertex.obj: line 2: vertex 1: 'nan' is not a finite"));
   EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/overflow_vertex.obj"))),
               HasSubstr(": line 2: vertex 1: '1e999' is not a finite"));
 }
 
 TEST(MeshReaderTest, OffNonFiniteVertexIsAnErrorNamingTheLine) {
-  EXPECT_THAT(Message(ReadMeshFile(Corpus("off/nan.off"))),
-              HasSubstr("nan.off: line 4: vertex 1: 'nan' is not a finite number"));
+  EXPECT_THAT(
+      Message(ReadMeshFile(Corpus("off/nan.off"))),
+      HasSubstr("nan.off: line 4: vertex 1: 'nan' is not a finite number"));
 }
 
 TEST(MeshReaderTest, BinaryOffIsRejectedWithoutAllocating) {
@@ -120,7 +123,8 @@ TEST(MeshReaderTest, DeclaredCountsAreCheckedAgainstTheFileSize) {
 }
 
 TEST(MeshReaderTest, SideFilesAreNeverOpened) {
-  for (const char* name : {"obj/mtllib_passwd.obj", "obj/mtllib_dev_zero.obj"}) {
+  for (const char* name :
+       {"obj/mtllib_passwd.obj", "obj/mtllib_dev_zero.obj"}) {
     auto r = ReadMeshFile(Corpus(name));
     ASSERT_TRUE(r.ok()) << name << ": " << r.status();
     EXPECT_EQ(r->mesh.num_faces(), 1);
@@ -166,9 +170,10 @@ TEST(MeshReaderTest, PolygonsAreTriangulatedAndCounted) {
 }
 
 TEST(MeshReaderTest, NonSimplePolygonIsAnErrorNamingItsId) {
-  EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/bowtie.obj"))),
-              HasSubstr(": line 6: polygon face 0 (5 corners): the polygon is not "
-                        "simple"));
+  EXPECT_THAT(
+      Message(ReadMeshFile(Corpus("obj/bowtie.obj"))),
+      HasSubstr(": line 6: polygon face 0 (5 corners): the polygon is not "
+                "simple"));
 }
 
 TEST(MeshReaderTest, PolygonTrianglesKeepTheRegion) {
@@ -243,7 +248,8 @@ INSTANTIATE_TEST_SUITE_P(
                       Shared{"stanford-bunny.obj"}, Shared{"teapot.obj"}),
     [](const auto& info) {
       std::string n = info.param.file;
-      for (char& c : n) c = std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
+      for (char& c : n)
+        c = std::isalnum(static_cast<unsigned char>(c)) ? c : '_';
       return n;
     });
 

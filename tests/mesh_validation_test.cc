@@ -6,8 +6,8 @@
 #include <limits>
 
 #include "lib/core/mesh.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/sdf.h"
 
 namespace meshgauge {
 namespace {

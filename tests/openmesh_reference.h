@@ -104,7 +104,6 @@ class OpenMeshCollector : public OpenMesh::IO::BaseImporter {
   int64_t polygons_ = 0;
 };
 
-
 // Reads `path` with OpenMesh (binary PLY/STL allowed); polygons are kept as
 // faces with size > 4 and no corners. Errors: InvalidArgument when OpenMesh
 // cannot read it.

@@ -7,11 +7,11 @@
 
 #include <cmath>
 
-#include "lib/embree/gradcheck.h"
 #include "lib/core/integrals.h"
-#include "lib/io/mesh_io.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 
@@ -73,9 +73,9 @@ Mesh NoisyCircle() {
 }
 
 TEST(PenaltyTest, OneSidedOnNoisyCircleMatchesFd) {
-  Expect(CheckPenalty(NoisyCircle(),
-                      {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2},
-                      40));
+  Expect(CheckPenalty(
+      NoisyCircle(), {.t_min = 2.5, .form = PenaltyForm::kOneSided, .power = 2},
+      40));
 }
 
 TEST(PenaltyTest, ThesisFormOnHollowSquareMatchesFd) {
@@ -174,8 +174,9 @@ TEST(PenaltyTest, RejectsPlanarMeshWithAllValuesMissing) {
   for (PenaltyForm form : {PenaltyForm::kOneSided, PenaltyForm::kKs}) {
     auto pen = ComputePenalty(**ev, *r, {.t_min = 1, .form = form}, &hits);
     EXPECT_EQ(pen.status().code(), absl::StatusCode::kFailedPrecondition);
-    EXPECT_THAT(std::string(pen.status().message()),
-                AllOf(HasSubstr("100.0% of the area"), HasSubstr("open or planar")));
+    EXPECT_THAT(
+        std::string(pen.status().message()),
+        AllOf(HasSubstr("100.0% of the area"), HasSubstr("open or planar")));
   }
   // Raising the allowed fraction does not make an empty integral a number.
   auto all = ComputePenalty(**ev, *r, {.t_min = 1, .max_missing_fraction = 1},
@@ -230,25 +231,25 @@ TEST(PenaltyTest, CountsMissingValuesBelowTheAllowedFraction) {
   EXPECT_GT(pen->missing.area_fraction, 0);
   EXPECT_LT(pen->missing.area_fraction, 0.01);
   // The same surface with a stricter allowance fails.
-  EXPECT_EQ(ComputePenalty(**ev, *r, {.t_min = 2, .max_missing_fraction = 0},
-                           nullptr)
-                .status()
-                .code(),
-            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(
+      ComputePenalty(**ev, *r, {.t_min = 2, .max_missing_fraction = 0}, nullptr)
+          .status()
+          .code(),
+      absl::StatusCode::kFailedPrecondition);
 }
 
 TEST(PenaltyTest, RejectsBadParameters) {
   auto ev = SdfEvaluator::Create(MakeCircle(1, 16));
   auto r = (*ev)->Compute({});
-  EXPECT_THAT(std::string(ComputePenalty(**ev, *r, {.t_min = 0}, nullptr)
-                              .status()
-                              .message()),
-              HasSubstr("t_min must be a finite number > 0"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, *r,
-                                         {.t_min = 1, .power = 0.5}, nullptr)
-                              .status()
-                              .message()),
-              HasSubstr("power n must be >= 1"));
+  EXPECT_THAT(
+      std::string(
+          ComputePenalty(**ev, *r, {.t_min = 0}, nullptr).status().message()),
+      HasSubstr("t_min must be a finite number > 0"));
+  EXPECT_THAT(
+      std::string(ComputePenalty(**ev, *r, {.t_min = 1, .power = 0.5}, nullptr)
+                      .status()
+                      .message()),
+      HasSubstr("power n must be >= 1"));
   EXPECT_THAT(
       std::string(ComputePenalty(
                       **ev, *r,
@@ -258,22 +259,21 @@ TEST(PenaltyTest, RejectsBadParameters) {
                       .message()),
       HasSubstr("integer n"));
   EXPECT_THAT(
-      std::string(ComputePenalty(**ev, *r,
-                                 {.t_min = 1, .form = PenaltyForm::kKs, .rho = 0},
-                                 nullptr)
+      std::string(ComputePenalty(
+                      **ev, *r,
+                      {.t_min = 1, .form = PenaltyForm::kKs, .rho = 0}, nullptr)
                       .status()
                       .message()),
       HasSubstr("rho must be"));
-  EXPECT_THAT(std::string(ComputePenalty(**ev, *r,
-                                         {.t_min = 1, .max_missing_fraction = 2},
-                                         nullptr)
+  EXPECT_THAT(std::string(ComputePenalty(
+                              **ev, *r, {.t_min = 1, .max_missing_fraction = 2},
+                              nullptr)
                               .status()
                               .message()),
               HasSubstr("missing fraction"));
-  EXPECT_EQ(ComputePenalty(**ev, SdfResult{}, {.t_min = 1}, nullptr)
-                .status()
-                .code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      ComputePenalty(**ev, SdfResult{}, {.t_min = 1}, nullptr).status().code(),
+      absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace

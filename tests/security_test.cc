@@ -32,10 +32,10 @@ absl::StatusCode Code(const absl::StatusOr<T>& s) {
 }
 
 std::string TempFile(const std::string& name, const std::string& text) {
-  const std::string path = (std::filesystem::temp_directory_path() /
-                            ("meshgauge_sec_" + std::to_string(::getpid()) +
-                             "_" + name))
-                               .string();
+  const std::string path =
+      (std::filesystem::temp_directory_path() /
+       ("meshgauge_sec_" + std::to_string(::getpid()) + "_" + name))
+          .string();
   std::ofstream(path) << text;
   return path;
 }
@@ -52,10 +52,10 @@ class SecurityTest : public testing::ServerFixture {
  protected:
   void SetUp() override {
     server::ServerOptions o;
-    o.auth_tokens_file = TempFile(
-        "tokens", "# tenant sha256(token)\nalice " +
-                      server::Sha256Hex("alice-secret") + "\nbob " +
-                      server::Sha256Hex("bob-secret") + "\n");
+    o.auth_tokens_file =
+        TempFile("tokens", "# tenant sha256(token)\nalice " +
+                               server::Sha256Hex("alice-secret") + "\nbob " +
+                               server::Sha256Hex("bob-secret") + "\n");
     StartServer(o);
     alice_ = Client("alice-secret");
     bob_ = Client("bob-secret");
@@ -70,8 +70,7 @@ class SecurityTest : public testing::ServerFixture {
 
 TEST_F(SecurityTest, CallsWithoutAValidTokenAreUnauthenticated) {
   const Mesh m = MakeIcosphere(1, 2);
-  EXPECT_EQ(Code(client_->Upload(m, "x")),
-            absl::StatusCode::kUnauthenticated);
+  EXPECT_EQ(Code(client_->Upload(m, "x")), absl::StatusCode::kUnauthenticated);
   EXPECT_EQ(Code(client_->List()), absl::StatusCode::kUnauthenticated);
   auto wrong = Client("guessed-token");
   auto r = wrong->Upload(m, "x");
@@ -153,10 +152,10 @@ TEST(AuthenticatorTest, RejectsMalformedTokenFiles) {
                               .status()
                               .message()),
               HasSubstr("line 2: this token hash is already given"));
-  EXPECT_THAT(std::string(server::Authenticator::FromText("# none\n", "f")
-                              .status()
-                              .message()),
-              HasSubstr("no tenants"));
+  EXPECT_THAT(
+      std::string(
+          server::Authenticator::FromText("# none\n", "f").status().message()),
+      HasSubstr("no tenants"));
   EXPECT_EQ(server::Sha256Hex("abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
 }
@@ -206,7 +205,8 @@ TEST_F(UploadAttackTest, IndicesWithoutSizesStopAtTheFirstExcessChunk) {
   while (written < 25 && w->Write(chunk)) ++written;
   const grpc::Status s = w->Finish();
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
-  EXPECT_THAT(s.error_message(), HasSubstr("more face indices than the declared 1"));
+  EXPECT_THAT(s.error_message(),
+              HasSubstr("more face indices than the declared 1"));
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
 }
 
@@ -314,7 +314,8 @@ TEST_F(LimitsTest, RepliesOverTheMessageLimitAreRefusedBeforeComputing) {
 TEST_F(LimitsTest, IdsWithControlCharactersAreEscapedInMessages) {
   auto r = client_->Get("evil\x01\x1b[2Jid");
   EXPECT_EQ(Code(r), absl::StatusCode::kNotFound);
-  EXPECT_THAT(std::string(r.status().message()), HasSubstr("evil\\x01\\x1b[2Jid"));
+  EXPECT_THAT(std::string(r.status().message()),
+              HasSubstr("evil\\x01\\x1b[2Jid"));
   EXPECT_THAT(std::string(r.status().message()), Not(HasSubstr("\x1b")));
   auto up = client_->Upload(MakeIcosphere(1, 1), "bad\nid");
   EXPECT_EQ(Code(up), absl::StatusCode::kInvalidArgument);
@@ -352,11 +353,11 @@ TEST(StartupTest, ATakenPortFailsCleanlyWithoutReusePort) {
             absl::StatusCode::kUnavailable);
   server::ServerOptions limits = a;
   limits.max_message_bytes = -1;
-  EXPECT_THAT(std::string(server::MeshGaugeServer::Start(limits, &metrics_b,
-                                                         &clock)
-                              .status()
-                              .message()),
-              HasSubstr("--max_message_bytes must be in [4096, 2147483647]"));
+  EXPECT_THAT(
+      std::string(server::MeshGaugeServer::Start(limits, &metrics_b, &clock)
+                      .status()
+                      .message()),
+      HasSubstr("--max_message_bytes must be in [4096, 2147483647]"));
 }
 
 class TlsTest : public ::testing::Test {

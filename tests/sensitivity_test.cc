@@ -7,9 +7,9 @@
 #include <cmath>
 #include <numbers>
 
-#include "lib/io/mesh_io.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
 
@@ -76,9 +76,8 @@ TEST(SensitivityTest, HollowSquareWithOutwardRegion) {
 }
 
 TEST(SensitivityTest, Sphere) {
-  ExpectFdAgreement(
-      CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.001), Cone(), 30,
-                    "sphere cone"));
+  ExpectFdAgreement(CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.001), Cone(),
+                                  30, "sphere cone"));
   ExpectFdAgreement(CheckJacobian(Jitter(MakeIcosphere(0.5, 4), 0.01),
                                   NormalRay(), 30, "jittered sphere normal"));
 }

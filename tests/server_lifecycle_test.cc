@@ -3,10 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <future>
 #include <thread>
 
@@ -92,9 +91,10 @@ TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
   const double slow = std::getenv("MESHGAUGE_SANITIZED") ? 3 : 1;
   EXPECT_LT(waited, 0.2 + (0.1 + 0.1) * slow)
       << "server kept computing after the deadline";
-  std::printf("deadline 0.2 s; the exclusive update completed %.3f s after "
-              "the call started\n",
-              waited);
+  std::printf(
+      "deadline 0.2 s; the exclusive update completed %.3f s after "
+      "the call started\n",
+      waited);
   for (int i = 0; i < 100 && metrics_.Text().find("DEADLINE_EXCEEDED") ==
                                  std::string::npos;
        ++i) {

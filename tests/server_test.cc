@@ -6,11 +6,11 @@
 #include <cstring>
 #include <thread>
 
-#include "lib/io/mesh_io.h"
 #include "lib/core/penalty.h"
-#include "lib/embree/sdf.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
 
@@ -121,8 +121,8 @@ TEST_F(ServerTest, JacobianVjpAndPenaltyMatchLibrary) {
   EXPECT_EQ(client::FromFlattened(vjp->gradient(), 3),
             *ComputeVjp(**ev, hits, g));
 
-  auto pen = client_->ComputePenalty("k", ToWireParams({}), {.t_min = 0.1},
-                                     true);
+  auto pen =
+      client_->ComputePenalty("k", ToWireParams({}), {.t_min = 0.1}, true);
   ASSERT_TRUE(pen.ok()) << pen.status();
   auto local = ComputePenalty(**ev, *values, {.t_min = 0.1}, &hits);
   EXPECT_EQ(pen->value(), local->value);

@@ -46,9 +46,10 @@ ABSL_FLAG(std::string, vjp, "",
 ABSL_FLAG(std::string, jacobian, "",
           "meshgauge grad: write the sparse Jacobian as CSV row,col,dx,dy,dz");
 ABSL_FLAG(double, t_min, 0, "minimum thickness (penalty, calibrate), > 0");
-ABSL_FLAG(std::string, form, "one-sided",
-          "penalty form: one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, "
-          "or ks, the aggregated constraint (1/rho) ln(mean exp(rho(1-t/t_min)))");
+ABSL_FLAG(
+    std::string, form, "one-sided",
+    "penalty form: one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, "
+    "or ks, the aggregated constraint (1/rho) ln(mean exp(rho(1-t/t_min)))");
 ABSL_FLAG(double, rho, 50, "meshgauge penalty --form ks: aggregation rho > 0");
 ABSL_FLAG(double, max_missing_fraction, 0.5,
           "penalty: fail when faces without values cover more than this "
@@ -142,9 +143,8 @@ absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags() {
         "--form must be one-sided, thesis or ks, got '", form, "'"));
   }
   if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--t-min/--power/--rho/--max-missing-fraction: ",
-                     s.message()));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--t-min/--power/--rho/--max-missing-fraction: ", s.message()));
   }
   return pp;
 }
@@ -179,17 +179,17 @@ absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path) {
   if (absl::GetFlag(FLAGS_drop_degenerate_faces)) {
     loaded.dropped_faces = DropDegenerateFaces(loaded.mesh);
     if (loaded.dropped_faces > 0) {
-      loaded.warnings.push_back(absl::StrCat(
-          loaded.dropped_faces,
-          " zero-area faces dropped (--drop-degenerate-faces)"));
+      loaded.warnings.push_back(
+          absl::StrCat(loaded.dropped_faces,
+                       " zero-area faces dropped (--drop-degenerate-faces)"));
     }
   }
   if (absl::Status s = ValidateMesh(loaded.mesh); !s.ok()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        path, ": ", s.message(),
-        absl::StrContains(s.message(), "zero area")
-            ? " (--drop-degenerate-faces removes them)"
-            : ""));
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": ", s.message(),
+                     absl::StrContains(s.message(), "zero area")
+                         ? " (--drop-degenerate-faces removes them)"
+                         : ""));
   }
   if (absl::GetFlag(FLAGS_reorient)) {
     loaded.reoriented = ReorientInwardComponents(loaded.mesh);

@@ -67,7 +67,7 @@ struct LoadedMesh {
   int64_t dropped_faces = 0;
   double signed_volume = 0;
   bool closed = false;
-  int64_t reoriented = 0;  // components reversed.
+  int64_t reoriented = 0;       // components reversed.
   MeshDiagnostics diagnostics;  // after the fixes.
   std::vector<std::string> warnings;
 };

@@ -13,9 +13,9 @@
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
 #include "client/cli/progress_bar.h"
-#include "lib/embree/calibration.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
+#include "lib/embree/calibration.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -147,8 +147,8 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
                                  pen->value, pp.t_min, pp.rho);
   } else {
     std::cout << absl::StrFormat("penalty P = %.10g (%s, t_min %g, n %g",
-                                 pen->value, PenaltyFormName(pp.form),
-                                 pp.t_min, pp.power);
+                                 pen->value, PenaltyFormName(pp.form), pp.t_min,
+                                 pp.power);
   }
   std::cout << absl::StrFormat(
       "; %d faces skipped, %.2f%% of the area, %d vertices without a "

@@ -18,9 +18,11 @@ namespace {
 const char* Axis(int c) { return c == 0 ? "x" : (c == 1 ? "y" : "z"); }
 
 nlohmann::json RowJson(const GradCheckRow& r) {
-  return {{"row", r.row},           {"vertex", r.vertex},
+  return {{"row", r.row},
+          {"vertex", r.vertex},
           {"coordinate", Axis(r.coordinate)},
-          {"analytic", r.analytic}, {"fd", r.fd},
+          {"analytic", r.analytic},
+          {"fd", r.fd},
           {"relative_error", r.relative_error},
           {"clean", r.clean}};
 }
@@ -32,12 +34,12 @@ void PrintTable(const GradCheckReport& rep, double tolerance) {
   auto line = [&](const GradCheckRow& r) {
     const std::string row =
         r.row < 0 ? std::string("penalty") : absl::StrCat(r.row);
-    const char* kind = !r.clean                         ? "event"
+    const char* kind = !r.clean                        ? "event"
                        : r.relative_error <= tolerance ? "clean"
-                                                        : "clean, FAILS";
+                                                       : "clean, FAILS";
     std::cout << absl::StrFormat("%8s %8d %5s %16.9g %16.9g %10.2e  %s\n", row,
-                                 r.vertex, Axis(r.coordinate), r.analytic,
-                                 r.fd, r.relative_error, kind);
+                                 r.vertex, Axis(r.coordinate), r.analytic, r.fd,
+                                 r.relative_error, kind);
   };
   for (const GradCheckRow& r : rep.rows) line(r);
   for (const GradCheckRow& r : rep.penalty_rows) line(r);
@@ -99,9 +101,9 @@ absl::Status RunGradcheck(const std::vector<std::string>& args) {
         100 * options.min_clean_fraction, options.tolerance, rep->passed,
         rep->worst, rep->vjp_passed, rep->vjp_checks);
     if (options.penalty) {
-      std::cout << absl::StrFormat("penalty gradient: %d/%d clean within %.0e\n",
-                                   rep->penalty_passed, rep->penalty_clean,
-                                   options.tolerance);
+      std::cout << absl::StrFormat(
+          "penalty gradient: %d/%d clean within %.0e\n", rep->penalty_passed,
+          rep->penalty_clean, options.tolerance);
     }
     std::cout << absl::StrFormat(
         "|dSDF/dx|: max %.4g, median %.4g; %d vertices in the world frame\n"

@@ -44,15 +44,19 @@ constexpr char kUsage[] =
     "--positions MESH [--generation G]   (all take --server host:port)";
 
 nlohmann::json InfoJson(const v1::SessionInfo& s) {
-  return {{"session_id", s.session_id()},    {"dimension", s.dimension()},
-          {"vertices", s.num_vertices()},    {"faces", s.num_faces()},
-          {"generation", s.generation()},    {"memory_bytes", s.memory_bytes()},
-          {"bvh_builds", s.bvh_builds()},    {"bvh_refits", s.bvh_refits()},
+  return {{"session_id", s.session_id()},
+          {"dimension", s.dimension()},
+          {"vertices", s.num_vertices()},
+          {"faces", s.num_faces()},
+          {"generation", s.generation()},
+          {"memory_bytes", s.memory_bytes()},
+          {"bvh_builds", s.bvh_builds()},
+          {"bvh_refits", s.bvh_refits()},
           {"idle_seconds", s.idle_seconds()},
           {"signed_volume", s.signed_volume()},
           {"closed", s.closed()},
-          {"warnings", std::vector<std::string>(s.warnings().begin(),
-                                                s.warnings().end())}};
+          {"warnings",
+           std::vector<std::string>(s.warnings().begin(), s.warnings().end())}};
 }
 
 void Print(const nlohmann::json& j) {

@@ -7,8 +7,8 @@
 #include "client/cli/commands.h"
 #include "client/cli/progress_bar.h"
 #include "client/cli/summary.h"
-#include "lib/io/mesh_io.h"
 #include "lib/embree/sdf.h"
+#include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
 

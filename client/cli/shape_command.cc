@@ -6,8 +6,8 @@
 #include "absl/strings/str_cat.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
-#include "lib/io/mesh_io.h"
 #include "lib/core/shapes.h"
+#include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
 

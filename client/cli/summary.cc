@@ -90,17 +90,16 @@ std::string SummaryText(const nlohmann::json& j) {
       j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
       j["components"].get<int64_t>(), j["polygons_triangulated"].get<int64_t>(),
-      j["format"].get<std::string>(),
-      j["method"].get<std::string>(), j["cone_angle_degrees"].get<double>(),
-      j["rays_per_vertex"].get<int>(), j["ok"].get<int64_t>(),
-      j["no_hit"].get<int64_t>(), j["no_faces"].get<int64_t>(),
-      j["degenerate_normal"].get<int64_t>(), num(j["sdf_min"]),
-      num(j["sdf_median"]), num(j["sdf_max"]), num(j["sdf_mean"]),
-      j["integral"].get<double>(), j["integral_skipped_faces"].get<int64_t>(),
+      j["format"].get<std::string>(), j["method"].get<std::string>(),
+      j["cone_angle_degrees"].get<double>(), j["rays_per_vertex"].get<int>(),
+      j["ok"].get<int64_t>(), j["no_hit"].get<int64_t>(),
+      j["no_faces"].get<int64_t>(), j["degenerate_normal"].get<int64_t>(),
+      num(j["sdf_min"]), num(j["sdf_median"]), num(j["sdf_max"]),
+      num(j["sdf_mean"]), j["integral"].get<double>(),
+      j["integral_skipped_faces"].get<int64_t>(),
       100 * j["missing_area_fraction"].get<double>(),
-      j["world_frame_vertices"].get<int64_t>(),
-      j["rays"].get<int64_t>(), j["seconds"].get<double>(),
-      j["rays_per_second"].get<double>());
+      j["world_frame_vertices"].get<int64_t>(), j["rays"].get<int64_t>(),
+      j["seconds"].get<double>(), j["rays_per_second"].get<double>());
   for (const auto& w : j["warnings"]) {
     absl::StrAppend(&s, "warning: ", w.get<std::string>(), "\n");
   }

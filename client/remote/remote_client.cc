@@ -1,13 +1,11 @@
 #include "client/remote/remote_client.h"
 
-#include <algorithm>
-#include <cstdlib>
-
+#include <grpcpp/generic/generic_stub.h>
 #include <zlib.h>
 
-#include <grpcpp/generic/generic_stub.h>
-
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <future>
 
 #include "absl/strings/ascii.h"

@@ -23,8 +23,8 @@ uint64_t EdgeKey(int32_t a, int32_t b) {
 }
 
 // Uses of each undirected edge (3D) or vertex (2D) by the faces.
-std::unordered_map<uint64_t, int> BoundaryUses(const Mesh& mesh,
-                                               absl::Span<const int32_t> faces) {
+std::unordered_map<uint64_t, int> BoundaryUses(
+    const Mesh& mesh, absl::Span<const int32_t> faces) {
   std::unordered_map<uint64_t, int> uses;
   for (int32_t id : faces) {
     const Face& f = mesh.faces[id];
@@ -33,7 +33,8 @@ std::unordered_map<uint64_t, int> BoundaryUses(const Mesh& mesh,
       ++uses[static_cast<uint32_t>(f.v[1])];
       continue;
     }
-    for (int k = 0; k < f.size; ++k) ++uses[EdgeKey(f.v[k], f.v[(k + 1) % f.size])];
+    for (int k = 0; k < f.size; ++k)
+      ++uses[EdgeKey(f.v[k], f.v[(k + 1) % f.size])];
   }
   return uses;
 }
@@ -122,17 +123,17 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
         " faces; --reorient flips exactly those"));
   }
   if (d.double_sided_faces > 0) {
-    d.warnings.push_back(absl::StrCat(
-        d.double_sided_faces,
-        " faces have a coincident face of opposite orientation (a "
-        "double-sided surface): their vertex normals cancel "
-        "(DEGENERATE_NORMAL)"));
+    d.warnings.push_back(
+        absl::StrCat(d.double_sided_faces,
+                     " faces have a coincident face of opposite orientation (a "
+                     "double-sided surface): their vertex normals cancel "
+                     "(DEGENERATE_NORMAL)"));
   }
   if (d.boundary_edges > 0) {
-    d.warnings.push_back(absl::StrCat(
-        "the mesh is open: ", d.boundary_edges,
-        mesh.dimension == 2 ? " curve ends" : " boundary edges",
-        "; rays may escape through the holes (NO_HIT)"));
+    d.warnings.push_back(
+        absl::StrCat("the mesh is open: ", d.boundary_edges,
+                     mesh.dimension == 2 ? " curve ends" : " boundary edges",
+                     "; rays may escape through the holes (NO_HIT)"));
   }
   return d;
 }

@@ -13,8 +13,8 @@ namespace meshgauge {
 
 struct Component {
   std::vector<int32_t> faces;  // ascending.
-  bool closed = false;   // every edge of its faces used by exactly two.
-  double signed_volume = 0;  // 3D volume (2D area); meaningful when closed.
+  bool closed = false;         // every edge of its faces used by exactly two.
+  double signed_volume = 0;    // 3D volume (2D area); meaningful when closed.
 };
 
 // Components of faces joined by shared vertices, ordered by their first

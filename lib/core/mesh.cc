@@ -55,7 +55,8 @@ constexpr double kMaxEdgeComponent = 1e150;
 
 bool EdgesOverflow(const Mesh& mesh, const Face& f) {
   for (int k = 0; k < f.size; ++k) {
-    const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]];
+    const Vec3 e =
+        mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]];
     for (int c = 0; c < 3; ++c) {
       if (!(std::abs(e[c]) < kMaxEdgeComponent)) return true;
     }
@@ -216,8 +217,8 @@ double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces) {
       continue;
     }
     for (int t = 0; t + 2 < f.size; ++t) {
-      sum += Dot(p[f.v[0]] - o,
-                 Cross(p[f.v[t + 1]] - o, p[f.v[t + 2]] - o)) / 6;
+      sum +=
+          Dot(p[f.v[0]] - o, Cross(p[f.v[t + 1]] - o, p[f.v[t + 2]] - o)) / 6;
     }
   }
   return sum;

@@ -90,9 +90,8 @@ NodalIntegral KsConstraint(const Mesh& mesh, const std::vector<double>& values,
   if (measure_terms) {
     g.d_measure.resize(ki.d_measure.size());
     for (size_t i = 0; i < g.d_measure.size(); ++i) {
-      g.d_measure[i] = (ki.d_measure[i] / ki.value -
-                        area.d_measure[i] / area.value) /
-                       p.rho;
+      g.d_measure[i] =
+          (ki.d_measure[i] / ki.value - area.d_measure[i] / area.value) / p.rho;
     }
   }
   return g;
@@ -105,7 +104,8 @@ absl::Status ValidatePenaltyParams(const PenaltyParams& p) {
     return absl::InvalidArgumentError(
         absl::StrCat("t_min must be a finite number > 0, got ", p.t_min));
   }
-  if (p.form != PenaltyForm::kKs && (!(p.power >= 1) || !std::isfinite(p.power))) {
+  if (p.form != PenaltyForm::kKs &&
+      (!(p.power >= 1) || !std::isfinite(p.power))) {
     return absl::InvalidArgumentError(
         absl::StrCat("penalty power n must be >= 1, got ", p.power));
   }
@@ -155,8 +155,7 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   }
   PenaltyResult r;
   r.missing = CountMissing(mesh, values);
-  const char* what =
-      params.form == PenaltyForm::kKs ? "constraint" : "penalty";
+  const char* what = params.form == PenaltyForm::kKs ? "constraint" : "penalty";
   if (absl::Status s = CheckMissing(mesh, r.missing, sdf.Causes(),
                                     params.max_missing_fraction, what);
       !s.ok()) {
@@ -164,8 +163,8 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   }
   if (r.missing.faces == mesh.num_faces()) {
     return absl::FailedPreconditionError(absl::StrCat(
-        "no face has values at all its vertices: the ", what,
-        " is undefined; ", LikelyMissingCause(mesh, sdf.Causes())));
+        "no face has values at all its vertices: the ", what, " is undefined; ",
+        LikelyMissingCause(mesh, sdf.Causes())));
   }
   NodalIntegral integral;
   if (params.form == PenaltyForm::kKs) {

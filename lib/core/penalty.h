@@ -39,8 +39,8 @@ struct PenaltyParams {
 absl::Status ValidatePenaltyParams(const PenaltyParams& params);
 
 struct PenaltyResult {
-  double value = 0;  // P in length^(dim-1), or G (dimensionless) for kKs.
-  MissingValues missing;      // what the integral skipped.
+  double value = 0;       // P in length^(dim-1), or G (dimensionless) for kKs.
+  MissingValues missing;  // what the integral skipped.
   std::vector<double> dp_dt;  // dP/dt_p per vertex (#V).
   // With gradient: dP/dx per vertex (#V; z = 0 in 2D), and its explicit
   // measure part alone (already included in `gradient`).

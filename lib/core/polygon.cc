@@ -45,9 +45,8 @@ absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
     absl::Span<const Vec3> corners) {
   const int n = static_cast<int>(corners.size());
   if (n < 3 || n > kMaxPolygonCorners) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("a polygon needs 3 to ", kMaxPolygonCorners,
-                     " corners, got ", n));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "a polygon needs 3 to ", kMaxPolygonCorners, " corners, got ", n));
   }
   // Newell normal and an orthonormal basis of its plane.
   Vec3 normal, centre;
@@ -95,7 +94,8 @@ absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
     const int m = static_cast<int>(ring.size());
     bool clipped = false;
     for (int k = 0; k < m && !clipped; ++k) {
-      const int32_t a = ring[(k + m - 1) % m], b = ring[k], c = ring[(k + 1) % m];
+      const int32_t a = ring[(k + m - 1) % m], b = ring[k],
+                    c = ring[(k + 1) % m];
       if (Cross2(p[a], p[b], p[c]) <= eps) continue;  // reflex or flat.
       bool empty = true;
       for (int32_t q : ring) {

@@ -197,7 +197,8 @@ Mesh MakeBox(double sx, double sy, double sz, double cell, bool quads) {
     n[a] = std::max(1, static_cast<int>(std::ceil(size[a] / cell)));
     spacing[a] = size[a] / n[a];
   }
-  return MakeVoxelSolid(n, spacing, [](int, int, int) { return true; }, quads);
+  return MakeVoxelSolid(
+      n, spacing, [](int, int, int) { return true; }, quads);
 }
 
 Mesh MakeHollowSquare(double side, double hole_radius, double h) {

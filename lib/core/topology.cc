@@ -42,8 +42,8 @@ Incidence BuildNeighbors(const Mesh& mesh) {
     std::sort(begin, end);
     end = std::unique(begin, end);
     const int32_t start = out;
-    out = static_cast<int32_t>(
-        std::copy(begin, end, inc.items.begin() + out) - inc.items.begin());
+    out = static_cast<int32_t>(std::copy(begin, end, inc.items.begin() + out) -
+                               inc.items.begin());
     inc.offsets[v] = start;
   }
   inc.offsets[nv] = out;

@@ -6,8 +6,8 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
-#include "lib/embree/sdf_evaluator.h"
 #include "lib/core/sensitivity.h"
+#include "lib/embree/sdf_evaluator.h"
 
 namespace meshgauge {
 namespace {
@@ -48,9 +48,9 @@ absl::Status ValidateOptions(const GradCheckOptions& o, const Mesh& mesh) {
   }
   for (int32_t v : o.vertices) {
     if (v < 0 || v >= mesh.num_vertices()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "gradcheck vertex ", v, " is out of range [0, ", mesh.num_vertices(),
-          ")"));
+      return absl::InvalidArgumentError(absl::StrCat("gradcheck vertex ", v,
+                                                     " is out of range [0, ",
+                                                     mesh.num_vertices(), ")"));
     }
   }
   if (!(o.relative_step > 0 && o.relative_step < 1e-2)) {
@@ -181,8 +181,8 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
       }
       if (all_clean) {
         ++rep.vjp_checks;
-        rep.vjp_passed += GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <=
-                          options.tolerance;
+        rep.vjp_passed +=
+            GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <= options.tolerance;
       }
       if (options.penalty) {
         GradCheckRow row{-1, j, c};

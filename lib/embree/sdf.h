@@ -9,8 +9,8 @@
 #include "absl/status/statusor.h"
 #include "lib/core/integrals.h"
 #include "lib/core/mesh.h"
-#include "lib/embree/sdf_evaluator.h"
 #include "lib/core/sdf_types.h"
+#include "lib/embree/sdf_evaluator.h"
 
 namespace meshgauge {
 

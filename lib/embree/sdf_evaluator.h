@@ -12,11 +12,11 @@
 #include "lib/core/cone.h"
 #include "lib/core/hit.h"
 #include "lib/core/hit_table.h"
-#include "lib/core/mesh_geometry.h"
 #include "lib/core/mesh.h"
-#include "lib/embree/ray_scene.h"
+#include "lib/core/mesh_geometry.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/topology.h"
+#include "lib/embree/ray_scene.h"
 
 namespace meshgauge {
 

@@ -13,9 +13,8 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
   const int64_t min = file_.mesh.dimension == 2 ? 2 : 3;
   if (n < min || (file_.mesh.dimension == 2 && n != 2)) {
     return absl::InvalidArgumentError(absl::StrCat(
-        path_, ": ", where, ": face ", num_faces(), " has ", n,
-        " corners (", file_.mesh.dimension == 2 ? "2" : "at least 3",
-        " needed)"));
+        path_, ": ", where, ": face ", num_faces(), " has ", n, " corners (",
+        file_.mesh.dimension == 2 ? "2" : "at least 3", " needed)"));
   }
   if (n > kMaxPolygonCorners) {
     return absl::InvalidArgumentError(
@@ -33,9 +32,9 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
     std::vector<int64_t> sorted(corners.begin(), corners.end());
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          path_, ": ", where, ": polygon face ", num_faces(),
-          " repeats a vertex"));
+      return absl::InvalidArgumentError(
+          absl::StrCat(path_, ": ", where, ": polygon face ", num_faces(),
+                       " repeats a vertex"));
     }
     polygon_places_.emplace_back(num_faces(), where);
   }

@@ -9,11 +9,11 @@
 namespace meshgauge::io {
 
 struct MeshFile {
-  Mesh mesh;                         // not validated.
-  std::string format;                // e.g. "ply binary_little_endian".
-  int64_t file_faces = 0;            // faces (polygons) in the file.
-  int64_t polygons_triangulated = 0; // faces with > 4 corners split.
-  int64_t welded_corners = 0;        // STL: facet corners merged by position.
+  Mesh mesh;                          // not validated.
+  std::string format;                 // e.g. "ply binary_little_endian".
+  int64_t file_faces = 0;             // faces (polygons) in the file.
+  int64_t polygons_triangulated = 0;  // faces with > 4 corners split.
+  int64_t welded_corners = 0;         // STL: facet corners merged by position.
 };
 
 }  // namespace meshgauge::io

@@ -14,12 +14,12 @@
 
 #include <cstdint>
 #include <string>
-#include "absl/strings/string_view.h"
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "lib/io/mesh_file.h"
+#include "absl/strings/string_view.h"
 #include "lib/core/mesh.h"
+#include "lib/io/mesh_file.h"
 
 namespace meshgauge {
 

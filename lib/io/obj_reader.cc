@@ -2,13 +2,12 @@
 // parsed and ignored), `f` faces and `l` polylines (2D curves), `g ID` with
 // an integer ID sets the region of what follows. Every other statement
 // (vt, vn, mtllib, usemtl, o, s, ...) is ignored: no side file is opened.
-#include "lib/io/readers.h"
-
 #include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "lib/io/mesh_builder.h"
+#include "lib/io/readers.h"
 #include "lib/io/scan.h"
 
 namespace meshgauge::io {
@@ -41,9 +40,10 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
     }
   }
   if (has_f && has_l) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        path, ": mixes faces (f) and polylines (l); a mesh is either 3D "
-              "faces or a 2D curve"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(path,
+                     ": mixes faces (f) and polylines (l); a mesh is either 3D "
+                     "faces or a 2D curve"));
   }
   const int dimension = has_l ? 2 : 3;
   MeshBuilder builder(path, dimension);
@@ -61,19 +61,18 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
         double value;
         if (!ParseDouble(tok, &value)) {
           return LineError(path, line,
-                           absl::StrCat("vertex ", builder.num_vertices(),
-                                        ": ", Quote(tok),
-                                        " is not a finite number"));
+                           absl::StrCat("vertex ", builder.num_vertices(), ": ",
+                                        Quote(tok), " is not a finite number"));
         }
         if (count < 3) xyz[count] = value;
         ++count;
       }
       if (count < 3 || count > 7) {
-        return LineError(path, line,
-                         absl::StrCat("vertex ", builder.num_vertices(),
-                                      " has ", count,
-                                      " numbers (3 coordinates, optionally w "
-                                      "or a colour)"));
+        return LineError(
+            path, line,
+            absl::StrCat("vertex ", builder.num_vertices(), " has ", count,
+                         " numbers (3 coordinates, optionally w "
+                         "or a colour)"));
       }
       builder.AddVertex({xyz[0], xyz[1], xyz[2]});
     } else if (tok == "f" || tok == "l") {

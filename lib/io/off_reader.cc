@@ -22,8 +22,8 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
                                   const std::string& path) {
   TokenScanner scan(text, '#');
   absl::string_view tok;
-  if (!scan.Next(&tok) || (tok != "OFF" && tok != "COFF" && tok != "NOFF" &&
-                           tok != "CNOFF")) {
+  if (!scan.Next(&tok) ||
+      (tok != "OFF" && tok != "COFF" && tok != "NOFF" && tok != "CNOFF")) {
     return LineError(path, scan.line(), "not an OFF file (no OFF header)");
   }
   absl::string_view next;
@@ -59,9 +59,9 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
     for (int c = 0; c < 3; ++c) {
       const bool got = c == 0 ? scan.Next(&tok) : scan.NextOnLine(&tok);
       if (!got) {
-        return LineError(path, scan.line(),
-                         absl::StrCat("vertex ", v, " of ", nv,
-                                      ": expected 3 coordinates"));
+        return LineError(
+            path, scan.line(),
+            absl::StrCat("vertex ", v, " of ", nv, ": expected 3 coordinates"));
       }
       if (!ParseDouble(tok, &xyz[c])) {
         return LineError(path, scan.line(),
@@ -72,9 +72,9 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
     while (scan.NextOnLine(&tok)) {  // colour or normal: numbers only.
       double ignored;
       if (!ParseDouble(tok, &ignored)) {
-        return LineError(path, scan.line(),
-                         absl::StrCat("vertex ", v, ": unexpected ",
-                                      Quote(tok)));
+        return LineError(
+            path, scan.line(),
+            absl::StrCat("vertex ", v, ": unexpected ", Quote(tok)));
       }
     }
     builder.AddVertex({xyz[0], xyz[1], xyz[2]});
@@ -97,9 +97,9 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
     for (int64_t k = 0; k < n; ++k) {
       int64_t index;
       if (!scan.NextOnLine(&tok) || !ParseInt64(tok, &index)) {
-        return LineError(path, line,
-                         absl::StrCat("face ", f, ": expected ", n,
-                                      " vertex indices"));
+        return LineError(
+            path, line,
+            absl::StrCat("face ", f, ": expected ", n, " vertex indices"));
       }
       corners.push_back(index);
       if (k > kMaxCornersPerRecord) break;  // AddFace reports the excess.
@@ -117,9 +117,9 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
       return s;
   }
   if (!scan.AtEnd()) {
-    return LineError(path, scan.line(),
-                     absl::StrCat("unexpected data after the ", nf,
-                                  " declared faces"));
+    return LineError(
+        path, scan.line(),
+        absl::StrCat("unexpected data after the ", nf, " declared faces"));
   }
   return builder.Finish("off");
 }

@@ -15,17 +15,30 @@
 namespace meshgauge::io {
 namespace {
 
-enum class Type { kInt8, kUint8, kInt16, kUint16, kInt32, kUint32, kFloat32, kFloat64 };
+enum class Type {
+  kInt8,
+  kUint8,
+  kInt16,
+  kUint16,
+  kInt32,
+  kUint32,
+  kFloat32,
+  kFloat64
+};
 
 bool ParseType(absl::string_view name, Type* out) {
   static const struct {
     const char* a;
     const char* b;
     Type t;
-  } kTypes[] = {{"char", "int8", Type::kInt8},       {"uchar", "uint8", Type::kUint8},
-                {"short", "int16", Type::kInt16},    {"ushort", "uint16", Type::kUint16},
-                {"int", "int32", Type::kInt32},      {"uint", "uint32", Type::kUint32},
-                {"float", "float32", Type::kFloat32}, {"double", "float64", Type::kFloat64}};
+  } kTypes[] = {{"char", "int8", Type::kInt8},
+                {"uchar", "uint8", Type::kUint8},
+                {"short", "int16", Type::kInt16},
+                {"ushort", "uint16", Type::kUint16},
+                {"int", "int32", Type::kInt32},
+                {"uint", "uint32", Type::kUint32},
+                {"float", "float32", Type::kFloat32},
+                {"double", "float64", Type::kFloat64}};
   for (const auto& t : kTypes) {
     if (name == t.a || name == t.b) {
       *out = t.t;
@@ -131,7 +144,8 @@ class ValueSource {
                : absl::StrCat("byte ", bytes_.offset());
   }
   bool AtEnd() {
-    return format_ == Format::kAscii ? tokens_.AtEnd() : bytes_.remaining() == 0;
+    return format_ == Format::kAscii ? tokens_.AtEnd()
+                                     : bytes_.remaining() == 0;
   }
   size_t remaining() const {
     return format_ == Format::kAscii ? 0 : bytes_.remaining();
@@ -227,8 +241,9 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       if (t == "list") {
         absl::string_view ct, it;
         p.list = true;
-        if (!words.Next(&ct) || !words.Next(&it) || !ParseType(ct, &p.count_type) ||
-            !IsInteger(p.count_type) || !ParseType(it, &p.type)) {
+        if (!words.Next(&ct) || !words.Next(&it) ||
+            !ParseType(ct, &p.count_type) || !IsInteger(p.count_type) ||
+            !ParseType(it, &p.type)) {
           return LineError(path, line_no,
                            "expected 'property list COUNT_TYPE ITEM_TYPE NAME' "
                            "with an integer count type");
@@ -325,8 +340,8 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
         double n;
         if (!in.Next(p.count_type, &n) || n < 0) {
           return absl::InvalidArgumentError(absl::StrCat(
-              path, ": ", in.Where(), ": ", e.name, " ", k,
-              ": list count of ", p.name, " is missing or negative"));
+              path, ": ", in.Where(), ": ", e.name, " ", k, ": list count of ",
+              p.name, " is missing or negative"));
         }
         if (format != Format::kAscii &&
             n * SizeOf(p.type) > static_cast<double>(in.remaining())) {
@@ -338,11 +353,10 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
           double item;
           if (!in.Next(p.type, &item)) {
             return absl::InvalidArgumentError(absl::StrCat(
-                path, ": ", in.Where(), ": ", e.name, " ", k, ": list ",
-                p.name, " has fewer than ", n, " items"));
+                path, ": ", in.Where(), ": ", e.name, " ", k, ": list ", p.name,
+                " has fewer than ", n, " items"));
           }
-          if (static_cast<int>(i) == indices &&
-              j <= kMaxCornersPerRecord) {
+          if (static_cast<int>(i) == indices && j <= kMaxCornersPerRecord) {
             corners.push_back(static_cast<int64_t>(item));
           }
         }
@@ -356,8 +370,9 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
     }
   }
   if (!in.AtEnd()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        path, ": ", in.Where(), ": unexpected data after the declared elements"));
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": ", in.Where(),
+                     ": unexpected data after the declared elements"));
   }
   if (builder.num_faces() == 0) {
     return absl::InvalidArgumentError(absl::StrCat(path, ": no faces"));

@@ -59,14 +59,15 @@ absl::StatusOr<MeshFile> ParseBinaryStl(absl::string_view data,
     for (int c = 0; c < 3; ++c) {
       const Vec3 p(v[3 + 3 * c], v[4 + 3 * c], v[5 + 3 * c]);
       if (!IsFinite(p)) {
-        return ByteError(path, 84 + 50 * static_cast<size_t>(f) + 12 + 12 * c,
-                         absl::StrCat("facet ", f, ": corner ", c,
-                                      " is not finite"));
+        return ByteError(
+            path, 84 + 50 * static_cast<size_t>(f) + 12 + 12 * c,
+            absl::StrCat("facet ", f, ": corner ", c, " is not finite"));
       }
       corners[c] = welder.Index(p);
     }
     if (absl::Status s = builder.AddFace(
-            corners, 0, absl::StrCat("byte ", 84 + 50 * static_cast<size_t>(f)));
+            corners, 0,
+            absl::StrCat("byte ", 84 + 50 * static_cast<size_t>(f)));
         !s.ok())
       return s;
   }
@@ -84,9 +85,10 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
   absl::string_view tok;
   auto expect = [&](absl::string_view word) -> absl::Status {
     if (scan.Next(&tok) && tok == word) return absl::OkStatus();
-    return LineError(path, scan.line(),
-                     absl::StrCat("expected '", word, "', got ",
-                                  tok.empty() ? "the end of the file" : Quote(tok)));
+    return LineError(
+        path, scan.line(),
+        absl::StrCat("expected '", word, "', got ",
+                     tok.empty() ? "the end of the file" : Quote(tok)));
   };
   auto number = [&](double* out) -> absl::Status {
     if (scan.NextOnLine(&tok) && ParseDouble(tok, out)) return absl::OkStatus();
@@ -110,9 +112,9 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
         break;
       }
       if (tok != "facet") {
-        return LineError(path, scan.line(),
-                         absl::StrCat("expected 'facet' or 'endsolid', got ",
-                                      Quote(tok)));
+        return LineError(
+            path, scan.line(),
+            absl::StrCat("expected 'facet' or 'endsolid', got ", Quote(tok)));
       }
       const int64_t line = scan.line();
       double ignored;

@@ -6,8 +6,8 @@
 #include <cstdint>
 
 #include "lib/core/components.h"
-#include "lib/io/mesh_io.h"
 #include "lib/core/mesh.h"
+#include "lib/io/mesh_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const absl::string_view contents(reinterpret_cast<const char*>(data), size);
