@@ -201,7 +201,7 @@ grpc::Status MeshGaugeService::GetSession(grpc::ServerContext* ctx,
                                           v1::GetSessionResponse* response) {
   return Instrumented(
       "GetSession", ctx, [&](const std::string& tenant) -> absl::Status {
-        auto session = store_->Get(tenant, request->session_id());
+        auto session = store_->Get(tenant, request->session_id(), /*touch=*/false);
         if (!session.ok()) return session.status();
         ToProto((*session)->Snapshot(), clock_->NowSeconds(),
                 response->mutable_session());

@@ -151,7 +151,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
 }
 
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
-    const std::string& tenant, const std::string& id) {
+    const std::string& tenant, const std::string& id, bool touch) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) {
@@ -159,7 +159,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
         "no session ", QuoteId(id),
         " (never created, deleted, or evicted after idling or for memory)"));
   }
-  it->second->Touch(clock_->NowSeconds());
+  if (touch) it->second->Touch(clock_->NowSeconds());
   return it->second;
 }
 

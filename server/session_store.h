@@ -61,9 +61,11 @@ class SessionStore {
                                                   UploadReservation ticket);
 
   // NOT_FOUND names the id (and says it may have been evicted); the same
-  // for another tenant's session, so ids do not leak.
+  // for another tenant's session, so ids do not leak. `touch`: the call uses
+  // the session (resets its idle clock); GetSession only looks.
   absl::StatusOr<std::shared_ptr<Session>> Get(const std::string& tenant,
-                                               const std::string& id);
+                                               const std::string& id,
+                                               bool touch = true);
   absl::Status Delete(const std::string& tenant, const std::string& id);
 
   // The tenant's sessions with id > page_token, in id order, at most

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 #include <string>
 
@@ -16,6 +17,7 @@ namespace meshgauge {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using testing::SharedMesh;
 
 struct CliRun {
@@ -168,21 +170,89 @@ TEST(CliTest, TwoDimensionalHollowShapeWithRegionDirections) {
   std::filesystem::remove(obj);
 }
 
+TEST(CliTest, HelpListsEachVerbsOwnFlagsAndExitsZero) {
+  const CliRun top = RunCli("--help");
+  EXPECT_EQ(top.exit_code, 0);
+  for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "gradcheck",
+                           "shape", "remote"}) {
+    EXPECT_THAT(top.out, HasSubstr(verb));
+  }
+  const CliRun sdf = RunCli("sdf --help");
+  EXPECT_EQ(sdf.exit_code, 0);
+  EXPECT_THAT(sdf.out, HasSubstr("--cone-angle"));
+  EXPECT_THAT(sdf.out, HasSubstr("--csv"));
+  EXPECT_THAT(sdf.out, Not(HasSubstr("--bins")));   // calibrate's.
+  EXPECT_THAT(sdf.out, Not(HasSubstr("--t-min")));  // penalty's.
+  const CliRun pen = RunCli("penalty --help");
+  EXPECT_THAT(pen.out, HasSubstr("--rho"));
+  EXPECT_THAT(pen.out, Not(HasSubstr("--csv")));
+  const CliRun remote_sdf = RunCli("remote sdf --help");
+  EXPECT_EQ(remote_sdf.exit_code, 0);
+  EXPECT_THAT(remote_sdf.out, HasSubstr("--method"));
+}
+
+TEST(CliTest, VersionNamesTheProjectVersionAndBuildType) {
+  const CliRun v = RunCli("--version");
+  EXPECT_EQ(v.exit_code, 0);
+  EXPECT_THAT(v.out, HasSubstr("meshgauge 0."));
+  EXPECT_THAT(v.out, HasSubstr("build)"));
+  EXPECT_THAT(v.out, Not(HasSubstr("NDEBUG")));
+}
+
+TEST(CliTest, EveryFlagTheReadmeNamesExists) {
+  std::ifstream readme(std::string(MESHGAUGE_SOURCE_DIR) + "/README.md");
+  const std::string text((std::istreambuf_iterator<char>(readme)), {});
+  const size_t begin = text.find("## The `meshgauge` CLI");
+  const size_t end = text.find("\n## ", begin + 1);
+  ASSERT_NE(begin, std::string::npos);
+  const std::string section = text.substr(begin, end - begin);
+  CliRun all = RunCli("--help-all");
+  ASSERT_EQ(all.exit_code, 0);
+  all.out += RunCli("remote --help-all").out;  // the remote verbs' own.
+  std::set<std::string> flags;
+  for (size_t i = section.find("--"); i != std::string::npos;
+       i = section.find("--", i + 2)) {
+    size_t j = i + 2;
+    while (j < section.size() &&
+           (std::islower(static_cast<unsigned char>(section[j])) ||
+            section[j] == '-')) {
+      ++j;
+    }
+    if (j - i > 3) flags.insert(section.substr(i, j - i));
+  }
+  EXPECT_GT(flags.size(), 20u);
+  for (const std::string& flag : flags) {
+    EXPECT_THAT(all.out, HasSubstr(flag + " ")) << "README names " << flag;
+  }
+}
+
 TEST(CliTest, PreciseErrors) {
   struct Case {
     std::string args, message;
+    int exit_code;
   };
+  const std::string knight = SharedMesh("decimated-knight.off");
   for (const Case& c : std::vector<Case>{
-           {"sdf /nonexistent.obj", "cannot open mesh file '/nonexistent.obj'"},
-           {"sdf " + SharedMesh("decimated-knight.off") + " --cone-angle 200",
-            "cone angle must be in (0, 180) degrees, got 200"},
-           {"sdf " + SharedMesh("decimated-knight.off") + " --rays 5000",
-            "--rays must be in [1, 4096], got 5000"},
-           {"sdf " + SharedMesh("decimated-knight.off") + " --method foo",
-            "--method must be cone or normal"},
-           {"sdf", "usage: meshgauge sdf MESH"}}) {
+           // Runtime errors: 1.
+           {"sdf /nonexistent.obj", "cannot open mesh file '/nonexistent.obj'",
+            1},
+           {"sdf " + knight + " --cone-angle 200",
+            "cone angle must be in (0, 180) degrees, got 200", 1},
+           // Usage errors: 2.
+           {"sdf " + knight + " --rays 5000",
+            "--rays: Value 5000 not in range 1 to 4096", 2},
+           {"sdf " + knight + " --rays 0", "not in range 1 to 4096", 2},
+           {"sdf " + knight + " --rays abc", "--rays", 2},
+           {"sdf " + knight + " --method foo", "--method: foo not in", 2},
+           {"sdf", "mesh is required", 2},
+           {"sdf " + knight + " " + knight, "not expected", 2},
+           {"sdf " + knight + " --bins 5", "not expected", 2},
+           {"sdf " + knight + " --no-such-flag", "not expected", 2},
+           {"shape sphere", "--out is required", 2},
+           {"penalty " + knight, "--t-min is required", 2},
+           {"frobnicate", "A subcommand is required", 2}}) {
     const CliRun r = RunCli(c.args);
-    EXPECT_EQ(r.exit_code, 1) << c.args;
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args << "\n" << r.out;
     EXPECT_THAT(r.out, HasSubstr(c.message)) << c.args;
   }
   const std::string bad = Tmp("bad.obj");
@@ -243,11 +313,12 @@ TEST(CliDerivativesTest, PenaltyPrintsValueAndWritesGradient) {
   EXPECT_EQ(lines, 503);
   const CliRun no_tmin =
       RunCli("penalty " + SharedMesh("decimated-knight.off"));
-  EXPECT_EQ(no_tmin.exit_code, 1);
-  EXPECT_THAT(no_tmin.out, HasSubstr("t_min must be a finite number > 0"));
+  EXPECT_EQ(no_tmin.exit_code, 2);
+  EXPECT_THAT(no_tmin.out, HasSubstr("--t-min is required"));
   const CliRun bad_phi = RunCli(
       "penalty " + SharedMesh("decimated-knight.off") + " --t-min 1 --form x");
-  EXPECT_THAT(bad_phi.out, HasSubstr("--form must be one-sided, thesis or ks"));
+  EXPECT_EQ(bad_phi.exit_code, 2);
+  EXPECT_THAT(bad_phi.out, HasSubstr("--form: x not in {one-sided,thesis,ks}"));
   std::filesystem::remove(grad);
 }
 

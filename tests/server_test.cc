@@ -400,6 +400,19 @@ TEST_F(ServerTest, IdleSessionsExpireAfterTtl) {
               HasSubstr("meshgauge_session_evictions_total{reason=\"ttl\"} 1"));
 }
 
+TEST_F(ServerTest, GetSessionDoesNotResetTheIdleClock) {
+  ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 2), "idle").ok());
+  clock_.Advance(5);
+  auto first = client_->Get("idle");
+  clock_.Advance(5);
+  auto second = client_->Get("idle");
+  ASSERT_TRUE(first.ok() && second.ok());
+  EXPECT_DOUBLE_EQ(first->idle_seconds(), 5);
+  EXPECT_DOUBLE_EQ(second->idle_seconds(), 10);
+  ASSERT_TRUE(client_->ComputeSdf("idle", ToWireParams({})).ok());
+  EXPECT_DOUBLE_EQ(client_->Get("idle")->idle_seconds(), 0);
+}
+
 TEST_F(ServerTest, MemoryBudgetEvictsLeastRecentlyUsed) {
   server::ServerOptions o;
   const Mesh sphere = MakeIcosphere(1, 10);
@@ -409,7 +422,8 @@ TEST_F(ServerTest, MemoryBudgetEvictsLeastRecentlyUsed) {
   clock_.Advance(1);
   ASSERT_TRUE(client_->Upload(sphere, "b").ok());
   clock_.Advance(1);
-  ASSERT_TRUE(client_->Get("a").ok());  // a is now more recent than b.
+  // A call that uses "a" (GetSession only looks) makes it more recent.
+  ASSERT_TRUE(client_->UpdatePositions("a", 0, 3, sphere.positions).ok());
   clock_.Advance(1);
   ASSERT_TRUE(client_->Upload(sphere, "c").ok());
   EXPECT_TRUE(client_->Get("a").ok());

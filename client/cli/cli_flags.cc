@@ -2,146 +2,160 @@
 
 #include <map>
 
-#include "absl/flags/flag.h"
+#include "absl/strings/match.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "lib/io/mesh_io.h"
 
-ABSL_FLAG(std::string, method, "cone",
-          "SDF method: cone (Shapira et al.) or normal (one ray along the "
-          "axis: physical thickness)");
-ABSL_FLAG(double, cone_angle, 30,
-          "full cone opening angle in degrees, (0,180)");
-ABSL_FLAG(int, rays, 0, "rays per vertex, 1..4096 (0: 100 in 3D, 32 in 2D)");
-ABSL_FLAG(double, kappa, 1.0,
-          "outlier filter: keep |t - median| <= kappa sigma");
-ABSL_FLAG(int, threads, 0, "worker threads (0: all cores)");
-ABSL_FLAG(std::vector<std::string>, region_direction, {},
-          "cone direction per region, ID=inward|outward; repeat the flag or "
-          "separate with commas");
-ABSL_FLAG(bool, reorient, false,
-          "reverse the faces of every closed component whose signed volume "
-          "is negative (and only those)");
-ABSL_FLAG(bool, drop_degenerate_faces, false,
-          "remove zero-area faces (and say how many) instead of rejecting "
-          "the mesh");
-ABSL_FLAG(std::string, csv, "",
-          "write per-vertex CSV: vertex,x,y,z,sdf,normalized,hits,kept,status");
-ABSL_FLAG(std::string, ply, "",
-          "write binary PLY with the SDF in the per-vertex quality property");
-ABSL_FLAG(bool, json, false, "print the summary as one JSON object");
-ABSL_FLAG(double, max_distance, 0,
-          "rays longer than this are misses (0: bounding-box diagonal)");
-ABSL_FLAG(std::string, normals, "area", "vertex normal weighting: area|angle");
-ABSL_FLAG(std::string, out, "", "output file (meshgauge shape)");
-ABSL_FLAG(double, size, 0.05, "element size (meshgauge shape)");
-ABSL_FLAG(double, radius, 1.0, "radius (meshgauge shape)");
-ABSL_FLAG(std::string, weights, "",
-          "meshgauge grad: per-vertex weights g (one number per line, #V "
-          "lines; default all ones)");
-ABSL_FLAG(std::string, vjp, "",
-          "meshgauge grad: write g^T J as CSV vertex,dx,dy,dz");
-ABSL_FLAG(std::string, jacobian, "",
-          "meshgauge grad: write the sparse Jacobian as CSV row,col,dx,dy,dz");
-ABSL_FLAG(double, t_min, 0, "minimum thickness (penalty, calibrate), > 0");
-ABSL_FLAG(
-    std::string, form, "one-sided",
-    "penalty form: one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, "
-    "or ks, the aggregated constraint (1/rho) ln(mean exp(rho(1-t/t_min)))");
-ABSL_FLAG(double, rho, 50, "meshgauge penalty --form ks: aggregation rho > 0");
-ABSL_FLAG(double, max_missing_fraction, 0.5,
-          "penalty: fail when faces without values cover more than this "
-          "fraction of the surface, [0, 1]");
-ABSL_FLAG(int, samples, 12, "meshgauge gradcheck: vertices sampled, >= 1");
-ABSL_FLAG(uint64_t, seed, 1, "meshgauge gradcheck: sampling seed");
-ABSL_FLAG(double, power, 2, "penalty power n >= 1");
-ABSL_FLAG(std::string, grad, "",
-          "meshgauge penalty: write dP/dx as CSV vertex,dx,dy,dz");
-ABSL_FLAG(double, tolerance, 0.01,
-          "meshgauge calibrate: relative tolerance for SDF == thickness");
-ABSL_FLAG(int, bins, 20, "meshgauge calibrate: histogram bins");
-
 namespace meshgauge::cli {
 
-std::vector<std::string> NormalizeArgs(int argc, char** argv) {
-  std::vector<std::string> out;
-  std::vector<std::string> regions;
-  for (int i = 0; i < argc; ++i) {
-    std::string arg = argv[i];
-    if (i > 0 && arg.rfind("--", 0) == 0 && arg != "--") {
-      const size_t eq = arg.find('=');
-      std::string name = arg.substr(2, eq == std::string::npos ? eq : eq - 2);
-      for (char& c : name) c = c == '-' ? '_' : c;
-      if (name == "region_direction") {
-        if (eq != std::string::npos) {
-          regions.push_back(arg.substr(eq + 1));
-        } else if (i + 1 < argc) {
-          regions.push_back(argv[++i]);
-        }
-        continue;
-      }
-      arg = "--" + name + (eq == std::string::npos ? "" : arg.substr(eq));
-    }
-    out.push_back(arg);
-  }
-  if (!regions.empty()) {
-    out.push_back("--region_direction=" + absl::StrJoin(regions, ","));
-  }
-  return out;
+void AddSdfFlags(CLI::App* app, SdfFlags* f) {
+  app->add_option("--method", f->method,
+                  "cone (Shapira et al.) or normal (one ray along the axis: "
+                  "physical thickness)")
+      ->check(CLI::IsMember({"cone", "normal"}))
+      ->capture_default_str();
+  app->add_option("--cone-angle", f->cone_angle,
+                  "full cone opening angle in degrees, (0, 180)")
+      ->capture_default_str();
+  app->add_option("--rays", f->rays,
+                  "rays per vertex, 1..4096 (default 100 in 3D, 32 in 2D)")
+      ->check(CLI::Range(1, 4096));
+  app->add_option("--kappa", f->kappa,
+                  "outlier filter: keep |t - median| <= kappa sigma, >= 0")
+      ->capture_default_str();
+  app->add_option("--threads", f->threads, "worker threads (0: all cores)")
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+  app->add_option("--max-distance", f->max_distance,
+                  "rays longer than this are misses (0: bounding-box "
+                  "diagonal)")
+      ->capture_default_str();
+  app->add_option("--normals", f->normals,
+                  "vertex normal weighting: area, or angle (values only)")
+      ->check(CLI::IsMember({"area", "angle"}))
+      ->capture_default_str();
 }
 
-absl::StatusOr<SdfParams> SdfParamsFromFlags() {
+void AddMeshFlags(CLI::App* app, MeshFlags* f) {
+  app->add_option("--region-direction", f->region_directions,
+                  "cone direction per region, ID=inward|outward; repeat the "
+                  "flag or separate with commas")
+      ->delimiter(',');
+  app->add_flag("--reorient", f->reorient,
+                "reverse the faces of every closed component whose signed "
+                "volume is negative (and only those)");
+  app->add_flag("--drop-degenerate-faces", f->drop_degenerate_faces,
+                "remove zero-area faces (and say how many) instead of "
+                "rejecting the mesh");
+}
+
+void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
+  if (files) {
+    app->add_option("--csv", f->csv,
+                    "write per-vertex CSV: "
+                    "vertex,x,y,z,sdf,normalized,hits,kept,status");
+    app->add_option("--ply", f->ply,
+                    "write binary PLY with the SDF in the per-vertex quality "
+                    "property");
+  }
+  app->add_flag("--json", f->json, "print the summary as one JSON object");
+}
+
+void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
+  CLI::Option* t = app->add_option("--t-min", f->t_min,
+                                   "minimum thickness, mesh units, > 0");
+  if (t_min_required) t->required();
+  app->add_option("--form", f->form,
+                  "one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, or ks, "
+                  "the aggregated constraint (1/rho) ln(mean "
+                  "exp(rho(1-t/t_min)))")
+      ->check(CLI::IsMember({"one-sided", "thesis", "ks"}))
+      ->capture_default_str();
+  app->add_option("--power", f->power, "penalty power n >= 1")
+      ->capture_default_str();
+  app->add_option("--rho", f->rho, "KS aggregation rho > 0 (--form ks)")
+      ->capture_default_str();
+  app->add_option("--max-missing-fraction", f->max_missing_fraction,
+                  "fail when faces without values cover more than this "
+                  "fraction of the surface, [0, 1]")
+      ->capture_default_str();
+  app->add_option("--grad", f->grad,
+                  "write dP/dx (dG/dx) as CSV vertex,dx,dy,dz");
+}
+
+void AddGradFlags(CLI::App* app, GradFlags* f) {
+  app->add_option("--weights", f->weights,
+                  "per-vertex weights g (one number per line, #V lines; "
+                  "default all ones)");
+  app->add_option("--vjp", f->vjp, "write g^T J as CSV vertex,dx,dy,dz");
+  app->add_option("--jacobian", f->jacobian,
+                  "write the sparse Jacobian as CSV row,col,dx,dy,dz");
+}
+
+void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f) {
+  app->add_option("--t-min", f->t_min, "minimum thickness, mesh units, > 0")
+      ->required();
+  app->add_option("--tolerance", f->tolerance,
+                  "relative tolerance for SDF == thickness")
+      ->capture_default_str();
+  app->add_option("--bins", f->bins, "histogram bins, 1..1000")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+}
+
+void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f) {
+  app->add_option("--samples", f->samples, "vertices sampled, >= 1")
+      ->check(CLI::Range(1, 1000000))
+      ->capture_default_str();
+  app->add_option("--seed", f->seed, "sampling seed")->capture_default_str();
+  app->add_option("--fd-tolerance", f->fd_tolerance,
+                  "relative error allowed on clean samples")
+      ->capture_default_str();
+}
+
+void AddRemoteFlags(CLI::App* app, RemoteFlags* f) {
+  app->add_option("--server", f->server, "server address host:port")
+      ->capture_default_str();
+  app->add_option("--tls-ca-file", f->tls_ca_file,
+                  "connect with TLS, trusting this PEM CA");
+  app->add_option("--tls-cert-file", f->tls_cert_file,
+                  "client certificate (PEM) for mutual TLS");
+  app->add_option("--tls-key-file", f->tls_key_file,
+                  "private key (PEM) of --tls-cert-file");
+  app->add_option("--token-file", f->token_file,
+                  "file whose first line is the bearer token (default: the "
+                  "MESHGAUGE_TOKEN environment variable)");
+}
+
+absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {
   SdfParams p;
-  const std::string method = absl::GetFlag(FLAGS_method);
-  if (method == "cone") {
-    p.method = SdfMethod::kCone;
-  } else if (method == "normal") {
-    p.method = SdfMethod::kNormalRay;
-  } else {
+  p.method = f.method == "normal" ? SdfMethod::kNormalRay : SdfMethod::kCone;
+  p.normal_weighting =
+      f.normals == "angle" ? NormalWeighting::kAngle : NormalWeighting::kArea;
+  p.cone_angle_degrees = f.cone_angle;
+  p.rays = f.rays;
+  p.kappa = f.kappa;
+  p.threads = f.threads;
+  p.max_distance = f.max_distance;
+  if (absl::Status s = ValidateParams(p); !s.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat("--method must be cone or normal, got '", method, "'"));
+        absl::StrCat("--cone-angle/--kappa/--max-distance: ", s.message()));
   }
-  const std::string normals = absl::GetFlag(FLAGS_normals);
-  if (normals == "area") {
-    p.normal_weighting = NormalWeighting::kArea;
-  } else if (normals == "angle") {
-    p.normal_weighting = NormalWeighting::kAngle;
-  } else {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--normals must be area or angle, got '", normals, "'"));
-  }
-  p.cone_angle_degrees = absl::GetFlag(FLAGS_cone_angle);
-  p.rays = absl::GetFlag(FLAGS_rays);
-  p.kappa = absl::GetFlag(FLAGS_kappa);
-  p.threads = absl::GetFlag(FLAGS_threads);
-  p.max_distance = absl::GetFlag(FLAGS_max_distance);
-  if (absl::GetFlag(FLAGS_rays) < 0 || absl::GetFlag(FLAGS_rays) > 4096) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--rays must be in [1, 4096], got ", absl::GetFlag(FLAGS_rays)));
-  }
-  if (absl::Status s = ValidateParams(p); !s.ok()) return s;
   return p;
 }
 
-absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags() {
+absl::StatusOr<PenaltyParams> ToPenaltyParams(const PenaltyFlags& f) {
   PenaltyParams pp;
-  pp.t_min = absl::GetFlag(FLAGS_t_min);
-  pp.power = absl::GetFlag(FLAGS_power);
-  pp.rho = absl::GetFlag(FLAGS_rho);
-  pp.max_missing_fraction = absl::GetFlag(FLAGS_max_missing_fraction);
-  const std::string form = absl::GetFlag(FLAGS_form);
-  if (form == "one-sided") {
-    pp.form = PenaltyForm::kOneSided;
-  } else if (form == "thesis") {
-    pp.form = PenaltyForm::kThesis;
-  } else if (form == "ks") {
-    pp.form = PenaltyForm::kKs;
-  } else {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--form must be one-sided, thesis or ks, got '", form, "'"));
-  }
+  pp.t_min = f.t_min;
+  pp.power = f.power;
+  pp.rho = f.rho;
+  pp.max_missing_fraction = f.max_missing_fraction;
+  pp.form = f.form == "ks"       ? PenaltyForm::kKs
+            : f.form == "thesis" ? PenaltyForm::kThesis
+                                 : PenaltyForm::kOneSided;
   if (absl::Status s = ValidatePenaltyParams(pp); !s.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--t-min/--power/--rho/--max-missing-fraction: ", s.message()));
@@ -151,8 +165,9 @@ absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags() {
 
 namespace {
 
-absl::Status ApplyRegionDirections(Mesh& mesh) {
-  for (const std::string& entry : absl::GetFlag(FLAGS_region_direction)) {
+absl::Status ApplyRegionDirections(Mesh& mesh,
+                                   const std::vector<std::string>& entries) {
+  for (const std::string& entry : entries) {
     std::vector<std::string> kv = absl::StrSplit(entry, '=');
     int32_t id = 0;
     if (kv.size() != 2 || !absl::SimpleAtoi(kv[0], &id) ||
@@ -168,15 +183,20 @@ absl::Status ApplyRegionDirections(Mesh& mesh) {
 
 }  // namespace
 
-absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path) {
+absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
+                                    const MeshFlags& flags) {
   auto read = ReadMeshFile(path);
   if (!read.ok()) return read.status();
   LoadedMesh loaded;
   loaded.mesh = std::move(read->mesh);
   loaded.format = read->format;
   loaded.polygons_triangulated = read->polygons_triangulated;
-  if (absl::Status s = ApplyRegionDirections(loaded.mesh); !s.ok()) return s;
-  if (absl::GetFlag(FLAGS_drop_degenerate_faces)) {
+  if (absl::Status s =
+          ApplyRegionDirections(loaded.mesh, flags.region_directions);
+      !s.ok()) {
+    return s;
+  }
+  if (flags.drop_degenerate_faces) {
     loaded.dropped_faces = DropDegenerateFaces(loaded.mesh);
     if (loaded.dropped_faces > 0) {
       loaded.warnings.push_back(
@@ -191,7 +211,7 @@ absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path) {
                          ? " (--drop-degenerate-faces removes them)"
                          : ""));
   }
-  if (absl::GetFlag(FLAGS_reorient)) {
+  if (flags.reorient) {
     loaded.reoriented = ReorientInwardComponents(loaded.mesh);
     if (loaded.reoriented > 0) {
       loaded.warnings.push_back(absl::StrCat(

@@ -1,62 +1,95 @@
-// Flags shared by the meshgauge CLI verbs, and their conversion to library
-// types. Flags are defined only here and parsed only in main.cc.
+// The meshgauge CLI's flags: one options struct per concern, registered on
+// each subcommand that takes them (CLI11, dashed long names), and their
+// conversion to library types. This file is the only place flags are
+// defined; commands receive the filled structs.
 #pragma once
 
+#include <CLI/CLI.hpp>
+#include <cstdint>
 #include <string>
 #include <vector>
 
-#include "absl/flags/declare.h"
 #include "absl/status/statusor.h"
 #include "lib/core/components.h"
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
 
-ABSL_DECLARE_FLAG(std::string, method);
-ABSL_DECLARE_FLAG(double, cone_angle);
-ABSL_DECLARE_FLAG(int, rays);
-ABSL_DECLARE_FLAG(double, kappa);
-ABSL_DECLARE_FLAG(int, threads);
-ABSL_DECLARE_FLAG(std::vector<std::string>, region_direction);
-ABSL_DECLARE_FLAG(bool, reorient);
-ABSL_DECLARE_FLAG(bool, drop_degenerate_faces);
-ABSL_DECLARE_FLAG(std::string, csv);
-ABSL_DECLARE_FLAG(std::string, ply);
-ABSL_DECLARE_FLAG(bool, json);
-ABSL_DECLARE_FLAG(double, max_distance);
-ABSL_DECLARE_FLAG(std::string, normals);
-ABSL_DECLARE_FLAG(std::string, out);
-ABSL_DECLARE_FLAG(double, size);
-ABSL_DECLARE_FLAG(double, radius);
-ABSL_DECLARE_FLAG(std::string, weights);
-ABSL_DECLARE_FLAG(std::string, vjp);
-ABSL_DECLARE_FLAG(std::string, jacobian);
-ABSL_DECLARE_FLAG(double, t_min);
-ABSL_DECLARE_FLAG(std::string, form);
-ABSL_DECLARE_FLAG(double, rho);
-ABSL_DECLARE_FLAG(double, max_missing_fraction);
-ABSL_DECLARE_FLAG(int, samples);
-ABSL_DECLARE_FLAG(uint64_t, seed);
-ABSL_DECLARE_FLAG(double, power);
-ABSL_DECLARE_FLAG(std::string, grad);
-ABSL_DECLARE_FLAG(double, tolerance);
-ABSL_DECLARE_FLAG(int, bins);
-
 namespace meshgauge::cli {
 
-// Rewrites argv so that `--cone-angle` style names become absl's
-// `--cone_angle`, and repeated `--region-direction A --region-direction B`
-// become one comma-separated list. Values are left untouched.
-std::vector<std::string> NormalizeArgs(int argc, char** argv);
+// --method --cone-angle --rays --kappa --threads --max-distance --normals.
+struct SdfFlags {
+  std::string method = "cone";
+  double cone_angle = 30;
+  int rays = 0;  // 0: not given (100 in 3D, 32 in 2D).
+  double kappa = 1.0;
+  int threads = 0;
+  double max_distance = 0;
+  std::string normals = "area";
+};
 
-// SdfParams from --method --cone-angle --rays --kappa --threads
-// --max-distance --normals. Errors: InvalidArgument naming the flag.
-absl::StatusOr<SdfParams> SdfParamsFromFlags();
+// --region-direction --reorient --drop-degenerate-faces.
+struct MeshFlags {
+  std::vector<std::string> region_directions;
+  bool reorient = false;
+  bool drop_degenerate_faces = false;
+};
 
-// PenaltyParams from --t-min --form --power --rho
-// --max-missing-fraction, validated. Errors:
-// InvalidArgument naming the flag.
-absl::StatusOr<PenaltyParams> PenaltyParamsFromFlags();
+// --csv --ply --json.
+struct OutputFlags {
+  std::string csv, ply;
+  bool json = false;
+};
+
+// --t-min --form --power --rho --max-missing-fraction --grad.
+struct PenaltyFlags {
+  double t_min = 0;
+  std::string form = "one-sided";
+  double power = 2;
+  double rho = 50;
+  double max_missing_fraction = 0.5;
+  std::string grad;
+};
+
+// --weights --vjp --jacobian.
+struct GradFlags {
+  std::string weights, vjp, jacobian;
+};
+
+// --t-min --tolerance --bins.
+struct CalibrateFlags {
+  double t_min = 0;
+  double tolerance = 0.01;
+  int bins = 20;
+};
+
+// --samples --seed --fd-tolerance (and the penalty's with --t-min).
+struct GradcheckFlags {
+  int samples = 12;
+  uint64_t seed = 1;
+  double fd_tolerance = 1e-5;
+};
+
+// --server --tls-ca-file --tls-cert-file --tls-key-file --token-file.
+struct RemoteFlags {
+  std::string server = "127.0.0.1:50051";
+  std::string tls_ca_file, tls_cert_file, tls_key_file, token_file;
+};
+
+void AddSdfFlags(CLI::App* app, SdfFlags* f);
+void AddMeshFlags(CLI::App* app, MeshFlags* f);
+void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files);
+// t_min_required: --t-min is required (penalty) or optional (gradcheck).
+void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required);
+void AddGradFlags(CLI::App* app, GradFlags* f);
+void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f);
+void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f);
+void AddRemoteFlags(CLI::App* app, RemoteFlags* f);
+
+// SdfParams, validated. Errors: InvalidArgument naming the flag.
+absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f);
+// PenaltyParams, validated. Errors: InvalidArgument naming the flag.
+absl::StatusOr<PenaltyParams> ToPenaltyParams(const PenaltyFlags& f);
 
 // A mesh read from a file with --region-direction, --drop-degenerate-faces
 // and --reorient applied.
@@ -75,6 +108,7 @@ struct LoadedMesh {
 // Reads and validates `path`; inward-oriented closed components, double-
 // sided faces and open meshes are reported in `warnings`; the inward
 // components are reversed only with --reorient.
-absl::StatusOr<LoadedMesh> LoadMeshFromFlags(const std::string& path);
+absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
+                                    const MeshFlags& flags);
 
 }  // namespace meshgauge::cli

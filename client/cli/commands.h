@@ -1,40 +1,63 @@
-// The meshgauge CLI verbs. Each takes the positional arguments after the
-// verb and returns OK or the error to print (exit status 1).
+// The meshgauge CLI verbs. Each takes its parsed options (cli_flags.h) and
+// returns OK or the error to print (exit status 1).
 #pragma once
 
+#include <cstdint>
 #include <string>
-#include <vector>
 
 #include "absl/status/status.h"
+#include "client/cli/cli_flags.h"
 
 namespace meshgauge::cli {
 
-// meshgauge sdf MESH [flags]: SDF per vertex, summary on stdout.
-absl::Status RunSdf(const std::vector<std::string>& args);
+// Options every verb that reads a mesh file takes.
+struct MeshInput {
+  std::string mesh;
+  SdfFlags sdf;
+  MeshFlags mesh_flags;
+  OutputFlags out;
+};
 
-// meshgauge grad MESH [--weights FILE] [--vjp FILE] [--jacobian FILE]:
-// sensitivities of the SDF (SPEC §6).
-absl::Status RunGrad(const std::vector<std::string>& args);
+// meshgauge sdf MESH: SDF per vertex, summary on stdout.
+absl::Status RunSdf(const MeshInput& in);
 
-// meshgauge penalty MESH --t-min T [--form one-sided|thesis|ks] [--power n]
-// [--rho R] [--grad FILE]: minimum-thickness penalty or aggregated
+// meshgauge grad MESH: sensitivities of the SDF (SPEC §6).
+absl::Status RunGrad(const MeshInput& in, const GradFlags& grad);
+
+// meshgauge penalty MESH --t-min T: minimum-thickness penalty or aggregated
 // constraint and its gradient (SPEC §7).
-absl::Status RunPenalty(const std::vector<std::string>& args);
+absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& penalty);
 
-// meshgauge gradcheck MESH [--samples N] [--seed S] [--t-min T]: central
-// differences against the analytic derivatives (SPEC §6); exit 1 on FAIL.
-absl::Status RunGradcheck(const std::vector<std::string>& args);
+// meshgauge calibrate MESH --t-min T: SDF vs physical thickness (SPEC §8).
+absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& cal);
 
-// meshgauge calibrate MESH --t-min T [--tolerance R] [--bins N] [--json]:
-// SDF vs physical thickness (SPEC §8).
-absl::Status RunCalibrate(const std::vector<std::string>& args);
+// meshgauge gradcheck MESH: central differences against the analytic
+// derivatives (SPEC §6), and of the penalty with --t-min; FailedPrecondition
+// (exit 1) on FAIL.
+absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
+                          const PenaltyFlags& penalty);
 
-// meshgauge remote upload|list|info|delete|sdf|grad|penalty|update ...:
-// the same work through a meshgauge-server (--server host:port).
-absl::Status RunRemote(const std::vector<std::string>& args);
+// meshgauge shape KIND --out FILE: writes an analytic test shape (OBJ; 2D
+// shapes as `l` polylines).
+struct ShapeInput {
+  std::string kind, out;
+  double size = 0.05, radius = 1.0;
+};
+absl::Status RunShape(const ShapeInput& in);
 
-// meshgauge shape circle|sphere|torus|hollow --size H --radius R --out FILE:
-// writes an analytic test shape (OBJ; 2D shapes as `l` polylines).
-absl::Status RunShape(const std::vector<std::string>& args);
+// meshgauge remote VERB ...: the same work through a meshgauge-server.
+struct RemoteInput {
+  RemoteFlags remote;
+  std::string verb;
+  std::string target;  // the mesh file (upload) or the session id.
+  std::string session_id;
+  std::string positions;
+  int64_t generation = -1;
+  MeshInput in;  // in.mesh unused; in.sdf, in.mesh_flags, in.out used.
+  GradFlags grad;
+  PenaltyFlags penalty;
+  CalibrateFlags calibrate;
+};
+absl::Status RunRemote(const RemoteInput& in);
 
 }  // namespace meshgauge::cli

@@ -4,7 +4,6 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "absl/flags/flag.h"
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -28,12 +27,10 @@ struct Prepared {
   HitTable hits;
 };
 
-absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
-                                 const char* usage, bool keep_hits) {
-  if (args.size() != 1) return absl::InvalidArgumentError(usage);
-  auto params = SdfParamsFromFlags();
+absl::StatusOr<Prepared> Prepare(const MeshInput& in, bool keep_hits) {
+  auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
-  auto loaded = LoadMeshFromFlags(args[0]);
+  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
   if (!loaded.ok()) return loaded.status();
   for (const std::string& w : loaded->warnings) {
     std::cerr << "meshgauge: warning: " << w << "\n";
@@ -54,17 +51,14 @@ absl::StatusOr<Prepared> Prepare(const std::vector<std::string>& args,
 
 }  // namespace
 
-absl::Status RunGrad(const std::vector<std::string>& args) {
-  auto prep = Prepare(args,
-                      "usage: meshgauge grad MESH [--weights FILE] "
-                      "[--vjp FILE] [--jacobian FILE]",
-                      true);
+absl::Status RunGrad(const MeshInput& in, const GradFlags& grad) {
+  auto prep = Prepare(in, true);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = *prep->evaluator;
   nlohmann::json j;
   j["vertices"] = ev.mesh().num_vertices();
   j["ok"] = prep->result.CountStatus(VertexStatus::kOk);
-  if (const std::string path = absl::GetFlag(FLAGS_jacobian); !path.empty()) {
+  if (const std::string& path = grad.jacobian; !path.empty()) {
     auto jac = ComputeJacobian(ev, prep->hits);
     if (!jac.ok()) return jac.status();
     std::ofstream out(path);
@@ -83,15 +77,15 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
     j["jacobian_nonzeros"] = jac->nonzeros();
   }
   auto weights =
-      ReadWeights(absl::GetFlag(FLAGS_weights), ev.mesh().num_vertices());
+      ReadWeights(grad.weights, ev.mesh().num_vertices());
   if (!weights.ok()) return weights.status();
   auto vjp = ComputeVjp(ev, prep->hits, *weights);
   if (!vjp.ok()) return vjp.status();
   j["vjp_max_norm"] = MaxNorm(*vjp);
-  if (const std::string path = absl::GetFlag(FLAGS_vjp); !path.empty()) {
+  if (const std::string& path = grad.vjp; !path.empty()) {
     if (absl::Status s = WriteVectorCsv(path, *vjp); !s.ok()) return s;
   }
-  if (absl::GetFlag(FLAGS_json)) {
+  if (in.out.json) {
     std::cout << j.dump() << "\n";
   } else {
     std::cout << absl::StrFormat(
@@ -105,17 +99,13 @@ absl::Status RunGrad(const std::vector<std::string>& args) {
   return absl::OkStatus();
 }
 
-absl::Status RunPenalty(const std::vector<std::string>& args) {
-  auto penalty = PenaltyParamsFromFlags();
+absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags) {
+  auto penalty = ToPenaltyParams(flags);
   if (!penalty.ok()) return penalty.status();
   const PenaltyParams& pp = *penalty;
-  auto prep = Prepare(args,
-                      "usage: meshgauge penalty MESH --t-min T "
-                      "[--form one-sided|thesis|ks] [--power n] [--rho R] "
-                      "[--grad FILE]",
-                      true);
+  auto prep = Prepare(in, true);
   if (!prep.ok()) return prep.status();
-  const std::string grad_path = absl::GetFlag(FLAGS_grad);
+  const std::string& grad_path = flags.grad;
   auto pen = ComputePenalty(*prep->evaluator, prep->result, pp,
                             grad_path.empty() ? nullptr : &prep->hits);
   if (!pen.ok()) return pen.status();
@@ -138,7 +128,7 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
   j["missing_area_fraction"] = pen->missing.area_fraction;
   j["world_frame_vertices"] = prep->result.world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
-  if (absl::GetFlag(FLAGS_json)) {
+  if (in.out.json) {
     std::cout << j.dump() << "\n";
     return absl::OkStatus();
   }
@@ -158,16 +148,13 @@ absl::Status RunPenalty(const std::vector<std::string>& args) {
   return absl::OkStatus();
 }
 
-absl::Status RunCalibrate(const std::vector<std::string>& args) {
-  auto prep = Prepare(args,
-                      "usage: meshgauge calibrate MESH --t-min T "
-                      "[--tolerance R] [--bins N] [--json]",
-                      false);
+absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& flags) {
+  auto prep = Prepare(in, false);
   if (!prep.ok()) return prep.status();
   CalibrationParams cp;
-  cp.t_min = absl::GetFlag(FLAGS_t_min);
-  cp.equal_tolerance = absl::GetFlag(FLAGS_tolerance);
-  cp.bins = absl::GetFlag(FLAGS_bins);
+  cp.t_min = flags.t_min;
+  cp.equal_tolerance = flags.tolerance;
+  cp.bins = flags.bins;
   cp.sdf = prep->params;
   auto rep = Calibrate(*prep->evaluator, cp);
   if (!rep.ok()) return rep.status();
@@ -183,7 +170,7 @@ absl::Status RunCalibrate(const std::vector<std::string>& args) {
   j["histogram_range"] = {rep->sdf_histogram.lo, rep->sdf_histogram.hi};
   j["sdf_histogram"] = rep->sdf_histogram.counts;
   j["thickness_histogram"] = rep->thickness_histogram.counts;
-  if (absl::GetFlag(FLAGS_json)) {
+  if (in.out.json) {
     std::cout << j.dump() << "\n";
     return absl::OkStatus();
   }

@@ -3,14 +3,10 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "absl/flags/flag.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 #include "lib/embree/gradcheck.h"
-
-ABSL_FLAG(double, fd_tolerance, 1e-5,
-          "meshgauge gradcheck: relative error allowed on clean samples");
 
 namespace meshgauge::cli {
 namespace {
@@ -47,24 +43,20 @@ void PrintTable(const GradCheckReport& rep, double tolerance) {
 
 }  // namespace
 
-absl::Status RunGradcheck(const std::vector<std::string>& args) {
-  if (args.size() != 1) {
-    return absl::InvalidArgumentError(
-        "usage: meshgauge gradcheck MESH [sdf flags] [--samples N] [--seed S] "
-        "[--t-min T [penalty flags]] [--fd-tolerance R] [--json]");
-  }
-  auto params = SdfParamsFromFlags();
+absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
+                          const PenaltyFlags& penalty_flags) {
+  auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
   GradCheckOptions options;
-  options.samples = absl::GetFlag(FLAGS_samples);
-  options.seed = absl::GetFlag(FLAGS_seed);
-  options.tolerance = absl::GetFlag(FLAGS_fd_tolerance);
-  if (absl::GetFlag(FLAGS_t_min) != 0) {
-    auto penalty = PenaltyParamsFromFlags();
+  options.samples = check.samples;
+  options.seed = check.seed;
+  options.tolerance = check.fd_tolerance;
+  if (penalty_flags.t_min != 0) {
+    auto penalty = ToPenaltyParams(penalty_flags);
     if (!penalty.ok()) return penalty.status();
     options.penalty = *penalty;
   }
-  auto loaded = LoadMeshFromFlags(args[0]);
+  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
   if (!loaded.ok()) return loaded.status();
   for (const std::string& w : loaded->warnings) {
     std::cerr << "meshgauge: warning: " << w << "\n";
@@ -73,7 +65,7 @@ absl::Status RunGradcheck(const std::vector<std::string>& args) {
   if (!rep.ok()) return rep.status();
   const int64_t samples = std::ssize(rep->rows);
   const bool passed = rep->Passed();
-  if (absl::GetFlag(FLAGS_json)) {
+  if (in.out.json) {
     nlohmann::json j;
     j["samples"] = samples;
     j["clean"] = rep->clean;

@@ -5,7 +5,6 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "absl/flags/flag.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_flags.h"
@@ -14,34 +13,8 @@
 #include "client/remote/remote_client.h"
 #include "lib/io/mesh_io.h"
 
-ABSL_FLAG(std::string, server, "127.0.0.1:50051",
-          "meshgauge remote: server address host:port");
-ABSL_FLAG(std::string, session_id, "",
-          "meshgauge remote upload: session id (default: server-assigned)");
-ABSL_FLAG(std::string, positions, "",
-          "meshgauge remote update: mesh file with the new positions (same "
-          "vertex count)");
-ABSL_FLAG(int64_t, generation, -1,
-          "meshgauge remote update: expected generation (-1: the current)");
-ABSL_FLAG(std::string, tls_ca_file, "",
-          "meshgauge remote: connect with TLS, trusting this PEM CA");
-ABSL_FLAG(std::string, tls_cert_file, "",
-          "meshgauge remote: client certificate (PEM) for mutual TLS");
-ABSL_FLAG(std::string, tls_key_file, "",
-          "meshgauge remote: private key (PEM) of --tls-cert-file");
-ABSL_FLAG(std::string, token_file, "",
-          "meshgauge remote: file whose first line is the bearer token "
-          "(default: the MESHGAUGE_TOKEN environment variable)");
-
 namespace meshgauge::cli {
 namespace {
-
-constexpr char kUsage[] =
-    "usage: meshgauge remote upload MESH [--session-id ID] | list | health | "
-    "info ID | "
-    "delete ID | sdf ID [--csv FILE] | grad ID [--weights FILE] [--vjp FILE] | "
-    "penalty ID --t-min T [--phi ...] [--power n] [--grad FILE] | update ID "
-    "--positions MESH [--generation G]   (all take --server host:port)";
 
 nlohmann::json InfoJson(const v1::SessionInfo& s) {
   return {{"session_id", s.session_id()},
@@ -59,38 +32,32 @@ nlohmann::json InfoJson(const v1::SessionInfo& s) {
            std::vector<std::string>(s.warnings().begin(), s.warnings().end())}};
 }
 
-void Print(const nlohmann::json& j) {
-  if (absl::GetFlag(FLAGS_json)) {
+void Print(const nlohmann::json& j, bool json) {
+  if (json) {
     std::cout << j.dump() << "\n";
     return;
   }
   for (const auto& [k, v] : j.items()) std::cout << k << ": " << v << "\n";
 }
 
-absl::Status NeedArgs(const std::vector<std::string>& args, size_t n) {
-  return args.size() == n ? absl::OkStatus()
-                          : absl::InvalidArgumentError(kUsage);
-}
-
-absl::Status Upload(client::RemoteClient& c,
-                    const std::vector<std::string>& a) {
-  if (absl::Status s = NeedArgs(a, 2); !s.ok()) return s;
-  auto loaded = LoadMeshFromFlags(a[1]);
+absl::Status Upload(client::RemoteClient& c, const RemoteInput& in) {
+  auto loaded = LoadMesh(in.target, in.in.mesh_flags);
   if (!loaded.ok()) return loaded.status();
   for (const auto& w : loaded->warnings)
     std::cerr << "meshgauge: warning: " << w << "\n";
-  auto info = c.Upload(loaded->mesh, absl::GetFlag(FLAGS_session_id));
+  auto info = c.Upload(loaded->mesh, in.session_id);
   if (!info.ok()) return info.status();
-  Print(InfoJson(*info));
+  Print(InfoJson(*info), in.in.out.json);
   return absl::OkStatus();
 }
 
-absl::Status Sdf(client::RemoteClient& c, const std::string& id) {
-  auto params = SdfParamsFromFlags();
+absl::Status Sdf(client::RemoteClient& c, const RemoteInput& in) {
+  const std::string& id = in.target;
+  auto params = ToSdfParams(in.in.sdf);
   if (!params.ok()) return params.status();
   auto r = c.ComputeSdf(id, client::ToWireParams(*params));
   if (!r.ok()) return r.status();
-  if (const std::string csv = absl::GetFlag(FLAGS_csv); !csv.empty()) {
+  if (const std::string& csv = in.in.out.csv; !csv.empty()) {
     std::ofstream out(csv);
     out << "vertex,sdf,normalized,hits,kept,status\n";
     for (size_t i = 0; i < r->values.size(); ++i) {
@@ -119,36 +86,40 @@ absl::Status Sdf(client::RemoteClient& c, const std::string& id) {
          {"integral", s.integral()},
          {"rays", s.rays()},
          {"seconds", s.seconds()},
-         {"reused_hits", s.reused_hits()}});
+         {"reused_hits", s.reused_hits()}},
+        in.in.out.json);
   return absl::OkStatus();
 }
 
-absl::Status Grad(client::RemoteClient& c, const std::string& id) {
-  auto params = SdfParamsFromFlags();
+absl::Status Grad(client::RemoteClient& c, const RemoteInput& in) {
+  const std::string& id = in.target;
+  auto params = ToSdfParams(in.in.sdf);
   if (!params.ok()) return params.status();
   auto info = c.Get(id);
   if (!info.ok()) return info.status();
-  auto w = ReadWeights(absl::GetFlag(FLAGS_weights), info->num_vertices());
+  auto w = ReadWeights(in.grad.weights, info->num_vertices());
   if (!w.ok()) return w.status();
   auto r = c.ComputeVjp(id, client::ToWireParams(*params), *w);
   if (!r.ok()) return r.status();
   const auto grad = client::FromFlattened(r->gradient(), info->dimension());
-  if (const std::string path = absl::GetFlag(FLAGS_vjp); !path.empty()) {
+  if (const std::string& path = in.grad.vjp; !path.empty()) {
     if (absl::Status s = WriteVectorCsv(path, grad); !s.ok()) return s;
   }
   Print({{"generation", r->generation()},
          {"vjp_max_norm", MaxNorm(grad)},
          {"reused_hits", r->reused_hits()},
-         {"seconds", r->seconds()}});
+         {"seconds", r->seconds()}},
+        in.in.out.json);
   return absl::OkStatus();
 }
 
-absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
-  auto params = SdfParamsFromFlags();
+absl::Status Penalty(client::RemoteClient& c, const RemoteInput& in) {
+  const std::string& id = in.target;
+  auto params = ToSdfParams(in.in.sdf);
   if (!params.ok()) return params.status();
-  auto penalty = PenaltyParamsFromFlags();
+  auto penalty = ToPenaltyParams(in.penalty);
   if (!penalty.ok()) return penalty.status();
-  const std::string grad_path = absl::GetFlag(FLAGS_grad);
+  const std::string& grad_path = in.penalty.grad;
   auto info = c.Get(id);
   if (!info.ok()) return info.status();
   auto r = c.ComputePenalty(id, client::ToWireParams(*params), *penalty,
@@ -170,37 +141,60 @@ absl::Status Penalty(client::RemoteClient& c, const std::string& id) {
          {"missing_area_fraction", r->missing().area_fraction()},
          {"world_frame_vertices", r->world_frame_vertices()},
          {"sdf_min", r->sdf_min()},
-         {"reused_hits", r->reused_hits()}});
+         {"reused_hits", r->reused_hits()}},
+        in.in.out.json);
   return absl::OkStatus();
 }
 
-absl::Status Update(client::RemoteClient& c, const std::string& id) {
-  const std::string path = absl::GetFlag(FLAGS_positions);
-  if (path.empty())
-    return absl::InvalidArgumentError("--positions MESH is required");
-  auto mesh = ReadMesh(path);
+absl::Status Calibrate(client::RemoteClient& c, const RemoteInput& in) {
+  auto params = ToSdfParams(in.in.sdf);
+  if (!params.ok()) return params.status();
+  auto r = c.Calibrate(in.target, client::ToWireParams(*params),
+                       in.calibrate.t_min, in.calibrate.tolerance,
+                       in.calibrate.bins);
+  if (!r.ok()) return r.status();
+  Print({{"compared", r->compared()},
+         {"sdf_lower", r->sdf_lower()},
+         {"sdf_equal", r->sdf_equal()},
+         {"sdf_higher", r->sdf_higher()},
+         {"equal_tolerance", in.calibrate.tolerance},
+         {"t_min", in.calibrate.t_min},
+         {"alpha1", r->alpha1()},
+         {"alpha2", r->alpha2()},
+         {"histogram_range", {r->histogram_lo(), r->histogram_hi()}},
+         {"sdf_histogram", std::vector<int64_t>(r->sdf_histogram().begin(),
+                                                r->sdf_histogram().end())},
+         {"thickness_histogram",
+          std::vector<int64_t>(r->thickness_histogram().begin(),
+                               r->thickness_histogram().end())}},
+        in.in.out.json);
+  return absl::OkStatus();
+}
+
+absl::Status Update(client::RemoteClient& c, const RemoteInput& in) {
+  const std::string& id = in.target;
+  auto mesh = ReadMesh(in.positions);
   if (!mesh.ok()) return mesh.status();
   auto info = c.Get(id);
   if (!info.ok()) return info.status();
-  int64_t gen = absl::GetFlag(FLAGS_generation);
+  int64_t gen = in.generation;
   if (gen < 0) gen = info->generation();
   auto r = c.UpdatePositions(id, gen, info->dimension(), mesh->positions);
   if (!r.ok()) return r.status();
   Print({{"generation", r->generation()},
          {"refit", r->refit()},
-         {"bvh_seconds", r->bvh_seconds()}});
+         {"bvh_seconds", r->bvh_seconds()}},
+        in.in.out.json);
   return absl::OkStatus();
 }
 
 }  // namespace
 
-absl::Status RunRemote(const std::vector<std::string>& args) {
-  if (args.empty()) return absl::InvalidArgumentError(kUsage);
+absl::Status RunRemote(const RemoteInput& in) {
   client::ClientOptions options;
   if (absl::Status s = client::LoadClientSecrets(
-          absl::GetFlag(FLAGS_tls_ca_file), absl::GetFlag(FLAGS_tls_cert_file),
-          absl::GetFlag(FLAGS_tls_key_file), absl::GetFlag(FLAGS_token_file),
-          &options);
+          in.remote.tls_ca_file, in.remote.tls_cert_file,
+          in.remote.tls_key_file, in.remote.token_file, &options);
       !s.ok()) {
     return s;
   }
@@ -209,9 +203,10 @@ absl::Status RunRemote(const std::vector<std::string>& args) {
     return absl::InvalidArgumentError(
         "--tls-cert-file/--tls-key-file need --tls-ca-file");
   }
-  client::RemoteClient c(absl::GetFlag(FLAGS_server), options);
-  const std::string& verb = args[0];
-  if (verb == "upload") return Upload(c, args);
+  client::RemoteClient c(in.remote.server, options);
+  const std::string& verb = in.verb;
+  const bool json = in.in.out.json;
+  if (verb == "upload") return Upload(c, in);
   if (verb == "health") {
     // Exit status 0 only when SERVING (container health checks).
     auto serving = c.Serving();
@@ -225,7 +220,7 @@ absl::Status RunRemote(const std::vector<std::string>& args) {
     if (!all.ok()) return all.status();
     nlohmann::json j = nlohmann::json::array();
     for (const auto& s : *all) j.push_back(InfoJson(s));
-    if (absl::GetFlag(FLAGS_json)) {
+    if (json) {
       std::cout << j.dump() << "\n";
     } else {
       for (const auto& s : *all) {
@@ -236,21 +231,20 @@ absl::Status RunRemote(const std::vector<std::string>& args) {
     }
     return absl::OkStatus();
   }
-  if (absl::Status s = NeedArgs(args, 2); !s.ok()) return s;
-  const std::string& id = args[1];
   if (verb == "info") {
-    auto info = c.Get(id);
+    auto info = c.Get(in.target);
     if (!info.ok()) return info.status();
-    Print(InfoJson(*info));
+    Print(InfoJson(*info), json);
     return absl::OkStatus();
   }
-  if (verb == "delete") return c.Delete(id);
-  if (verb == "sdf") return Sdf(c, id);
-  if (verb == "grad") return Grad(c, id);
-  if (verb == "penalty") return Penalty(c, id);
-  if (verb == "update") return Update(c, id);
+  if (verb == "delete") return c.Delete(in.target);
+  if (verb == "sdf") return Sdf(c, in);
+  if (verb == "grad") return Grad(c, in);
+  if (verb == "penalty") return Penalty(c, in);
+  if (verb == "calibrate") return Calibrate(c, in);
+  if (verb == "update") return Update(c, in);
   return absl::InvalidArgumentError(
-      absl::StrCat("unknown remote verb '", verb, "'\n", kUsage));
+      absl::StrCat("unknown remote verb '", verb, "'"));
 }
 
 }  // namespace meshgauge::cli

@@ -1,7 +1,6 @@
 #include <chrono>
 #include <iostream>
 
-#include "absl/flags/flag.h"
 #include "absl/strings/str_cat.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
@@ -12,14 +11,11 @@
 
 namespace meshgauge::cli {
 
-absl::Status RunSdf(const std::vector<std::string>& args) {
-  if (args.size() != 1) {
-    return absl::InvalidArgumentError("usage: meshgauge sdf MESH [flags]");
-  }
-  auto params = SdfParamsFromFlags();
+absl::Status RunSdf(const MeshInput& in) {
+  auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
   const auto start = std::chrono::steady_clock::now();
-  auto loaded = LoadMeshFromFlags(args[0]);
+  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
   if (!loaded.ok()) return loaded.status();
   ProgressBar bar("tracing");
   ComputeControl control;
@@ -32,19 +28,19 @@ absl::Status RunSdf(const std::vector<std::string>& args) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
-  if (const std::string csv = absl::GetFlag(FLAGS_csv); !csv.empty()) {
+  if (const std::string& csv = in.out.csv; !csv.empty()) {
     if (absl::Status s = WriteSdfCsv(csv, loaded->mesh, *result); !s.ok()) {
       return s;
     }
   }
-  if (const std::string ply = absl::GetFlag(FLAGS_ply); !ply.empty()) {
+  if (const std::string& ply = in.out.ply; !ply.empty()) {
     if (absl::Status s = WriteQualityPly(ply, loaded->mesh, result->values);
         !s.ok()) {
       return s;
     }
   }
   const nlohmann::json summary = SummaryJson(*loaded, *result, seconds);
-  if (absl::GetFlag(FLAGS_json)) {
+  if (in.out.json) {
     std::cout << summary.dump() << "\n";
   } else {
     std::cout << SummaryText(summary);

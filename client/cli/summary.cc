@@ -80,7 +80,7 @@ std::string SummaryText(const nlohmann::json& j) {
   std::string s = absl::StrFormat(
       "mesh: %dD, %d vertices, %d faces, %s, %d components, %d polygons "
       "triangulated (%s)\n"
-      "method: %s, %g deg cone, %d rays per vertex\n"
+      "method: %s\n"
       "vertices: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
       "sdf: min %s  median %s  max %s  mean %s\n"
       "integral of sdf over the surface: %.8g (%d faces skipped, %.2f%% of "
@@ -90,8 +90,12 @@ std::string SummaryText(const nlohmann::json& j) {
       j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
       j["components"].get<int64_t>(), j["polygons_triangulated"].get<int64_t>(),
-      j["format"].get<std::string>(), j["method"].get<std::string>(),
-      j["cone_angle_degrees"].get<double>(), j["rays_per_vertex"].get<int>(),
+      j["format"].get<std::string>(),
+      j["method"] == "normal"
+          ? std::string("normal ray (physical thickness)")
+          : absl::StrFormat("cone, %g deg, %d rays per vertex",
+                            j["cone_angle_degrees"].get<double>(),
+                            j["rays_per_vertex"].get<int>()),
       j["ok"].get<int64_t>(), j["no_hit"].get<int64_t>(),
       j["no_faces"].get<int64_t>(), j["degenerate_normal"].get<int64_t>(),
       num(j["sdf_min"]), num(j["sdf_median"]), num(j["sdf_max"]),

@@ -125,7 +125,7 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
   if (hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
     return absl::FailedPreconditionError(
         "sensitivities are only available with area-weighted normals; "
-        "recompute with NormalWeighting::kArea");
+        "recompute with area weighting (--normals area, the default)");
   }
   return Context{
       ev, *hits,
