@@ -91,7 +91,7 @@ TEST(PenaltyTest, OneSidedOnKnightMatchesFd) {
       *mesh, {.t_min = 0.3, .form = PenaltyForm::kOneSided, .power = 3}, 25));
 }
 
-TEST(PenaltyTest, ValueOfConstantThicknessIsClosedForm) {
+TEST(PenaltyTest, PenaltyAndConstraintOfConstantThicknessAreClosedForm) {
   // Every vertex of a fine circle has SDF = 2R D_est; one-sided phi is then
   // constant: P = 2 pi R (1 - 2R D_est / t_min)^2 up to the polygon's length.
   const Mesh circle = MakeCircle(0.5, 2048);
@@ -105,6 +105,15 @@ TEST(PenaltyTest, ValueOfConstantThicknessIsClosedForm) {
   EXPECT_NEAR(pen->value, M_PI * std::pow(1 - d / 2.0, 2), 1e-5);
   auto above = ComputePenalty(**ev, *r, {.t_min = 0.5}, nullptr);
   EXPECT_EQ(above->value, 0.0);
+  // The KS constraint of a constant t is 1 - t/t_min whatever rho (the soft
+  // max of a constant).
+  for (double rho : {1.0, 50.0, 1e4}) {
+    auto g = ComputePenalty(
+        **ev, *r, {.t_min = 2.0, .form = PenaltyForm::kKs, .rho = rho},
+        nullptr);
+    ASSERT_TRUE(g.ok()) << g.status();
+    EXPECT_NEAR(g->value, 1 - d / 2.0, 1e-5) << rho;
+  }
 }
 
 TEST(PenaltyTest, KsConstraintOnNoisyCircleMatchesFd) {
@@ -116,23 +125,6 @@ TEST(PenaltyTest, KsConstraintOnKnightMatchesFd) {
   auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
   ASSERT_TRUE(mesh.ok());
   Expect(CheckPenalty(*mesh, {.t_min = 0.3, .form = PenaltyForm::kKs}, 25));
-}
-
-TEST(PenaltyTest, KsOfConstantThicknessIsExact) {
-  // Constant t: G = 1 - t/t_min whatever rho (the soft max of a constant).
-  const Mesh circle = MakeCircle(0.5, 2048);
-  auto ev = SdfEvaluator::Create(circle);
-  SdfParams sp;
-  sp.rays = 30;
-  auto r = (*ev)->Compute(sp);
-  const double d = testing::ClosedFormEstimate(2, 30, 30);
-  for (double rho : {1.0, 50.0, 1e4}) {
-    auto g = ComputePenalty(
-        **ev, *r, {.t_min = 2.0, .form = PenaltyForm::kKs, .rho = rho},
-        nullptr);
-    ASSERT_TRUE(g.ok()) << g.status();
-    EXPECT_NEAR(g->value, 1 - d / 2.0, 1e-5) << rho;
-  }
 }
 
 TEST(PenaltyTest, KsIsBelowTheMaximumAndTendsToIt) {
