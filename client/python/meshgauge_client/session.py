@@ -86,15 +86,11 @@ class Session:
             raise ValueError(f"positions must have {self._original.shape[1]} "
                              f"columns, got {p.shape[1]}")
 
-        def move() -> int:
-            return self._client.update_positions(self.session_id, p,
-                                                 self.generation)
-
-        try:
-            self.generation = move()
-        except NotFoundError:
-            self._recreate()
-            self.generation = move()
+        # The generation is read at each attempt (a re-created session has
+        # its own).
+        self.generation = self._with_session(
+            lambda: self._client.update_positions(self.session_id, p,
+                                                  self.generation))
         self._positions = p.copy()
         self._moved = True
         return self.generation
