@@ -5,15 +5,20 @@
 //
 // Every client creates its own session (an icosphere of geodesic frequency
 // F), then for M iterations: UpdatePositions (a deterministic deformation of
-// iteration i) -> ComputeSdf -> ComputeVjp (g = 1). First one client runs
+// iteration i) -> ComputeSdf -> ComputeVjp (g = 1) on even iterations,
+// ComputePenalty with its gradient on odd ones. First one client runs
 // the same sequence alone: the reference. Every reply of every concurrent
 // client must equal the reference bit for bit. Bounded by --iterations and
 // --time_limit_seconds; loopback or the stack's own addresses only.
 // With --recreate, a client whose session was lost (NOT_FOUND, UNAVAILABLE:
 // a replica died) re-creates it at the current iteration and continues.
-// Prints throughput, p50/p95/p99 latency per RPC, errors by status code and
-// mismatches; exits 0 iff there were no mismatches and (without --recreate)
-// no errors, or (with --recreate) every client finished.
+// At the end every client checks that its session is still there at its
+// last generation (else it was lost). Prints "concurrent phase: started"
+// when the clients start (a chaos test injects its faults after it),
+// throughput, p50/p95/p99 latency per RPC, errors by status code,
+// mismatches and lost sessions; exits 0 iff there were no mismatches, no
+// lost sessions and (without --recreate) no errors, or (with --recreate)
+// every client finished.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -58,7 +63,7 @@ struct Stats {
   std::map<std::string, int64_t> client_errors;        // session id -> errors.
   std::map<std::string, std::vector<double>> latency;  // per RPC, seconds.
   std::map<std::string, int64_t> errors;               // "RPC CODE" -> n.
-  int64_t mismatches = 0, iterations = 0, recreated = 0;
+  int64_t mismatches = 0, iterations = 0, recreated = 0, lost = 0;
   void Latency(const std::string& rpc, double s) {
     std::lock_guard<std::mutex> l(mu);
     latency[rpc].push_back(s);
@@ -119,17 +124,29 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
       return c.UpdatePositions(id, generation, 3, positions);
     });
     absl::StatusOr<client::RemoteSdf> sdf = absl::UnknownError("not run");
-    absl::StatusOr<v1::ComputeVjpResponse> vjp = absl::UnknownError("not run");
+    absl::Status derivative = absl::UnknownError("not run");
+    std::vector<double> gradient;
     if (up.ok()) {
       generation = up->generation();
       sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
-      if (sdf.ok()) {
-        vjp =
+      if (sdf.ok() && it % 2 == 0) {
+        auto vjp =
             timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
+        derivative = vjp.status();
+        if (vjp.ok()) gradient.assign(vjp->gradient().begin(), vjp->gradient().end());
+      } else if (sdf.ok()) {
+        auto pen = timed("ComputePenalty", [&] {
+          return c.ComputePenalty(id, params, {.t_min = 2.5}, true);
+        });
+        derivative = pen.status();
+        if (pen.ok()) {
+          gradient.assign(pen->gradient().begin(), pen->gradient().end());
+          gradient.push_back(pen->value());
+        }
       }
     }
     const absl::Status failed =
-        !up.ok() ? up.status() : (!sdf.ok() ? sdf.status() : vjp.status());
+        !up.ok() ? up.status() : (!sdf.ok() ? sdf.status() : derivative);
     if (!failed.ok()) {
       lost = failed.code() == absl::StatusCode::kNotFound ||
              failed.code() == absl::StatusCode::kUnavailable;
@@ -155,7 +172,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
       --it;  // redo this iteration on the new session.
       continue;
     }
-    Reply reply{sdf->values, {vjp->gradient().begin(), vjp->gradient().end()}};
+    Reply reply{sdf->values, std::move(gradient)};
     std::lock_guard<std::mutex> l(stats.mu);
     ++stats.iterations;
     if (reference == nullptr) {
@@ -164,6 +181,13 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
                !SameBits(reply.gradient, (*reference)[it].gradient)) {
       ++stats.mismatches;
     }
+  }
+  // Still there, at the last generation: nothing was lost on the way.
+  auto info = c.Get(id);
+  if (!info.ok() || info->generation() != generation) {
+    std::lock_guard<std::mutex> l(stats.mu);
+    ++stats.lost;
+    if (!info.ok()) stats.Error(id, "GetSession", info.status());
   }
   (void)c.Delete(id);
   return true;
@@ -205,6 +229,8 @@ int Run() {
   }
   Stats stats;
   std::atomic<int> finished{0};
+  std::printf("concurrent phase: started\n");
+  std::fflush(stdout);
   const auto start = Clock::now();
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
@@ -247,8 +273,13 @@ int Run() {
   std::printf("clients without any error: %d/%d\n", untouched, clients);
   std::printf("mismatches against the single-client reference: %lld\n",
               static_cast<long long>(stats.mismatches));
+  int64_t calls = 0;
+  for (const auto& [rpc, v] : stats.latency) calls += std::ssize(v);
+  std::printf("calls: %lld ok, %lld failed; sessions lost: %lld\n",
+              static_cast<long long>(calls), static_cast<long long>(errors),
+              static_cast<long long>(stats.lost));
   const bool pass =
-      stats.mismatches == 0 &&
+      stats.mismatches == 0 && stats.lost == 0 &&
       (absl::GetFlag(FLAGS_recreate) ? finished == clients
                                      : errors == 0 && finished == clients);
   std::printf("%s\n", pass ? "PASS" : "FAIL");

@@ -26,6 +26,9 @@ ABSL_FLAG(std::string, tls_client_ca_file, "",
 ABSL_FLAG(std::string, auth_tokens_file, "",
           "lines 'TENANT SHA256HEX': every RPC but health needs "
           "'authorization: Bearer TOKEN'; empty: open mode");
+ABSL_FLAG(std::string, session_store, "",
+          "redis://HOST[:PORT]: sessions live in Redis and any replica "
+          "serves any session; empty: in this process's memory");
 ABSL_FLAG(int64_t, max_sessions_per_tenant, 0,
           "sessions (and uploads in flight) per tenant; 0: --max_sessions");
 ABSL_FLAG(int64_t, memory_budget_bytes_per_tenant, 0,
@@ -63,6 +66,7 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
   o.tls_key_file = absl::GetFlag(FLAGS_tls_key_file);
   o.tls_client_ca_file = absl::GetFlag(FLAGS_tls_client_ca_file);
   o.auth_tokens_file = absl::GetFlag(FLAGS_auth_tokens_file);
+  o.session_store = absl::GetFlag(FLAGS_session_store);
   o.max_sessions_per_tenant = absl::GetFlag(FLAGS_max_sessions_per_tenant);
   o.memory_budget_bytes_per_tenant =
       absl::GetFlag(FLAGS_memory_budget_bytes_per_tenant);
@@ -94,6 +98,8 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       o.auth_tokens_file.empty()
           ? "UNAUTHENTICATED (open mode: no --auth_tokens_file)"
           : "tokens required",
+      ", sessions ",
+      o.session_store.empty() ? "in memory" : "in " + o.session_store,
       "; max_message_bytes=", o.max_message_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
       " max_faces=", o.max_faces, " max_rays=", o.max_rays,

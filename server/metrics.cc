@@ -37,7 +37,9 @@ Metrics::Metrics()
                        .Add({})),
       evictions_(prometheus::BuildCounter()
                      .Name("meshgauge_session_evictions_total")
-                     .Help("Sessions evicted, by reason (ttl, memory)")
+                     .Help("Sessions evicted, by reason (ttl, memory; cache_ttl, "
+                           "cache_memory: only a replica's cache entry with "
+                           "--session_store)")
                      .Register(*registry_)),
       bvh_builds_(prometheus::BuildCounter()
                       .Name("meshgauge_bvh_builds_total")
@@ -68,7 +70,32 @@ Metrics::Metrics()
                      .Name("meshgauge_hit_cache_requests_total")
                      .Help("Sensitivity requests served from a cached ray "
                            "pass (result=reused) or tracing anew (traced)")
-                     .Register(*registry_)) {}
+                     .Register(*registry_)),
+      session_cache_(prometheus::BuildCounter()
+                         .Name("meshgauge_session_cache_requests_total")
+                         .Help("Calls on a stored session (--session_store) "
+                               "that found it cached on this replica "
+                               "(result=hit) or loaded it (miss)")
+                         .Register(*registry_)),
+      session_load_seconds_(
+          prometheus::BuildHistogram()
+              .Name("meshgauge_session_load_seconds")
+              .Help("Cache misses: loading a session's record from the "
+                    "store and building its BVH")
+              .Register(*registry_)
+              .Add({}, LatencyBuckets())),
+      retried_attempts_(prometheus::BuildCounter()
+                            .Name("meshgauge_rpc_retried_attempts_total")
+                            .Help("Calls that were a client's retry of an "
+                                  "earlier attempt, by method")
+                            .Register(*registry_)),
+      session_store_errors_(
+          prometheus::BuildCounter()
+              .Name("meshgauge_session_store_errors_total")
+              .Help("Calls on the session store (--session_store) that "
+                    "failed because it was unreachable or refused them")
+              .Register(*registry_)
+              .Add({})) {}
 
 std::string Metrics::Text() const {
   return prometheus::TextSerializer().Serialize(registry_->Collect());
@@ -115,6 +142,17 @@ void Metrics::AddRays(double rays) { rays_.Increment(rays); }
 
 void Metrics::RecordHitCache(bool reused) {
   hit_cache_.Add({{"result", reused ? "reused" : "traced"}}).Increment();
+}
+
+void Metrics::RecordSessionCache(bool hit, double seconds) {
+  session_cache_.Add({{"result", hit ? "hit" : "miss"}}).Increment();
+  if (!hit) session_load_seconds_.Observe(seconds);
+}
+
+void Metrics::RecordSessionStoreError() { session_store_errors_.Increment(); }
+
+void Metrics::RecordRetriedAttempt(const std::string& method) {
+  retried_attempts_.Add({{"method", method}}).Increment();
 }
 
 }  // namespace meshgauge::server

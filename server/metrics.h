@@ -33,6 +33,13 @@ class Metrics {
   void RecordBvhRefit(double seconds);
   void AddRays(double rays);
   void RecordHitCache(bool reused);
+  // With a session store: a call found the session's cache on this replica
+  // (hit) or loaded the record and built the BVH (miss, taking seconds).
+  void RecordSessionCache(bool hit, double seconds);
+  // A call that is a client's retry (grpc-previous-rpc-attempts was sent).
+  void RecordRetriedAttempt(const std::string& method);
+  // A call on the session store failed because it was unreachable.
+  void RecordSessionStoreError();
 
  private:
   std::shared_ptr<prometheus::Registry> registry_;
@@ -47,6 +54,10 @@ class Metrics {
   prometheus::Histogram& bvh_refit_seconds_;
   prometheus::Counter& rays_;
   prometheus::Family<prometheus::Counter>& hit_cache_;
+  prometheus::Family<prometheus::Counter>& session_cache_;
+  prometheus::Histogram& session_load_seconds_;
+  prometheus::Family<prometheus::Counter>& retried_attempts_;
+  prometheus::Counter& session_store_errors_;
   std::mutex mu_;  // guards lazily created labelled children.
   std::map<std::string, prometheus::Histogram*> rpc_histograms_;
 };

@@ -103,18 +103,19 @@ void ToProto(const MissingValues& m, v1::MissingValues* out) {
 }
 
 void ToProto(const SessionSnapshot& s, double now, v1::SessionInfo* out) {
-  out->set_session_id(s.id);
-  out->set_dimension(s.dimension);
-  out->set_num_vertices(s.num_vertices);
-  out->set_num_faces(s.num_faces);
-  out->set_generation(s.generation);
-  out->set_memory_bytes(s.memory_bytes);
+  const RecordInfo& i = s.info;
+  out->set_session_id(i.id);
+  out->set_dimension(i.dimension);
+  out->set_num_vertices(i.num_vertices);
+  out->set_num_faces(i.num_faces);
+  out->set_generation(i.generation);
+  out->set_memory_bytes(i.memory_bytes);
   out->set_bvh_builds(s.bvh_builds);
   out->set_bvh_refits(s.bvh_refits);
   out->set_idle_seconds(std::max(0.0, now - s.last_used));
-  out->set_signed_volume(s.signed_volume);
-  out->set_closed(s.closed);
-  for (const std::string& w : s.warnings) out->add_warnings(w);
+  out->set_signed_volume(i.signed_volume);
+  out->set_closed(i.closed);
+  for (const std::string& w : i.warnings) out->add_warnings(w);
 }
 
 void AppendFlattened(const std::vector<Vec3>& v, int dimension,

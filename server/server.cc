@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/io/text_file.h"
+#include "server/redis_records.h"
 
 namespace meshgauge::server {
 namespace {
@@ -51,11 +52,13 @@ absl::Status LoadReflection() {
 }  // namespace
 
 MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
-                                 Authenticator auth, Metrics* metrics,
-                                 const Clock* clock)
+                                 Authenticator auth,
+                                 std::unique_ptr<SessionRecords> records,
+                                 Metrics* metrics, const Clock* clock)
     : options_(options),
       auth_(std::move(auth)),
-      store_(options, metrics, clock),
+      records_(std::move(records)),
+      store_(options, metrics, clock, records_.get()),
       uploads_(options.max_concurrent_uploads, options.upload_idle_seconds,
                clock),
       service_(options, &store_, &uploads_, &auth_, metrics, clock) {}
@@ -74,8 +77,18 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   if (options.reflection) {
     if (absl::Status s = LoadReflection(); !s.ok()) return s;
   }
-  std::unique_ptr<MeshGaugeServer> s(
-      new MeshGaugeServer(options, std::move(auth), metrics, clock));
+  std::unique_ptr<SessionRecords> records;
+  if (!options.session_store.empty()) {
+    RedisOptions redis;
+    if (absl::Status st = ParseRedisUrl(options.session_store, &redis);
+        !st.ok()) {
+      return st;
+    }
+    redis.ttl_seconds = options.session_ttl_seconds;
+    records = std::make_unique<RedisRecords>(redis, metrics);
+  }
+  std::unique_ptr<MeshGaugeServer> s(new MeshGaugeServer(
+      options, std::move(auth), std::move(records), metrics, clock));
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.address, *creds, &s->port_);
@@ -134,11 +147,16 @@ void MeshGaugeServer::Shutdown() {
   server_->GetHealthCheckService()->SetServingStatus(false);
   std::this_thread::sleep_for(
       std::chrono::duration<double>(options_.drain_notice_seconds));
+  // New calls get UNAVAILABLE from here on (gRPC's own shutdown would
+  // cancel them, which retry policies do not retry); calls in flight
+  // finish within the grace time.
   const auto deadline =
       std::chrono::system_clock::now() +
       std::chrono::duration_cast<std::chrono::system_clock::duration>(
           std::chrono::duration<double>(options_.shutdown_grace_seconds));
-  server_->Shutdown(deadline);
+  service_.Drain(deadline);
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(100));
 }
 
 void MeshGaugeServer::Wait() {

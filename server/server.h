@@ -26,6 +26,8 @@ class MeshGaugeServer {
   // Validates the options, loads the tokens file and TLS files, binds
   // options.address (port 0: any free port; SO_REUSEPORT off) and starts
   // serving. options, metrics and clock must outlive the server.
+  // With options.session_store, sessions are records in that store (the
+  // server starts while it is unreachable; calls then fail UNAVAILABLE).
   // Errors: INVALID_ARGUMENT (an option out of range, a bad tokens file),
   // NOT_FOUND (an unreadable file), UNAVAILABLE when the address cannot be
   // bound or reflection cannot be loaded.
@@ -37,21 +39,24 @@ class MeshGaugeServer {
   SessionStore& store() { return store_; }
 
   // Graceful drain: health turns NOT_SERVING (calls are still served for
-  // options.drain_notice_seconds), then new calls are refused, calls in
-  // flight may finish within options.shutdown_grace_seconds, and the rest
-  // are cancelled. Idempotent; blocks until drained.
+  // options.drain_notice_seconds), then new calls are refused with
+  // UNAVAILABLE (clients retry elsewhere), calls in flight may finish within
+  // options.shutdown_grace_seconds, and the rest are cancelled. Idempotent;
+  // blocks until drained.
   void Shutdown();
   // Blocks until the server has shut down.
   void Wait();
 
  private:
   MeshGaugeServer(const ServerOptions& options, Authenticator auth,
-                  Metrics* metrics, const Clock* clock);
+                  std::unique_ptr<SessionRecords> records, Metrics* metrics,
+                  const Clock* clock);
   // TTL sweeps and idle-upload aborts until Shutdown.
   void SweepLoop();
 
   const ServerOptions& options_;
   Authenticator auth_;
+  std::unique_ptr<SessionRecords> records_;  // null: sessions in memory.
   SessionStore store_;
   UploadWatch uploads_;
   MeshGaugeService service_;

@@ -18,6 +18,9 @@ struct ServerOptions {
   std::string tls_cert_file, tls_key_file, tls_client_ca_file;
   // `TENANT SHA256HEX` lines; empty: open mode (no authentication).
   std::string auth_tokens_file;
+  // Where sessions live: "" keeps them in this process's memory;
+  // "redis://HOST[:PORT]" keeps them in Redis, shared by every replica.
+  std::string session_store;
   int64_t max_message_bytes = 256ll << 20;  // per gRPC message, both ways.
   int64_t max_sessions = 64;                // sessions and uploads in flight.
   int64_t max_vertices = 5'000'000;         // per session.

@@ -80,11 +80,39 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
                                             const grpc::ServerContext* ctx,
                                             Body body) {
   const auto start = std::chrono::steady_clock::now();
+  {
+    std::lock_guard<std::mutex> lock(drain_mu_);
+    if (draining_) {
+      const grpc::Status refused(
+          grpc::StatusCode::UNAVAILABLE,
+          "meshgauge-server is draining (shutting down): retry; with a "
+          "session store any other replica serves the session");
+      metrics_->RecordRpc(method, CodeName(refused.error_code()),
+                          Seconds(start));
+      return refused;
+    }
+    ++in_flight_;
+  }
+  // A client's retry policy marks its retried attempts.
+  if (ctx->client_metadata().count("grpc-previous-rpc-attempts")) {
+    metrics_->RecordRetriedAttempt(method);
+  }
   store_->Sweep();
   auto tenant = auth_->Authenticate(*ctx);
   grpc::Status status = ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
   metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
+  {
+    std::lock_guard<std::mutex> lock(drain_mu_);
+    --in_flight_;
+  }
+  drain_cv_.notify_all();
   return status;
+}
+
+void MeshGaugeService::Drain(std::chrono::system_clock::time_point deadline) {
+  std::unique_lock<std::mutex> lock(drain_mu_);
+  draining_ = true;
+  drain_cv_.wait_until(lock, deadline, [this] { return in_flight_ == 0; });
 }
 
 ComputeControl MeshGaugeService::Control(grpc::ServerContext* ctx) const {
@@ -221,8 +249,10 @@ grpc::Status MeshGaugeService::ListSessions(
         }
         std::string next;
         const double now = clock_->NowSeconds();
-        for (const SessionSnapshot& s :
-             store_->List(tenant, request->page_token(), page_size, &next)) {
+        auto page =
+            store_->List(tenant, request->page_token(), page_size, &next);
+        if (!page.ok()) return page.status();
+        for (const SessionSnapshot& s : *page) {
           ToProto(s, now, response->add_sessions());
         }
         response->set_next_page_token(next);
@@ -261,8 +291,9 @@ grpc::Status MeshGaugeService::UpdatePositions(
         }
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());
-        auto outcome = (*session)->UpdatePositions(
-            request->expected_generation(), indices, *points);
+        auto outcome = store_->UpdatePositions(
+            tenant, request->session_id(), request->expected_generation(),
+            indices, *points);
         if (!outcome.ok()) return outcome.status();
         response->set_generation(outcome->generation);
         response->set_refit(outcome->refit);

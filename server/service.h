@@ -5,7 +5,10 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <chrono>
+#include <condition_variable>
 #include <memory>
+#include <mutex>
 
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 #include "server/auth.h"
@@ -54,6 +57,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                          const v1::CalibrateRequest* request,
                          v1::CalibrateResponse* response) override;
 
+  // From now on every new call fails UNAVAILABLE ("draining"); returns when
+  // the calls in flight have finished or at `deadline`.
+  void Drain(std::chrono::system_clock::time_point deadline);
+
  private:
   struct Pass {
     std::shared_ptr<const CachedPass> pass;
@@ -97,6 +104,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   const Authenticator* auth_;
   Metrics* metrics_;
   const Clock* clock_;
+  std::mutex drain_mu_;
+  std::condition_variable drain_cv_;
+  bool draining_ = false;
+  int64_t in_flight_ = 0;
 };
 
 }  // namespace meshgauge::server

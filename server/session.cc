@@ -15,6 +15,10 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+bool IsBvhBase(int64_t generation, const ServerOptions& options) {
+  return generation % options.rebuild_every_updates == 0;
+}
+
 bool SameSdfParams(const SdfParams& a, const SdfParams& b) {
   return a.method == b.method && a.cone_angle_degrees == b.cone_angle_degrees &&
          a.rays == b.rays && a.min_weight_angle == b.min_weight_angle &&
@@ -52,16 +56,62 @@ Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
       pending_mesh_(std::move(mesh)),
       last_used_(now) {}
 
+Session::Session(SessionRecord record, const ServerOptions& options,
+                 Metrics* metrics, double now)
+    : id_(record.info.id),
+      options_(options),
+      metrics_(metrics),
+      dimension_(record.info.dimension),
+      num_vertices_(record.info.num_vertices),
+      num_faces_(record.info.num_faces),
+      signed_volume_(record.info.signed_volume),
+      closed_(record.info.closed),
+      warnings_(std::move(record.info.warnings)),
+      base_bytes_(record.info.memory_bytes),
+      pending_mesh_(std::move(record.mesh)),
+      generation_(record.info.generation),
+      last_used_(now) {
+  if (!record.base_positions.empty()) {
+    pending_positions_ = std::move(pending_mesh_.positions);
+    pending_mesh_.positions = std::move(record.base_positions);
+  }
+}
+
+RecordInfo Session::Info() const {
+  RecordInfo info;
+  info.id = id_;
+  info.dimension = dimension_;
+  info.num_vertices = num_vertices_;
+  info.num_faces = num_faces_;
+  info.memory_bytes = base_bytes_;
+  info.signed_volume = signed_volume_;
+  info.closed = closed_;
+  info.warnings = warnings_;
+  info.generation = generation_;
+  return info;
+}
+
 absl::Status Session::EnsureEvaluator() {
   // Caller holds mu_ exclusively.
   if (evaluator_) return absl::OkStatus();
   const auto start = std::chrono::steady_clock::now();
-  auto ev = SdfEvaluator::Create(std::move(pending_mesh_),
-                                 {.bvh_policy = BvhUpdatePolicy::kRefit});
+  const bool refit = !pending_positions_.empty();
+  auto ev = SdfEvaluator::Create(
+      std::move(pending_mesh_),
+      {.bvh_policy = BvhUpdatePolicy::kRefit,
+       .generation = refit ? generation_ - 1 : generation_.load()});
   if (!ev.ok()) return ev.status();
-  evaluator_ = std::move(*ev);
   ++builds_;
   metrics_->RecordBvhBuild(SecondsSince(start));
+  if (refit) {
+    // Base positions are a past generation: refit to the current ones.
+    if (absl::Status s = (*ev)->UpdatePositions(pending_positions_); !s.ok()) {
+      return s;
+    }
+    pending_positions_ = {};
+    ++refits_;
+  }
+  evaluator_ = std::move(*ev);
   return absl::OkStatus();
 }
 
@@ -94,9 +144,8 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
                        : evaluator_->UpdatePositions(indices, positions);
   if (!s.ok()) return s;
   UpdateOutcome out;
-  if (++updates_since_build_ >= options_.rebuild_every_updates) {
+  if (IsBvhBase(expected_generation + 1, options_)) {
     if (absl::Status r = evaluator_->RebuildBvh(); !r.ok()) return r;
-    updates_since_build_ = 0;
     ++builds_;
     out.bvh_seconds = SecondsSince(start);
     metrics_->RecordBvhBuild(out.bvh_seconds);
@@ -134,18 +183,11 @@ void Session::StorePass(std::shared_ptr<const CachedPass> pass) {
 
 SessionSnapshot Session::Snapshot() const {
   SessionSnapshot s;
-  s.id = id_;
-  s.dimension = dimension_;
-  s.num_vertices = num_vertices_;
-  s.num_faces = num_faces_;
-  s.generation = generation_;
-  s.memory_bytes = memory_bytes();
+  s.info = Info();
+  s.info.memory_bytes = memory_bytes();
   s.bvh_builds = builds_;
   s.bvh_refits = refits_;
   s.last_used = last_used_;
-  s.signed_volume = signed_volume_;
-  s.closed = closed_;
-  s.warnings = warnings_;
   return s;
 }
 

@@ -19,6 +19,7 @@
 #include "lib/embree/sdf_evaluator.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
+#include "server/session_records.h"
 
 namespace meshgauge::server {
 
@@ -32,16 +33,11 @@ struct CachedPass {
 };
 
 struct SessionSnapshot {
-  std::string id;
-  int dimension = 3;
-  int64_t num_vertices = 0, num_faces = 0;
-  int64_t generation = 0;
-  int64_t memory_bytes = 0;
-  int64_t bvh_builds = 0, bvh_refits = 0;
+  // info.memory_bytes includes the cached ray pass; warnings are
+  // DiagnoseMesh's at upload.
+  RecordInfo info;
+  int64_t bvh_builds = 0, bvh_refits = 0;  // on this replica.
   double last_used = 0;
-  double signed_volume = 0;
-  bool closed = false;
-  std::vector<std::string> warnings;  // DiagnoseMesh at upload.
 };
 
 struct UpdateOutcome {
@@ -55,6 +51,11 @@ class Session {
   // `mesh` must be valid (ValidateMesh); metrics must outlive the session.
   Session(std::string id, Mesh mesh, const ServerOptions& options,
           Metrics* metrics, double now);
+  // A session restored from its record (another replica may have created
+  // and updated it): the BVH is built at the record's base positions and
+  // refitted to the current ones, as on the replica that made the updates.
+  Session(SessionRecord record, const ServerOptions& options, Metrics* metrics,
+          double now);
 
   const std::string& id() const { return id_; }
   int dimension() const { return dimension_; }
@@ -65,12 +66,13 @@ class Session {
   struct Reader {
     std::shared_lock<std::shared_mutex> lock;
     const SdfEvaluator* evaluator = nullptr;
+    int64_t generation() const { return evaluator->generation(); }
   };
   absl::StatusOr<Reader> Read();
 
-  // Exclusive: moves vertices, refits the BVH, or rebuilds it every
-  // options.rebuild_every_updates updates. Errors: ABORTED on a generation
-  // mismatch, INVALID_ARGUMENT for bad positions.
+  // Exclusive: moves vertices and refits the BVH, or rebuilds it when the
+  // new generation is a BVH base (IsBvhBase). Errors: ABORTED on a
+  // generation mismatch, INVALID_ARGUMENT for bad positions.
   absl::StatusOr<UpdateOutcome> UpdatePositions(
       int64_t expected_generation, absl::Span<const int32_t> indices,
       absl::Span<const Vec3> positions);
@@ -81,6 +83,11 @@ class Session {
   void StorePass(std::shared_ptr<const CachedPass> pass);
 
   SessionSnapshot Snapshot() const;
+  int64_t generation() const { return generation_.load(); }
+  // The record of the session's current state (for a new external record).
+  RecordInfo Info() const;
+  // Held across an external commit and the local update that follows.
+  std::mutex& update_mutex() { return update_mu_; }
   int64_t memory_bytes() const { return base_bytes_ + cache_bytes_.load(); }
   void Touch(double now) { last_used_ = now; }
   double last_used() const { return last_used_.load(); }
@@ -105,9 +112,12 @@ class Session {
   const std::vector<std::string> warnings_;
   const int64_t base_bytes_;
   mutable std::shared_mutex mu_;
-  Mesh pending_mesh_;  // until the evaluator takes it.
+  // Until the evaluator takes them: the mesh at the BVH base and, when they
+  // differ, the current positions.
+  Mesh pending_mesh_;
+  std::vector<Vec3> pending_positions_;
   std::unique_ptr<SdfEvaluator> evaluator_;
-  int updates_since_build_ = 0;
+  std::mutex update_mu_;
   std::atomic<int64_t> builds_{0}, refits_{0};
   // Mirrors the evaluator's generation so Snapshot never takes mu_ (a
   // reader must not lock it twice).
@@ -117,6 +127,11 @@ class Session {
   std::atomic<int64_t> cache_bytes_{0};
   std::atomic<double> last_used_;
 };
+
+// True when the BVH of `generation` is built from scratch (at that
+// generation's positions) rather than refitted: every
+// options.rebuild_every_updates generations, on every replica alike.
+bool IsBvhBase(int64_t generation, const ServerOptions& options);
 
 // True when two parameter sets give the same values (threads excluded).
 bool SameSdfParams(const SdfParams& a, const SdfParams& b);

@@ -1,5 +1,6 @@
 #include "server/session_store.h"
 
+#include <chrono>
 #include <random>
 
 #include "absl/strings/escaping.h"
@@ -41,8 +42,28 @@ UploadReservation::~UploadReservation() {
 }
 
 SessionStore::SessionStore(const ServerOptions& options, Metrics* metrics,
-                           const Clock* clock)
-    : options_(options), metrics_(metrics), clock_(clock) {}
+                           const Clock* clock, SessionRecords* records)
+    : options_(options), metrics_(metrics), clock_(clock), records_(records) {}
+
+absl::Status SessionStore::CheckCountLimitsLocked(
+    const std::string& tenant, int64_t tenant_uploads) const {
+  if (records_) return absl::OkStatus();  // checked by the records.
+  if (std::ssize(sessions_) + reserved_total_.uploads >=
+      options_.max_sessions) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the server holds the maximum of ", options_.max_sessions,
+        " sessions and uploads in flight (--max_sessions); delete one first"));
+  }
+  if (options_.max_sessions_per_tenant > 0 &&
+      TenantSessionsLocked(tenant) + tenant_uploads >=
+          options_.SessionsPerTenant()) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this tenant holds its maximum of ", options_.SessionsPerTenant(),
+        " sessions and uploads in flight (--max_sessions_per_tenant); delete "
+        "one first"));
+  }
+  return absl::OkStatus();
+}
 
 absl::StatusOr<UploadReservation> SessionStore::Reserve(
     const std::string& tenant, int64_t bytes) {
@@ -57,21 +78,12 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
   }
   std::lock_guard<std::mutex> lock(mu_);
   Reserved& mine = reserved_[tenant];
-  if (std::ssize(sessions_) + reserved_total_.uploads >=
-      options_.max_sessions) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "the server holds the maximum of ", options_.max_sessions,
-        " sessions and uploads in flight (--max_sessions); delete one first"));
+  if (absl::Status s = CheckCountLimitsLocked(tenant, mine.uploads); !s.ok()) {
+    if (mine.uploads == 0) reserved_.erase(tenant);
+    return s;
   }
-  if (options_.max_sessions_per_tenant > 0 &&
-      TenantSessionsLocked(tenant) + mine.uploads >=
-          options_.SessionsPerTenant()) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "this tenant holds its maximum of ", options_.SessionsPerTenant(),
-        " sessions and uploads in flight (--max_sessions_per_tenant); delete "
-        "one first"));
-  }
-  if (tenant_budget && TenantBytesLocked(tenant) + mine.bytes + bytes >
+  if (!records_ && tenant_budget &&
+      TenantBytesLocked(tenant) + mine.bytes + bytes >
                            options_.BudgetPerTenant()) {
     return absl::ResourceExhaustedError(absl::StrCat(
         "this tenant's sessions and uploads would exceed its memory budget "
@@ -124,21 +136,60 @@ void SessionStore::ReleaseLocked(const std::string& tenant, int64_t bytes) {
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
     const std::string& tenant, std::string id, Mesh mesh,
     UploadReservation ticket) {
+  const bool chosen = id.empty();
+  if (!chosen && !ValidSessionId(id)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "session id ", QuoteId(id),
+        " is invalid: use 1 to 64 characters from [A-Za-z0-9._-]"));
+  }
+  static thread_local std::mt19937_64 rng(std::random_device{}());
+  auto random_id = [] { return absl::StrFormat("s-%016x", rng()); };
+  if (records_) {
+    // The record first: it decides existence and the limits, for all
+    // replicas at once.
+    if (chosen) id = random_id();
+    auto session = std::make_shared<Session>(id, std::move(mesh), options_,
+                                             metrics_, clock_->NowSeconds());
+    SessionRecord record;
+    record.info = session->Info();
+    {
+      auto reader = session->Read();
+      if (!reader.ok()) return reader.status();
+      record.mesh = reader->evaluator->mesh();
+    }
+    const RecordLimits limits{options_.max_sessions,
+                              options_.SessionsPerTenant(),
+                              options_.BudgetPerTenant()};
+    absl::Status s = records_->Create(tenant, record, limits);
+    for (int retry = 0; chosen && retry < 3 && absl::IsAlreadyExists(s);
+         ++retry) {
+      record.info.id = random_id();
+      s = records_->Create(tenant, record, limits);
+    }
+    if (!s.ok()) return s;
+    if (record.info.id != id) {
+      session = std::make_shared<Session>(record, options_, metrics_,
+                                          clock_->NowSeconds());
+    }
+    std::lock_guard<std::mutex> lock(mu_);
+    if (ticket.store_ == this) {
+      ReleaseLocked(ticket.tenant_, ticket.bytes_);
+      ticket.store_ = nullptr;
+    }
+    sessions_[Key{tenant, record.info.id}] = session;
+    PublishLocked();
+    return session;
+  }
   std::lock_guard<std::mutex> lock(mu_);
   // The reservation becomes the session, under the same lock.
   if (ticket.store_ == this) {
     ReleaseLocked(ticket.tenant_, ticket.bytes_);
     ticket.store_ = nullptr;
   }
-  if (id.empty()) {
-    static thread_local std::mt19937_64 rng(std::random_device{}());
+  if (chosen) {
     do {
-      id = absl::StrFormat("s-%016x", rng());
+      id = random_id();
     } while (sessions_.count({tenant, id}));
-  } else if (!ValidSessionId(id)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "session id ", QuoteId(id),
-        " is invalid: use 1 to 64 characters from [A-Za-z0-9._-]"));
   } else if (sessions_.count({tenant, id})) {
     return absl::AlreadyExistsError(
         absl::StrCat("session ", QuoteId(id), " already exists"));
@@ -152,6 +203,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
 
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
     const std::string& tenant, const std::string& id, bool touch) {
+  if (records_) return GetRecorded(tenant, id, touch);
   std::lock_guard<std::mutex> lock(mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) {
@@ -163,8 +215,61 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
   return it->second;
 }
 
+absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
+    const std::string& tenant, const std::string& id, bool touch) {
+  if (!ValidSessionId(id)) {
+    return absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
+  }
+  auto generation = records_->Generation(tenant, id, touch);
+  if (!generation.ok()) {
+    if (absl::IsNotFound(generation.status())) {
+      std::lock_guard<std::mutex> lock(mu_);
+      sessions_.erase({tenant, id});  // deleted or expired elsewhere.
+    }
+    return generation.status();
+  }
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    auto it = sessions_.find({tenant, id});
+    if (it != sessions_.end() && it->second->generation() == *generation) {
+      if (touch) it->second->Touch(clock_->NowSeconds());
+      metrics_->RecordSessionCache(true, 0);
+      return it->second;
+    }
+  }
+  // A miss: first use on this replica, evicted, or updated elsewhere.
+  const double start = clock_->NowSeconds();
+  const auto wall = std::chrono::steady_clock::now();
+  auto record = records_->Load(tenant, id);
+  if (!record.ok()) return record.status();
+  auto session = std::make_shared<Session>(std::move(*record), options_,
+                                           metrics_, start);
+  if (auto reader = session->Read(); !reader.ok()) return reader.status();
+  metrics_->RecordSessionCache(
+      false, std::chrono::duration<double>(std::chrono::steady_clock::now() -
+                                           wall)
+                 .count());
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    sessions_[Key{tenant, id}] = session;
+    PublishLocked();
+  }
+  EnforceBudget(session.get());
+  return session;
+}
+
 absl::Status SessionStore::Delete(const std::string& tenant,
                                   const std::string& id) {
+  if (records_) {
+    absl::Status s = ValidSessionId(id)
+                         ? records_->Delete(tenant, id)
+                         : absl::NotFoundError(
+                               absl::StrCat("no session ", QuoteId(id)));
+    std::lock_guard<std::mutex> lock(mu_);
+    if (s.ok() || absl::IsNotFound(s)) sessions_.erase({tenant, id});
+    PublishLocked();
+    return s;
+  }
   std::lock_guard<std::mutex> lock(mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) {
@@ -175,10 +280,94 @@ absl::Status SessionStore::Delete(const std::string& tenant,
   return absl::OkStatus();
 }
 
-std::vector<SessionSnapshot> SessionStore::List(const std::string& tenant,
-                                                const std::string& page_token,
-                                                int page_size,
-                                                std::string* next_token) {
+absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
+    const std::string& tenant, const std::string& id,
+    int64_t expected_generation, const std::vector<int32_t>& indices,
+    const std::vector<Vec3>& positions) {
+  auto session = Get(tenant, id);
+  if (!session.ok()) return session.status();
+  Session& s = **session;
+  if (!records_) {
+    return s.UpdatePositions(expected_generation, indices, positions);
+  }
+  std::lock_guard<std::mutex> update_lock(s.update_mutex());
+  // One generation ahead may be this very update, applied before its reply
+  // was lost: the record's compare-and-set recognises it.
+  const bool maybe_retry = s.generation() == expected_generation + 1;
+  if (s.generation() != expected_generation && !maybe_retry) {
+    return absl::AbortedError(absl::StrCat(
+        "session ", QuoteId(id), " is at generation ", s.generation(),
+        ", the update expected generation ", expected_generation));
+  }
+  // The new positions of every vertex, validated before the record changes.
+  std::vector<Vec3> all;
+  {
+    auto reader = s.Read();
+    if (!reader.ok()) return reader.status();
+    Mesh moved = reader->evaluator->mesh();
+    if (indices.empty()) {
+      moved.positions = positions;
+    } else {
+      std::vector<char> seen(moved.positions.size());
+      for (size_t i = 0; i < indices.size(); ++i) {
+        const int32_t v = indices[i];
+        if (v < 0 || v >= moved.num_vertices()) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("vertex index ", v, " is out of range [0, ",
+                           moved.num_vertices(), ")"));
+        }
+        if (seen[v]++) {
+          return absl::InvalidArgumentError(
+              absl::StrCat("vertex index ", v, " is repeated in the update"));
+        }
+        moved.positions[v] = positions[i];
+      }
+    }
+    if (absl::Status v = ValidateMesh(moved); !v.ok()) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("position update rejected: ", v.message()));
+    }
+    all = std::move(moved.positions);
+  }
+  auto committed = records_->CommitPositions(
+      tenant, id, expected_generation, all,
+      IsBvhBase(expected_generation + 1, options_));
+  if (!committed.ok()) return committed.status();
+  if (maybe_retry) {
+    return UpdateOutcome{.generation = *committed,
+                         .refit = !IsBvhBase(*committed, options_)};
+  }
+  auto outcome = s.UpdatePositions(expected_generation, {}, all);
+  if (!outcome.ok()) {
+    // The record moved on; this cache entry is stale.
+    std::lock_guard<std::mutex> lock(mu_);
+    sessions_.erase({tenant, id});
+  }
+  return outcome;
+}
+
+absl::StatusOr<std::vector<SessionSnapshot>> SessionStore::List(
+    const std::string& tenant, const std::string& page_token, int page_size,
+    std::string* next_token) {
+  if (records_) {
+    auto infos = records_->List(tenant, page_token, page_size, next_token);
+    if (!infos.ok()) return infos.status();
+    const double now = clock_->NowSeconds();
+    std::vector<SessionSnapshot> out;
+    std::lock_guard<std::mutex> lock(mu_);
+    for (const RecordInfo& info : *infos) {
+      SessionSnapshot s;
+      auto it = sessions_.find({tenant, info.id});
+      if (it != sessions_.end() && it->second->generation() == info.generation) {
+        s = it->second->Snapshot();  // with this replica's BVH counts.
+      } else {
+        s.info = info;
+      }
+      s.last_used = now - info.idle_seconds;
+      out.push_back(std::move(s));
+    }
+    return out;
+  }
   std::vector<std::shared_ptr<Session>> page;
   next_token->clear();
   {
@@ -240,7 +429,8 @@ int64_t SessionStore::reserved_uploads() const {
 
 void SessionStore::EvictLocked(Map::iterator it, const std::string& reason) {
   sessions_.erase(it);
-  metrics_->RecordEviction(reason);
+  // With records only the cache entry goes; the session stays.
+  metrics_->RecordEviction(records_ ? "cache_" + reason : reason);
 }
 
 int64_t SessionStore::TotalBytesLocked() const {

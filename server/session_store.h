@@ -1,7 +1,18 @@
 // All sessions of a server: creation with limits, lookup, listing, deletion,
-// idle-TTL and memory-budget (LRU) eviction, and the reservations of uploads
-// in flight. Sessions live in their tenant's namespace: one tenant cannot
-// see, touch or squat another's ids (in open mode every caller is tenant "").
+// position updates, idle-TTL and memory-budget (LRU) eviction, and the
+// reservations of uploads in flight. Sessions live in their tenant's
+// namespace: one tenant cannot see, touch or squat another's ids (in open
+// mode every caller is tenant "").
+//
+// Two backends behind this one interface:
+// - in memory (no records): the sessions are this process's; eviction and
+//   TTL remove them.
+// - external records (SessionRecords, e.g. Redis): the records define the
+//   sessions, for every replica alike; this store keeps only a cache
+//   (evaluator, BVH, last ray pass) per session and generation, loaded on a
+//   miss. Eviction drops cache entries, never a session; count and byte
+//   limits are checked over all replicas when a record is created; delete,
+//   TTL and listing are global.
 #pragma once
 
 #include <map>
@@ -41,9 +52,10 @@ class UploadReservation {
 
 class SessionStore {
  public:
-  // options, metrics and clock must outlive the store.
+  // options, metrics, clock and records (null: in memory) must outlive the
+  // store.
   SessionStore(const ServerOptions& options, Metrics* metrics,
-               const Clock* clock);
+               const Clock* clock, SessionRecords* records = nullptr);
 
   // Claims a slot and `bytes` for an upload of `tenant`. Errors:
   // RESOURCE_EXHAUSTED when the sessions plus uploads would exceed
@@ -68,11 +80,19 @@ class SessionStore {
                                                bool touch = true);
   absl::Status Delete(const std::string& tenant, const std::string& id);
 
+  // Moves the session's vertices (all when indices is empty); with records,
+  // the generation compare-and-set happens in the record first. Errors:
+  // ABORTED (generation), INVALID_ARGUMENT (positions, indices), NOT_FOUND.
+  absl::StatusOr<UpdateOutcome> UpdatePositions(
+      const std::string& tenant, const std::string& id,
+      int64_t expected_generation, const std::vector<int32_t>& indices,
+      const std::vector<Vec3>& positions);
+
   // The tenant's sessions with id > page_token, in id order, at most
-  // page_size.
-  std::vector<SessionSnapshot> List(const std::string& tenant,
-                                    const std::string& page_token,
-                                    int page_size, std::string* next_token);
+  // page_size. Errors: only from records (UNAVAILABLE).
+  absl::StatusOr<std::vector<SessionSnapshot>> List(
+      const std::string& tenant, const std::string& page_token, int page_size,
+      std::string* next_token);
 
   // Evicts sessions idle longer than the TTL.
   void Sweep();
@@ -89,6 +109,12 @@ class SessionStore {
   using Map = std::map<Key, std::shared_ptr<Session>>;
   void Release(const std::string& tenant, int64_t bytes);
   void ReleaseLocked(const std::string& tenant, int64_t bytes);
+  // With records: the cached session at the record's generation, loading
+  // the record on a miss.
+  absl::StatusOr<std::shared_ptr<Session>> GetRecorded(
+      const std::string& tenant, const std::string& id, bool touch);
+  absl::Status CheckCountLimitsLocked(const std::string& tenant,
+                                      int64_t tenant_uploads) const;
   void EvictLocked(Map::iterator it, const std::string& reason);
   int64_t TotalBytesLocked() const;
   int64_t TenantBytesLocked(const std::string& tenant) const;
@@ -98,6 +124,7 @@ class SessionStore {
   const ServerOptions& options_;
   Metrics* metrics_;
   const Clock* clock_;
+  SessionRecords* const records_;
   mutable std::mutex mu_;
   Map sessions_;
   struct Reserved {

@@ -382,6 +382,7 @@ class TlsTest : public ::testing::Test {
   ClientOptions Tls(const std::string& ca, bool with_cert) {
     ClientOptions o;
     o.deadline_seconds = 5;
+    o.retry = false;  // a refused handshake answers at once.
     o.tls_ca_pem = testing::ReadFileText(ca);
     if (with_cert) {
       o.tls_cert_pem = testing::ReadFileText(pki_.client_crt);
@@ -403,6 +404,7 @@ TEST_F(TlsTest, TlsServerServesTlsClientsOnly) {
   EXPECT_TRUE(good.Upload(MakeIcosphere(1, 1), "t").ok());
   ClientOptions plain;
   plain.deadline_seconds = 2;
+  plain.retry = false;
   RemoteClient insecure(target_, plain);
   EXPECT_EQ(Code(insecure.Get("t")), absl::StatusCode::kUnavailable);
   // A client that trusts another CA refuses the server's certificate.

@@ -146,6 +146,14 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   auto shutdown = std::async(std::launch::async, [&] { server_->Shutdown(); });
   std::this_thread::sleep_for(std::chrono::milliseconds(150));
   EXPECT_EQ(HealthStatus(target_), 2) << "NOT_SERVING while draining";
+  // After the notice, with the call still in flight: a new call is refused
+  // UNAVAILABLE (retryable), not CANCELLED.
+  std::this_thread::sleep_until(drain_started + std::chrono::milliseconds(700));
+  ASSERT_EQ(in_flight.wait_for(std::chrono::seconds(0)),
+            std::future_status::timeout);
+  auto refused = client_->Get("big");
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(std::string(refused.status().message()), HasSubstr("draining"));
   auto result = in_flight.get();
   ASSERT_TRUE(result.ok()) << result.status();
   EXPECT_GT(SecondsSince(drain_started), o.drain_notice_seconds)

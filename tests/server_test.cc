@@ -357,7 +357,11 @@ TEST_F(ServerTest, TwoDimensionalHollowSessionWithOutwardRegion) {
   auto info = client_->Upload(hollow);
   ASSERT_TRUE(info.ok()) << info.status();
   EXPECT_EQ(info->dimension(), 2);
-  EXPECT_EQ(info->session_id().size(), 18u);  // server-assigned "s-<16 hex>".
+  // Named by the client (a UUID, so the upload carried its routing key),
+  // not by the server ("s-<16 hex>").
+  EXPECT_THAT(info->session_id(),
+              ::testing::MatchesRegex("[0-9a-f]{8}-[0-9a-f]{4}-4[0-9a-f]{3}-"
+                                      "[89ab][0-9a-f]{3}-[0-9a-f]{12}"));
   auto r = client_->ComputeSdf(info->session_id(), ToWireParams({}));
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(SameBits(r->values, ComputeSdf(hollow, {})->values));

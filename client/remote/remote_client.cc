@@ -7,9 +7,11 @@
 #include <chrono>
 #include <cstdlib>
 #include <future>
+#include <random>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "lib/io/text_file.h"
 
 namespace meshgauge::client {
@@ -99,9 +101,37 @@ absl::Status LoadClientSecrets(const std::string& ca_file,
   return absl::OkStatus();
 }
 
+std::string NewSessionId() {
+  thread_local std::mt19937_64 rng(std::random_device{}());
+  const uint64_t hi = rng(), lo = rng();
+  // RFC 4122 version 4 (random), variant 10.
+  return absl::StrFormat("%08x-%04x-4%03x-%04x-%012x", hi >> 32,
+                         (hi >> 16) & 0xffff, hi & 0xfff,
+                         0x8000 | ((lo >> 48) & 0x3fff),
+                         lo & 0xffffffffffffull);
+}
+
+const char kRetryServiceConfig[] = R"json({
+  "methodConfig": [{
+    "name": [{"service": "meshgauge.v1.MeshGauge"}],
+    "waitForReady": true,
+    "retryPolicy": {
+      "maxAttempts": 5,
+      "initialBackoff": "0.2s",
+      "maxBackoff": "3s",
+      "backoffMultiplier": 2.5,
+      "retryableStatusCodes": ["UNAVAILABLE"]
+    }
+  }]
+})json";
+
 RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
     : options_(options) {
   grpc::ChannelArguments args;
+  if (options.retry) {
+    args.SetServiceConfigJSON(kRetryServiceConfig);
+    args.SetInt(GRPC_ARG_ENABLE_RETRIES, 1);
+  }
   const int max_bytes =
       static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
   args.SetMaxReceiveMessageSize(max_bytes);
@@ -122,6 +152,15 @@ RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
 std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
     const std::string& session_id) const {
   auto ctx = std::make_unique<grpc::ClientContext>();
+  if (channel_->GetState(/*try_to_connect=*/true) != GRPC_CHANNEL_READY &&
+      !channel_->WaitForConnected(
+          std::chrono::system_clock::now() +
+          std::chrono::duration_cast<std::chrono::system_clock::duration>(
+              std::chrono::duration<double>(
+                  std::min(options_.connect_timeout_seconds,
+                           options_.deadline_seconds))))) {
+    ctx->set_wait_for_ready(false);  // fail now, do not wait for ready.
+  }
   ctx->set_deadline(
       std::chrono::system_clock::now() +
       std::chrono::duration_cast<std::chrono::system_clock::duration>(
@@ -142,7 +181,9 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
 }
 
 absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
-    const Mesh& mesh, const std::string& session_id) {
+    const Mesh& mesh, const std::string& requested_id) {
+  const std::string session_id =
+      requested_id.empty() ? NewSessionId() : requested_id;
   auto ctx = Context(session_id);
   v1::CreateSessionResponse response;
   auto writer = stub_->CreateSession(ctx.get(), &response);

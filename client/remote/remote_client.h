@@ -33,7 +33,26 @@ struct ClientOptions {
   // by this CA (PEM text, not a path); with tls_cert_pem and tls_key_pem the
   // client presents its own (mutual TLS).
   std::string tls_ca_pem, tls_cert_pem, tls_key_pem;
+  // The channel's service config (kRetryServiceConfig): calls wait for the
+  // channel to be ready and UNAVAILABLE (a replica down, draining or
+  // restarting) is retried up to 5 attempts with exponential backoff
+  // (0.2 s to 3 s). UpdatePositions is safe to retry: the server
+  // recognises an update it already applied by its generation.
+  bool retry = true;
+  // A call on a channel that is not connected first waits this long (at
+  // most deadline_seconds) for the connection; if it does not come (wrong address, TLS mismatch) the
+  // call fails UNAVAILABLE instead of waiting for the ready channel until
+  // its deadline.
+  double connect_timeout_seconds = 20;
 };
+
+// The retry policy of ClientOptions::retry (gRPC service config JSON).
+extern const char kRetryServiceConfig[];
+
+// A random (version 4) UUID: the id a client gives a session when the
+// caller names none, so that every call, the upload included, carries its
+// routing key.
+std::string NewSessionId();
 
 // ClientOptions' PEM fields from files (empty paths are skipped) and the
 // token from a file (its first line) or, without one, from the
@@ -72,7 +91,7 @@ class RemoteClient {
   explicit RemoteClient(const std::string& target, ClientOptions options = {});
 
   // Uploads a mesh (validate it first for a clearer error) as a new session;
-  // empty id: the server chooses one.
+  // empty id: NewSessionId().
   absl::StatusOr<v1::SessionInfo> Upload(const Mesh& mesh,
                                          const std::string& session_id = "");
   absl::StatusOr<v1::SessionInfo> Get(const std::string& session_id);

@@ -19,7 +19,8 @@ class MeshGeometry {
  public:
   const Mesh& mesh() const { return mesh_; }
   const MeshTopology& topology() const { return topo_; }
-  // Increments on every successful position update; starts at 0.
+  // Increments on every successful position update; starts at 0 (or at
+  // EvaluatorOptions::generation).
   int64_t generation() const { return generation_; }
   // Corners of every primitive at the current positions (double).
   const std::vector<PrimitiveCorners>& corners() const { return corners_; }

@@ -88,6 +88,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   std::unique_ptr<SdfEvaluator> ev(new SdfEvaluator());
   if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   ev->policy_ = options.bvh_policy;
+  ev->generation_ = options.generation;
   if (absl::Status s = ev->RebuildBvh(); !s.ok()) return s;
   return ev;
 }

@@ -22,6 +22,9 @@ namespace meshgauge {
 
 struct EvaluatorOptions {
   BvhUpdatePolicy bvh_policy = BvhUpdatePolicy::kRefit;
+  // generation() right after creation (>= 0): a session restored at a later
+  // generation keeps counting from there.
+  int64_t generation = 0;
 };
 
 class SdfEvaluator : public MeshGeometry {

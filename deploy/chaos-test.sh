@@ -1,0 +1,101 @@
+#!/usr/bin/env bash
+# Chaos test of the stack (deploy/stack.sh): while the project's load client
+# (meshgauge-load: 6 clients, UpdatePositions -> ComputeSdf -> ComputeVjp or
+# ComputePenalty, a fixed number of iterations, every reply compared bit for
+# bit with a single-client reference at the same generation, every session
+# checked at the end) runs through the balancer, one fault per phase:
+#   kill     a replica is SIGKILLed (its restart policy brings it back)
+#   restart  a replica is restarted (graceful stop, start)
+#   scale    a third replica is added (deploy/stack.sh scale 3)
+#   stop     a replica is stopped gracefully (drain) and stays down
+#   redis    Redis is restarted (its AOF keeps the sessions)
+# A plain gRPC client written from the proto (deploy/plain_client.py, only
+# gRPC's UNAVAILABLE retry policy) runs through all phases.
+# Pass: every phase with 0 client-visible errors, 0 mismatches, 0 sessions
+# lost; the plain client with 0 NOT_FOUND. Per phase it reports calls,
+# retried attempts (the replicas' meshgauge_rpc_retried_attempts_total in
+# Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end.
+set -euo pipefail
+cd "$(dirname "$0")"
+VERSION=$(sed -n 's/^project(meshgauge VERSION \([0-9.]*\).*/\1/p' ../CMakeLists.txt)
+COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
+export MESHGAUGE_VERSION="$VERSION"
+PROM=http://127.0.0.1:9090
+ITERATIONS=${CHAOS_ITERATIONS:-30}
+REPORT=/tmp/meshgauge-chaos
+mkdir -p "$REPORT"
+
+./stack.sh up 2
+PLAIN_PID=
+cleanup() {
+  [ -n "$PLAIN_PID" ] && kill "$PLAIN_PID" 2>/dev/null || true
+  ./stack.sh down --volumes >/dev/null 2>&1 || true
+}
+trap cleanup EXIT
+
+replica() {  # the Nth running replica's container id
+  docker ps -q --filter label=com.docker.compose.project=meshgauge \
+    --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
+}
+retried() {  # retried attempts over the last $1 seconds, all replicas
+  curl -sf "$PROM/api/v1/query" --data-urlencode \
+    "query=sum(increase(meshgauge_rpc_retried_attempts_total[${1}s]))" |
+    grep -o '"value":\[[^]]*\]' | grep -o '"[0-9.e+-]*"\]' | tr -d '"]' || true
+}
+
+/usr/bin/python3 plain_client.py --target 127.0.0.1:50051 --ca secrets/ca.crt \
+  --token-file secrets/token --sessions 2 --out "$REPORT/plain.json" \
+  >"$REPORT/plain.log" 2>&1 &
+PLAIN_PID=$!
+
+failed=0
+phase() {  # NAME FAULT-COMMAND...
+  local name=$1; shift
+  local out="$REPORT/$name.txt"
+  docker run --rm --network host -v "$PWD/secrets:/secrets:ro" \
+    --entrypoint meshgauge-load "meshgauge:$VERSION" \
+    --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
+    --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
+    --frequency 16 --session_prefix "chaos-$name" --time_limit_seconds 600 \
+    >"$out" 2>&1 &
+  local load=$!
+  for _ in $(seq 1 600); do
+    grep -q "concurrent phase: started" "$out" && break
+    sleep 0.2
+  done
+  local start=$SECONDS
+  sleep 2
+  echo "== phase $name: $*"
+  "$@"
+  local rc=0
+  wait "$load" || rc=$?
+  sleep 3  # a scrape after the phase
+  local retries
+  retries=$(retried $((SECONDS - start + 5)))
+  echo "-- $name: $(grep -E '^calls:' "$out"), retried attempts ${retries:-0}"
+  grep -E '^\| |^errors:|^  |mismatches|^PASS|^FAIL' "$out" | sed 's/^/   /'
+  if [ "$rc" -ne 0 ] || ! grep -q "^errors: 0" "$out" ||
+     ! grep -q "sessions lost: 0" "$out"; then
+    echo "FAIL: phase $name"
+    failed=1
+  fi
+}
+
+phase kill docker kill -s SIGKILL "$(replica 1)"
+phase restart docker restart -t 30 "$(replica 2)"
+phase scale ./stack.sh scale 3
+phase stop docker stop -t 30 "$(replica 1)"
+phase redis docker restart -t 10 "$($COMPOSE ps -q redis)"
+
+kill -TERM "$PLAIN_PID"
+wait "$PLAIN_PID" || true
+PLAIN_PID=
+echo "== plain gRPC client (UNAVAILABLE retry policy only): $(cat "$REPORT/plain.json")"
+/usr/bin/python3 - "$REPORT/plain.json" <<'PY' || failed=1
+import json, sys
+c = json.load(open(sys.argv[1]))
+if c.get("not_found", 0) or c.get("sessions", 0) < 2:
+    sys.exit("FAIL: the plain client saw NOT_FOUND or lost its sessions")
+PY
+[ "$failed" -eq 0 ] || { echo "chaos test: FAIL"; exit 1; }
+echo "chaos test: PASS"

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# The operator's commands for the meshgauge stack (docs/deployment.md):
+#   deploy/stack.sh up [REPLICAS]   build the images, start everything with
+#                                   REPLICAS replicas (default 2), wait until
+#                                   the balancer serves
+#   deploy/stack.sh scale N         N replicas; the balancer and Prometheus
+#                                   find them by DNS, sessions stay in Redis
+#   deploy/stack.sh down [--volumes]  stop and remove the containers (and
+#                                   the Redis and Prometheus data) and the
+#                                   build stage's image (KEEP_BUILD_CACHE=1
+#                                   keeps it for a faster next `up`)
+#   deploy/stack.sh swarm-up [REPLICAS] | swarm-down   the same services as
+#                                   a Swarm stack (deploy/stack.yml)
+# gRPC on 127.0.0.1:50051 (TLS, token: deploy/secrets), Prometheus on
+# 127.0.0.1:9090.
+set -euo pipefail
+cd "$(dirname "$0")"
+VERSION=$(sed -n 's/^project(meshgauge VERSION \([0-9.]*\).*/\1/p' ../CMakeLists.txt)
+export MESHGAUGE_VERSION="$VERSION"
+COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
+
+# Waits until a health call through the balancer answers SERVING.
+wait_serving() {
+  for _ in $(seq 1 90); do
+    if docker run --rm --network host -v "$PWD/secrets:/secrets:ro" \
+         --entrypoint meshgauge "meshgauge:$VERSION" remote health \
+         --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
+      return 0
+    fi
+    sleep 1
+  done
+  echo "stack: the balancer did not serve within 90 s" >&2
+  return 1
+}
+
+build() {
+  ./make-base-image.sh
+  ./make-secrets.sh
+  $COMPOSE build
+}
+
+# The multi-stage build's compiler stage (kept while the stack runs, as the
+# build cache of the next `up`) is not needed once it is down.
+prune_build_stage() {
+  docker image prune -f --filter label=meshgauge.stage=build >/dev/null
+}
+
+case "${1:-}" in
+  up)
+    build
+    $COMPOSE up -d --scale meshgauge="${2:-2}"
+    wait_serving
+    echo "stack: up, ${2:-2} replicas, gRPC 127.0.0.1:50051, Prometheus 127.0.0.1:9090"
+    ;;
+  scale)
+    [ -n "${2:-}" ] || { echo "usage: stack.sh scale N" >&2; exit 2; }
+    $COMPOSE up -d --no-recreate --scale meshgauge="$2" meshgauge
+    ;;
+  down)
+    if [ "${2:-}" = "--volumes" ]; then $COMPOSE down -v --remove-orphans
+    else $COMPOSE down --remove-orphans; fi
+    [ "${KEEP_BUILD_CACHE:-0}" = 1 ] || prune_build_stage
+    ;;
+  swarm-up)
+    build
+    docker info --format '{{.Swarm.LocalNodeState}}' | grep -q active ||
+      docker swarm init --advertise-addr 127.0.0.1 >/dev/null
+    REPLICAS="${2:-2}" docker stack deploy -c stack.yml meshgauge
+    wait_serving
+    echo "stack: swarm stack up, gRPC 127.0.0.1:50051"
+    ;;
+  swarm-down)
+    docker stack rm meshgauge
+    ;;
+  *)
+    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] | swarm-up [REPLICAS] | swarm-down" >&2
+    exit 2
+    ;;
+esac

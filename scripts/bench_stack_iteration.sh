@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# One optimiser iteration (move every vertex, SDF, VJP) on MESH (default
+# igea) through an HAProxy balancer to a replica whose sessions live in
+# Redis, against the same iteration in-process (meshgauge_grpc_bench's
+# library figure), and the cost of a cache miss on a second replica (record
+# loaded from Redis + BVH build). Everything on this host, plaintext
+# loopback. Not part of the test run.
+#   scripts/bench_stack_iteration.sh [MESH] [ITERATIONS]
+set -euo pipefail
+cd "$(dirname "$0")/.."
+MESH="${1:-../shared/meshes/igea-triangles.ply}"
+N="${2:-5}"
+scripts/install_deps.sh >/dev/null
+scripts/build.sh >/dev/null
+tmp=$(mktemp -d)
+pids=()
+trap 'kill "${pids[@]}" 2>/dev/null || true; rm -rf "$tmp"' EXIT
+free_port() { /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
+rp=$(free_port)
+redis-server --port "$rp" --bind 127.0.0.1 --save "" --appendonly yes \
+  --dir "$tmp" --logfile "$tmp/redis.log" &
+pids+=($!)
+ports=()
+for r in 1 2; do
+  build/server/meshgauge-server --address 127.0.0.1:0 --metrics_address= \
+    --session_store "redis://127.0.0.1:$rp" --port_file "$tmp/port$r" \
+    2>"$tmp/server$r.log" &
+  pids+=($!)
+  for _ in $(seq 100); do [ -s "$tmp/port$r" ] && break; sleep 0.1; done
+  ports+=("$(cat "$tmp/port$r")")
+done
+hp=$(free_port)
+cat >"$tmp/haproxy.cfg" <<CFG
+defaults
+  mode http
+  timeout connect 2s
+  timeout client 10m
+  timeout server 10m
+frontend grpc
+  bind 127.0.0.1:$hp proto h2
+  default_backend replicas
+backend replicas
+  balance hdr(x-meshgauge-session)
+  hash-type consistent
+  server r1 127.0.0.1:${ports[0]} proto h2
+CFG
+haproxy -db -f "$tmp/haproxy.cfg" &
+pids+=($!)
+sleep 0.5
+build/bench/meshgauge_client_bench --iterations "$N" \
+  --miss_target "127.0.0.1:${ports[1]}" "127.0.0.1:$hp" "$MESH" | tee "$tmp/stack.txt"
+build/bench/meshgauge_grpc_bench --iterations "$N" "$MESH" | tee "$tmp/inproc.txt"
+stack=$(grep -o 'C++ client iteration: [0-9.]*' "$tmp/stack.txt" | grep -o '[0-9.]*$')
+lib=$(grep -o 'in-process [0-9.]*' "$tmp/inproc.txt" | grep -o '[0-9.]*$')
+echo "balancer + Redis / in-process per iteration: $(echo "$stack / $lib" | bc -l | cut -c1-5) (goal <= 1.15)"

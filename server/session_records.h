@@ -1,0 +1,88 @@
+// What defines a session, kept outside a replica's memory so that any
+// replica can serve it: the mesh (faces, regions, cone directions), the
+// current positions and generation, the positions the BVH is built at, the
+// owner (tenant) and sizes. A replica keeps only caches (session.h) built
+// from a record. One implementation: RedisRecords (redis_records.h); a
+// single server without --session_store keeps its sessions in memory only
+// (SessionStore without records).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "lib/core/mesh.h"
+
+namespace meshgauge::server {
+
+// Facts of a session that do not change with its positions (SessionInfo).
+struct RecordInfo {
+  std::string id;
+  int dimension = 3;
+  int64_t num_vertices = 0, num_faces = 0;
+  int64_t memory_bytes = 0;  // accounted base size (Session::EstimateBaseBytes).
+  double signed_volume = 0;  // at upload.
+  bool closed = false;
+  std::vector<std::string> warnings;
+  // Changing state, filled by reads.
+  int64_t generation = 0;
+  double idle_seconds = 0;  // since the last call that used the session.
+};
+
+struct SessionRecord {
+  RecordInfo info;
+  Mesh mesh;  // with the current positions (generation info.generation).
+  // BVH base: the BVH of generation g is built at the positions of
+  // generation base_generation = g - g % rebuild_every_updates and refitted
+  // to the current ones, whichever replica serves it (so results are bit
+  // for bit the same on every replica).
+  int64_t base_generation = 0;
+  std::vector<Vec3> base_positions;  // empty when base == current.
+};
+
+// Limits enforced atomically at creation, over all replicas.
+struct RecordLimits {
+  int64_t max_sessions = 0;             // all tenants.
+  int64_t max_sessions_per_tenant = 0;  // this tenant.
+  int64_t max_bytes_per_tenant = 0;     // sum of memory_bytes, this tenant.
+};
+
+class SessionRecords {
+ public:
+  virtual ~SessionRecords() = default;
+  // Where the records live, for messages (e.g. "redis://host:6379").
+  virtual std::string Describe() const = 0;
+
+  // Stores a new record (generation 0). Errors: ALREADY_EXISTS,
+  // RESOURCE_EXHAUSTED naming the limit, UNAVAILABLE (store unreachable).
+  virtual absl::Status Create(const std::string& tenant,
+                              const SessionRecord& record,
+                              const RecordLimits& limits) = 0;
+  // The record's generation; `touch` restarts its idle clock (TTL).
+  // Errors: NOT_FOUND, UNAVAILABLE.
+  virtual absl::StatusOr<int64_t> Generation(const std::string& tenant,
+                                             const std::string& id,
+                                             bool touch) = 0;
+  virtual absl::StatusOr<SessionRecord> Load(const std::string& tenant,
+                                             const std::string& id) = 0;
+  // Compare-and-set: when the record is at expected_generation, stores
+  // `positions` (all vertices) as generation expected + 1, and as the BVH
+  // base when `rebase`. The same update retried after it was applied
+  // succeeds again (idempotent). Errors: ABORTED (another generation),
+  // NOT_FOUND, UNAVAILABLE.
+  virtual absl::StatusOr<int64_t> CommitPositions(
+      const std::string& tenant, const std::string& id,
+      int64_t expected_generation, const std::vector<Vec3>& positions,
+      bool rebase) = 0;
+  // Errors: NOT_FOUND, UNAVAILABLE.
+  virtual absl::Status Delete(const std::string& tenant,
+                              const std::string& id) = 0;
+  // The tenant's records with id > after, in id order, at most limit;
+  // *next is the last id when more follow, else empty.
+  virtual absl::StatusOr<std::vector<RecordInfo>> List(
+      const std::string& tenant, const std::string& after, int limit,
+      std::string* next) = 0;
+};
+
+}  // namespace meshgauge::server

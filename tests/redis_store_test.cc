@@ -1,0 +1,266 @@
+// Sessions in Redis (--session_store): two replicas share one redis-server;
+// any replica serves any session bit for bit like a single in-memory
+// server, updates are compare-and-set across replicas, delete, TTL and
+// listing are global, limits hold over all replicas, and an unreachable
+// Redis is UNAVAILABLE with the cause, recovered when it returns (AOF).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+#include <thread>
+
+#include "lib/io/mesh_io.h"
+#include "tests/redis_test_util.h"
+#include "tests/test_util.h"
+#include "client/remote/remote_client.h"
+#include "server/server.h"
+
+namespace meshgauge {
+namespace {
+
+using client::ToWireParams;
+using ::testing::HasSubstr;
+using ::testing::Not;
+
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
+
+template <typename T>
+absl::StatusCode Code(const absl::StatusOr<T>& s) {
+  return s.status().code();
+}
+
+struct Replica {
+  explicit Replica(server::ServerOptions o, int port = 0)
+      : options(std::move(o)) {
+    options.address = "127.0.0.1:" + std::to_string(port);
+    options.metrics_address = "";
+    options.drain_notice_seconds = 0;
+    auto s = server::MeshGaugeServer::Start(options, &metrics, &clock);
+    EXPECT_TRUE(s.ok()) << s.status();
+    server = std::move(*s);
+    client = std::make_unique<client::RemoteClient>(
+        "127.0.0.1:" + std::to_string(server->port()));
+  }
+  server::ServerOptions options;
+  server::Metrics metrics;
+  server::SteadyClock clock;
+  std::unique_ptr<server::MeshGaugeServer> server;
+  std::unique_ptr<client::RemoteClient> client;
+};
+
+class RedisStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    redis_.Start();
+    Start();
+  }
+  void Start(server::ServerOptions o = {}) {
+    o.rebuild_every_updates = 3;  // cross BVH rebuilds within a test.
+    o.session_store = redis_.url();
+    a_ = std::make_unique<Replica>(o);
+    b_ = std::make_unique<Replica>(o);
+    o.session_store = "";
+    memory_ = std::make_unique<Replica>(o);
+  }
+  testing::RedisProcess redis_;
+  std::unique_ptr<Replica> a_, b_, memory_;
+};
+
+// Positions of step k: a deterministic wobble of every vertex.
+std::vector<Vec3> Moved(const Mesh& mesh, int k) {
+  std::vector<Vec3> p = mesh.positions;
+  const double d = 1e-3 * BoundingBoxDiagonal(mesh);
+  for (size_t i = 0; i < p.size(); ++i) {
+    p[i].x += d * std::sin(0.7 * k + 0.11 * i);
+    p[i].z += d * std::cos(0.3 * k + 0.07 * i);
+  }
+  return p;
+}
+
+TEST_F(RedisStoreTest, AnyReplicaServesAnySessionBitForBit) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "k").ok());
+  ASSERT_TRUE(memory_->client->Upload(mesh, "k").ok());
+  std::vector<double> g(mesh.num_vertices());
+  for (size_t i = 0; i < g.size(); ++i) g[i] = std::cos(0.3 * i);
+  for (int k = 0; k < 8; ++k) {
+    // Updates alternate replicas; every read goes to the other one.
+    Replica& writer = k % 2 ? *a_ : *b_;
+    Replica& reader = k % 2 ? *b_ : *a_;
+    if (k > 0) {
+      auto u = writer.client->UpdatePositions("k", k - 1, 3, Moved(mesh, k));
+      ASSERT_TRUE(u.ok()) << u.status();
+      EXPECT_EQ(u->generation(), k);
+      ASSERT_TRUE(
+          memory_->client->UpdatePositions("k", k - 1, 3, Moved(mesh, k)).ok());
+    }
+    auto got = reader.client->ComputeSdf("k", ToWireParams({}), false, k);
+    auto want = memory_->client->ComputeSdf("k", ToWireParams({}), false, k);
+    ASSERT_TRUE(got.ok()) << got.status();
+    ASSERT_TRUE(want.ok()) << want.status();
+    EXPECT_TRUE(SameBits(got->values, want->values)) << "generation " << k;
+    EXPECT_EQ(got->hits, want->hits);
+    auto vg = writer.client->ComputeVjp("k", ToWireParams({}), g, k);
+    auto vw = memory_->client->ComputeVjp("k", ToWireParams({}), g, k);
+    ASSERT_TRUE(vg.ok() && vw.ok());
+    EXPECT_TRUE(SameBits({vg->gradient().begin(), vg->gradient().end()},
+                         {vw->gradient().begin(), vw->gradient().end()}));
+  }
+  EXPECT_THAT(a_->metrics.Text(),
+              HasSubstr("meshgauge_session_cache_requests_total{result=\"miss\"}"));
+  EXPECT_THAT(b_->metrics.Text(), HasSubstr("meshgauge_session_load_seconds"));
+}
+
+TEST_F(RedisStoreTest, GenerationIsCompareAndSetAcrossReplicas) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "cas").ok());
+  ASSERT_TRUE(b_->client->Get("cas").ok());  // cached on both.
+  auto first = a_->client->UpdatePositions("cas", 0, 3, Moved(mesh, 1));
+  ASSERT_TRUE(first.ok()) << first.status();
+  // Another replica, the same expected generation, other positions.
+  auto second = b_->client->UpdatePositions("cas", 0, 3, Moved(mesh, 2));
+  EXPECT_EQ(Code(second), absl::StatusCode::kAborted);
+  EXPECT_THAT(std::string(second.status().message()),
+              HasSubstr("generation 1"));
+  // A retry of the applied update (its reply was lost) succeeds again.
+  auto retried = b_->client->UpdatePositions("cas", 0, 3, Moved(mesh, 1));
+  ASSERT_TRUE(retried.ok()) << retried.status();
+  EXPECT_EQ(retried->generation(), 1);
+  EXPECT_EQ(b_->client->Get("cas")->generation(), 1);
+}
+
+TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "sub").ok());
+  ASSERT_TRUE(memory_->client->Upload(mesh, "sub").ok());
+  const std::vector<int32_t> idx = {3, 10, 200};
+  std::vector<Vec3> p;
+  for (int32_t i : idx) p.push_back(mesh.positions[i] * 1.01);
+  ASSERT_TRUE(a_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
+  ASSERT_TRUE(memory_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
+  auto got = b_->client->ComputeSdf("sub", ToWireParams({}), false, 1);
+  auto want = memory_->client->ComputeSdf("sub", ToWireParams({}), false, 1);
+  ASSERT_TRUE(got.ok()) << got.status();
+  EXPECT_TRUE(SameBits(got->values, want->values));
+  // Validation happens before the record changes.
+  EXPECT_EQ(Code(b_->client->UpdatePositions("sub", 1, 3, p, {3, 3, 4})),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(a_->client->Get("sub")->generation(), 1);
+}
+
+TEST_F(RedisStoreTest, DeleteAndListAreGlobal) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "one").ok());
+  ASSERT_TRUE(b_->client->Upload(mesh, "two").ok());
+  auto listed = a_->client->List(1);  // paged, one per page.
+  ASSERT_TRUE(listed.ok()) << listed.status();
+  ASSERT_EQ(listed->size(), 2u);
+  EXPECT_EQ((*listed)[0].session_id(), "one");
+  EXPECT_EQ((*listed)[1].session_id(), "two");
+  EXPECT_EQ((*listed)[1].num_vertices(), mesh.num_vertices());
+  ASSERT_TRUE(b_->client->Get("one").ok());  // cached on b.
+  ASSERT_TRUE(a_->client->Delete("one").ok());
+  EXPECT_EQ(Code(b_->client->Get("one")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(b_->client->ComputeSdf("one", ToWireParams({}))),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(b_->client->List()->size(), 1u);
+  EXPECT_EQ(Code(b_->client->Upload(mesh, "two")),
+            absl::StatusCode::kAlreadyExists);
+}
+
+TEST_F(RedisStoreTest, LimitsHoldOverAllReplicas) {
+  server::ServerOptions o;
+  o.max_sessions_per_tenant = 2;
+  Start(o);
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "x1").ok());
+  ASSERT_TRUE(b_->client->Upload(mesh, "x2").ok());
+  auto third = a_->client->Upload(mesh, "x3");
+  EXPECT_EQ(Code(third), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(third.status().message()),
+              HasSubstr("--max_sessions_per_tenant"));
+  ASSERT_TRUE(b_->client->Delete("x1").ok());
+  EXPECT_TRUE(a_->client->Upload(mesh, "x3").ok());
+}
+
+TEST_F(RedisStoreTest, IdleTtlIsGlobalAndSlides) {
+  server::ServerOptions o;
+  o.session_ttl_seconds = 1.5;
+  Start(o);
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "ttl").ok());
+  for (int i = 0; i < 3; ++i) {  // used every 0.6 s: stays.
+    std::this_thread::sleep_for(std::chrono::milliseconds(600));
+    ASSERT_TRUE((i % 2 ? a_ : b_)->client->ComputeSdf("ttl", ToWireParams({})).ok());
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1800));
+  EXPECT_EQ(Code(a_->client->ComputeSdf("ttl", ToWireParams({}))),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(b_->client->Get("ttl")), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(a_->client->List()->empty());
+}
+
+TEST_F(RedisStoreTest, RedisDownIsUnavailableAndSessionsSurviveItsRestart) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "durable").ok());
+  ASSERT_TRUE(a_->client->UpdatePositions("durable", 0, 3, Moved(mesh, 1)).ok());
+  redis_.Stop(SIGKILL);
+  auto down = b_->client->ComputeSdf("durable", ToWireParams({}));
+  EXPECT_EQ(Code(down), absl::StatusCode::kUnavailable);
+  EXPECT_THAT(std::string(down.status().message()),
+              HasSubstr(redis_.url().substr(8)));
+  EXPECT_EQ(Code(a_->client->Upload(mesh, "new")),
+            absl::StatusCode::kUnavailable);
+  EXPECT_THAT(b_->metrics.Text(),
+              Not(HasSubstr("meshgauge_session_store_errors_total 0")));
+  redis_.Start();  // same port and AOF directory.
+  auto back = b_->client->ComputeSdf("durable", ToWireParams({}), false, 1);
+  ASSERT_TRUE(back.ok()) << back.status();
+  auto again = a_->client->ComputeSdf("durable", ToWireParams({}), false, 1);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_TRUE(SameBits(back->values, again->values));
+}
+
+TEST_F(RedisStoreTest, ClientRidesOutAReplicaRestart) {
+  const Mesh mesh = Knight();
+  server::ServerOptions o = a_->options;
+  const int port = testing::FreePort();
+  auto replica = std::make_unique<Replica>(o, port);
+  client::RemoteClient c("127.0.0.1:" + std::to_string(port));
+  ASSERT_TRUE(c.Upload(mesh, "restart").ok());
+  auto before = c.ComputeSdf("restart", ToWireParams({}));
+  ASSERT_TRUE(before.ok());
+  replica.reset();  // the replica goes away...
+  std::thread back([&] {  // ...and a new one takes its place 0.5 s later.
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));
+    replica = std::make_unique<Replica>(o, port);
+  });
+  // The client waits for the channel and retries; the session is in Redis.
+  auto after = c.ComputeSdf("restart", ToWireParams({}));
+  back.join();
+  ASSERT_TRUE(after.ok()) << after.status();
+  EXPECT_TRUE(SameBits(before->values, after->values));
+}
+
+TEST_F(RedisStoreTest, MalformedStoreUrlIsRejectedAtStart) {
+  server::ServerOptions o;
+  o.address = "127.0.0.1:0";
+  o.metrics_address = "";
+  for (const char* url : {"redis:/x", "http://h:1", "redis://h:0",
+                          "redis://h:99999", "redis://"}) {
+    o.session_store = url;
+    server::Metrics m;
+    server::SteadyClock c;
+    auto s = server::MeshGaugeServer::Start(o, &m, &c);
+    EXPECT_EQ(Code(s), absl::StatusCode::kInvalidArgument) << url;
+  }
+}
+
+}  // namespace
+}  // namespace meshgauge
