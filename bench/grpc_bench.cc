@@ -76,7 +76,7 @@ int Run(const std::string& path) {
   options.address = "127.0.0.1:0";
   options.metrics_address = "";
   options.drain_notice_seconds = 0;
-  options.rebuild_every_updates = 1 << 30;  // measure refits only.
+  options.rebuild_every_updates = 1000000;  // measure refits only.
   server::Metrics metrics;
   server::SteadyClock clock;
   auto srv = server::MeshGaugeServer::Start(options, &metrics, &clock);

@@ -4,7 +4,8 @@
 # ComputePenalty, a fixed number of iterations, every reply compared bit for
 # bit with a single-client reference at the same generation, every session
 # checked at the end) runs through the balancer, one fault per phase:
-#   kill     a replica is SIGKILLed (its restart policy brings it back)
+#   kill     a replica's server process is SIGKILLed (a crash; its restart
+#            policy brings it back)
 #   restart  a replica is restarted (graceful stop, start)
 #   scale    a third replica is added (deploy/stack.sh scale 3)
 #   stop     a replica is stopped gracefully (drain) and stays down
@@ -39,7 +40,7 @@ replica() {  # the Nth running replica's container id
 }
 retried() {  # retried attempts over the last $1 seconds, all replicas
   curl -sf "$PROM/api/v1/query" --data-urlencode \
-    "query=sum(increase(meshgauge_rpc_retried_attempts_total[${1}s]))" |
+    "query=round(sum(increase(meshgauge_rpc_retried_attempts_total[${1}s])))" |
     grep -o '"value":\[[^]]*\]' | grep -o '"[0-9.e+-]*"\]' | tr -d '"]' || true
 }
 
@@ -48,9 +49,19 @@ retried() {  # retried attempts over the last $1 seconds, all replicas
   >"$REPORT/plain.log" 2>&1 &
 PLAIN_PID=$!
 
+healthy() {  # waits until N replicas report healthy
+  for _ in $(seq 1 120); do
+    [ "$(docker ps --filter label=com.docker.compose.project=meshgauge \
+          --filter label=com.docker.compose.service=meshgauge \
+          --filter health=healthy -q | wc -l)" -ge "$1" ] && return 0
+    sleep 1
+  done
+  echo "FAIL: fewer than $1 healthy replicas"; failed=1
+}
+
 failed=0
-phase() {  # NAME FAULT-COMMAND...
-  local name=$1; shift
+phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
+  local name=$1 fault=$2
   local out="$REPORT/$name.txt"
   docker run --rm --network host -v "$PWD/secrets:/secrets:ro" \
     --entrypoint meshgauge-load "meshgauge:$VERSION" \
@@ -65,8 +76,8 @@ phase() {  # NAME FAULT-COMMAND...
   done
   local start=$SECONDS
   sleep 2
-  echo "== phase $name: $*"
-  "$@"
+  echo "== phase $name: $fault"
+  eval "$fault" || { echo "FAIL: the fault command failed"; failed=1; }
   local rc=0
   wait "$load" || rc=$?
   sleep 3  # a scrape after the phase
@@ -81,11 +92,17 @@ phase() {  # NAME FAULT-COMMAND...
   fi
 }
 
-phase kill docker kill -s SIGKILL "$(replica 1)"
-phase restart docker restart -t 30 "$(replica 2)"
-phase scale ./stack.sh scale 3
-phase stop docker stop -t 30 "$(replica 1)"
-phase redis docker restart -t 10 "$($COMPOSE ps -q redis)"
+healthy 2
+# A crash: SIGKILL from outside the engine (`docker kill` would count as a
+# manual stop and suspend the restart policy).
+phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(replica 1)")"'
+healthy 2  # the restart policy brought it back
+phase restart 'docker restart -t 30 "$(replica 2)"'
+healthy 2
+phase scale './stack.sh scale 3'
+healthy 3
+phase stop 'docker stop -t 30 "$(replica 1)"'
+phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)"'
 
 kill -TERM "$PLAIN_PID"
 wait "$PLAIN_PID" || true

@@ -9,8 +9,10 @@
 #                                   the Redis and Prometheus data) and the
 #                                   build stage's image (KEEP_BUILD_CACHE=1
 #                                   keeps it for a faster next `up`)
-#   deploy/stack.sh swarm-up [REPLICAS] | swarm-down   the same services as
-#                                   a Swarm stack (deploy/stack.yml)
+#   deploy/stack.sh swarm-up [REPLICAS] | swarm-down [--leave]   the same
+#                                   services as a Swarm stack (deploy/stack.yml;
+#                                   swarm-up makes this node a one-node swarm
+#                                   if it is none; --leave undoes that)
 # gRPC on 127.0.0.1:50051 (TLS, token: deploy/secrets), Prometheus on
 # 127.0.0.1:9090.
 set -euo pipefail
@@ -63,7 +65,7 @@ case "${1:-}" in
     ;;
   swarm-up)
     build
-    docker info --format '{{.Swarm.LocalNodeState}}' | grep -q active ||
+    docker info --format '{{.Swarm.LocalNodeState}}' | grep -qx active ||
       docker swarm init --advertise-addr 127.0.0.1 >/dev/null
     REPLICAS="${2:-2}" docker stack deploy -c stack.yml meshgauge
     wait_serving
@@ -71,9 +73,10 @@ case "${1:-}" in
     ;;
   swarm-down)
     docker stack rm meshgauge
+    [ "${2:-}" = "--leave" ] && docker swarm leave --force
     ;;
   *)
-    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] | swarm-up [REPLICAS] | swarm-down" >&2
+    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
     exit 2
     ;;
 esac

@@ -95,7 +95,16 @@ Metrics::Metrics()
               .Help("Calls on the session store (--session_store) that "
                     "failed because it was unreachable or refused them")
               .Register(*registry_)
-              .Add({})) {}
+              .Add({})) {
+  // Every method's retry counter exists from the start, so that a rate or
+  // increase over a window sees the first retries too.
+  for (const char* method :
+       {"CreateSession", "GetSession", "ListSessions", "DeleteSession",
+        "UpdatePositions", "ComputeSdf", "ComputeVjp", "ComputePenalty",
+        "Calibrate"}) {
+    retried_attempts_.Add({{"method", method}});
+  }
+}
 
 std::string Metrics::Text() const {
   return prometheus::TextSerializer().Serialize(registry_->Collect());

@@ -14,6 +14,7 @@
 #include "tests/redis_test_util.h"
 #include "tests/test_util.h"
 #include "client/remote/remote_client.h"
+#include "server/record_codec.h"
 #include "server/server.h"
 
 namespace meshgauge {
@@ -260,6 +261,49 @@ TEST_F(RedisStoreTest, MalformedStoreUrlIsRejectedAtStart) {
     auto s = server::MeshGaugeServer::Start(o, &m, &c);
     EXPECT_EQ(Code(s), absl::StatusCode::kInvalidArgument) << url;
   }
+}
+
+TEST(RecordCodecTest, RoundTripsExactlyAndRejectsCorruptBytes) {
+  Mesh mesh = Knight();
+  mesh.face_regions.assign(mesh.num_faces(), 0);
+  mesh.face_regions[5] = 7;
+  mesh.region_directions[7] = ConeDirection::kOutward;
+  mesh.positions[0].x = 0.1 + 1e-17;  // not a float32 value.
+  server::RecordInfo info{.id = "x", .dimension = 3, .num_vertices = 502,
+                          .num_faces = mesh.num_faces(), .memory_bytes = 99,
+                          .signed_volume = -2.5, .closed = true,
+                          .warnings = {"w1", "w2"}};
+  server::RecordInfo info2;
+  ASSERT_TRUE(server::DecodeInfo(server::EncodeInfo(info), &info2).ok());
+  EXPECT_EQ(info2.warnings, info.warnings);
+  EXPECT_EQ(info2.signed_volume, -2.5);
+  Mesh topo;
+  const std::string t = server::EncodeTopology(mesh);
+  ASSERT_TRUE(server::DecodeTopology(t, &topo).ok());
+  EXPECT_EQ(topo.face_regions, mesh.face_regions);
+  EXPECT_EQ(topo.region_directions, mesh.region_directions);
+  auto p = server::DecodePositions(server::EncodePositions(mesh.positions), 502);
+  ASSERT_TRUE(p.ok());
+  EXPECT_EQ(std::memcmp(p->data(), mesh.positions.data(), 502 * sizeof(Vec3)), 0);
+  // Every truncation and a forged huge count: DATA_LOSS, never a crash.
+  const std::string i = server::EncodeInfo(info);
+  for (size_t n = 0; n < i.size(); ++n) {
+    server::RecordInfo out;
+    EXPECT_EQ(server::DecodeInfo(i.substr(0, n), &out).code(),
+              absl::StatusCode::kDataLoss);
+  }
+  for (size_t n = 0; n < t.size(); n += 97) {
+    Mesh out;
+    EXPECT_EQ(server::DecodeTopology(t.substr(0, n), &out).code(),
+              absl::StatusCode::kDataLoss);
+  }
+  std::string forged = t;
+  forged[5] = '\xff';  // face count high bytes.
+  Mesh out;
+  EXPECT_EQ(server::DecodeTopology(forged, &out).code(),
+            absl::StatusCode::kDataLoss);
+  EXPECT_EQ(server::DecodePositions("abc", 1).status().code(),
+            absl::StatusCode::kDataLoss);
 }
 
 }  // namespace
