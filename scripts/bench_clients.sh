@@ -5,11 +5,7 @@
 #   scripts/bench_clients.sh [MESH] [ITERATIONS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-MESH="${1:-../shared/meshes/igea-triangles.ply}"
-N="${2:-5}"
-scripts/install_deps.sh >/dev/null
-scripts/build.sh >/dev/null
-tmp=$(mktemp -d)
+source scripts/bench_setup.sh
 trap 'kill "$server" 2>/dev/null || true; rm -rf "$tmp"' EXIT
 build/server/meshgauge-server --address 127.0.0.1:0 --metrics_address= \
   --port_file "$tmp/port" 2>"$tmp/server.log" &

@@ -8,11 +8,7 @@
 #   scripts/bench_stack_iteration.sh [MESH] [ITERATIONS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-MESH="${1:-../shared/meshes/igea-triangles.ply}"
-N="${2:-5}"
-scripts/install_deps.sh >/dev/null
-scripts/build.sh >/dev/null
-tmp=$(mktemp -d)
+source scripts/bench_setup.sh
 pids=()
 trap 'kill "${pids[@]}" 2>/dev/null || true; rm -rf "$tmp"' EXIT
 free_port() { /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }

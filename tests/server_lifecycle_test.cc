@@ -151,7 +151,9 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   std::this_thread::sleep_until(drain_started + std::chrono::milliseconds(700));
   ASSERT_EQ(in_flight.wait_for(std::chrono::seconds(0)),
             std::future_status::timeout);
-  auto refused = client_->Get("big");
+  client::ClientOptions once;
+  once.retry = false;  // see this attempt's status, not a later retry's.
+  auto refused = client::RemoteClient(target_, once).Get("big");
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kUnavailable);
   EXPECT_THAT(std::string(refused.status().message()), HasSubstr("draining"));
   auto result = in_flight.get();
@@ -160,7 +162,9 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
       << "the call must still have been running when new calls were refused";
   EXPECT_EQ(result->summary.ok(), big.num_vertices());
   shutdown.get();
-  EXPECT_EQ(client_->Get("big").status().code(),
+  client::ClientOptions brief;
+  brief.connect_timeout_seconds = 0.5;
+  EXPECT_EQ(client::RemoteClient(target_, brief).Get("big").status().code(),
             absl::StatusCode::kUnavailable);
 }
 

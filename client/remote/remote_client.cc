@@ -114,7 +114,6 @@ std::string NewSessionId() {
 const char kRetryServiceConfig[] = R"json({
   "methodConfig": [{
     "name": [{"service": "meshgauge.v1.MeshGauge"}],
-    "waitForReady": true,
     "retryPolicy": {
       "maxAttempts": 5,
       "initialBackoff": "0.2s",

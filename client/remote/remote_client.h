@@ -33,16 +33,17 @@ struct ClientOptions {
   // by this CA (PEM text, not a path); with tls_cert_pem and tls_key_pem the
   // client presents its own (mutual TLS).
   std::string tls_ca_pem, tls_cert_pem, tls_key_pem;
-  // The channel's service config (kRetryServiceConfig): calls wait for the
-  // channel to be ready and UNAVAILABLE (a replica down, draining or
-  // restarting) is retried up to 5 attempts with exponential backoff
-  // (0.2 s to 3 s). UpdatePositions is safe to retry: the server
-  // recognises an update it already applied by its generation.
+  // The channel's service config (kRetryServiceConfig): UNAVAILABLE (a
+  // replica down, draining or restarting, Redis restarting) is retried up
+  // to 5 attempts with exponential backoff (0.2 s to 3 s). UpdatePositions
+  // is safe to retry: the server recognises an update it already applied
+  // by its generation.
   bool retry = true;
-  // A call on a channel that is not connected first waits this long (at
-  // most deadline_seconds) for the connection; if it does not come (wrong address, TLS mismatch) the
-  // call fails UNAVAILABLE instead of waiting for the ready channel until
-  // its deadline.
+  // Wait for ready, bounded: a call on a channel that is not connected
+  // first waits this long (at most deadline_seconds) for the connection;
+  // if it does not come (server down, wrong address, TLS mismatch) the call
+  // fails UNAVAILABLE (after the retries) instead of waiting until its
+  // deadline, as gRPC's own waitForReady would on a dead server.
   double connect_timeout_seconds = 20;
 };
 
