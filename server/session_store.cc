@@ -148,15 +148,12 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
     // The record first: it decides existence and the limits, for all
     // replicas at once.
     if (chosen) id = random_id();
+    SessionRecord record;
+    record.mesh = mesh;
+    // The BVH is built on first use, after the record was accepted.
     auto session = std::make_shared<Session>(id, std::move(mesh), options_,
                                              metrics_, clock_->NowSeconds());
-    SessionRecord record;
     record.info = session->Info();
-    {
-      auto reader = session->Read();
-      if (!reader.ok()) return reader.status();
-      record.mesh = reader->evaluator->mesh();
-    }
     const RecordLimits limits{options_.max_sessions,
                               options_.SessionsPerTenant(),
                               options_.BudgetPerTenant()};
@@ -307,21 +304,10 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
     Mesh moved = reader->evaluator->mesh();
     if (indices.empty()) {
       moved.positions = positions;
-    } else {
-      std::vector<char> seen(moved.positions.size());
-      for (size_t i = 0; i < indices.size(); ++i) {
-        const int32_t v = indices[i];
-        if (v < 0 || v >= moved.num_vertices()) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("vertex index ", v, " is out of range [0, ",
-                           moved.num_vertices(), ")"));
-        }
-        if (seen[v]++) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("vertex index ", v, " is repeated in the update"));
-        }
-        moved.positions[v] = positions[i];
-      }
+    } else if (absl::Status v =
+                   MoveVertices(indices, positions, &moved.positions);
+               !v.ok()) {
+      return v;
     }
     if (absl::Status v = ValidateMesh(moved); !v.ok()) {
       return absl::InvalidArgumentError(

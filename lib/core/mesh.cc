@@ -93,6 +93,31 @@ int64_t DropDegenerateFaces(Mesh& mesh) {
   return dropped;
 }
 
+absl::Status MoveVertices(absl::Span<const int32_t> indices,
+                          absl::Span<const Vec3> moved,
+                          std::vector<Vec3>* positions) {
+  if (indices.size() != moved.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "got ", indices.size(), " indices but ", moved.size(), " positions"));
+  }
+  const int64_t n = std::ssize(*positions);
+  std::vector<uint8_t> seen(positions->size(), 0);
+  for (size_t i = 0; i < indices.size(); ++i) {
+    const int32_t v = indices[i];
+    if (v < 0 || v >= n) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("vertex index ", v, " at position ", i,
+                       " is out of range [0, ", n, ")"));
+    }
+    if (seen[v]++) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("vertex index ", v, " is repeated in the update"));
+    }
+  }
+  for (size_t i = 0; i < indices.size(); ++i) (*positions)[indices[i]] = moved[i];
+  return absl::OkStatus();
+}
+
 absl::Status ValidateMesh(const Mesh& mesh) {
   if (mesh.dimension != 2 && mesh.dimension != 3) {
     return absl::InvalidArgumentError(

@@ -77,6 +77,13 @@ struct Mesh {
 // valid.
 absl::Status ValidateMesh(const Mesh& mesh);
 
+// Sets (*positions)[indices[i]] = moved[i]. Every index must be in range
+// and appear once, and the spans must have equal sizes; on error (Invalid
+// Argument naming the index) nothing changes.
+absl::Status MoveVertices(absl::Span<const int32_t> indices,
+                          absl::Span<const Vec3> moved,
+                          std::vector<Vec3>* positions);
+
 // True when the face has zero area (zero length), by ValidateMesh's rule.
 // Precondition: the face's indices are in range.
 bool FaceIsDegenerate(const Mesh& mesh, const Face& face);

@@ -247,27 +247,10 @@ absl::Status SdfEvaluator::UpdatePositions(absl::Span<const Vec3> positions) {
 
 absl::Status SdfEvaluator::UpdatePositions(absl::Span<const int32_t> indices,
                                            absl::Span<const Vec3> positions) {
-  if (indices.size() != positions.size()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("got ", indices.size(), " indices but ", positions.size(),
-                     " positions"));
-  }
-  std::vector<uint8_t> seen(mesh_.positions.size(), 0);
-  for (size_t i = 0; i < indices.size(); ++i) {
-    const int32_t v = indices[i];
-    if (v < 0 || v >= mesh_.num_vertices()) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("vertex index ", v, " at position ", i,
-                       " is out of range [0, ", mesh_.num_vertices(), ")"));
-    }
-    if (seen[v]++) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("vertex index ", v, " is repeated in the update"));
-    }
-  }
   std::vector<Vec3> old = mesh_.positions;
-  for (size_t i = 0; i < indices.size(); ++i) {
-    mesh_.positions[indices[i]] = positions[i];
+  if (absl::Status s = MoveVertices(indices, positions, &mesh_.positions);
+      !s.ok()) {
+    return s;
   }
   return CommitPositions(std::move(old));
 }
