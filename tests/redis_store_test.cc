@@ -6,7 +6,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <random>
 #include <thread>
 
@@ -14,6 +16,7 @@
 #include "tests/redis_test_util.h"
 #include "tests/test_util.h"
 #include "client/remote/remote_client.h"
+#include "server/auth.h"
 #include "server/record_codec.h"
 #include "server/server.h"
 
@@ -247,6 +250,40 @@ TEST_F(RedisStoreTest, ClientRidesOutAReplicaRestart) {
   back.join();
   ASSERT_TRUE(after.ok()) << after.status();
   EXPECT_TRUE(SameBits(before->values, after->values));
+}
+
+TEST_F(RedisStoreTest, TenantsDoNotSeeEachOthersStoredSessions) {
+  const std::string tokens = "/tmp/meshgauge-redis-tokens-" +
+                             std::to_string(redis_.port());
+  {
+    std::ofstream f(tokens);
+    f << "alice " << server::Sha256Hex("alice-secret") << "\nbob "
+      << server::Sha256Hex("bob-secret") << "\n";
+  }
+  server::ServerOptions o;
+  o.auth_tokens_file = tokens;
+  Start(o);
+  auto as = [&](Replica& r, const char* token) {
+    client::ClientOptions co;
+    co.token = token;
+    return client::RemoteClient(
+        "127.0.0.1:" + std::to_string(r.server->port()), co);
+  };
+  auto alice = as(*a_, "alice-secret");
+  auto bob = as(*b_, "bob-secret");  // the other tenant, on the other replica.
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(alice.Upload(mesh, "shared-name").ok());
+  EXPECT_EQ(Code(bob.Get("shared-name")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(bob.ComputeSdf("shared-name", ToWireParams({}))),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(bob.UpdatePositions("shared-name", 0, 3, Moved(mesh, 1))),
+            absl::StatusCode::kNotFound);
+  EXPECT_EQ(bob.Delete("shared-name").code(), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(bob.List()->empty());
+  ASSERT_TRUE(bob.Upload(mesh, "shared-name").ok());  // no squatting either.
+  EXPECT_EQ(alice.Get("shared-name")->generation(), 0);
+  EXPECT_EQ(as(*b_, "alice-secret").List()->size(), 1u);
+  std::remove(tokens.c_str());
 }
 
 TEST_F(RedisStoreTest, MalformedStoreUrlIsRejectedAtStart) {
