@@ -3,79 +3,109 @@
 // baseline of bench/python_client_bench.py (scripts/bench_clients.sh runs
 // both against one server).
 //
-//   meshgauge_client_bench [--iterations N] [--miss_target T2] TARGET MESH
+//   meshgauge_client_bench [--iterations N] [--in_process]
+//                          [--miss_target T2] TARGET MESH
 //
+// With --in_process, every remote iteration is followed by the same
+// iteration on an SdfEvaluator in this process (UpdatePositions, Compute
+// with hit table, ComputeVjp), so that both see the same machine state; the
+// best of each and their ratio are printed.
 // With --miss_target (another replica of the same session store), the
 // session is then first used there: the time of that call is a cache miss
 // (record loaded from the store, BVH built).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "client/remote/remote_client.h"
+#include "lib/core/sensitivity.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
 
 ABSL_FLAG(int, iterations, 5, "iterations (the best is reported)");
+ABSL_FLAG(bool, in_process, false,
+          "alternate with the same iteration in this process; print the ratio");
 ABSL_FLAG(std::string, miss_target, "",
           "another replica sharing the session store: time a cache miss there");
 ABSL_FLAG(std::string, dump, "",
           "also write the mesh as OBJ here (the Python bench's input)");
 
+namespace {
+
+void Check(const absl::Status& s) {
+  if (!s.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(s.message()).c_str());
+    std::exit(1);
+  }
+}
+
+double Seconds(const std::function<void()>& body) {
+  const auto start = std::chrono::steady_clock::now();
+  body();
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  using meshgauge::Vec3;
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   if (args.size() != 3) {
     std::fprintf(stderr, "usage: meshgauge_client_bench TARGET MESH\n");
     return 2;
   }
   auto mesh = meshgauge::ReadMesh(args[2]);
-  if (!mesh.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(mesh.status().message()).c_str());
-    return 1;
-  }
+  Check(mesh.status());
   if (const std::string dump = absl::GetFlag(FLAGS_dump); !dump.empty()) {
-    if (absl::Status s = meshgauge::WriteObj(dump, *mesh); !s.ok()) return 1;
+    Check(meshgauge::WriteObj(dump, *mesh));
   }
   meshgauge::client::RemoteClient c(args[1]);
-  if (auto up = c.Upload(*mesh, "cpp-bench"); !up.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(up.status().message()).c_str());
-    return 1;
+  Check(c.Upload(*mesh, "cpp-bench").status());
+  std::unique_ptr<meshgauge::SdfEvaluator> local;
+  if (absl::GetFlag(FLAGS_in_process)) {
+    auto ev = meshgauge::SdfEvaluator::Create(*mesh);
+    Check(ev.status());
+    local = std::move(*ev);
   }
-  const auto params = meshgauge::client::ToWireParams({});
+  const meshgauge::SdfParams params;
   const std::vector<double> ones(mesh->num_vertices(), 1.0);
-  double best = 1e300;
-  for (int i = 0; i < absl::GetFlag(FLAGS_iterations); ++i) {
-    std::vector<meshgauge::Vec3> p = mesh->positions;
+  double best = 1e300, best_local = 1e300;
+  const int n = absl::GetFlag(FLAGS_iterations);
+  for (int i = 0; i < n; ++i) {
+    std::vector<Vec3> p = mesh->positions;
     const double s = 1 + 1e-5 * std::sin(1.0 + i);
     for (auto& v : p) v *= s;
-    const auto start = std::chrono::steady_clock::now();
-    auto up = c.UpdatePositions("cpp-bench", i, mesh->dimension, p);
-    auto sdf = c.ComputeSdf("cpp-bench", params);
-    auto vjp = c.ComputeVjp("cpp-bench", params, ones);
-    if (!up.ok() || !sdf.ok() || !vjp.ok()) {
-      std::fprintf(stderr, "iteration failed\n");
-      return 1;
-    }
-    best = std::min(best, std::chrono::duration<double>(
-                              std::chrono::steady_clock::now() - start)
-                              .count());
+    best = std::min(
+        best, Seconds([&] {
+          Check(c.UpdatePositions("cpp-bench", i, mesh->dimension, p).status());
+          Check(c.ComputeSdf("cpp-bench", params).status());
+          Check(c.ComputeVjp("cpp-bench", params, ones).status());
+        }));
+    if (!local) continue;
+    best_local =
+        std::min(best_local, Seconds([&] {
+                   Check(local->UpdatePositions(p));
+                   meshgauge::HitTable hits;
+                   Check(local->Compute({}, {}, &hits).status());
+                   Check(meshgauge::ComputeVjp(*local, hits, ones).status());
+                 }));
   }
-  std::printf("C++ client iteration: %.4f s (best of %d)\n", best,
-              absl::GetFlag(FLAGS_iterations));
+  std::printf("C++ client iteration: %.4f s (best of %d)\n", best, n);
+  if (local) {
+    std::printf("in-process iteration: %.4f s (best of %d, interleaved)\n",
+                best_local, n);
+    std::printf("remote / in-process per iteration: %.3f\n", best / best_local);
+  }
   if (const std::string t2 = absl::GetFlag(FLAGS_miss_target); !t2.empty()) {
     meshgauge::client::RemoteClient other(t2);
-    const auto start = std::chrono::steady_clock::now();
-    auto info = other.Get("cpp-bench");
-    if (!info.ok()) {
-      std::fprintf(stderr, "%s\n", std::string(info.status().message()).c_str());
-      return 1;
-    }
+    const double miss =
+        Seconds([&] { Check(other.Get("cpp-bench").status()); });
     std::printf("cache miss on %s (load from the store + BVH build): %.4f s\n",
-                t2.c_str(),
-                std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                              start)
-                    .count());
+                t2.c_str(), miss);
   }
   (void)c.Delete("cpp-bench");
   return 0;

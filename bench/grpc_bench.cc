@@ -84,7 +84,7 @@ int Run(const std::string& path) {
   client::RemoteClient c("127.0.0.1:" + std::to_string((*srv)->port()));
   Check(c.Upload(*mesh, "bench").status());
   int64_t generation = 0;
-  const v1::SdfParameters params = client::ToWireParams({});
+  const SdfParams params;
   // Build the BVH (lazily) before timing.
   Check(c.UpdatePositions("bench", generation++, 3, mesh->positions).status());
   const double remote = Best(n, [&](int i) {
@@ -92,7 +92,7 @@ int Run(const std::string& path) {
     Check(c.ComputeSdf("bench", params).status());
     auto vjp = c.ComputeVjp("bench", params, ones);
     Check(vjp.status());
-    if (!vjp->reused_hits()) std::fprintf(stderr, "VJP traced again!\n");
+    if (!vjp->facts.reused_hits) std::fprintf(stderr, "VJP traced again!\n");
   });
 
   // A VJP that reuses the last ray pass vs one that must trace.

@@ -83,6 +83,10 @@ std::vector<Vec3> Deform(const Mesh& mesh, int iteration) {
   return p;
 }
 
+void AppendCoordinates(const std::vector<Vec3>& v, std::vector<double>* out) {
+  for (const Vec3& p : v) out->insert(out->end(), {p.x, p.y, p.z});
+}
+
 bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() &&
          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
@@ -95,7 +99,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
                Clock::time_point stop_at, std::vector<Reply>* replies,
                const std::vector<Reply>* reference, Stats& stats) {
   client::RemoteClient c(target, options);
-  const v1::SdfParameters params = client::ToWireParams({});
+  const SdfParams params;
   const std::vector<double> ones(mesh.num_vertices(), 1.0);
   auto timed = [&](const char* rpc, auto call) {
     const auto start = Clock::now();
@@ -123,25 +127,25 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     auto up = timed("UpdatePositions", [&] {
       return c.UpdatePositions(id, generation, 3, positions);
     });
-    absl::StatusOr<client::RemoteSdf> sdf = absl::UnknownError("not run");
+    absl::StatusOr<wire::SdfReply> sdf = absl::UnknownError("not run");
     absl::Status derivative = absl::UnknownError("not run");
     std::vector<double> gradient;
     if (up.ok()) {
-      generation = up->generation();
+      generation = up->generation;
       sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
       if (sdf.ok() && it % 2 == 0) {
         auto vjp =
             timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
         derivative = vjp.status();
-        if (vjp.ok()) gradient.assign(vjp->gradient().begin(), vjp->gradient().end());
+        if (vjp.ok()) AppendCoordinates(vjp->gradient, &gradient);
       } else if (sdf.ok()) {
         auto pen = timed("ComputePenalty", [&] {
           return c.ComputePenalty(id, params, {.t_min = 2.5}, true);
         });
         derivative = pen.status();
         if (pen.ok()) {
-          gradient.assign(pen->gradient().begin(), pen->gradient().end());
-          gradient.push_back(pen->value());
+          AppendCoordinates(pen->penalty.gradient, &gradient);
+          gradient.push_back(pen->penalty.value);
         }
       }
     }
@@ -172,7 +176,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
       --it;  // redo this iteration on the new session.
       continue;
     }
-    Reply reply{sdf->values, std::move(gradient)};
+    Reply reply{sdf->result.values, std::move(gradient)};
     std::lock_guard<std::mutex> l(stats.mu);
     ++stats.iterations;
     if (reference == nullptr) {
@@ -184,7 +188,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
   }
   // Still there, at the last generation: nothing was lost on the way.
   auto info = c.Get(id);
-  if (!info.ok() || info->generation() != generation) {
+  if (!info.ok() || info->generation != generation) {
     std::lock_guard<std::mutex> l(stats.mu);
     ++stats.lost;
     if (!info.ok()) stats.Error(id, "GetSession", info.status());

@@ -30,10 +30,11 @@ docker run --rm --network host "${SECRETS[@]}" --entrypoint sh "meshgauge:$VERSI
   R='--server $FRONT ${TLS[*]}'
   meshgauge shape sphere --radius 0.5 --size 0.05 --out /tmp/s.obj
   meshgauge remote upload /tmp/s.obj --session-id smoke \$R --json
-  meshgauge remote sdf smoke \$R --json
+  meshgauge remote sdf /tmp/s.obj --session-id smoke \$R --json
   meshgauge remote update smoke --positions /tmp/s.obj \$R --json
-  meshgauge remote grad smoke \$R --json
-  meshgauge remote penalty smoke --t-min 2 \$R --json
+  meshgauge remote grad /tmp/s.obj --session-id smoke \$R --json
+  meshgauge remote penalty /tmp/s.obj --session-id smoke --t-min 2 \$R --json
+  meshgauge remote calibrate /tmp/s.obj --t-min 0.5 \$R
   meshgauge remote list \$R
   meshgauge remote delete smoke \$R"
 

@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "proto/wire/convert.h"
 
 namespace meshgauge::server {
 namespace {
@@ -61,16 +62,12 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
       return Invalid(absl::StrCat("region ", rd.region(),
                                   " is listed twice in region_directions"));
     }
-    if (rd.direction() == v1::CONE_DIRECTION_OUTWARD) {
-      mesh_.region_directions[rd.region()] = ConeDirection::kOutward;
-    } else if (rd.direction() == v1::CONE_DIRECTION_INWARD ||
-               rd.direction() == v1::CONE_DIRECTION_UNSPECIFIED) {
-      mesh_.region_directions[rd.region()] = ConeDirection::kInward;
-    } else {
-      return Invalid(absl::StrCat("region ", rd.region(),
-                                  " has an unknown direction ",
-                                  static_cast<int>(rd.direction())));
+    auto direction = wire::FromWire(rd.direction());
+    if (!direction.ok()) {
+      return Invalid(absl::StrCat("region ", rd.region(), ": ",
+                                  direction.status().message()));
     }
+    mesh_.region_directions[rd.region()] = *direction;
   }
   return absl::OkStatus();
 }

@@ -65,7 +65,7 @@ absl::Status Corrupt(const char* what) {
 
 }  // namespace
 
-std::string EncodeInfo(const RecordInfo& info) {
+std::string EncodeInfo(const wire::SessionInfo& info) {
   Writer w;
   w.Put<int32_t>(info.dimension);
   w.Put<int64_t>(info.num_vertices);
@@ -78,14 +78,14 @@ std::string EncodeInfo(const RecordInfo& info) {
   return w.Take();
 }
 
-absl::Status DecodeInfo(const std::string& bytes, RecordInfo* info) {
+absl::Status DecodeInfo(const std::string& bytes, wire::SessionInfo* info) {
   Reader r(bytes);
   int32_t dim = 0;
   uint8_t closed = 0;
   uint32_t warnings = 0;
-  if (!r.Get(&dim) || !r.Get(&info->num_vertices) ||
-      !r.Get(&info->num_faces) || !r.Get(&info->memory_bytes) ||
-      !r.Get(&info->signed_volume) || !r.Get(&closed) || !r.Get(&warnings) ||
+  if (!r.Get(&dim) || !r.Get(&info->num_vertices) || !r.Get(&info->num_faces) ||
+      !r.Get(&info->memory_bytes) || !r.Get(&info->signed_volume) ||
+      !r.Get(&closed) || !r.Get(&warnings) ||
       !r.Has(warnings, sizeof(uint32_t)) || (dim != 2 && dim != 3)) {
     return Corrupt("info");
   }

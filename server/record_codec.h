@@ -11,8 +11,8 @@
 
 namespace meshgauge::server {
 
-std::string EncodeInfo(const RecordInfo& info);
-absl::Status DecodeInfo(const std::string& bytes, RecordInfo* info);
+std::string EncodeInfo(const wire::SessionInfo& info);
+absl::Status DecodeInfo(const std::string& bytes, wire::SessionInfo* info);
 
 // Faces, regions and region directions (everything of a mesh but positions).
 std::string EncodeTopology(const Mesh& mesh);

@@ -142,9 +142,9 @@ const redisReply* At(const redisReply* r, size_t i) {
 }
 
 absl::Status NoSession(const std::string& id) {
-  return absl::NotFoundError(absl::StrCat(
-      "no session '", absl::CHexEscape(id.substr(0, 80)),
-      "' (never created, deleted, or expired after idling)"));
+  return absl::NotFoundError(
+      absl::StrCat("no session '", absl::CHexEscape(id.substr(0, 80)),
+                   "' (never created, deleted, or expired after idling)"));
 }
 
 }  // namespace
@@ -214,15 +214,15 @@ absl::StatusOr<redisContext*> RedisRecords::Acquire() {
   }
   timeval tv;
   tv.tv_sec = static_cast<time_t>(options_.timeout_seconds);
-  tv.tv_usec = static_cast<suseconds_t>(
-      (options_.timeout_seconds - tv.tv_sec) * 1e6);
+  tv.tv_usec =
+      static_cast<suseconds_t>((options_.timeout_seconds - tv.tv_sec) * 1e6);
   redisContext* c =
       redisConnectWithTimeout(options_.host.c_str(), options_.port, tv);
   if (c == nullptr || c->err) {
     const std::string cause = c ? c->errstr : "out of memory";
     if (c) redisFree(c);
-    return absl::UnavailableError(absl::StrCat(
-        "the session store ", Describe(), " is unreachable: ", cause));
+    return absl::UnavailableError(absl::StrCat("the session store ", Describe(),
+                                               " is unreachable: ", cause));
   }
   redisSetTimeout(c, tv);
   return c;
@@ -295,27 +295,34 @@ absl::Status RedisRecords::Ping() {
 absl::Status RedisRecords::Create(const std::string& tenant,
                                   const SessionRecord& record,
                                   const RecordLimits& limits) {
-  const RecordInfo& info = record.info;
+  const wire::SessionInfo& info = record.info;
   const std::string prefix = TenantPrefix(tenant);
-  std::vector<std::string> args = {
-      info.id,
-      absl::StrCat(TtlMillis()),
-      absl::StrCat(limits.max_sessions),
-      absl::StrCat(limits.max_sessions_per_tenant),
-      absl::StrCat(limits.max_bytes_per_tenant),
-      absl::StrCat(info.memory_bytes),
-      absl::StrCat(prefix, "s:"),
-      "info", EncodeInfo(info),
-      "topo", EncodeTopology(record.mesh),
-      "pos", EncodePositions(record.mesh.positions),
-      "base", "",
-      "gen", "0",
-      "base_gen", "0",
-      "bytes", absl::StrCat(info.memory_bytes)};
-  auto r = Eval(kCreate,
-                {SessionKey(tenant, info.id), absl::StrCat(prefix, "ids"),
-                 absl::StrCat(options_.key_prefix, "all")},
-                args);
+  std::vector<std::string> args = {info.session_id,
+                                   absl::StrCat(TtlMillis()),
+                                   absl::StrCat(limits.max_sessions),
+                                   absl::StrCat(limits.max_sessions_per_tenant),
+                                   absl::StrCat(limits.max_bytes_per_tenant),
+                                   absl::StrCat(info.memory_bytes),
+                                   absl::StrCat(prefix, "s:"),
+                                   "info",
+                                   EncodeInfo(info),
+                                   "topo",
+                                   EncodeTopology(record.mesh),
+                                   "pos",
+                                   EncodePositions(record.mesh.positions),
+                                   "base",
+                                   "",
+                                   "gen",
+                                   "0",
+                                   "base_gen",
+                                   "0",
+                                   "bytes",
+                                   absl::StrCat(info.memory_bytes)};
+  auto r =
+      Eval(kCreate,
+           {SessionKey(tenant, info.session_id), absl::StrCat(prefix, "ids"),
+            absl::StrCat(options_.key_prefix, "all")},
+           args);
   if (!r.ok()) return r.status();
   const redisReply* reply = (*r)->reply;
   const int64_t count = Int(At(reply, 1));
@@ -324,7 +331,7 @@ absl::Status RedisRecords::Create(const std::string& tenant,
       return absl::OkStatus();
     case 1:
       return absl::AlreadyExistsError(
-          absl::StrCat("session '", info.id, "' already exists"));
+          absl::StrCat("session '", info.session_id, "' already exists"));
     case 2:
       return absl::ResourceExhaustedError(absl::StrCat(
           "the service holds the maximum of ", limits.max_sessions,
@@ -361,7 +368,7 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   const redisReply* v = (*r)->reply;
   if (v->type != REDIS_REPLY_ARRAY || v->elements < 7) return NoSession(id);
   SessionRecord rec;
-  rec.info.id = id;
+  rec.info.session_id = id;
   if (absl::Status s = DecodeInfo(Str(At(v, 0)), &rec.info); !s.ok()) return s;
   if (absl::Status s = DecodeTopology(Str(At(v, 1)), &rec.mesh); !s.ok()) {
     return s;
@@ -395,9 +402,9 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
   const int64_t code = Int(At(v, 0)), gen = Int(At(v, 1));
   if (code < 0) return NoSession(id);
   if (code == 0) {
-    return absl::AbortedError(absl::StrCat(
-        "session '", id, "' is at generation ", gen,
-        ", the update expected generation ", expected_generation));
+    return absl::AbortedError(
+        absl::StrCat("session '", id, "' is at generation ", gen,
+                     ", the update expected generation ", expected_generation));
   }
   return gen;
 }
@@ -413,7 +420,7 @@ absl::Status RedisRecords::Delete(const std::string& tenant,
   return Int((*r)->reply) > 0 ? absl::OkStatus() : NoSession(id);
 }
 
-absl::StatusOr<std::vector<RecordInfo>> RedisRecords::List(
+absl::StatusOr<std::vector<wire::SessionInfo>> RedisRecords::List(
     const std::string& tenant, const std::string& after, int limit,
     std::string* next) {
   const std::string prefix = TenantPrefix(tenant);
@@ -421,16 +428,16 @@ absl::StatusOr<std::vector<RecordInfo>> RedisRecords::List(
                 {after, absl::StrCat(limit), absl::StrCat(prefix, "s:")});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
-  std::vector<RecordInfo> out;
+  std::vector<wire::SessionInfo> out;
   next->clear();
   for (size_t i = 0; v->type == REDIS_REPLY_ARRAY && i < v->elements; ++i) {
     if (std::ssize(out) == limit) {
-      *next = out.back().id;
+      *next = out.back().session_id;
       break;
     }
     const redisReply* e = v->element[i];
-    RecordInfo info;
-    info.id = Str(At(e, 0));
+    wire::SessionInfo info;
+    info.session_id = Str(At(e, 0));
     if (absl::Status s = DecodeInfo(Str(At(e, 1)), &info); !s.ok()) return s;
     info.generation = Int(At(e, 2));
     info.idle_seconds = IdleSeconds(Int(At(e, 3)));

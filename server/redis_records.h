@@ -21,9 +21,9 @@ namespace meshgauge::server {
 struct RedisOptions {
   std::string host = "127.0.0.1";
   int port = 6379;
-  double ttl_seconds = 3600;          // idle time before a session expires.
-  double timeout_seconds = 5;         // connect and per command.
-  std::string key_prefix = "mg:";     // namespace of every key.
+  double ttl_seconds = 3600;       // idle time before a session expires.
+  double timeout_seconds = 5;      // connect and per command.
+  std::string key_prefix = "mg:";  // namespace of every key.
 };
 
 // Parses "redis://host[:port]" (port 6379 by default) into host and port.
@@ -53,10 +53,9 @@ class RedisRecords : public SessionRecords {
                                           bool rebase) override;
   absl::Status Delete(const std::string& tenant,
                       const std::string& id) override;
-  absl::StatusOr<std::vector<RecordInfo>> List(const std::string& tenant,
-                                               const std::string& after,
-                                               int limit,
-                                               std::string* next) override;
+  absl::StatusOr<std::vector<wire::SessionInfo>> List(
+      const std::string& tenant, const std::string& after, int limit,
+      std::string* next) override;
 
   // PING; UNAVAILABLE with the cause when Redis cannot be reached.
   absl::Status Ping();

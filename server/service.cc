@@ -9,8 +9,8 @@
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/embree/calibration.h"
+#include "proto/wire/convert.h"
 #include "server/mesh_upload.h"
-#include "server/proto_convert.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
@@ -99,7 +99,8 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
   }
   store_->Sweep();
   auto tenant = auth_->Authenticate(*ctx);
-  grpc::Status status = ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
+  grpc::Status status =
+      wire::ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
   metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
   {
     std::lock_guard<std::mutex> lock(drain_mu_);
@@ -137,7 +138,7 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
   auto session = store_->Get(tenant, session_id);
   if (!session.ok()) return session.status();
   auto sdf_params =
-      ToSdfParams(params, options_.max_rays, options_.compute_threads);
+      wire::FromWire(params, options_.max_rays, options_.compute_threads);
   if (!sdf_params.ok()) return sdf_params.status();
   auto reader = (*session)->Read();
   if (!reader.ok()) return reader.status();
@@ -219,8 +220,8 @@ absl::Status MeshGaugeService::ReceiveUpload(
   if (!session.ok()) return session.status();
   // Quads take two primitives: account the session's true size now.
   store_->EnforceBudget(session->get());
-  ToProto((*session)->Snapshot(), clock_->NowSeconds(),
-          response->mutable_session());
+  wire::ToWire(ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
+               response->mutable_session());
   return absl::OkStatus();
 }
 
@@ -229,10 +230,12 @@ grpc::Status MeshGaugeService::GetSession(grpc::ServerContext* ctx,
                                           v1::GetSessionResponse* response) {
   return Instrumented(
       "GetSession", ctx, [&](const std::string& tenant) -> absl::Status {
-        auto session = store_->Get(tenant, request->session_id(), /*touch=*/false);
+        auto session =
+            store_->Get(tenant, request->session_id(), /*touch=*/false);
         if (!session.ok()) return session.status();
-        ToProto((*session)->Snapshot(), clock_->NowSeconds(),
-                response->mutable_session());
+        wire::ToWire(
+            ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
+            response->mutable_session());
         return absl::OkStatus();
       });
 }
@@ -253,7 +256,7 @@ grpc::Status MeshGaugeService::ListSessions(
             store_->List(tenant, request->page_token(), page_size, &next);
         if (!page.ok()) return page.status();
         for (const SessionSnapshot& s : *page) {
-          ToProto(s, now, response->add_sessions());
+          wire::ToWire(ToSessionInfo(s, now), response->add_sessions());
         }
         response->set_next_page_token(next);
         return absl::OkStatus();
@@ -277,7 +280,7 @@ grpc::Status MeshGaugeService::UpdatePositions(
         auto session = store_->Get(tenant, request->session_id());
         if (!session.ok()) return session.status();
         const int dim = (*session)->dimension();
-        auto points = ToPoints(request->positions(), dim, "positions");
+        auto points = wire::ToPoints(request->positions(), dim, "positions");
         if (!points.ok()) return points.status();
         const bool subset = request->indices_size() > 0;
         const int64_t expected =
@@ -291,9 +294,9 @@ grpc::Status MeshGaugeService::UpdatePositions(
         }
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());
-        auto outcome = store_->UpdatePositions(
-            tenant, request->session_id(), request->expected_generation(),
-            indices, *points);
+        auto outcome = store_->UpdatePositions(tenant, request->session_id(),
+                                               request->expected_generation(),
+                                               indices, *points);
         if (!outcome.ok()) return outcome.status();
         response->set_generation(outcome->generation);
         response->set_refit(outcome->refit);
@@ -352,50 +355,16 @@ grpc::Status MeshGaugeService::ComputeSdf(
             }
           }
           v1::ComputeSdfResponse msg;
-          v1::SdfChunk* c = msg.mutable_chunk();
-          c->set_vertex_begin(begin);
-          c->set_vertex_end(end);
-          for (int64_t p = begin; p < end; ++p) {
-            c->add_values(r.values[p]);
-            c->add_status(ToProto(r.status[p]));
-            c->add_hits(r.hits[p]);
-            c->add_kept(r.kept[p]);
-            c->add_normalized(r.normalized[p]);
-          }
-          if (jac) {
-            const int64_t base = jac->row_offsets[begin];
-            for (int64_t p = begin; p <= end; ++p) {
-              c->add_row_offsets(jac->row_offsets[p] - base);
-            }
-            for (int64_t e = base; e < jac->row_offsets[end]; ++e) {
-              c->add_columns(jac->columns[e]);
-              for (int k = 0; k < dim; ++k)
-                c->add_derivatives(jac->values[e][k]);
-            }
-          }
+          wire::ToWireChunk(r, jac ? &*jac : nullptr, dim, begin, end,
+                            msg.mutable_chunk());
           if (!writer->Write(msg)) {
             return absl::CancelledError("client went away during the stream");
           }
         }
         v1::ComputeSdfResponse last;
-        v1::SdfSummary* s = last.mutable_summary();
-        s->set_generation(ev.generation());
-        s->set_ok(r.CountStatus(VertexStatus::kOk));
-        s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
-        s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
-        s->set_degenerate_normal(
-            r.CountStatus(VertexStatus::kDegenerateNormal));
-        const ValueStats stats = SummarizeValues(r.values);
-        s->set_sdf_min(stats.min);
-        s->set_sdf_max(stats.max);
-        s->set_sdf_mean(stats.mean);
-        s->set_sdf_median(stats.median);
-        s->set_world_frame_vertices(r.world_frame_vertices);
-        ToProto(r.missing, s->mutable_missing());
-        s->set_integral(IntegrateNodal(ev.mesh(), r.values).value);
-        s->set_rays(r.rays_traced);
-        s->set_reused_hits(pass->reused);
-        s->set_seconds(Seconds(start));
+        wire::ToWireSummary(r, IntegrateNodal(ev.mesh(), r.values).value,
+                            {ev.generation(), pass->reused, Seconds(start)},
+                            last.mutable_summary());
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
         }
@@ -436,8 +405,9 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
                                   Control(ctx), options_.compute_threads);
         if (!vjp.ok()) return Interrupted(ctx, vjp.status());
         response->set_generation(ev.generation());
-        AppendFlattened(*vjp, ev.mesh().dimension,
-                        response->mutable_gradient());
+        response->set_dimension(ev.mesh().dimension);
+        wire::AppendFlattened(*vjp, ev.mesh().dimension,
+                              response->mutable_gradient());
         response->set_reused_hits(pass->reused);
         response->set_seconds(Seconds(start));
         return absl::OkStatus();
@@ -450,7 +420,7 @@ grpc::Status MeshGaugeService::ComputePenalty(
   return Instrumented(
       "ComputePenalty", ctx, [&](const std::string& tenant) -> absl::Status {
         const auto start = std::chrono::steady_clock::now();
-        auto pp = ToPenaltyParams(*request);
+        auto pp = wire::PenaltyFromWire(*request);
         if (!pp.ok()) return pp.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
@@ -476,11 +446,12 @@ grpc::Status MeshGaugeService::ComputePenalty(
         response->set_generation(ev.generation());
         response->set_value(pen->value);
         response->set_skipped_faces(pen->missing.faces);
-        ToProto(pen->missing, response->mutable_missing());
+        wire::ToWire(pen->missing, response->mutable_missing());
         response->set_world_frame_vertices(sdf.world_frame_vertices);
+        response->set_dimension(ev.mesh().dimension);
         if (request->with_gradient()) {
-          AppendFlattened(pen->gradient, ev.mesh().dimension,
-                          response->mutable_gradient());
+          wire::AppendFlattened(pen->gradient, ev.mesh().dimension,
+                                response->mutable_gradient());
         }
         response->set_sdf_min(SummarizeValues(sdf.values).min);
         response->set_reused_hits(pass->reused);
@@ -497,29 +468,11 @@ grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
         auto prep =
             Prepare(tenant, request->session_id(), request->params(), false, 0);
         if (!prep.ok()) return prep.status();
-        CalibrationParams cp;
-        cp.t_min = request->t_min();
-        if (request->equal_tolerance() != 0) {
-          cp.equal_tolerance = request->equal_tolerance();
-        }
-        if (request->bins() != 0) cp.bins = request->bins();
-        cp.sdf = prep->params;
-        auto rep =
-            meshgauge::Calibrate(*prep->reader.evaluator, cp, Control(ctx));
+        auto rep = meshgauge::Calibrate(
+            *prep->reader.evaluator,
+            wire::CalibrationFromWire(*request, prep->params), Control(ctx));
         if (!rep.ok()) return Interrupted(ctx, rep.status());
-        response->set_compared(rep->compared);
-        response->set_sdf_lower(rep->lower);
-        response->set_sdf_equal(rep->equal);
-        response->set_sdf_higher(rep->higher);
-        response->set_alpha1(rep->alpha1);
-        response->set_alpha2(rep->alpha2);
-        response->set_histogram_lo(rep->sdf_histogram.lo);
-        response->set_histogram_hi(rep->sdf_histogram.hi);
-        for (int64_t c : rep->sdf_histogram.counts)
-          response->add_sdf_histogram(c);
-        for (int64_t c : rep->thickness_histogram.counts) {
-          response->add_thickness_histogram(c);
-        }
+        wire::ToWire(*rep, response);
         return absl::OkStatus();
       });
 }

@@ -1,5 +1,6 @@
 #include "server/session.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
@@ -58,7 +59,7 @@ Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
 
 Session::Session(SessionRecord record, const ServerOptions& options,
                  Metrics* metrics, double now)
-    : id_(record.info.id),
+    : id_(record.info.session_id),
       options_(options),
       metrics_(metrics),
       dimension_(record.info.dimension),
@@ -77,9 +78,9 @@ Session::Session(SessionRecord record, const ServerOptions& options,
   }
 }
 
-RecordInfo Session::Info() const {
-  RecordInfo info;
-  info.id = id_;
+wire::SessionInfo Session::Info() const {
+  wire::SessionInfo info;
+  info.session_id = id_;
   info.dimension = dimension_;
   info.num_vertices = num_vertices_;
   info.num_faces = num_faces_;
@@ -185,10 +186,16 @@ SessionSnapshot Session::Snapshot() const {
   SessionSnapshot s;
   s.info = Info();
   s.info.memory_bytes = memory_bytes();
-  s.bvh_builds = builds_;
-  s.bvh_refits = refits_;
+  s.info.bvh_builds = builds_;
+  s.info.bvh_refits = refits_;
   s.last_used = last_used_;
   return s;
+}
+
+wire::SessionInfo ToSessionInfo(const SessionSnapshot& s, double now) {
+  wire::SessionInfo out = s.info;
+  out.idle_seconds = std::max(0.0, now - s.last_used);
+  return out;
 }
 
 }  // namespace meshgauge::server

@@ -17,6 +17,7 @@
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "proto/wire/types.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/session_records.h"
@@ -33,10 +34,10 @@ struct CachedPass {
 };
 
 struct SessionSnapshot {
-  // info.memory_bytes includes the cached ray pass; warnings are
-  // DiagnoseMesh's at upload.
-  RecordInfo info;
-  int64_t bvh_builds = 0, bvh_refits = 0;  // on this replica.
+  // info.memory_bytes includes the cached ray pass; the BVH counts are this
+  // replica's; warnings are DiagnoseMesh's at upload; idle_seconds is
+  // filled by ToSessionInfo.
+  wire::SessionInfo info;
   double last_used = 0;
 };
 
@@ -85,7 +86,7 @@ class Session {
   SessionSnapshot Snapshot() const;
   int64_t generation() const { return generation_.load(); }
   // The record of the session's current state (for a new external record).
-  RecordInfo Info() const;
+  wire::SessionInfo Info() const;
   // Held across an external commit and the local update that follows.
   std::mutex& update_mutex() { return update_mu_; }
   int64_t memory_bytes() const { return base_bytes_ + cache_bytes_.load(); }
@@ -132,6 +133,9 @@ class Session {
 // generation's positions) rather than refitted: every
 // options.rebuild_every_updates generations, on every replica alike.
 bool IsBvhBase(int64_t generation, const ServerOptions& options);
+
+// Every SessionInfo field of a snapshot taken at `now` (clock seconds).
+wire::SessionInfo ToSessionInfo(const SessionSnapshot& s, double now);
 
 // True when two parameter sets give the same values (threads excluded).
 bool SameSdfParams(const SdfParams& a, const SdfParams& b);

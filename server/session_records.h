@@ -13,25 +13,16 @@
 
 #include "absl/status/statusor.h"
 #include "lib/core/mesh.h"
+#include "proto/wire/types.h"
 
 namespace meshgauge::server {
 
-// Facts of a session that do not change with its positions (SessionInfo).
-struct RecordInfo {
-  std::string id;
-  int dimension = 3;
-  int64_t num_vertices = 0, num_faces = 0;
-  int64_t memory_bytes = 0;  // accounted base size (Session::EstimateBaseBytes).
-  double signed_volume = 0;  // at upload.
-  bool closed = false;
-  std::vector<std::string> warnings;
-  // Changing state, filled by reads.
-  int64_t generation = 0;
-  double idle_seconds = 0;  // since the last call that used the session.
-};
-
+// info: the session's facts (memory_bytes: the accounted base size,
+// Session::EstimateBaseBytes; signed_volume and warnings at upload;
+// generation and idle_seconds filled by reads; the BVH counts are a
+// replica's and not recorded).
 struct SessionRecord {
-  RecordInfo info;
+  wire::SessionInfo info;
   Mesh mesh;  // with the current positions (generation info.generation).
   // BVH base: the BVH of generation g is built at the positions of
   // generation base_generation = g - g % rebuild_every_updates and refitted
@@ -80,7 +71,7 @@ class SessionRecords {
                               const std::string& id) = 0;
   // The tenant's records with id > after, in id order, at most limit;
   // *next is the last id when more follow, else empty.
-  virtual absl::StatusOr<std::vector<RecordInfo>> List(
+  virtual absl::StatusOr<std::vector<wire::SessionInfo>> List(
       const std::string& tenant, const std::string& after, int limit,
       std::string* next) = 0;
 };

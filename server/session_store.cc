@@ -84,7 +84,7 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
   }
   if (!records_ && tenant_budget &&
       TenantBytesLocked(tenant) + mine.bytes + bytes >
-                           options_.BudgetPerTenant()) {
+          options_.BudgetPerTenant()) {
     return absl::ResourceExhaustedError(absl::StrCat(
         "this tenant's sessions and uploads would exceed its memory budget "
         "of ",
@@ -160,11 +160,11 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
     absl::Status s = records_->Create(tenant, record, limits);
     for (int retry = 0; chosen && retry < 3 && absl::IsAlreadyExists(s);
          ++retry) {
-      record.info.id = random_id();
+      record.info.session_id = random_id();
       s = records_->Create(tenant, record, limits);
     }
     if (!s.ok()) return s;
-    if (record.info.id != id) {
+    if (record.info.session_id != id) {
       session = std::make_shared<Session>(record, options_, metrics_,
                                           clock_->NowSeconds());
     }
@@ -173,7 +173,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
       ReleaseLocked(ticket.tenant_, ticket.bytes_);
       ticket.store_ = nullptr;
     }
-    sessions_[Key{tenant, record.info.id}] = session;
+    sessions_[Key{tenant, record.info.session_id}] = session;
     PublishLocked();
     return session;
   }
@@ -239,13 +239,13 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
   const auto wall = std::chrono::steady_clock::now();
   auto record = records_->Load(tenant, id);
   if (!record.ok()) return record.status();
-  auto session = std::make_shared<Session>(std::move(*record), options_,
-                                           metrics_, start);
+  auto session =
+      std::make_shared<Session>(std::move(*record), options_, metrics_, start);
   if (auto reader = session->Read(); !reader.ok()) return reader.status();
   metrics_->RecordSessionCache(
-      false, std::chrono::duration<double>(std::chrono::steady_clock::now() -
-                                           wall)
-                 .count());
+      false,
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall)
+          .count());
   {
     std::lock_guard<std::mutex> lock(mu_);
     sessions_[Key{tenant, id}] = session;
@@ -258,10 +258,10 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
 absl::Status SessionStore::Delete(const std::string& tenant,
                                   const std::string& id) {
   if (records_) {
-    absl::Status s = ValidSessionId(id)
-                         ? records_->Delete(tenant, id)
-                         : absl::NotFoundError(
-                               absl::StrCat("no session ", QuoteId(id)));
+    absl::Status s =
+        ValidSessionId(id)
+            ? records_->Delete(tenant, id)
+            : absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
     std::lock_guard<std::mutex> lock(mu_);
     if (s.ok() || absl::IsNotFound(s)) sessions_.erase({tenant, id});
     PublishLocked();
@@ -315,9 +315,9 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
     }
     all = std::move(moved.positions);
   }
-  auto committed = records_->CommitPositions(
-      tenant, id, expected_generation, all,
-      IsBvhBase(expected_generation + 1, options_));
+  auto committed =
+      records_->CommitPositions(tenant, id, expected_generation, all,
+                                IsBvhBase(expected_generation + 1, options_));
   if (!committed.ok()) return committed.status();
   if (maybe_retry) {
     return UpdateOutcome{.generation = *committed,
@@ -341,10 +341,11 @@ absl::StatusOr<std::vector<SessionSnapshot>> SessionStore::List(
     const double now = clock_->NowSeconds();
     std::vector<SessionSnapshot> out;
     std::lock_guard<std::mutex> lock(mu_);
-    for (const RecordInfo& info : *infos) {
+    for (const wire::SessionInfo& info : *infos) {
       SessionSnapshot s;
-      auto it = sessions_.find({tenant, info.id});
-      if (it != sessions_.end() && it->second->generation() == info.generation) {
+      auto it = sessions_.find({tenant, info.session_id});
+      if (it != sessions_.end() &&
+          it->second->generation() == info.generation) {
         s = it->second->Snapshot();  // with this replica's BVH counts.
       } else {
         s.info = info;

@@ -11,36 +11,18 @@
 #include <sstream>
 #include <string>
 
+#include "tests/cli_test_util.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
+using testing::CliRun;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using testing::RunCli;
 using testing::SharedMesh;
-
-struct CliRun {
-  int exit_code;
-  std::string out;  // stdout + stderr.
-};
-
-CliRun RunCli(const std::string& args) {
-  const std::string cmd = std::string(MESHGAUGE_CLI) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  size_t n;
-  while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) out.append(buf, n);
-  const int status = pclose(pipe);
-  return {WEXITSTATUS(status), out};
-}
-
-std::string Tmp(const std::string& name) {
-  return (std::filesystem::temp_directory_path() /
-          ("meshgauge_cli_" + std::to_string(::getpid()) + "_" + name))
-      .string();
-}
+using testing::Tmp;
 
 TEST(CliTest, JsonSummaryHasAllKeys) {
   const CliRun r =

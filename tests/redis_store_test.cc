@@ -12,18 +12,17 @@
 #include <random>
 #include <thread>
 
-#include "lib/io/mesh_io.h"
-#include "tests/redis_test_util.h"
-#include "tests/test_util.h"
 #include "client/remote/remote_client.h"
+#include "lib/io/mesh_io.h"
 #include "server/auth.h"
 #include "server/record_codec.h"
 #include "server/server.h"
+#include "tests/redis_test_util.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
-using client::ToWireParams;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -100,24 +99,27 @@ TEST_F(RedisStoreTest, AnyReplicaServesAnySessionBitForBit) {
     if (k > 0) {
       auto u = writer.client->UpdatePositions("k", k - 1, 3, Moved(mesh, k));
       ASSERT_TRUE(u.ok()) << u.status();
-      EXPECT_EQ(u->generation(), k);
+      EXPECT_EQ(u->generation, k);
       ASSERT_TRUE(
           memory_->client->UpdatePositions("k", k - 1, 3, Moved(mesh, k)).ok());
     }
-    auto got = reader.client->ComputeSdf("k", ToWireParams({}), false, k);
-    auto want = memory_->client->ComputeSdf("k", ToWireParams({}), false, k);
+    auto got =
+        reader.client->ComputeSdf("k", SdfParams{}, {.expected_generation = k});
+    auto want = memory_->client->ComputeSdf("k", SdfParams{},
+                                            {.expected_generation = k});
     ASSERT_TRUE(got.ok()) << got.status();
     ASSERT_TRUE(want.ok()) << want.status();
-    EXPECT_TRUE(SameBits(got->values, want->values)) << "generation " << k;
-    EXPECT_EQ(got->hits, want->hits);
-    auto vg = writer.client->ComputeVjp("k", ToWireParams({}), g, k);
-    auto vw = memory_->client->ComputeVjp("k", ToWireParams({}), g, k);
+    EXPECT_TRUE(SameBits(got->result.values, want->result.values))
+        << "generation " << k;
+    EXPECT_EQ(got->result.hits, want->result.hits);
+    auto vg = writer.client->ComputeVjp("k", SdfParams{}, g, k);
+    auto vw = memory_->client->ComputeVjp("k", SdfParams{}, g, k);
     ASSERT_TRUE(vg.ok() && vw.ok());
-    EXPECT_TRUE(SameBits({vg->gradient().begin(), vg->gradient().end()},
-                         {vw->gradient().begin(), vw->gradient().end()}));
+    EXPECT_EQ(vg->gradient, vw->gradient);
   }
-  EXPECT_THAT(a_->metrics.Text(),
-              HasSubstr("meshgauge_session_cache_requests_total{result=\"miss\"}"));
+  EXPECT_THAT(
+      a_->metrics.Text(),
+      HasSubstr("meshgauge_session_cache_requests_total{result=\"miss\"}"));
   EXPECT_THAT(b_->metrics.Text(), HasSubstr("meshgauge_session_load_seconds"));
 }
 
@@ -135,8 +137,8 @@ TEST_F(RedisStoreTest, GenerationIsCompareAndSetAcrossReplicas) {
   // A retry of the applied update (its reply was lost) succeeds again.
   auto retried = b_->client->UpdatePositions("cas", 0, 3, Moved(mesh, 1));
   ASSERT_TRUE(retried.ok()) << retried.status();
-  EXPECT_EQ(retried->generation(), 1);
-  EXPECT_EQ(b_->client->Get("cas")->generation(), 1);
+  EXPECT_EQ(retried->generation, 1);
+  EXPECT_EQ(b_->client->Get("cas")->generation, 1);
 }
 
 TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
@@ -148,14 +150,16 @@ TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
   for (int32_t i : idx) p.push_back(mesh.positions[i] * 1.01);
   ASSERT_TRUE(a_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
   ASSERT_TRUE(memory_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
-  auto got = b_->client->ComputeSdf("sub", ToWireParams({}), false, 1);
-  auto want = memory_->client->ComputeSdf("sub", ToWireParams({}), false, 1);
+  auto got =
+      b_->client->ComputeSdf("sub", SdfParams{}, {.expected_generation = 1});
+  auto want = memory_->client->ComputeSdf("sub", SdfParams{},
+                                          {.expected_generation = 1});
   ASSERT_TRUE(got.ok()) << got.status();
-  EXPECT_TRUE(SameBits(got->values, want->values));
+  EXPECT_TRUE(SameBits(got->result.values, want->result.values));
   // Validation happens before the record changes.
   EXPECT_EQ(Code(b_->client->UpdatePositions("sub", 1, 3, p, {3, 3, 4})),
             absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(a_->client->Get("sub")->generation(), 1);
+  EXPECT_EQ(a_->client->Get("sub")->generation, 1);
 }
 
 TEST_F(RedisStoreTest, DeleteAndListAreGlobal) {
@@ -165,13 +169,13 @@ TEST_F(RedisStoreTest, DeleteAndListAreGlobal) {
   auto listed = a_->client->List(1);  // paged, one per page.
   ASSERT_TRUE(listed.ok()) << listed.status();
   ASSERT_EQ(listed->size(), 2u);
-  EXPECT_EQ((*listed)[0].session_id(), "one");
-  EXPECT_EQ((*listed)[1].session_id(), "two");
-  EXPECT_EQ((*listed)[1].num_vertices(), mesh.num_vertices());
+  EXPECT_EQ((*listed)[0].session_id, "one");
+  EXPECT_EQ((*listed)[1].session_id, "two");
+  EXPECT_EQ((*listed)[1].num_vertices, mesh.num_vertices());
   ASSERT_TRUE(b_->client->Get("one").ok());  // cached on b.
   ASSERT_TRUE(a_->client->Delete("one").ok());
   EXPECT_EQ(Code(b_->client->Get("one")), absl::StatusCode::kNotFound);
-  EXPECT_EQ(Code(b_->client->ComputeSdf("one", ToWireParams({}))),
+  EXPECT_EQ(Code(b_->client->ComputeSdf("one", SdfParams{})),
             absl::StatusCode::kNotFound);
   EXPECT_EQ(b_->client->List()->size(), 1u);
   EXPECT_EQ(Code(b_->client->Upload(mesh, "two")),
@@ -201,10 +205,10 @@ TEST_F(RedisStoreTest, IdleTtlIsGlobalAndSlides) {
   ASSERT_TRUE(a_->client->Upload(mesh, "ttl").ok());
   for (int i = 0; i < 3; ++i) {  // used every 0.6 s: stays.
     std::this_thread::sleep_for(std::chrono::milliseconds(600));
-    ASSERT_TRUE((i % 2 ? a_ : b_)->client->ComputeSdf("ttl", ToWireParams({})).ok());
+    ASSERT_TRUE((i % 2 ? a_ : b_)->client->ComputeSdf("ttl", SdfParams{}).ok());
   }
   std::this_thread::sleep_for(std::chrono::milliseconds(1800));
-  EXPECT_EQ(Code(a_->client->ComputeSdf("ttl", ToWireParams({}))),
+  EXPECT_EQ(Code(a_->client->ComputeSdf("ttl", SdfParams{})),
             absl::StatusCode::kNotFound);
   EXPECT_EQ(Code(b_->client->Get("ttl")), absl::StatusCode::kNotFound);
   EXPECT_TRUE(a_->client->List()->empty());
@@ -213,9 +217,10 @@ TEST_F(RedisStoreTest, IdleTtlIsGlobalAndSlides) {
 TEST_F(RedisStoreTest, RedisDownIsUnavailableAndSessionsSurviveItsRestart) {
   const Mesh mesh = Knight();
   ASSERT_TRUE(a_->client->Upload(mesh, "durable").ok());
-  ASSERT_TRUE(a_->client->UpdatePositions("durable", 0, 3, Moved(mesh, 1)).ok());
+  ASSERT_TRUE(
+      a_->client->UpdatePositions("durable", 0, 3, Moved(mesh, 1)).ok());
   redis_.Stop(SIGKILL);
-  auto down = b_->client->ComputeSdf("durable", ToWireParams({}));
+  auto down = b_->client->ComputeSdf("durable", SdfParams{});
   EXPECT_EQ(Code(down), absl::StatusCode::kUnavailable);
   EXPECT_THAT(std::string(down.status().message()),
               HasSubstr(redis_.url().substr(8)));
@@ -224,11 +229,13 @@ TEST_F(RedisStoreTest, RedisDownIsUnavailableAndSessionsSurviveItsRestart) {
   EXPECT_THAT(b_->metrics.Text(),
               Not(HasSubstr("meshgauge_session_store_errors_total 0")));
   redis_.Start();  // same port and AOF directory.
-  auto back = b_->client->ComputeSdf("durable", ToWireParams({}), false, 1);
+  auto back = b_->client->ComputeSdf("durable", SdfParams{},
+                                     {.expected_generation = 1});
   ASSERT_TRUE(back.ok()) << back.status();
-  auto again = a_->client->ComputeSdf("durable", ToWireParams({}), false, 1);
+  auto again = a_->client->ComputeSdf("durable", SdfParams{},
+                                      {.expected_generation = 1});
   ASSERT_TRUE(again.ok()) << again.status();
-  EXPECT_TRUE(SameBits(back->values, again->values));
+  EXPECT_TRUE(SameBits(back->result.values, again->result.values));
 }
 
 TEST_F(RedisStoreTest, ClientRidesOutAReplicaRestart) {
@@ -238,23 +245,23 @@ TEST_F(RedisStoreTest, ClientRidesOutAReplicaRestart) {
   auto replica = std::make_unique<Replica>(o, port);
   client::RemoteClient c("127.0.0.1:" + std::to_string(port));
   ASSERT_TRUE(c.Upload(mesh, "restart").ok());
-  auto before = c.ComputeSdf("restart", ToWireParams({}));
+  auto before = c.ComputeSdf("restart", SdfParams{});
   ASSERT_TRUE(before.ok());
-  replica.reset();  // the replica goes away...
+  replica.reset();        // the replica goes away...
   std::thread back([&] {  // ...and a new one takes its place 0.5 s later.
     std::this_thread::sleep_for(std::chrono::milliseconds(500));
     replica = std::make_unique<Replica>(o, port);
   });
   // The client waits for the channel and retries; the session is in Redis.
-  auto after = c.ComputeSdf("restart", ToWireParams({}));
+  auto after = c.ComputeSdf("restart", SdfParams{});
   back.join();
   ASSERT_TRUE(after.ok()) << after.status();
-  EXPECT_TRUE(SameBits(before->values, after->values));
+  EXPECT_TRUE(SameBits(before->result.values, after->result.values));
 }
 
 TEST_F(RedisStoreTest, TenantsDoNotSeeEachOthersStoredSessions) {
-  const std::string tokens = "/tmp/meshgauge-redis-tokens-" +
-                             std::to_string(redis_.port());
+  const std::string tokens =
+      "/tmp/meshgauge-redis-tokens-" + std::to_string(redis_.port());
   {
     std::ofstream f(tokens);
     f << "alice " << server::Sha256Hex("alice-secret") << "\nbob "
@@ -266,22 +273,22 @@ TEST_F(RedisStoreTest, TenantsDoNotSeeEachOthersStoredSessions) {
   auto as = [&](Replica& r, const char* token) {
     client::ClientOptions co;
     co.token = token;
-    return client::RemoteClient(
-        "127.0.0.1:" + std::to_string(r.server->port()), co);
+    return client::RemoteClient("127.0.0.1:" + std::to_string(r.server->port()),
+                                co);
   };
   auto alice = as(*a_, "alice-secret");
   auto bob = as(*b_, "bob-secret");  // the other tenant, on the other replica.
   const Mesh mesh = Knight();
   ASSERT_TRUE(alice.Upload(mesh, "shared-name").ok());
   EXPECT_EQ(Code(bob.Get("shared-name")), absl::StatusCode::kNotFound);
-  EXPECT_EQ(Code(bob.ComputeSdf("shared-name", ToWireParams({}))),
+  EXPECT_EQ(Code(bob.ComputeSdf("shared-name", SdfParams{})),
             absl::StatusCode::kNotFound);
   EXPECT_EQ(Code(bob.UpdatePositions("shared-name", 0, 3, Moved(mesh, 1))),
             absl::StatusCode::kNotFound);
   EXPECT_EQ(bob.Delete("shared-name").code(), absl::StatusCode::kNotFound);
   EXPECT_TRUE(bob.List()->empty());
   ASSERT_TRUE(bob.Upload(mesh, "shared-name").ok());  // no squatting either.
-  EXPECT_EQ(alice.Get("shared-name")->generation(), 0);
+  EXPECT_EQ(alice.Get("shared-name")->generation, 0);
   EXPECT_EQ(as(*b_, "alice-secret").List()->size(), 1u);
   std::remove(tokens.c_str());
 }
@@ -306,11 +313,15 @@ TEST(RecordCodecTest, RoundTripsExactlyAndRejectsCorruptBytes) {
   mesh.face_regions[5] = 7;
   mesh.region_directions[7] = ConeDirection::kOutward;
   mesh.positions[0].x = 0.1 + 1e-17;  // not a float32 value.
-  server::RecordInfo info{.id = "x", .dimension = 3, .num_vertices = 502,
-                          .num_faces = mesh.num_faces(), .memory_bytes = 99,
-                          .signed_volume = -2.5, .closed = true,
-                          .warnings = {"w1", "w2"}};
-  server::RecordInfo info2;
+  wire::SessionInfo info{.session_id = "x",
+                         .dimension = 3,
+                         .num_vertices = 502,
+                         .num_faces = mesh.num_faces(),
+                         .memory_bytes = 99,
+                         .signed_volume = -2.5,
+                         .closed = true,
+                         .warnings = {"w1", "w2"}};
+  wire::SessionInfo info2;
   ASSERT_TRUE(server::DecodeInfo(server::EncodeInfo(info), &info2).ok());
   EXPECT_EQ(info2.warnings, info.warnings);
   EXPECT_EQ(info2.signed_volume, -2.5);
@@ -319,13 +330,15 @@ TEST(RecordCodecTest, RoundTripsExactlyAndRejectsCorruptBytes) {
   ASSERT_TRUE(server::DecodeTopology(t, &topo).ok());
   EXPECT_EQ(topo.face_regions, mesh.face_regions);
   EXPECT_EQ(topo.region_directions, mesh.region_directions);
-  auto p = server::DecodePositions(server::EncodePositions(mesh.positions), 502);
+  auto p =
+      server::DecodePositions(server::EncodePositions(mesh.positions), 502);
   ASSERT_TRUE(p.ok());
-  EXPECT_EQ(std::memcmp(p->data(), mesh.positions.data(), 502 * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(p->data(), mesh.positions.data(), 502 * sizeof(Vec3)),
+            0);
   // Every truncation and a forged huge count: DATA_LOSS, never a crash.
   const std::string i = server::EncodeInfo(info);
   for (size_t n = 0; n < i.size(); ++n) {
-    server::RecordInfo out;
+    wire::SessionInfo out;
     EXPECT_EQ(server::DecodeInfo(i.substr(0, n), &out).code(),
               absl::StatusCode::kDataLoss);
   }

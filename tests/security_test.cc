@@ -21,7 +21,6 @@ namespace {
 
 using client::ClientOptions;
 using client::RemoteClient;
-using client::ToWireParams;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
@@ -87,8 +86,8 @@ TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
   ASSERT_TRUE(alice_->Upload(victim_mesh, "shared-name").ok());
   auto assigned = alice_->Upload(victim_mesh);
   ASSERT_TRUE(assigned.ok());
-  const std::string hidden = assigned->session_id();
-  auto before = alice_->ComputeSdf("shared-name", ToWireParams({}));
+  const std::string hidden = assigned->session_id;
+  auto before = alice_->ComputeSdf("shared-name", SdfParams{});
   ASSERT_TRUE(before.ok());
   // Bob lists nothing, and every call on Alice's ids is NOT_FOUND with the
   // same message as for an id nobody has.
@@ -97,7 +96,7 @@ TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
   EXPECT_TRUE(listed->empty());
   for (const std::string& id : {std::string("shared-name"), hidden}) {
     EXPECT_EQ(Code(bob_->Get(id)), absl::StatusCode::kNotFound);
-    EXPECT_EQ(Code(bob_->ComputeSdf(id, ToWireParams({}))),
+    EXPECT_EQ(Code(bob_->ComputeSdf(id, SdfParams{})),
               absl::StatusCode::kNotFound);
     std::vector<Vec3> moved = victim_mesh.positions;
     for (Vec3& p : moved) p *= 0.5;
@@ -118,11 +117,11 @@ TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
   // Alice's session is untouched: same generation, same values bit for bit.
   auto info = alice_->Get("shared-name");
   ASSERT_TRUE(info.ok());
-  EXPECT_EQ(info->generation(), 0);
-  EXPECT_EQ(info->num_vertices(), victim_mesh.num_vertices());
-  auto after = alice_->ComputeSdf("shared-name", ToWireParams({}));
+  EXPECT_EQ(info->generation, 0);
+  EXPECT_EQ(info->num_vertices, victim_mesh.num_vertices());
+  auto after = alice_->ComputeSdf("shared-name", SdfParams{});
   ASSERT_TRUE(after.ok());
-  EXPECT_EQ(after->values, before->values);
+  EXPECT_EQ(after->result.values, before->result.values);
   EXPECT_EQ(alice_->List()->size(), 2u);
 }
 
@@ -296,18 +295,19 @@ TEST_F(LimitsTest, RepliesOverTheMessageLimitAreRefusedBeforeComputing) {
   RemoteClient c(target_, co);
   const Mesh sphere = MakeIcosphere(1, 20);  // 4002 vertices: 96 kB replies.
   ASSERT_TRUE(c.Upload(sphere, "s").ok());
-  auto vjp = c.ComputeVjp("s", ToWireParams({}),
+  auto vjp = c.ComputeVjp("s", SdfParams{},
                           std::vector<double>(sphere.num_vertices(), 1.0));
   EXPECT_EQ(Code(vjp), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(vjp.status().message()),
               HasSubstr("refused before computing"));
-  auto pen = c.ComputePenalty("s", ToWireParams({}), {.t_min = 1}, true);
+  auto pen = c.ComputePenalty("s", SdfParams{}, {.t_min = 1}, true);
   EXPECT_EQ(Code(pen), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(metrics_.Text(), HasSubstr("meshgauge_rays_traced_total 0"));
   // The SDF stream, with its Jacobian, is split to fit the limit instead.
-  auto sdf = c.ComputeSdf("s", ToWireParams({}), true, std::nullopt, 4002);
+  auto sdf = c.ComputeSdf("s", SdfParams{},
+                          {.include_jacobian = true, .chunk_vertices = 4002});
   ASSERT_TRUE(sdf.ok()) << sdf.status();
-  EXPECT_EQ(sdf->values.size(), 4002u);
+  EXPECT_EQ(sdf->result.values.size(), 4002u);
   EXPECT_TRUE(sdf->jacobian.has_value());
 }
 

@@ -15,7 +15,6 @@
 namespace meshgauge {
 namespace {
 
-using client::ToWireParams;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using Clock = std::chrono::steady_clock;
@@ -77,7 +76,7 @@ TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
   fast.deadline_seconds = 0.2;
   client::RemoteClient impatient(target_, fast);
   const auto start = Clock::now();
-  auto r = impatient.ComputeSdf("big", ToWireParams({}));
+  auto r = impatient.ComputeSdf("big", SdfParams{});
   EXPECT_EQ(r.status().code(), absl::StatusCode::kDeadlineExceeded);
   // The update needs the session exclusively: it can only run once the
   // server-side computation has stopped.
@@ -106,8 +105,7 @@ TEST_F(LifecycleTest, DeadlineStopsAComputationWithin100Ms) {
 
 TEST_F(LifecycleTest, MetricsUseBaseUnitsAndNoSessionIds) {
   ASSERT_TRUE(client_->Upload(MakeIcosphere(1, 4), "secret-session-name").ok());
-  ASSERT_TRUE(
-      client_->ComputeSdf("secret-session-name", ToWireParams({})).ok());
+  ASSERT_TRUE(client_->ComputeSdf("secret-session-name", SdfParams{}).ok());
   EXPECT_EQ(client_->Get("missing").status().code(),
             absl::StatusCode::kNotFound);
   const std::string text = metrics_.Text();
@@ -139,7 +137,7 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   ASSERT_TRUE(client_->Upload(big, "big").ok());
   auto in_flight = std::async(std::launch::async, [&] {
     client::RemoteClient c(target_);
-    return c.ComputeSdf("big", ToWireParams({}));
+    return c.ComputeSdf("big", SdfParams{});
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
   const auto drain_started = Clock::now();
@@ -160,7 +158,7 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   ASSERT_TRUE(result.ok()) << result.status();
   EXPECT_GT(SecondsSince(drain_started), o.drain_notice_seconds)
       << "the call must still have been running when new calls were refused";
-  EXPECT_EQ(result->summary.ok(), big.num_vertices());
+  EXPECT_EQ(result->result.CountStatus(VertexStatus::kOk), big.num_vertices());
   shutdown.get();
   client::ClientOptions brief;
   brief.connect_timeout_seconds = 0.5;

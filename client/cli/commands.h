@@ -1,11 +1,15 @@
 // The meshgauge CLI verbs. Each takes its parsed options (cli_flags.h) and
-// returns OK or the error to print (exit status 1).
+// returns OK or the error to print (exit status 1). The verbs on a mesh file
+// take the backend that computes (backend.h: here, or a server for
+// `meshgauge remote VERB`) and write the same outputs from either.
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "absl/status/status.h"
+#include "client/cli/backend.h"
 #include "client/cli/cli_flags.h"
 
 namespace meshgauge::cli {
@@ -18,18 +22,31 @@ struct MeshInput {
   OutputFlags out;
 };
 
+// A verb's mesh, its backend and its parameters; the mesh's warnings go to
+// stderr with print_warnings (sdf puts them in its summary instead).
+struct Opened {
+  LoadedMesh loaded;
+  std::unique_ptr<Backend> backend;
+  SdfParams params;
+};
+absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
+                            bool print_warnings);
+
 // meshgauge sdf MESH: SDF per vertex, summary on stdout.
-absl::Status RunSdf(const MeshInput& in);
+absl::Status RunSdf(const MeshInput& in, const BackendFactory& make);
 
 // meshgauge grad MESH: sensitivities of the SDF (SPEC §6).
-absl::Status RunGrad(const MeshInput& in, const GradFlags& grad);
+absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
+                     const BackendFactory& make);
 
 // meshgauge penalty MESH --t-min T: minimum-thickness penalty or aggregated
 // constraint and its gradient (SPEC §7).
-absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& penalty);
+absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& penalty,
+                        const BackendFactory& make);
 
 // meshgauge calibrate MESH --t-min T: SDF vs physical thickness (SPEC §8).
-absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& cal);
+absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& cal,
+                          const BackendFactory& make);
 
 // meshgauge gradcheck MESH: central differences against the analytic
 // derivatives (SPEC §6), and of the penalty with --t-min; FailedPrecondition
@@ -45,7 +62,9 @@ struct ShapeInput {
 };
 absl::Status RunShape(const ShapeInput& in);
 
-// meshgauge remote VERB ...: the same work through a meshgauge-server.
+// meshgauge remote upload|list|health|info|delete|update: the sessions of
+// a meshgauge-server (the computing verbs are the ones above with
+// RemoteBackend).
 struct RemoteInput {
   RemoteFlags remote;
   std::string verb;
@@ -53,10 +72,8 @@ struct RemoteInput {
   std::string session_id;
   std::string positions;
   int64_t generation = -1;
-  MeshInput in;  // in.mesh unused; in.sdf, in.mesh_flags, in.out used.
-  GradFlags grad;
-  PenaltyFlags penalty;
-  CalibrateFlags calibrate;
+  MeshFlags mesh_flags;  // upload.
+  bool json = false;
 };
 absl::Status RunRemote(const RemoteInput& in);
 

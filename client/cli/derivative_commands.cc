@@ -4,62 +4,29 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
-#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
-#include "absl/strings/strip.h"
-#include "client/cli/cli_flags.h"
+#include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
-#include "client/cli/progress_bar.h"
-#include "lib/core/penalty.h"
-#include "lib/core/sensitivity.h"
-#include "lib/embree/calibration.h"
 
 namespace meshgauge::cli {
-namespace {
 
-// The mesh, an evaluator and a ray pass with the hit table kept.
-struct Prepared {
-  std::unique_ptr<SdfEvaluator> evaluator;
-  SdfResult result;
-  SdfParams params;
-  HitTable hits;
-};
-
-absl::StatusOr<Prepared> Prepare(const MeshInput& in, bool keep_hits) {
-  auto params = ToSdfParams(in.sdf);
-  if (!params.ok()) return params.status();
-  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
-  if (!loaded.ok()) return loaded.status();
-  for (const std::string& w : loaded->warnings) {
-    std::cerr << "meshgauge: warning: " << w << "\n";
-  }
-  auto ev = SdfEvaluator::Create(std::move(loaded->mesh));
-  if (!ev.ok()) return ev.status();
-  Prepared prep{std::move(*ev), {}, *params, {}};
-  if (keep_hits) {
-    ProgressBar bar("tracing");
-    ComputeControl control;
-    control.progress = [&bar](int64_t d, int64_t t) { bar.Update(d, t); };
-    auto result = prep.evaluator->Compute(*params, control, &prep.hits);
-    if (!result.ok()) return result.status();
-    prep.result = std::move(*result);
-  }
-  return prep;
-}
-
-}  // namespace
-
-absl::Status RunGrad(const MeshInput& in, const GradFlags& grad) {
-  auto prep = Prepare(in, true);
-  if (!prep.ok()) return prep.status();
-  const SdfEvaluator& ev = *prep->evaluator;
+absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
+                     const BackendFactory& make) {
+  auto opened = Open(in, make, /*print_warnings=*/true);
+  if (!opened.ok()) return opened.status();
+  Backend& backend = *opened->backend;
+  const int64_t nv = opened->loaded.mesh.num_vertices();
+  auto weights = ReadWeights(grad.weights, nv);
+  if (!weights.ok()) return weights.status();
+  auto result = backend.Sdf(opened->params, !grad.jacobian.empty());
+  if (!result.ok()) return result.status();
   nlohmann::json j;
-  j["vertices"] = ev.mesh().num_vertices();
-  j["ok"] = prep->result.CountStatus(VertexStatus::kOk);
+  j["vertices"] = nv;
+  j["ok"] = result->CountStatus(VertexStatus::kOk);
   if (const std::string& path = grad.jacobian; !path.empty()) {
-    auto jac = ComputeJacobian(ev, prep->hits);
+    auto jac = backend.Jacobian();
     if (!jac.ok()) return jac.status();
     std::ofstream out(path);
     if (!out)
@@ -76,10 +43,7 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad) {
       return absl::InternalError(absl::StrCat("error writing '", path, "'"));
     j["jacobian_nonzeros"] = jac->nonzeros();
   }
-  auto weights =
-      ReadWeights(grad.weights, ev.mesh().num_vertices());
-  if (!weights.ok()) return weights.status();
-  auto vjp = ComputeVjp(ev, prep->hits, *weights);
+  auto vjp = backend.Vjp(*weights);
   if (!vjp.ok()) return vjp.status();
   j["vjp_max_norm"] = MaxNorm(*vjp);
   if (const std::string& path = grad.vjp; !path.empty()) {
@@ -99,15 +63,18 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad) {
   return absl::OkStatus();
 }
 
-absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags) {
+absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
+                        const BackendFactory& make) {
   auto penalty = ToPenaltyParams(flags);
   if (!penalty.ok()) return penalty.status();
   const PenaltyParams& pp = *penalty;
-  auto prep = Prepare(in, true);
-  if (!prep.ok()) return prep.status();
+  auto opened = Open(in, make, /*print_warnings=*/true);
+  if (!opened.ok()) return opened.status();
+  Backend& backend = *opened->backend;
+  auto result = backend.Sdf(opened->params, false);
+  if (!result.ok()) return result.status();
   const std::string& grad_path = flags.grad;
-  auto pen = ComputePenalty(*prep->evaluator, prep->result, pp,
-                            grad_path.empty() ? nullptr : &prep->hits);
+  auto pen = backend.Penalty(pp, !grad_path.empty());
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok())
@@ -126,7 +93,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags) {
   j["skipped_faces"] = pen->missing.faces;
   j["missing_vertices"] = pen->missing.vertices;
   j["missing_area_fraction"] = pen->missing.area_fraction;
-  j["world_frame_vertices"] = prep->result.world_frame_vertices;
+  j["world_frame_vertices"] = result->world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
   if (in.out.json) {
     std::cout << j.dump() << "\n";
@@ -148,15 +115,16 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags) {
   return absl::OkStatus();
 }
 
-absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& flags) {
-  auto prep = Prepare(in, false);
-  if (!prep.ok()) return prep.status();
+absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& flags,
+                          const BackendFactory& make) {
+  auto opened = Open(in, make, /*print_warnings=*/true);
+  if (!opened.ok()) return opened.status();
   CalibrationParams cp;
   cp.t_min = flags.t_min;
   cp.equal_tolerance = flags.tolerance;
   cp.bins = flags.bins;
-  cp.sdf = prep->params;
-  auto rep = Calibrate(*prep->evaluator, cp);
+  cp.sdf = opened->params;
+  auto rep = opened->backend->Calibrate(cp);
   if (!rep.ok()) return rep.status();
   nlohmann::json j;
   j["compared"] = rep->compared;

@@ -6,6 +6,7 @@
 #include <iostream>
 #include <string>
 
+#include "client/cli/backend.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 
@@ -21,6 +22,7 @@ constexpr char kDescription[] =
 CLI::App* MeshVerb(CLI::App& app, const char* name, const char* help,
                    MeshInput* in, bool files) {
   CLI::App* sub = app.add_subcommand(name, help);
+  sub->fallthrough();  // under remote: --server etc. may follow the verb.
   sub->add_option("mesh", in->mesh, "mesh file (.obj .off .ply .stl)")
       ->required();
   AddSdfFlags(sub, &in->sdf);
@@ -29,60 +31,99 @@ CLI::App* MeshVerb(CLI::App& app, const char* name, const char* help,
   return sub;
 }
 
-// A remote verb on a session id, with the sdf flags and --json.
-CLI::App* RemoteVerb(CLI::App* remote, const char* name, const char* help,
-                     RemoteInput* in, bool takes_id, bool sdf) {
+// A remote verb on the sessions, with --json.
+CLI::App* SessionVerb(CLI::App* remote, const char* name, const char* help,
+                      RemoteInput* in, bool takes_id,
+                      std::function<absl::Status()>* run) {
   CLI::App* sub = remote->add_subcommand(name, help);
   sub->fallthrough();  // --server etc. may follow the verb.
   if (takes_id) sub->add_option("id", in->target, "session id")->required();
-  if (sdf) AddSdfFlags(sub, &in->in.sdf);
-  AddOutputFlags(sub, &in->in.out, false);
-  sub->callback([in, name] { in->verb = name; });
+  sub->add_flag("--json", in->json, "print the result as JSON");
+  sub->callback([in, name, run] {
+    in->verb = name;
+    *run = [in] { return RunRemote(*in); };
+  });
   return sub;
+}
+
+// The verbs computing on a mesh file, here or (remote) on a server.
+struct MeshVerbs {
+  MeshInput in;
+  GradFlags grad;
+  PenaltyFlags penalty;
+  CalibrateFlags calibrate;
+};
+
+using Run = std::function<absl::Status()>;
+using BackendSource = std::function<absl::StatusOr<BackendFactory>()>;
+
+// Adds sdf, grad, penalty and calibrate to `app`; after parsing, `backend`
+// gives the backend they compute with.
+void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
+                  Run* run) {
+  auto with = [backend,
+               run](std::function<absl::Status(const BackendFactory&)> verb) {
+    return [backend, run, verb] {
+      *run = [backend, verb]() -> absl::Status {
+        auto make = backend();
+        if (!make.ok()) return make.status();
+        return verb(*make);
+      };
+    };
+  };
+  MeshVerb(app, "sdf", "SDF per vertex (summary; --csv, --ply, --json)", &v->in,
+           true)
+      ->callback(with(
+          [v](const BackendFactory& make) { return RunSdf(v->in, make); }));
+  CLI::App* g = MeshVerb(app, "grad",
+                         "sensitivities: --vjp FILE (g^T J), --jacobian FILE",
+                         &v->in, false);
+  AddGradFlags(g, &v->grad);
+  g->callback(with([v](const BackendFactory& make) {
+    return RunGrad(v->in, v->grad, make);
+  }));
+  CLI::App* p = MeshVerb(app, "penalty",
+                         "minimum-thickness penalty, or --form ks the "
+                         "aggregated constraint, and its gradient",
+                         &v->in, false);
+  AddPenaltyFlags(p, &v->penalty, /*t_min_required=*/true);
+  p->callback(with([v](const BackendFactory& make) {
+    return RunPenalty(v->in, v->penalty, make);
+  }));
+  CLI::App* c =
+      MeshVerb(app, "calibrate", "SDF against physical thickness (SPEC §8)",
+               &v->in, false);
+  AddCalibrateFlags(c, &v->calibrate);
+  c->callback(with([v](const BackendFactory& make) {
+    return RunCalibrate(v->in, v->calibrate, make);
+  }));
 }
 
 }  // namespace
 
 int Main(int argc, char** argv) {
   CLI::App app(kDescription, "meshgauge");
-  app.set_version_flag("--version",
-                       std::string("meshgauge ") + MESHGAUGE_VERSION + " (" +
-                           MESHGAUGE_BUILD_TYPE + " build)");
+  app.set_version_flag("--version", std::string("meshgauge ") +
+                                        MESHGAUGE_VERSION + " (" +
+                                        MESHGAUGE_BUILD_TYPE + " build)");
   app.set_help_all_flag("--help-all", "every verb's flags");
   app.require_subcommand(1);
-  std::function<absl::Status()> run;
+  Run run;
 
-  MeshInput in;
-  GradFlags grad;
-  PenaltyFlags penalty;
-  CalibrateFlags calibrate;
+  MeshVerbs local;
+  AddMeshVerbs(
+      app, &local,
+      [] { return absl::StatusOr<BackendFactory>(LocalBackend()); }, &run);
   GradcheckFlags check;
-  MeshVerb(app, "sdf", "SDF per vertex (summary; --csv, --ply, --json)", &in,
-           true)
-      ->callback([&] { run = [&] { return RunSdf(in); }; });
-  CLI::App* g = MeshVerb(app, "grad",
-                         "sensitivities: --vjp FILE (g^T J), --jacobian FILE",
-                         &in, false);
-  AddGradFlags(g, &grad);
-  g->callback([&] { run = [&] { return RunGrad(in, grad); }; });
-  CLI::App* p = MeshVerb(app, "penalty",
-                         "minimum-thickness penalty, or --form ks the "
-                         "aggregated constraint, and its gradient",
-                         &in, false);
-  AddPenaltyFlags(p, &penalty, /*t_min_required=*/true);
-  p->callback([&] { run = [&] { return RunPenalty(in, penalty); }; });
-  CLI::App* c = MeshVerb(app, "calibrate",
-                         "SDF against physical thickness (SPEC §8)", &in,
-                         false);
-  AddCalibrateFlags(c, &calibrate);
-  c->callback([&] { run = [&] { return RunCalibrate(in, calibrate); }; });
   CLI::App* gc = MeshVerb(app, "gradcheck",
                           "check the derivatives by central differences "
                           "(exit 1 on FAIL)",
-                          &in, false);
+                          &local.in, false);
   AddGradcheckFlags(gc, &check);
-  AddPenaltyFlags(gc, &penalty, /*t_min_required=*/false);
-  gc->callback([&] { run = [&] { return RunGradcheck(in, check, penalty); }; });
+  AddPenaltyFlags(gc, &local.penalty, /*t_min_required=*/false);
+  gc->callback([&] {
+    run = [&] { return RunGradcheck(local.in, check, local.penalty); };
+  });
 
   ShapeInput shape;
   CLI::App* sh = app.add_subcommand("shape", "write an analytic test shape");
@@ -96,40 +137,38 @@ int Main(int argc, char** argv) {
 
   RemoteInput r;
   CLI::App* remote = app.add_subcommand(
-      "remote", "the same work through a meshgauge-server");
+      "remote", "the same verbs through a meshgauge-server, and its sessions");
   remote->require_subcommand(1);
   AddRemoteFlags(remote, &r.remote);
-  CLI::App* up = remote->add_subcommand("upload", "upload MESH as a session");
-  up->fallthrough();
+  MeshVerbs remote_verbs;
+  std::string remote_session;
+  AddMeshVerbs(
+      *remote, &remote_verbs,
+      [&] { return RemoteBackend(r.remote, remote_session); }, &run);
+  for (const char* verb : {"sdf", "grad", "penalty", "calibrate"}) {
+    remote->get_subcommand(verb)->add_option(
+        "--session-id", remote_session,
+        "compute on this session (kept; created from MESH if missing) "
+        "instead of a temporary one");
+  }
+  CLI::App* up = SessionVerb(remote, "upload", "upload MESH as a session", &r,
+                             false, &run);
   up->add_option("mesh", r.target, "mesh file")->required();
   up->add_option("--session-id", r.session_id,
-                 "session id (default: server-assigned)");
-  AddMeshFlags(up, &r.in.mesh_flags);
-  AddOutputFlags(up, &r.in.out, false);
-  up->callback([&] { r.verb = "upload"; });
-  RemoteVerb(remote, "list", "the caller's sessions", &r, false, false);
-  RemoteVerb(remote, "health", "exit 0 only while SERVING", &r, false, false);
-  RemoteVerb(remote, "info", "every SessionInfo field", &r, true, false);
-  RemoteVerb(remote, "delete", "delete a session", &r, true, false);
-  RemoteVerb(remote, "sdf", "SDF of a session (--csv)", &r, true, true)
-      ->add_option("--csv", r.in.out.csv, "per-vertex CSV");
-  AddGradFlags(RemoteVerb(remote, "grad", "g^T J of a session", &r, true, true),
-               &r.grad);
-  AddPenaltyFlags(
-      RemoteVerb(remote, "penalty", "penalty or constraint", &r, true, true),
-      &r.penalty, /*t_min_required=*/true);
-  AddCalibrateFlags(
-      RemoteVerb(remote, "calibrate", "calibration report", &r, true, true),
-      &r.calibrate);
+                 "session id (default: a new UUID)");
+  AddMeshFlags(up, &r.mesh_flags);
+  SessionVerb(remote, "list", "the caller's sessions", &r, false, &run);
+  SessionVerb(remote, "health", "exit 0 only while SERVING", &r, false, &run);
+  SessionVerb(remote, "info", "every SessionInfo field", &r, true, &run);
+  SessionVerb(remote, "delete", "delete a session", &r, true, &run);
   CLI::App* upd =
-      RemoteVerb(remote, "update", "move the vertices", &r, true, false);
+      SessionVerb(remote, "update", "move the vertices", &r, true, &run);
   upd->add_option("--positions", r.positions,
                   "mesh file with the new positions (same vertex count)")
       ->required();
   upd->add_option("--generation", r.generation,
                   "expected generation (-1: the current)")
       ->capture_default_str();
-  remote->callback([&] { run = [&] { return RunRemote(r); }; });
 
   try {
     app.parse(argc, argv);

@@ -1,45 +1,46 @@
 #include <chrono>
 #include <iostream>
 
-#include "absl/strings/str_cat.h"
-#include "client/cli/cli_flags.h"
+#include "client/cli/backend.h"
 #include "client/cli/commands.h"
-#include "client/cli/progress_bar.h"
 #include "client/cli/summary.h"
-#include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
 
-absl::Status RunSdf(const MeshInput& in) {
+absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
+                            bool print_warnings) {
   auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
-  const auto start = std::chrono::steady_clock::now();
   auto loaded = LoadMesh(in.mesh, in.mesh_flags);
   if (!loaded.ok()) return loaded.status();
-  ProgressBar bar("tracing");
-  ComputeControl control;
-  control.progress = [&bar](int64_t done, int64_t total) {
-    bar.Update(done, total);
-  };
-  auto result = ComputeSdf(loaded->mesh, *params, control);
-  bar.Finish();
+  for (const std::string& w : loaded->warnings) {
+    if (print_warnings) std::cerr << "meshgauge: warning: " << w << "\n";
+  }
+  auto backend = make(loaded->mesh);
+  if (!backend.ok()) return backend.status();
+  return Opened{std::move(*loaded), std::move(*backend), *params};
+}
+
+absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
+  const auto start = std::chrono::steady_clock::now();
+  auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
+  if (!opened.ok()) return opened.status();
+  auto result = opened->backend->Sdf(opened->params, false);
   if (!result.ok()) return result.status();
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
           .count();
+  const Mesh& mesh = opened->loaded.mesh;
   if (const std::string& csv = in.out.csv; !csv.empty()) {
-    if (absl::Status s = WriteSdfCsv(csv, loaded->mesh, *result); !s.ok()) {
-      return s;
-    }
+    if (absl::Status s = WriteSdfCsv(csv, mesh, *result); !s.ok()) return s;
   }
   if (const std::string& ply = in.out.ply; !ply.empty()) {
-    if (absl::Status s = WriteQualityPly(ply, loaded->mesh, result->values);
-        !s.ok()) {
+    if (absl::Status s = WriteQualityPly(ply, mesh, result->values); !s.ok()) {
       return s;
     }
   }
-  const nlohmann::json summary = SummaryJson(*loaded, *result, seconds);
+  const nlohmann::json summary = SummaryJson(opened->loaded, *result, seconds);
   if (in.out.json) {
     std::cout << summary.dump() << "\n";
   } else {

@@ -1,7 +1,6 @@
 #include "client/remote/remote_client.h"
 
 #include <grpcpp/generic/generic_stub.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <chrono>
@@ -13,68 +12,9 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "lib/io/text_file.h"
+#include "proto/wire/convert.h"
 
 namespace meshgauge::client {
-namespace {
-
-template <typename T>
-uLong CrcOf(uLong crc, const std::vector<T>& v) {
-  return v.empty() ? crc
-                   : crc32(crc, reinterpret_cast<const Bytef*>(v.data()),
-                           v.size() * sizeof(T));
-}
-
-}  // namespace
-
-absl::Status FromGrpc(const grpc::Status& s) {
-  if (s.ok()) return absl::OkStatus();
-  return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
-                      s.error_message());
-}
-
-uint32_t MeshCrc32(const Mesh& mesh) {
-  std::vector<double> coords;
-  coords.reserve(mesh.positions.size() * mesh.dimension);
-  for (const Vec3& p : mesh.positions) {
-    for (int c = 0; c < mesh.dimension; ++c) coords.push_back(p[c]);
-  }
-  std::vector<int32_t> sizes, indices;
-  for (const Face& f : mesh.faces) {
-    sizes.push_back(f.size);
-    for (int k = 0; k < f.size; ++k) indices.push_back(f.v[k]);
-  }
-  uLong crc = crc32(0, nullptr, 0);
-  crc = CrcOf(crc, coords);
-  crc = CrcOf(crc, sizes);
-  crc = CrcOf(crc, indices);
-  crc = CrcOf(crc, mesh.face_regions);
-  return static_cast<uint32_t>(crc);
-}
-
-v1::SdfParameters ToWireParams(const SdfParams& p) {
-  v1::SdfParameters w;
-  w.set_method(p.method == SdfMethod::kNormalRay ? v1::SDF_METHOD_NORMAL_RAY
-                                                 : v1::SDF_METHOD_CONE);
-  w.set_cone_angle_degrees(p.cone_angle_degrees);
-  w.set_rays(p.rays);
-  w.set_kappa(p.kappa);
-  w.set_min_weight_angle(p.min_weight_angle);
-  w.set_max_distance(p.max_distance);
-  w.set_self_hit_epsilon(p.self_hit_epsilon);
-  w.set_normal_weighting(p.normal_weighting == NormalWeighting::kAngle
-                             ? v1::NORMAL_WEIGHTING_ANGLE
-                             : v1::NORMAL_WEIGHTING_AREA);
-  return w;
-}
-
-std::vector<Vec3> FromFlattened(
-    const google::protobuf::RepeatedField<double>& flat, int dimension) {
-  std::vector<Vec3> out(flat.size() / dimension);
-  for (int i = 0; i < flat.size(); ++i)
-    out[i / dimension][i % dimension] = flat[i];
-  return out;
-}
-
 absl::Status LoadClientSecrets(const std::string& ca_file,
                                const std::string& cert_file,
                                const std::string& key_file,
@@ -105,10 +45,9 @@ std::string NewSessionId() {
   thread_local std::mt19937_64 rng(std::random_device{}());
   const uint64_t hi = rng(), lo = rng();
   // RFC 4122 version 4 (random), variant 10.
-  return absl::StrFormat("%08x-%04x-4%03x-%04x-%012x", hi >> 32,
-                         (hi >> 16) & 0xffff, hi & 0xfff,
-                         0x8000 | ((lo >> 48) & 0x3fff),
-                         lo & 0xffffffffffffull);
+  return absl::StrFormat(
+      "%08x-%04x-4%03x-%04x-%012x", hi >> 32, (hi >> 16) & 0xffff, hi & 0xfff,
+      0x8000 | ((lo >> 48) & 0x3fff), lo & 0xffffffffffffull);
 }
 
 const char kRetryServiceConfig[] = R"json({
@@ -179,7 +118,7 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
   return ctx;
 }
 
-absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
+absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
     const Mesh& mesh, const std::string& requested_id) {
   const std::string session_id =
       requested_id.empty() ? NewSessionId() : requested_id;
@@ -195,9 +134,7 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
   for (const auto& [region, dir] : mesh.region_directions) {
     auto* rd = h->add_region_directions();
     rd->set_region(region);
-    rd->set_direction(dir == ConeDirection::kOutward
-                          ? v1::CONE_DIRECTION_OUTWARD
-                          : v1::CONE_DIRECTION_INWARD);
+    rd->set_direction(wire::ToWire(dir));
   }
   bool ok = writer->Write(req);
   const int64_t step = std::max(1, options_.upload_chunk_vertices);
@@ -223,12 +160,12 @@ absl::StatusOr<v1::SessionInfo> RemoteClient::Upload(
     auto* footer = req.mutable_footer();
     footer->set_num_vertices(mesh.num_vertices());
     footer->set_num_faces(mesh.num_faces());
-    footer->set_crc32(MeshCrc32(mesh));
+    footer->set_crc32(wire::MeshCrc32(mesh));
     writer->Write(req);
   }
   writer->WritesDone();
-  if (absl::Status s = FromGrpc(writer->Finish()); !s.ok()) return s;
-  return response.session();
+  if (absl::Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
+  return wire::FromWire(response.session());
 }
 
 absl::StatusOr<bool> RemoteClient::Serving() {
@@ -243,7 +180,8 @@ absl::StatusOr<bool> RemoteClient::Serving() {
   stub.UnaryCall(ctx.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(),
                  &request, &response,
                  [&done](grpc::Status s) { done.set_value(std::move(s)); });
-  if (absl::Status s = FromGrpc(done.get_future().get()); !s.ok()) return s;
+  if (absl::Status s = wire::FromGrpc(done.get_future().get()); !s.ok())
+    return s;
   std::vector<grpc::Slice> slices;
   if (!response.Dump(&slices).ok()) {
     return absl::DataLossError("unreadable health response");
@@ -256,30 +194,34 @@ absl::StatusOr<bool> RemoteClient::Serving() {
   return bytes[1] == 1;
 }
 
-absl::StatusOr<v1::SessionInfo> RemoteClient::Get(const std::string& id) {
+absl::StatusOr<wire::SessionInfo> RemoteClient::Get(const std::string& id) {
   auto ctx = Context(id);
   v1::GetSessionRequest req;
   req.set_session_id(id);
   v1::GetSessionResponse resp;
-  if (absl::Status s = FromGrpc(stub_->GetSession(ctx.get(), req, &resp));
+  if (absl::Status s = wire::FromGrpc(stub_->GetSession(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return resp.session();
+  return wire::FromWire(resp.session());
 }
 
-absl::StatusOr<std::vector<v1::SessionInfo>> RemoteClient::List(int page_size) {
-  std::vector<v1::SessionInfo> all;
+absl::StatusOr<std::vector<wire::SessionInfo>> RemoteClient::List(
+    int page_size) {
+  std::vector<wire::SessionInfo> all;
   v1::ListSessionsRequest req;
   req.set_page_size(page_size);
   do {
     auto ctx = Context("");
     v1::ListSessionsResponse resp;
-    if (absl::Status s = FromGrpc(stub_->ListSessions(ctx.get(), req, &resp));
+    if (absl::Status s =
+            wire::FromGrpc(stub_->ListSessions(ctx.get(), req, &resp));
         !s.ok()) {
       return s;
     }
-    all.insert(all.end(), resp.sessions().begin(), resp.sessions().end());
+    for (const v1::SessionInfo& info : resp.sessions()) {
+      all.push_back(wire::FromWire(info));
+    }
     req.set_page_token(resp.next_page_token());
   } while (!req.page_token().empty());
   return all;
@@ -290,10 +232,10 @@ absl::Status RemoteClient::Delete(const std::string& id) {
   v1::DeleteSessionRequest req;
   req.set_session_id(id);
   v1::DeleteSessionResponse resp;
-  return FromGrpc(stub_->DeleteSession(ctx.get(), req, &resp));
+  return wire::FromGrpc(stub_->DeleteSession(ctx.get(), req, &resp));
 }
 
-absl::StatusOr<v1::UpdatePositionsResponse> RemoteClient::UpdatePositions(
+absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
     const std::string& id, int64_t expected_generation, int dimension,
     const std::vector<Vec3>& positions, const std::vector<int32_t>& indices) {
   auto ctx = Context(id);
@@ -301,137 +243,134 @@ absl::StatusOr<v1::UpdatePositionsResponse> RemoteClient::UpdatePositions(
   req.set_session_id(id);
   req.set_expected_generation(expected_generation);
   req.mutable_indices()->Add(indices.begin(), indices.end());
-  req.mutable_positions()->Reserve(static_cast<int>(positions.size()) *
-                                   dimension);
-  for (const Vec3& p : positions) {
-    for (int d = 0; d < dimension; ++d) req.add_positions(p[d]);
-  }
+  wire::AppendFlattened(positions, dimension, req.mutable_positions());
   v1::UpdatePositionsResponse resp;
-  if (absl::Status s = FromGrpc(stub_->UpdatePositions(ctx.get(), req, &resp));
+  if (absl::Status s =
+          wire::FromGrpc(stub_->UpdatePositions(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return resp;
+  return wire::UpdateResult{resp.generation(), resp.refit(),
+                            resp.bvh_seconds()};
 }
 
-absl::StatusOr<RemoteSdf> RemoteClient::ComputeSdf(
-    const std::string& id, const v1::SdfParameters& params,
-    bool include_jacobian, std::optional<int64_t> expected_generation,
-    int chunk_vertices) {
+absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
+                                                        const SdfParams& params,
+                                                        const SdfCall& call) {
   auto ctx = Context(id);
   v1::ComputeSdfRequest req;
   req.set_session_id(id);
-  *req.mutable_params() = params;
-  req.set_include_jacobian(include_jacobian);
-  req.set_chunk_vertices(chunk_vertices);
-  if (expected_generation) req.set_expected_generation(*expected_generation);
-  auto reader = stub_->ComputeSdf(ctx.get(), req);
-  RemoteSdf out;
-  if (include_jacobian) {
-    out.jacobian.emplace();
-    out.jacobian->row_offsets.push_back(0);
+  *req.mutable_params() = wire::ToWire(params);
+  req.set_include_jacobian(call.include_jacobian);
+  req.set_chunk_vertices(call.chunk_vertices);
+  if (call.expected_generation) {
+    req.set_expected_generation(*call.expected_generation);
   }
+  auto reader = stub_->ComputeSdf(ctx.get(), req);
+  wire::SdfReply out;
+  if (call.include_jacobian) out.jacobian.emplace();
+  absl::Status parsed;
+  bool summary = false;
   v1::ComputeSdfResponse msg;
   while (reader->Read(&msg)) {
+    if (!parsed.ok()) continue;  // drain the stream, keep the first error.
     if (msg.has_summary()) {
-      out.summary = msg.summary();
-      continue;
-    }
-    const v1::SdfChunk& c = msg.chunk();
-    out.values.insert(out.values.end(), c.values().begin(), c.values().end());
-    for (int s : c.status())
-      out.status.push_back(static_cast<v1::VertexStatus>(s));
-    out.hits.insert(out.hits.end(), c.hits().begin(), c.hits().end());
-    out.kept.insert(out.kept.end(), c.kept().begin(), c.kept().end());
-    out.normalized.insert(out.normalized.end(), c.normalized().begin(),
-                          c.normalized().end());
-    if (out.jacobian && c.row_offsets_size() > 0) {
-      SparseJacobian& j = *out.jacobian;
-      const int64_t base = j.nonzeros();
-      for (int r = 1; r < c.row_offsets_size(); ++r) {
-        j.row_offsets.push_back(base + c.row_offsets(r));
-      }
-      const int dim =
-          c.columns_size() ? c.derivatives_size() / c.columns_size() : 3;
-      for (int e = 0; e < c.columns_size(); ++e) {
-        j.columns.push_back(c.columns(e));
-        Vec3 d;
-        for (int k = 0; k < dim; ++k) d[k] = c.derivatives(e * dim + k);
-        j.values.push_back(d);
-      }
+      parsed = wire::FinishReply(msg.summary(), params, &out);
+      summary = true;
+    } else {
+      parsed = wire::AppendChunk(msg.chunk(), &out);
     }
   }
-  if (absl::Status s = FromGrpc(reader->Finish()); !s.ok()) return s;
+  if (absl::Status s = wire::FromGrpc(reader->Finish()); !s.ok()) return s;
+  if (!parsed.ok()) return parsed;
+  if (!summary) {
+    return absl::DataLossError("ComputeSdf stream ended without its summary");
+  }
   return out;
 }
 
-absl::StatusOr<v1::ComputeVjpResponse> RemoteClient::ComputeVjp(
-    const std::string& id, const v1::SdfParameters& params,
-    const std::vector<double>& weights,
+namespace {
+
+// Per-vertex vectors of a reply's gradient; DATA_LOSS when its size is not
+// a whole number of `dimension`-vectors.
+absl::StatusOr<std::vector<Vec3>> Gradient(
+    const google::protobuf::RepeatedField<double>& flat, int dimension) {
+  if (dimension != 2 && dimension != 3) {
+    return absl::DataLossError(
+        absl::StrCat("reply gradient dimension ", dimension));
+  }
+  auto points = wire::ToPoints(flat, dimension, "gradient");
+  if (!points.ok()) return absl::DataLossError(points.status().message());
+  return points;
+}
+
+}  // namespace
+
+absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
+    const std::string& id, const SdfParams& params,
+    absl::Span<const double> weights,
     std::optional<int64_t> expected_generation) {
   auto ctx = Context(id);
   v1::ComputeVjpRequest req;
   req.set_session_id(id);
-  *req.mutable_params() = params;
+  *req.mutable_params() = wire::ToWire(params);
   if (expected_generation) req.set_expected_generation(*expected_generation);
   req.mutable_weights()->Add(weights.begin(), weights.end());
   v1::ComputeVjpResponse resp;
-  if (absl::Status s = FromGrpc(stub_->ComputeVjp(ctx.get(), req, &resp));
+  if (absl::Status s = wire::FromGrpc(stub_->ComputeVjp(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return resp;
+  auto gradient = Gradient(resp.gradient(), resp.dimension());
+  if (!gradient.ok()) return gradient.status();
+  return wire::VjpReply{
+      std::move(*gradient),
+      {resp.generation(), resp.reused_hits(), resp.seconds()}};
 }
 
-absl::StatusOr<v1::ComputePenaltyResponse> RemoteClient::ComputePenalty(
-    const std::string& id, const v1::SdfParameters& params,
+absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenalty(
+    const std::string& id, const SdfParams& params,
     const PenaltyParams& penalty, bool with_gradient,
     std::optional<int64_t> expected_generation) {
   auto ctx = Context(id);
   v1::ComputePenaltyRequest req;
   req.set_session_id(id);
-  *req.mutable_params() = params;
-  req.set_t_min(penalty.t_min);
-  switch (penalty.form) {
-    case PenaltyForm::kOneSided:
-      req.set_form(v1::PENALTY_FORM_ONE_SIDED);
-      break;
-    case PenaltyForm::kThesis:
-      req.set_form(v1::PENALTY_FORM_THESIS);
-      break;
-    case PenaltyForm::kKs:
-      req.set_form(v1::PENALTY_FORM_KS);
-      break;
-  }
-  req.set_power(penalty.power);
-  req.set_rho(penalty.rho);
-  req.set_max_missing_fraction(penalty.max_missing_fraction);
+  *req.mutable_params() = wire::ToWire(params);
+  wire::ToWire(penalty, &req);
   req.set_with_gradient(with_gradient);
   if (expected_generation) req.set_expected_generation(*expected_generation);
   v1::ComputePenaltyResponse resp;
-  if (absl::Status s = FromGrpc(stub_->ComputePenalty(ctx.get(), req, &resp));
+  if (absl::Status s =
+          wire::FromGrpc(stub_->ComputePenalty(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return resp;
+  wire::PenaltyReply out;
+  out.penalty.value = resp.value();
+  out.penalty.missing = wire::FromWire(resp.missing());
+  if (with_gradient) {
+    auto gradient = Gradient(resp.gradient(), resp.dimension());
+    if (!gradient.ok()) return gradient.status();
+    out.penalty.gradient = std::move(*gradient);
+  }
+  out.sdf_min = resp.sdf_min();
+  out.world_frame_vertices = resp.world_frame_vertices();
+  out.facts = {resp.generation(), resp.reused_hits(), resp.seconds()};
+  return out;
 }
 
-absl::StatusOr<v1::CalibrateResponse> RemoteClient::Calibrate(
-    const std::string& id, const v1::SdfParameters& params, double t_min,
-    double equal_tolerance, int bins) {
+absl::StatusOr<CalibrationReport> RemoteClient::Calibrate(
+    const std::string& id, const CalibrationParams& params) {
   auto ctx = Context(id);
   v1::CalibrateRequest req;
   req.set_session_id(id);
-  *req.mutable_params() = params;
-  req.set_t_min(t_min);
-  req.set_equal_tolerance(equal_tolerance);
-  req.set_bins(bins);
+  wire::ToWire(params, &req);
   v1::CalibrateResponse resp;
-  if (absl::Status s = FromGrpc(stub_->Calibrate(ctx.get(), req, &resp));
+  if (absl::Status s = wire::FromGrpc(stub_->Calibrate(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
-  return resp;
+  return wire::FromWire(resp);
 }
 
 }  // namespace meshgauge::client

@@ -1,4 +1,5 @@
-// C++ client of the meshgauge gRPC service. Every call of a session carries
+// C++ client of the meshgauge gRPC service: library types in and out (the
+// wire conversion is proto/wire/convert.h). Every call of a session carries
 // the metadata `x-meshgauge-session: <id>` (the routing key of a session-
 // affine balancer) and the client's deadline.
 #pragma once
@@ -11,11 +12,13 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/core/calibration_types.h"
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
-#include "lib/core/sensitivity.h"
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
+#include "proto/wire/types.h"
 
 namespace meshgauge::client {
 
@@ -64,26 +67,13 @@ absl::Status LoadClientSecrets(const std::string& ca_file,
                                const std::string& token_file,
                                ClientOptions* options);
 
-// Values of a ComputeSdf stream, reassembled.
-struct RemoteSdf {
-  std::vector<double> values;  // NaN unless OK.
-  std::vector<v1::VertexStatus> status;
-  std::vector<int32_t> hits, kept;
-  std::vector<double> normalized;
-  std::optional<SparseJacobian> jacobian;  // with include_jacobian.
-  v1::SdfSummary summary;
+// Options of one ComputeSdf call.
+struct SdfCall {
+  bool include_jacobian = false;  // also stream the sparse Jacobian rows.
+  // If set, must equal the session's generation (else ABORTED).
+  std::optional<int64_t> expected_generation = std::nullopt;
+  int chunk_vertices = 0;  // vertices per message, 1..65536; 0: the server's.
 };
-
-// CRC-32 of the mesh in the Footer's canonical order (positions as float64,
-// then face sizes, indices, regions as int32, little-endian).
-uint32_t MeshCrc32(const Mesh& mesh);
-
-// Wire form of library parameters (threads are the server's business).
-v1::SdfParameters ToWireParams(const SdfParams& params);
-
-// Per-vertex 3-vectors from `dimension` doubles per vertex.
-std::vector<Vec3> FromFlattened(
-    const google::protobuf::RepeatedField<double>& flat, int dimension);
 
 class RemoteClient {
  public:
@@ -93,33 +83,36 @@ class RemoteClient {
 
   // Uploads a mesh (validate it first for a clearer error) as a new session;
   // empty id: NewSessionId().
-  absl::StatusOr<v1::SessionInfo> Upload(const Mesh& mesh,
-                                         const std::string& session_id = "");
-  absl::StatusOr<v1::SessionInfo> Get(const std::string& session_id);
+  absl::StatusOr<wire::SessionInfo> Upload(const Mesh& mesh,
+                                           const std::string& session_id = "");
+  // Every field of the session (does not reset its idle clock).
+  absl::StatusOr<wire::SessionInfo> Get(const std::string& session_id);
   // All sessions (follows the pages).
-  absl::StatusOr<std::vector<v1::SessionInfo>> List(int page_size = 100);
+  absl::StatusOr<std::vector<wire::SessionInfo>> List(int page_size = 100);
   absl::Status Delete(const std::string& session_id);
-  // All positions (indices empty) or a subset; returns the response.
-  absl::StatusOr<v1::UpdatePositionsResponse> UpdatePositions(
+  // All positions (indices empty) or a subset; `dimension` values of each
+  // point are sent. ABORTED when expected_generation is not the session's.
+  absl::StatusOr<wire::UpdateResult> UpdatePositions(
       const std::string& session_id, int64_t expected_generation, int dimension,
       const std::vector<Vec3>& positions,
       const std::vector<int32_t>& indices = {});
-  absl::StatusOr<RemoteSdf> ComputeSdf(
-      const std::string& session_id, const v1::SdfParameters& params,
-      bool include_jacobian = false,
-      std::optional<int64_t> expected_generation = std::nullopt,
-      int chunk_vertices = 0);
-  absl::StatusOr<v1::ComputeVjpResponse> ComputeVjp(
-      const std::string& session_id, const v1::SdfParameters& params,
-      const std::vector<double>& weights,
+  // The SDF of the session's current positions (params.threads is not
+  // sent). Errors: the server's, DATA_LOSS for a malformed stream.
+  absl::StatusOr<wire::SdfReply> ComputeSdf(const std::string& session_id,
+                                            const SdfParams& params,
+                                            const SdfCall& call = {});
+  // g^T J for per-vertex weights g (#V).
+  absl::StatusOr<wire::VjpReply> ComputeVjp(
+      const std::string& session_id, const SdfParams& params,
+      absl::Span<const double> weights,
       std::optional<int64_t> expected_generation = std::nullopt);
-  absl::StatusOr<v1::ComputePenaltyResponse> ComputePenalty(
-      const std::string& session_id, const v1::SdfParameters& params,
+  absl::StatusOr<wire::PenaltyReply> ComputePenalty(
+      const std::string& session_id, const SdfParams& params,
       const PenaltyParams& penalty, bool with_gradient,
       std::optional<int64_t> expected_generation = std::nullopt);
-  absl::StatusOr<v1::CalibrateResponse> Calibrate(
-      const std::string& session_id, const v1::SdfParameters& params,
-      double t_min, double equal_tolerance = 0, int bins = 0);
+  // The report without its per-vertex arrays (sdf, thickness stay empty).
+  absl::StatusOr<CalibrationReport> Calibrate(const std::string& session_id,
+                                              const CalibrationParams& params);
 
   // grpc.health.v1.Health/Check for the whole server: true when SERVING,
   // false when NOT_SERVING (draining). Errors: the call's status.
@@ -135,7 +128,5 @@ class RemoteClient {
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MeshGauge::Stub> stub_;
 };
-
-absl::Status FromGrpc(const grpc::Status& s);
 
 }  // namespace meshgauge::client

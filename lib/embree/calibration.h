@@ -2,35 +2,11 @@
 // physical thickness (NORMAL_RAY) per vertex.
 #pragma once
 
-#include <cstdint>
-#include <vector>
-
 #include "absl/status/statusor.h"
+#include "lib/core/calibration_types.h"
 #include "lib/embree/sdf_evaluator.h"
 
 namespace meshgauge {
-
-struct CalibrationParams {
-  double t_min = 0;               // minimum thickness, mesh units, > 0.
-  double equal_tolerance = 0.01;  // |SDF - t| <= tol * t counts as equal.
-  int bins = 20;                  // histogram bins, 1..1000.
-  SdfParams sdf;                  // cone parameters (method is ignored).
-};
-
-struct Histogram {
-  double lo = 0, hi = 0;        // common range of both histograms.
-  std::vector<int64_t> counts;  // `bins` counts over [lo, hi].
-};
-
-struct CalibrationReport {
-  std::vector<double> sdf;        // per vertex, CONE; NaN without value.
-  std::vector<double> thickness;  // per vertex, NORMAL_RAY; NaN without.
-  int64_t compared = 0;           // vertices with both values.
-  int64_t lower = 0, equal = 0, higher = 0;  // SDF vs thickness.
-  double alpha1 = 0;                         // max(thickness) / t_min.
-  double alpha2 = 0;                         // min(SDF) / t_min.
-  Histogram sdf_histogram, thickness_histogram;
-};
 
 // Runs both passes on the evaluator's current positions.
 // Errors: InvalidArgument (params), Cancelled; FailedPrecondition when no

@@ -1,0 +1,68 @@
+// Where a CLI verb's numbers come from: an SdfEvaluator in this process, or
+// a session of a meshgauge-server (`meshgauge remote VERB`). Verbs write
+// every output from these library results and the mesh file alone, so a
+// remote verb's outputs are the local verb's.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "absl/status/statusor.h"
+#include "client/cli/cli_flags.h"
+#include "lib/core/calibration_types.h"
+#include "lib/core/mesh.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
+#include "lib/core/sensitivity.h"
+
+namespace meshgauge::client {
+class RemoteClient;
+}  // namespace meshgauge::client
+
+namespace meshgauge::cli {
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  // The ray pass at the mesh's positions, kept for the calls below;
+  // with_jacobian: Jacobian() will be asked for.
+  virtual absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
+                                        bool with_jacobian) = 0;
+  // After Sdf(params, true): dSDF/dx of that pass.
+  virtual absl::StatusOr<SparseJacobian> Jacobian() = 0;
+  // After Sdf: g^T J for per-vertex weights (#V).
+  virtual absl::StatusOr<std::vector<Vec3>> Vjp(
+      const std::vector<double>& weights) = 0;
+  // After Sdf: the penalty (or KS constraint) of that pass, its gradient
+  // when asked (PenaltyResult::dp_dt is not filled remotely).
+  virtual absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
+                                                bool with_gradient) = 0;
+  // Both passes of SPEC §8 (the report's per-vertex arrays may be empty).
+  virtual absl::StatusOr<CalibrationReport> Calibrate(
+      const CalibrationParams& params) = 0;
+};
+
+// Makes the backend of a loaded, validated mesh.
+using BackendFactory =
+    std::function<absl::StatusOr<std::unique_ptr<Backend>>(const Mesh& mesh)>;
+
+// An SdfEvaluator here (with a progress bar on a terminal's stderr).
+BackendFactory LocalBackend();
+
+// A session of the server of `remote`: with an empty `session_id` the mesh
+// is uploaded as a new session that is deleted afterwards; otherwise the
+// session of that id is used (and kept) when it exists, its vertex and face
+// counts matching the mesh's, and is created from the mesh when it does not.
+// Errors: the server's, NotFound for an unreadable TLS or token file.
+absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
+                                             const std::string& session_id);
+
+// A client of the server of `remote` (--server, TLS and token files).
+// Errors: NotFound for an unreadable file, InvalidArgument for a client
+// certificate without --tls-ca-file.
+absl::StatusOr<std::unique_ptr<client::RemoteClient>> Connect(
+    const RemoteFlags& remote);
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,109 @@
+#include "absl/strings/str_cat.h"
+#include "client/cli/backend.h"
+#include "client/remote/remote_client.h"
+
+namespace meshgauge::cli {
+namespace {
+
+class Remote : public Backend {
+ public:
+  Remote(std::shared_ptr<client::RemoteClient> c, std::string id,
+         bool temporary)
+      : c_(std::move(c)), id_(std::move(id)), temporary_(temporary) {}
+  ~Remote() override {
+    if (temporary_) (void)c_->Delete(id_);
+  }
+
+  absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
+                                bool with_jacobian) override {
+    params_ = params;
+    auto r = c_->ComputeSdf(id_, params, {.include_jacobian = with_jacobian});
+    if (!r.ok()) return r.status();
+    jacobian_ = std::move(r->jacobian);
+    return std::move(r->result);
+  }
+  absl::StatusOr<SparseJacobian> Jacobian() override {
+    if (!jacobian_) return absl::InternalError("Sdf(params, true) first");
+    return *jacobian_;
+  }
+  absl::StatusOr<std::vector<Vec3>> Vjp(
+      const std::vector<double>& weights) override {
+    auto r = c_->ComputeVjp(id_, params_, weights);
+    if (!r.ok()) return r.status();
+    return std::move(r->gradient);
+  }
+  absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
+                                        bool with_gradient) override {
+    auto r = c_->ComputePenalty(id_, params_, params, with_gradient);
+    if (!r.ok()) return r.status();
+    return std::move(r->penalty);
+  }
+  absl::StatusOr<CalibrationReport> Calibrate(
+      const CalibrationParams& params) override {
+    return c_->Calibrate(id_, params);
+  }
+
+ private:
+  std::shared_ptr<client::RemoteClient> c_;
+  const std::string id_;
+  const bool temporary_;
+  SdfParams params_;
+  std::optional<SparseJacobian> jacobian_;
+};
+
+// The session `id` when it exists and holds a mesh of the same counts.
+absl::Status CheckSession(const wire::SessionInfo& s, const Mesh& mesh) {
+  if (s.dimension == mesh.dimension && s.num_vertices == mesh.num_vertices() &&
+      s.num_faces == mesh.num_faces()) {
+    return absl::OkStatus();
+  }
+  return absl::FailedPreconditionError(absl::StrCat(
+      "session '", s.session_id, "' holds a ", s.dimension, "D mesh of ",
+      s.num_vertices, " vertices and ", s.num_faces,
+      " faces, not the given mesh (", mesh.dimension, "D, ",
+      mesh.num_vertices(), " vertices, ", mesh.num_faces(), " faces)"));
+}
+
+}  // namespace
+
+absl::StatusOr<std::unique_ptr<client::RemoteClient>> Connect(
+    const RemoteFlags& remote) {
+  client::ClientOptions options;
+  if (absl::Status s = client::LoadClientSecrets(
+          remote.tls_ca_file, remote.tls_cert_file, remote.tls_key_file,
+          remote.token_file, &options);
+      !s.ok()) {
+    return s;
+  }
+  if (options.tls_ca_pem.empty() &&
+      !(options.tls_cert_pem.empty() && options.tls_key_pem.empty())) {
+    return absl::InvalidArgumentError(
+        "--tls-cert-file/--tls-key-file need --tls-ca-file");
+  }
+  return std::make_unique<client::RemoteClient>(remote.server, options);
+}
+
+absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
+                                             const std::string& session_id) {
+  auto connected = Connect(remote);
+  if (!connected.ok()) return connected.status();
+  std::shared_ptr<client::RemoteClient> c = std::move(*connected);
+  return BackendFactory([c, session_id](const Mesh& mesh)
+                            -> absl::StatusOr<std::unique_ptr<Backend>> {
+    if (!session_id.empty()) {
+      auto info = c->Get(session_id);
+      if (info.ok()) {
+        if (absl::Status s = CheckSession(*info, mesh); !s.ok()) return s;
+        return std::make_unique<Remote>(c, session_id, false);
+      }
+      if (info.status().code() != absl::StatusCode::kNotFound) {
+        return info.status();
+      }
+    }
+    auto up = c->Upload(mesh, session_id);
+    if (!up.ok()) return up.status();
+    return std::make_unique<Remote>(c, up->session_id, session_id.empty());
+  });
+}
+
+}  // namespace meshgauge::cli

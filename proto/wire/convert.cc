@@ -1,0 +1,446 @@
+#include "proto/wire/convert.h"
+
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge::wire {
+namespace {
+
+template <typename T>
+uLong CrcOf(uLong crc, const std::vector<T>& v) {
+  return v.empty() ? crc
+                   : crc32(crc, reinterpret_cast<const Bytef*>(v.data()),
+                           v.size() * sizeof(T));
+}
+
+absl::Status Malformed(absl::string_view what) {
+  return absl::DataLossError(
+      absl::StrCat("malformed ComputeSdf reply: ", what));
+}
+
+}  // namespace
+
+v1::SdfParameters ToWire(const SdfParams& p) {
+  v1::SdfParameters w;
+  w.set_method(p.method == SdfMethod::kNormalRay ? v1::SDF_METHOD_NORMAL_RAY
+                                                 : v1::SDF_METHOD_CONE);
+  w.set_cone_angle_degrees(p.cone_angle_degrees);
+  w.set_rays(p.rays);
+  w.set_kappa(p.kappa);
+  w.set_min_weight_angle(p.min_weight_angle);
+  w.set_max_distance(p.max_distance);
+  w.set_self_hit_epsilon(p.self_hit_epsilon);
+  w.set_normal_weighting(p.normal_weighting == NormalWeighting::kAngle
+                             ? v1::NORMAL_WEIGHTING_ANGLE
+                             : v1::NORMAL_WEIGHTING_AREA);
+  return w;
+}
+
+absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
+                                   int threads) {
+  SdfParams out;
+  switch (p.method()) {
+    case v1::SDF_METHOD_UNSPECIFIED:
+    case v1::SDF_METHOD_CONE:
+      out.method = SdfMethod::kCone;
+      break;
+    case v1::SDF_METHOD_NORMAL_RAY:
+      out.method = SdfMethod::kNormalRay;
+      break;
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("params.method ", static_cast<int>(p.method()),
+                       " is not a known SdfMethod"));
+  }
+  switch (p.normal_weighting()) {
+    case v1::NORMAL_WEIGHTING_UNSPECIFIED:
+    case v1::NORMAL_WEIGHTING_AREA:
+      out.normal_weighting = NormalWeighting::kArea;
+      break;
+    case v1::NORMAL_WEIGHTING_ANGLE:
+      out.normal_weighting = NormalWeighting::kAngle;
+      break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "params.normal_weighting ", static_cast<int>(p.normal_weighting()),
+          " is not a known NormalWeighting"));
+  }
+  if (p.cone_angle_degrees() != 0)
+    out.cone_angle_degrees = p.cone_angle_degrees();
+  out.rays = p.rays();
+  if (p.has_kappa()) out.kappa = p.kappa();
+  out.min_weight_angle = p.min_weight_angle();
+  out.max_distance = p.max_distance();
+  if (p.self_hit_epsilon() != 0) out.self_hit_epsilon = p.self_hit_epsilon();
+  out.threads = threads;
+  if (p.rays() > max_rays) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "params.rays ", p.rays(), " exceeds the server's limit of ", max_rays,
+        " rays per vertex (--max_rays)"));
+  }
+  if (absl::Status s = ValidateParams(out); !s.ok()) {
+    return absl::InvalidArgumentError(absl::StrCat("params: ", s.message()));
+  }
+  return out;
+}
+
+void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out) {
+  out->set_t_min(p.t_min);
+  switch (p.form) {
+    case PenaltyForm::kOneSided:
+      out->set_form(v1::PENALTY_FORM_ONE_SIDED);
+      break;
+    case PenaltyForm::kThesis:
+      out->set_form(v1::PENALTY_FORM_THESIS);
+      break;
+    case PenaltyForm::kKs:
+      out->set_form(v1::PENALTY_FORM_KS);
+      break;
+  }
+  out->set_power(p.power);
+  out->set_rho(p.rho);
+  out->set_max_missing_fraction(p.max_missing_fraction);
+}
+
+absl::StatusOr<PenaltyParams> PenaltyFromWire(
+    const v1::ComputePenaltyRequest& r) {
+  PenaltyParams p;
+  p.t_min = r.t_min();
+  p.power = r.power() == 0 ? 2.0 : r.power();
+  if (r.rho() != 0) p.rho = r.rho();
+  if (r.has_max_missing_fraction()) {
+    p.max_missing_fraction = r.max_missing_fraction();
+  }
+  switch (r.form()) {
+    case v1::PENALTY_FORM_UNSPECIFIED:
+    case v1::PENALTY_FORM_ONE_SIDED:
+      p.form = PenaltyForm::kOneSided;
+      break;
+    case v1::PENALTY_FORM_THESIS:
+      p.form = PenaltyForm::kThesis;
+      break;
+    case v1::PENALTY_FORM_KS:
+      p.form = PenaltyForm::kKs;
+      break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "form ", static_cast<int>(r.form()), " is not a known PenaltyForm"));
+  }
+  if (absl::Status s = ValidatePenaltyParams(p); !s.ok()) return s;
+  return p;
+}
+
+void ToWire(const CalibrationParams& p, v1::CalibrateRequest* out) {
+  *out->mutable_params() = ToWire(p.sdf);
+  out->set_t_min(p.t_min);
+  out->set_equal_tolerance(p.equal_tolerance);
+  out->set_bins(p.bins);
+}
+
+CalibrationParams CalibrationFromWire(const v1::CalibrateRequest& r,
+                                      const SdfParams& sdf) {
+  CalibrationParams p;
+  p.t_min = r.t_min();
+  if (r.equal_tolerance() != 0) p.equal_tolerance = r.equal_tolerance();
+  if (r.bins() != 0) p.bins = r.bins();
+  p.sdf = sdf;
+  return p;
+}
+
+v1::VertexStatus ToWire(VertexStatus s) {
+  switch (s) {
+    case VertexStatus::kOk:
+      return v1::VERTEX_STATUS_OK;
+    case VertexStatus::kNoHit:
+      return v1::VERTEX_STATUS_NO_HIT;
+    case VertexStatus::kNoFaces:
+      return v1::VERTEX_STATUS_NO_FACES;
+    case VertexStatus::kDegenerateNormal:
+      return v1::VERTEX_STATUS_DEGENERATE_NORMAL;
+  }
+  return v1::VERTEX_STATUS_UNSPECIFIED;
+}
+
+absl::StatusOr<VertexStatus> FromWire(v1::VertexStatus s) {
+  switch (s) {
+    case v1::VERTEX_STATUS_OK:
+      return VertexStatus::kOk;
+    case v1::VERTEX_STATUS_NO_HIT:
+      return VertexStatus::kNoHit;
+    case v1::VERTEX_STATUS_NO_FACES:
+      return VertexStatus::kNoFaces;
+    case v1::VERTEX_STATUS_DEGENERATE_NORMAL:
+      return VertexStatus::kDegenerateNormal;
+    default:
+      return absl::DataLossError(absl::StrCat(
+          "vertex status ", static_cast<int>(s), " is not a known one"));
+  }
+}
+
+v1::ConeDirection ToWire(ConeDirection d) {
+  return d == ConeDirection::kOutward ? v1::CONE_DIRECTION_OUTWARD
+                                      : v1::CONE_DIRECTION_INWARD;
+}
+
+absl::StatusOr<ConeDirection> FromWire(v1::ConeDirection d) {
+  switch (d) {
+    case v1::CONE_DIRECTION_UNSPECIFIED:
+    case v1::CONE_DIRECTION_INWARD:
+      return ConeDirection::kInward;
+    case v1::CONE_DIRECTION_OUTWARD:
+      return ConeDirection::kOutward;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "cone direction ", static_cast<int>(d), " is not a known one"));
+  }
+}
+
+void ToWire(const MissingValues& m, v1::MissingValues* out) {
+  out->set_vertices(m.vertices);
+  out->set_faces(m.faces);
+  out->set_area_fraction(m.area_fraction);
+}
+
+MissingValues FromWire(const v1::MissingValues& m) {
+  MissingValues out;
+  out.vertices = m.vertices();
+  out.faces = m.faces();
+  out.area_fraction = m.area_fraction();
+  return out;
+}
+
+void ToWire(const SessionInfo& s, v1::SessionInfo* out) {
+  out->set_session_id(s.session_id);
+  out->set_dimension(s.dimension);
+  out->set_num_vertices(s.num_vertices);
+  out->set_num_faces(s.num_faces);
+  out->set_generation(s.generation);
+  out->set_memory_bytes(s.memory_bytes);
+  out->set_bvh_builds(s.bvh_builds);
+  out->set_bvh_refits(s.bvh_refits);
+  out->set_idle_seconds(s.idle_seconds);
+  out->set_signed_volume(s.signed_volume);
+  out->set_closed(s.closed);
+  for (const std::string& w : s.warnings) out->add_warnings(w);
+}
+
+SessionInfo FromWire(const v1::SessionInfo& s) {
+  SessionInfo out;
+  out.session_id = s.session_id();
+  out.dimension = s.dimension();
+  out.num_vertices = s.num_vertices();
+  out.num_faces = s.num_faces();
+  out.generation = s.generation();
+  out.memory_bytes = s.memory_bytes();
+  out.bvh_builds = s.bvh_builds();
+  out.bvh_refits = s.bvh_refits();
+  out.idle_seconds = s.idle_seconds();
+  out.signed_volume = s.signed_volume();
+  out.closed = s.closed();
+  out.warnings.assign(s.warnings().begin(), s.warnings().end());
+  return out;
+}
+
+void ToWire(const CalibrationReport& r, v1::CalibrateResponse* out) {
+  out->set_compared(r.compared);
+  out->set_sdf_lower(r.lower);
+  out->set_sdf_equal(r.equal);
+  out->set_sdf_higher(r.higher);
+  out->set_alpha1(r.alpha1);
+  out->set_alpha2(r.alpha2);
+  out->set_histogram_lo(r.sdf_histogram.lo);
+  out->set_histogram_hi(r.sdf_histogram.hi);
+  out->mutable_sdf_histogram()->Add(r.sdf_histogram.counts.begin(),
+                                    r.sdf_histogram.counts.end());
+  out->mutable_thickness_histogram()->Add(r.thickness_histogram.counts.begin(),
+                                          r.thickness_histogram.counts.end());
+}
+
+CalibrationReport FromWire(const v1::CalibrateResponse& r) {
+  CalibrationReport out;
+  out.compared = r.compared();
+  out.lower = r.sdf_lower();
+  out.equal = r.sdf_equal();
+  out.higher = r.sdf_higher();
+  out.alpha1 = r.alpha1();
+  out.alpha2 = r.alpha2();
+  for (Histogram* h : {&out.sdf_histogram, &out.thickness_histogram}) {
+    h->lo = r.histogram_lo();
+    h->hi = r.histogram_hi();
+  }
+  out.sdf_histogram.counts.assign(r.sdf_histogram().begin(),
+                                  r.sdf_histogram().end());
+  out.thickness_histogram.counts.assign(r.thickness_histogram().begin(),
+                                        r.thickness_histogram().end());
+  return out;
+}
+
+void AppendFlattened(absl::Span<const Vec3> v, int dimension,
+                     google::protobuf::RepeatedField<double>* out) {
+  out->Reserve(out->size() + static_cast<int>(v.size()) * dimension);
+  for (const Vec3& p : v) {
+    for (int c = 0; c < dimension; ++c) out->AddAlreadyReserved(p[c]);
+  }
+}
+
+absl::StatusOr<std::vector<Vec3>> ToPoints(
+    const google::protobuf::RepeatedField<double>& flat, int dimension,
+    const char* field) {
+  if (flat.size() % dimension != 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(field, " has ", flat.size(),
+                     " values, not a multiple of the dimension ", dimension));
+  }
+  std::vector<Vec3> out(flat.size() / dimension);
+  for (int i = 0; i < flat.size(); ++i) {
+    if (!std::isfinite(flat[i])) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(field, "[", i, "] is not finite"));
+    }
+    out[i / dimension][i % dimension] = flat[i];
+  }
+  return out;
+}
+
+void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
+                 int dimension, int64_t begin, int64_t end, v1::SdfChunk* c) {
+  c->set_vertex_begin(begin);
+  c->set_vertex_end(end);
+  c->mutable_values()->Add(r.values.begin() + begin, r.values.begin() + end);
+  for (int64_t p = begin; p < end; ++p) c->add_status(ToWire(r.status[p]));
+  c->mutable_hits()->Add(r.hits.begin() + begin, r.hits.begin() + end);
+  c->mutable_kept()->Add(r.kept.begin() + begin, r.kept.begin() + end);
+  c->mutable_normalized()->Add(r.normalized.begin() + begin,
+                               r.normalized.begin() + end);
+  if (!jacobian) return;
+  const SparseJacobian& j = *jacobian;
+  const int64_t base = j.row_offsets[begin];
+  for (int64_t p = begin; p <= end; ++p) {
+    c->add_row_offsets(j.row_offsets[p] - base);
+  }
+  for (int64_t e = base; e < j.row_offsets[end]; ++e) {
+    c->add_columns(j.columns[e]);
+    for (int k = 0; k < dimension; ++k) c->add_derivatives(j.values[e][k]);
+  }
+}
+
+void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
+                   v1::SdfSummary* s) {
+  s->set_generation(facts.generation);
+  s->set_ok(r.CountStatus(VertexStatus::kOk));
+  s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
+  s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
+  s->set_degenerate_normal(r.CountStatus(VertexStatus::kDegenerateNormal));
+  const ValueStats stats = SummarizeValues(r.values);
+  s->set_sdf_min(stats.min);
+  s->set_sdf_max(stats.max);
+  s->set_sdf_mean(stats.mean);
+  s->set_sdf_median(stats.median);
+  s->set_world_frame_vertices(r.world_frame_vertices);
+  ToWire(r.missing, s->mutable_missing());
+  s->set_integral(integral);
+  s->set_rays(r.rays_traced);
+  s->set_rays_per_vertex(r.resolved.rays);
+  s->set_trace_seconds(facts.reused_hits ? 0.0 : r.trace_seconds);
+  s->set_reused_hits(facts.reused_hits);
+  s->set_seconds(facts.seconds);
+}
+
+absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply) {
+  SdfResult& r = reply->result;
+  const int64_t n = c.vertex_end() - c.vertex_begin();
+  if (c.vertex_begin() != std::ssize(r.values) || n < 0 ||
+      c.values_size() != n || c.status_size() != n || c.hits_size() != n ||
+      c.kept_size() != n || c.normalized_size() != n) {
+    return Malformed(absl::StrCat("chunk [", c.vertex_begin(), ", ",
+                                  c.vertex_end(), ") does not continue ",
+                                  r.values.size(), " vertices"));
+  }
+  r.values.insert(r.values.end(), c.values().begin(), c.values().end());
+  for (int s : c.status()) {
+    auto status = FromWire(static_cast<v1::VertexStatus>(s));
+    if (!status.ok()) return status.status();
+    r.status.push_back(*status);
+  }
+  r.hits.insert(r.hits.end(), c.hits().begin(), c.hits().end());
+  r.kept.insert(r.kept.end(), c.kept().begin(), c.kept().end());
+  r.normalized.insert(r.normalized.end(), c.normalized().begin(),
+                      c.normalized().end());
+  if (!reply->jacobian) return absl::OkStatus();
+  SparseJacobian& j = *reply->jacobian;
+  if (j.row_offsets.empty()) j.row_offsets.push_back(0);
+  if (c.row_offsets_size() != n + 1 || c.row_offsets(n) != c.columns_size() ||
+      (c.columns_size() > 0 && c.derivatives_size() != 2 * c.columns_size() &&
+       c.derivatives_size() != 3 * c.columns_size())) {
+    return Malformed("Jacobian rows do not match the chunk");
+  }
+  const int64_t base = j.nonzeros();
+  for (int i = 1; i <= n; ++i) j.row_offsets.push_back(base + c.row_offsets(i));
+  const int dim =
+      c.columns_size() ? c.derivatives_size() / c.columns_size() : 3;
+  for (int e = 0; e < c.columns_size(); ++e) {
+    j.columns.push_back(c.columns(e));
+    Vec3 d;
+    for (int k = 0; k < dim; ++k) d[k] = c.derivatives(e * dim + k);
+    j.values.push_back(d);
+  }
+  return absl::OkStatus();
+}
+
+absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
+                         SdfReply* reply) {
+  SdfResult& r = reply->result;
+  if (s.ok() + s.no_hit() + s.no_faces() + s.degenerate_normal() !=
+          std::ssize(r.values) ||
+      s.ok() != r.CountStatus(VertexStatus::kOk)) {
+    return Malformed(absl::StrCat("the summary counts ", s.ok(),
+                                  " values, the chunks carried ",
+                                  r.CountStatus(VertexStatus::kOk)));
+  }
+  r.rays_traced = s.rays();
+  r.world_frame_vertices = s.world_frame_vertices();
+  r.missing = FromWire(s.missing());
+  r.trace_seconds = s.trace_seconds();
+  r.resolved.params = params;
+  r.resolved.rays = s.rays_per_vertex();
+  reply->integral = s.integral();
+  reply->facts = {s.generation(), s.reused_hits(), s.seconds()};
+  return absl::OkStatus();
+}
+
+uint32_t MeshCrc32(const Mesh& mesh) {
+  std::vector<double> coords;
+  coords.reserve(mesh.positions.size() * mesh.dimension);
+  for (const Vec3& p : mesh.positions) {
+    for (int c = 0; c < mesh.dimension; ++c) coords.push_back(p[c]);
+  }
+  std::vector<int32_t> sizes, indices;
+  for (const Face& f : mesh.faces) {
+    sizes.push_back(f.size);
+    for (int k = 0; k < f.size; ++k) indices.push_back(f.v[k]);
+  }
+  uLong crc = crc32(0, nullptr, 0);
+  crc = CrcOf(crc, coords);
+  crc = CrcOf(crc, sizes);
+  crc = CrcOf(crc, indices);
+  crc = CrcOf(crc, mesh.face_regions);
+  return static_cast<uint32_t>(crc);
+}
+
+grpc::Status ToGrpc(const absl::Status& s) {
+  if (s.ok()) return grpc::Status::OK;
+  return grpc::Status(static_cast<grpc::StatusCode>(s.code()),
+                      std::string(s.message()));
+}
+
+absl::Status FromGrpc(const grpc::Status& s) {
+  if (s.ok()) return absl::OkStatus();
+  return absl::Status(static_cast<absl::StatusCode>(s.error_code()),
+                      s.error_message());
+}
+
+}  // namespace meshgauge::wire

@@ -1,0 +1,84 @@
+// The one conversion layer between the wire (meshgauge/v1/meshgauge.proto)
+// and the library's types, used by the server and the C++ client alike.
+// ToWire* writes a message from library values; From* reads one back and
+// validates what a peer could get wrong (INVALID_ARGUMENT naming the field;
+// DATA_LOSS for a malformed reply).
+#pragma once
+
+#include <grpcpp/support/status.h>
+
+#include <cstdint>
+
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/core/calibration_types.h"
+#include "lib/core/mesh.h"
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
+#include "meshgauge/v1/meshgauge.pb.h"
+#include "proto/wire/types.h"
+
+namespace meshgauge::wire {
+
+// Parameters. Threads are the server's business and are not sent.
+v1::SdfParameters ToWire(const SdfParams& p);
+// Zero fields select the defaults; rays are limited to max_rays; `threads`
+// is the server's. Errors: INVALID_ARGUMENT naming the field.
+absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
+                                   int threads);
+void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out);
+absl::StatusOr<PenaltyParams> PenaltyFromWire(
+    const v1::ComputePenaltyRequest& r);
+void ToWire(const CalibrationParams& p, v1::CalibrateRequest* out);
+// `sdf` is the request's parameters already read with FromWire.
+CalibrationParams CalibrationFromWire(const v1::CalibrateRequest& r,
+                                      const SdfParams& sdf);
+
+// Enums.
+v1::VertexStatus ToWire(VertexStatus s);
+absl::StatusOr<VertexStatus> FromWire(v1::VertexStatus s);
+v1::ConeDirection ToWire(ConeDirection d);
+absl::StatusOr<ConeDirection> FromWire(v1::ConeDirection d);
+
+// Values.
+void ToWire(const MissingValues& m, v1::MissingValues* out);
+MissingValues FromWire(const v1::MissingValues& m);
+void ToWire(const SessionInfo& s, v1::SessionInfo* out);
+SessionInfo FromWire(const v1::SessionInfo& s);
+void ToWire(const CalibrationReport& r, v1::CalibrateResponse* out);
+CalibrationReport FromWire(const v1::CalibrateResponse& r);
+
+// `dimension` doubles per vertex.
+void AppendFlattened(absl::Span<const Vec3> v, int dimension,
+                     google::protobuf::RepeatedField<double>* out);
+// Errors: INVALID_ARGUMENT when the count is not a multiple of dimension or
+// a value is not finite.
+absl::StatusOr<std::vector<Vec3>> ToPoints(
+    const google::protobuf::RepeatedField<double>& flat, int dimension,
+    const char* field);
+
+// The ComputeSdf stream. The server writes chunks of [begin, end) of a
+// result (with the Jacobian's rows when `jacobian` is given), then the
+// summary; the client appends them in order to an SdfReply.
+void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
+                 int dimension, int64_t begin, int64_t end, v1::SdfChunk* out);
+// `facts` and `integral` are the call's; the rest comes from the result.
+void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
+                   v1::SdfSummary* out);
+// Errors: DATA_LOSS when the chunk does not continue the reply or its
+// arrays disagree.
+absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply);
+// Completes the reply with the summary; `params` are the ones sent.
+// Errors: DATA_LOSS when the summary's counts are not the vertices the
+// chunks carried.
+absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
+                         SdfReply* reply);
+
+// CRC-32 of the mesh in the Footer's canonical order (positions as float64,
+// then face sizes, indices, regions as int32, little-endian).
+uint32_t MeshCrc32(const Mesh& mesh);
+
+grpc::Status ToGrpc(const absl::Status& s);
+absl::Status FromGrpc(const grpc::Status& s);
+
+}  // namespace meshgauge::wire

@@ -1,0 +1,65 @@
+// The library-side types of the replies of the meshgauge service: library
+// results (SdfResult, PenaltyResult, ...) plus what the call reports about
+// itself (generation, reuse of the cached ray pass, server time).
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lib/core/penalty.h"
+#include "lib/core/sdf_types.h"
+#include "lib/core/sensitivity.h"
+
+namespace meshgauge::wire {
+
+// Every field of v1::SessionInfo.
+struct SessionInfo {
+  std::string session_id;
+  int dimension = 3;
+  int64_t num_vertices = 0, num_faces = 0;
+  int64_t generation = 0;
+  int64_t memory_bytes = 0;
+  int64_t bvh_builds = 0, bvh_refits = 0;
+  double idle_seconds = 0;   // since the last call that used the session.
+  double signed_volume = 0;  // 3D; signed area in 2D.
+  bool closed = false;
+  std::vector<std::string> warnings;
+};
+
+struct UpdateResult {
+  int64_t generation = 0;  // the new generation.
+  bool refit = false;      // false: the BVH was rebuilt.
+  double bvh_seconds = 0;
+};
+
+// What every computation reports about itself.
+struct CallFacts {
+  int64_t generation = 0;    // of the positions used.
+  bool reused_hits = false;  // served from the session's cached ray pass.
+  double seconds = 0;        // server-side compute time.
+};
+
+// A ComputeSdf stream reassembled. result.resolved holds the parameters
+// sent and the resolved ray count; aperture and weight angle are not sent.
+struct SdfReply {
+  SdfResult result;
+  std::optional<SparseJacobian> jacobian;  // with include_jacobian.
+  double integral = 0;  // SdfSummary.integral (IntegrateNodal's value).
+  CallFacts facts;
+};
+
+struct VjpReply {
+  std::vector<Vec3> gradient;  // g^T J per vertex (z = 0 in 2D).
+  CallFacts facts;
+};
+
+struct PenaltyReply {
+  PenaltyResult penalty;  // value, missing, gradient (dp_dt not sent).
+  double sdf_min = 0;     // of the values used.
+  int64_t world_frame_vertices = 0;
+  CallFacts facts;
+};
+
+}  // namespace meshgauge::wire

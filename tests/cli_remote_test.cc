@@ -1,0 +1,157 @@
+// `meshgauge remote VERB` against `meshgauge VERB`: every verb computing on
+// a mesh, run here and through an in-process server on the same mesh, must
+// write the same stdout (text and --json, timings aside) and the same files
+// (--csv, --ply, --vjp, --jacobian, --grad), byte for byte.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "absl/strings/match.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "tests/cli_test_util.h"
+#include "tests/server_test_util.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+using testing::RunCli;
+using testing::SharedMesh;
+using testing::Tmp;
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// stdout without what measures time: the JSON keys seconds and
+// rays_per_second, the text summary's "rays: N in T s (R rays/s)" line.
+std::string Untimed(const std::string& out) {
+  if (!out.empty() && out[0] == '{') {
+    nlohmann::json j = nlohmann::json::parse(out);
+    j.erase("seconds");
+    j.erase("rays_per_second");
+    return j.dump();
+  }
+  std::vector<std::string> lines;
+  for (absl::string_view line : absl::StrSplit(out, '\n')) {
+    if (!absl::StartsWith(line, "rays: ")) lines.emplace_back(line);
+  }
+  return absl::StrJoin(lines, "\n");
+}
+
+class CliRemoteTest : public testing::ServerFixture {
+ protected:
+  // Runs `VERB MESH ARGS` here and `remote VERB MESH ARGS` on the server,
+  // each writing the files named in `files` (flag name -> path suffix), and
+  // expects identical outputs. Returns the local stdout.
+  std::string ExpectSameOutputs(const std::string& verb,
+                                const std::string& mesh,
+                                const std::string& args,
+                                const std::vector<std::string>& file_flags) {
+    std::string local_files, remote_files;
+    for (const std::string& flag : file_flags) {
+      absl::StrAppend(&local_files, " --", flag, " ", Tmp("local." + flag));
+      absl::StrAppend(&remote_files, " --", flag, " ", Tmp("remote." + flag));
+    }
+    const auto local =
+        RunCli(verb + " " + mesh + " " + args + local_files, false);
+    const auto remote = RunCli("remote " + verb + " " + mesh + " " + args +
+                                   remote_files + " --server " + target_,
+                               false);
+    EXPECT_EQ(local.exit_code, 0) << verb << " " << args;
+    EXPECT_EQ(remote.exit_code, 0) << "remote " << verb << " " << args;
+    EXPECT_EQ(Untimed(remote.out), Untimed(local.out)) << verb << " " << args;
+    for (const std::string& flag : file_flags) {
+      const std::string here = Slurp(Tmp("local." + flag));
+      EXPECT_FALSE(here.empty()) << "--" << flag;
+      EXPECT_TRUE(here == Slurp(Tmp("remote." + flag)))
+          << verb << " --" << flag << " differs";
+      std::remove(Tmp("local." + flag).c_str());
+      std::remove(Tmp("remote." + flag).c_str());
+    }
+    return local.out;
+  }
+};
+
+TEST_F(CliRemoteTest, SdfSummaryJsonCsvAndPlyAreTheLocalOnes) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string text =
+      ExpectSameOutputs("sdf", knight, "--rays 30", {"csv", "ply"});
+  EXPECT_THAT(text, HasSubstr("502 ok"));
+  ExpectSameOutputs("sdf", knight, "--rays 30 --json", {"csv"});
+  ExpectSameOutputs("sdf", knight, "--method normal --json", {"csv"});
+  ExpectSameOutputs("sdf", knight,
+                    "--cone-angle 60 --kappa 0.5 --normals angle", {"csv"});
+  // Missing values and warnings: the inward horse, few rays.
+  ExpectSameOutputs("sdf", SharedMesh("horse.ply"), "--rays 4 --json", {"csv"});
+  // 2D, with a region's cone turned outward.
+  const std::string hollow = Tmp("hollow.obj");
+  ASSERT_EQ(
+      RunCli("shape hollow --radius 1 --size 0.05 --out " + hollow).exit_code,
+      0);
+  ExpectSameOutputs("sdf", hollow, "--region-direction 1=outward --json",
+                    {"csv", "ply"});
+  std::remove(hollow.c_str());
+}
+
+TEST_F(CliRemoteTest, GradVjpAndJacobianAreTheLocalOnes) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string weights = Tmp("weights.txt");
+  {
+    std::ofstream w(weights);
+    for (int i = 0; i < 502; ++i) w << std::sin(0.3 * i) << "\n";
+  }
+  ExpectSameOutputs("grad", knight, "--rays 20", {"vjp", "jacobian"});
+  ExpectSameOutputs("grad", knight, "--rays 20 --json --weights " + weights,
+                    {"vjp"});
+  std::remove(weights.c_str());
+}
+
+TEST_F(CliRemoteTest, PenaltyAndConstraintAreTheLocalOnes) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  ExpectSameOutputs("penalty", knight, "--t-min 0.3 --rays 20", {"grad"});
+  ExpectSameOutputs("penalty", knight,
+                    "--t-min 0.3 --form ks --rho 30 --json --rays 20",
+                    {"grad"});
+  ExpectSameOutputs("penalty", knight, "--t-min 0.3 --form thesis --power 3",
+                    {});
+}
+
+TEST_F(CliRemoteTest, CalibrateIsTheLocalOne) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  ExpectSameOutputs("calibrate", knight, "--t-min 0.2 --rays 20", {});
+  ExpectSameOutputs("calibrate", knight, "--t-min 0.2 --bins 7 --json", {});
+}
+
+TEST_F(CliRemoteTest, TemporarySessionsAreDeletedNamedOnesKeptAndChecked) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  ExpectSameOutputs("sdf", knight, "--rays 10", {});
+  EXPECT_EQ(client_->List()->size(), 0u) << "the temporary session is gone";
+  const std::string on = " --session-id kept --server " + target_;
+  ASSERT_EQ(RunCli("remote sdf " + knight + " --rays 10" + on).exit_code, 0);
+  auto info = client_->Get("kept");
+  ASSERT_TRUE(info.ok()) << info.status();
+  // Used again, not re-uploaded: the session's cached pass serves the VJP.
+  ASSERT_EQ(RunCli("remote grad " + knight + " --rays 10" + on).exit_code, 0);
+  EXPECT_THAT(
+      metrics_.Text(),
+      HasSubstr("meshgauge_hit_cache_requests_total{result=\"reused\"} 1"));
+  // Another mesh under that id is refused.
+  const auto other =
+      RunCli("remote sdf " + SharedMesh("spot_triangulated.obj") + on);
+  EXPECT_EQ(other.exit_code, 1);
+  EXPECT_THAT(other.out, HasSubstr("not the given mesh"));
+}
+
+}  // namespace
+}  // namespace meshgauge

@@ -1,0 +1,218 @@
+// The wire conversion layer (proto/wire/convert.h): library values survive
+// the round trip bit for bit, and a malformed reply is DATA_LOSS, never a
+// short or shifted result.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "proto/wire/convert.h"
+
+namespace meshgauge {
+namespace {
+
+using ::testing::HasSubstr;
+
+SdfResult SmallResult() {
+  SdfResult r;
+  r.values = {0.1, std::nan(""), 0.30000000000000004, 1e-300};
+  r.normalized = {0, std::nan(""), 0.5, 1};
+  r.status = {VertexStatus::kOk, VertexStatus::kNoHit, VertexStatus::kOk,
+              VertexStatus::kOk};
+  r.hits = {10, 0, 9, 8};
+  r.kept = {7, 0, 6, 5};
+  r.rays_traced = 40;
+  r.world_frame_vertices = 1;
+  r.missing = {.vertices = 1, .faces = 2, .area_fraction = 0.125};
+  r.resolved.rays = 10;
+  r.trace_seconds = 0.5;
+  return r;
+}
+
+// The stream of `r` in chunks of `step` vertices, then its summary.
+absl::StatusOr<wire::SdfReply> RoundTrip(const SdfResult& r, int64_t step,
+                                         const SdfParams& params) {
+  wire::SdfReply reply;
+  const int64_t n = std::ssize(r.values);
+  for (int64_t b = 0; b < n; b += step) {
+    v1::SdfChunk c;
+    wire::ToWireChunk(r, nullptr, 3, b, std::min(n, b + step), &c);
+    if (absl::Status s = wire::AppendChunk(c, &reply); !s.ok()) return s;
+  }
+  v1::SdfSummary s;
+  wire::ToWireSummary(r, 2.5, {7, false, 0.25}, &s);
+  if (absl::Status st = wire::FinishReply(s, params, &reply); !st.ok()) {
+    return st;
+  }
+  return reply;
+}
+
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+TEST(WireTest, SdfStreamRoundTripsBitForBit) {
+  const SdfResult r = SmallResult();
+  SdfParams params;
+  params.rays = 10;
+  auto reply = RoundTrip(r, 3, params);
+  ASSERT_TRUE(reply.ok()) << reply.status();
+  EXPECT_TRUE(SameBits(reply->result.values, r.values));
+  EXPECT_TRUE(SameBits(reply->result.normalized, r.normalized));
+  EXPECT_EQ(reply->result.status, r.status);
+  EXPECT_EQ(reply->result.hits, r.hits);
+  EXPECT_EQ(reply->result.kept, r.kept);
+  EXPECT_EQ(reply->result.rays_traced, 40);
+  EXPECT_EQ(reply->result.world_frame_vertices, 1);
+  EXPECT_EQ(reply->result.missing.area_fraction, 0.125);
+  EXPECT_EQ(reply->result.resolved.rays, 10);
+  EXPECT_EQ(reply->result.trace_seconds, 0.5);
+  EXPECT_EQ(reply->integral, 2.5);
+  EXPECT_EQ(reply->facts.generation, 7);
+}
+
+TEST(WireTest, ChunkThatDoesNotContinueTheStreamIsDataLoss) {
+  const SdfResult r = SmallResult();
+  wire::SdfReply reply;
+  v1::SdfChunk c;
+  wire::ToWireChunk(r, nullptr, 3, 1, 3, &c);  // vertices 0 never came.
+  const absl::Status s = wire::AppendChunk(c, &reply);
+  EXPECT_EQ(s.code(), absl::StatusCode::kDataLoss);
+  EXPECT_THAT(std::string(s.message()), HasSubstr("does not continue"));
+  v1::SdfChunk shorter;
+  wire::ToWireChunk(r, nullptr, 3, 0, 2, &shorter);
+  shorter.mutable_hits()->RemoveLast();
+  EXPECT_EQ(wire::AppendChunk(shorter, &reply).code(),
+            absl::StatusCode::kDataLoss);
+}
+
+TEST(WireTest, UnknownVertexStatusIsDataLoss) {
+  const SdfResult r = SmallResult();
+  wire::SdfReply reply;
+  v1::SdfChunk c;
+  wire::ToWireChunk(r, nullptr, 3, 0, 4, &c);
+  c.set_status(2, static_cast<v1::VertexStatus>(42));
+  EXPECT_EQ(wire::AppendChunk(c, &reply).code(), absl::StatusCode::kDataLoss);
+}
+
+TEST(WireTest, SummaryCountingOtherVerticesIsDataLoss) {
+  const SdfResult r = SmallResult();
+  wire::SdfReply reply;
+  v1::SdfChunk c;
+  wire::ToWireChunk(r, nullptr, 3, 0, 3, &c);  // the last vertex is missing.
+  ASSERT_TRUE(wire::AppendChunk(c, &reply).ok());
+  v1::SdfSummary s;
+  wire::ToWireSummary(r, 0, {}, &s);
+  EXPECT_EQ(wire::FinishReply(s, {}, &reply).code(),
+            absl::StatusCode::kDataLoss);
+}
+
+TEST(WireTest, JacobianRowsRoundTripAndMismatchedRowsAreDataLoss) {
+  const SdfResult r = SmallResult();
+  SparseJacobian j;
+  j.row_offsets = {0, 2, 2, 3, 4};
+  j.columns = {0, 3, 2, 1};
+  j.values = {Vec3(1, 2, 3), Vec3(-0.1, 0.2, 1e-310), Vec3(4, 5, 6),
+              Vec3(0, 0, -1)};
+  wire::SdfReply reply;
+  reply.jacobian.emplace();
+  for (int64_t b : {0, 2}) {
+    v1::SdfChunk c;
+    wire::ToWireChunk(r, &j, 3, b, b + 2, &c);
+    ASSERT_TRUE(wire::AppendChunk(c, &reply).ok());
+  }
+  EXPECT_EQ(reply.jacobian->row_offsets, j.row_offsets);
+  EXPECT_EQ(reply.jacobian->columns, j.columns);
+  EXPECT_EQ(reply.jacobian->values, j.values);
+  wire::SdfReply bad;
+  bad.jacobian.emplace();
+  v1::SdfChunk c;
+  wire::ToWireChunk(r, &j, 3, 0, 2, &c);
+  c.mutable_derivatives()->RemoveLast();
+  EXPECT_EQ(wire::AppendChunk(c, &bad).code(), absl::StatusCode::kDataLoss);
+}
+
+TEST(WireTest, ParametersRoundTrip) {
+  SdfParams p;
+  p.method = SdfMethod::kNormalRay;
+  p.cone_angle_degrees = 47.5;
+  p.rays = 33;
+  p.kappa = 0;  // an explicit 0 is not the default 1.
+  p.min_weight_angle = 0.01;
+  p.max_distance = 3.25;
+  p.self_hit_epsilon = 1e-7;
+  p.normal_weighting = NormalWeighting::kAngle;
+  auto back = wire::FromWire(wire::ToWire(p), 4096, 3);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_TRUE(back->method == p.method && back->rays == 33 &&
+              back->cone_angle_degrees == 47.5 && back->kappa == 0 &&
+              back->min_weight_angle == 0.01 && back->max_distance == 3.25 &&
+              back->self_hit_epsilon == 1e-7 &&
+              back->normal_weighting == NormalWeighting::kAngle &&
+              back->threads == 3);
+  EXPECT_EQ(wire::FromWire(wire::ToWire(p), 32, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);  // over the server's limit.
+
+  const PenaltyParams pp{.t_min = 0.3,
+                         .form = PenaltyForm::kKs,
+                         .power = 3,
+                         .rho = 20,
+                         .max_missing_fraction = 0};
+  v1::ComputePenaltyRequest req;
+  wire::ToWire(pp, &req);
+  auto pb = wire::PenaltyFromWire(req);
+  ASSERT_TRUE(pb.ok()) << pb.status();
+  EXPECT_TRUE(pb->t_min == 0.3 && pb->form == PenaltyForm::kKs &&
+              pb->power == 3 && pb->rho == 20 && pb->max_missing_fraction == 0);
+}
+
+TEST(WireTest, SessionInfoAndCalibrationReportRoundTrip) {
+  wire::SessionInfo s{.session_id = "a-b",
+                      .dimension = 2,
+                      .num_vertices = 5,
+                      .num_faces = 4,
+                      .generation = 9,
+                      .memory_bytes = 1234,
+                      .bvh_builds = 2,
+                      .bvh_refits = 7,
+                      .idle_seconds = 1.5,
+                      .signed_volume = -0.25,
+                      .closed = true,
+                      .warnings = {"one", "two"}};
+  v1::SessionInfo w;
+  wire::ToWire(s, &w);
+  const wire::SessionInfo back = wire::FromWire(w);
+  EXPECT_EQ(back.session_id, s.session_id);
+  EXPECT_EQ(back.dimension, 2);
+  EXPECT_EQ(back.generation, 9);
+  EXPECT_EQ(back.memory_bytes, 1234);
+  EXPECT_EQ(back.bvh_refits, 7);
+  EXPECT_EQ(back.idle_seconds, 1.5);
+  EXPECT_EQ(back.signed_volume, -0.25);
+  EXPECT_TRUE(back.closed);
+  EXPECT_EQ(back.warnings, s.warnings);
+
+  CalibrationReport rep;
+  rep.compared = 10;
+  rep.lower = 3;
+  rep.equal = 4;
+  rep.higher = 3;
+  rep.alpha1 = 1.25;
+  rep.alpha2 = 0.5;
+  rep.sdf_histogram = {0.1, 0.9, {1, 2, 3}};
+  rep.thickness_histogram = {0.1, 0.9, {3, 2, 1}};
+  v1::CalibrateResponse cr;
+  wire::ToWire(rep, &cr);
+  const CalibrationReport rb = wire::FromWire(cr);
+  EXPECT_EQ(rb.compared, 10);
+  EXPECT_EQ(rb.equal, 4);
+  EXPECT_EQ(rb.alpha1, 1.25);
+  EXPECT_EQ(rb.sdf_histogram.counts, rep.sdf_histogram.counts);
+  EXPECT_EQ(rb.thickness_histogram.counts, rep.thickness_histogram.counts);
+  EXPECT_EQ(rb.thickness_histogram.hi, 0.9);
+}
+
+}  // namespace
+}  // namespace meshgauge
