@@ -169,6 +169,10 @@ int Main(int argc, char** argv) {
   upd->add_option("--generation", r.generation,
                   "expected generation (-1: the current)")
       ->capture_default_str();
+  // Also after the verb, and in its --help.
+  for (CLI::App* sub : remote->get_subcommands({})) {
+    AddRemoteFlags(sub, &r.remote);
+  }
 
   try {
     app.parse(argc, argv);
