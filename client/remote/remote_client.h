@@ -118,6 +118,8 @@ class RemoteClient {
   // false when NOT_SERVING (draining). Errors: the call's status.
   absl::StatusOr<bool> Serving();
 
+  // The raw stub, for messages the typed calls never send (malformed
+  // uploads, out-of-range pages: the tests that play a hostile client).
   v1::MeshGauge::Stub& stub() { return *stub_; }
   // A context with the deadline and the session routing key.
   std::unique_ptr<grpc::ClientContext> Context(
