@@ -25,11 +25,7 @@ namespace {
 
 using ::testing::HasSubstr;
 using ::testing::Not;
-
-bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
-}
+using testing::SameBits;
 
 Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
 

@@ -3,11 +3,20 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 #include <vector>
 
 namespace meshgauge::testing {
+
+// True when both hold the same doubles, bit for bit (NaNs and signed zeros
+// included).
+inline bool SameBits(const std::vector<double>& a,
+                     const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
 
 // ../shared/meshes/NAME as configured at build time.
 inline std::string SharedMesh(const std::string& name) {

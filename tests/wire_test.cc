@@ -8,11 +8,13 @@
 #include <cstring>
 
 #include "proto/wire/convert.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::SameBits;
 
 SdfResult SmallResult() {
   SdfResult r;
@@ -46,11 +48,6 @@ absl::StatusOr<wire::SdfReply> RoundTrip(const SdfResult& r, int64_t step,
     return st;
   }
   return reply;
-}
-
-bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
 TEST(WireTest, SdfStreamRoundTripsBitForBit) {

@@ -18,6 +18,9 @@ constexpr char kDescription[] =
     "its exact derivatives, penalties and constraints; locally or through a "
     "meshgauge-server (remote).";
 
+// What a parsed verb will do.
+using Run = std::function<absl::Status()>;
+
 // A verb reading a mesh file: MESH plus the sdf, mesh and output flags.
 CLI::App* MeshVerb(CLI::App& app, const char* name, const char* help,
                    MeshInput* in, bool files) {
@@ -33,8 +36,7 @@ CLI::App* MeshVerb(CLI::App& app, const char* name, const char* help,
 
 // A remote verb on the sessions, with --json.
 CLI::App* SessionVerb(CLI::App* remote, const char* name, const char* help,
-                      RemoteInput* in, bool takes_id,
-                      std::function<absl::Status()>* run) {
+                      RemoteInput* in, bool takes_id, Run* run) {
   CLI::App* sub = remote->add_subcommand(name, help);
   sub->fallthrough();  // --server etc. may follow the verb.
   if (takes_id) sub->add_option("id", in->target, "session id")->required();
@@ -54,7 +56,6 @@ struct MeshVerbs {
   CalibrateFlags calibrate;
 };
 
-using Run = std::function<absl::Status()>;
 using BackendSource = std::function<absl::StatusOr<BackendFactory>()>;
 
 // Adds sdf, grad, penalty and calibrate to `app`; after parsing, `backend`

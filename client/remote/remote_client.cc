@@ -15,6 +15,7 @@
 #include "proto/wire/convert.h"
 
 namespace meshgauge::client {
+
 absl::Status LoadClientSecrets(const std::string& ca_file,
                                const std::string& cert_file,
                                const std::string& key_file,
@@ -142,10 +143,10 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
   for (int64_t begin = 0; ok && begin < n; begin += step) {
     req.Clear();
     auto* c = req.mutable_chunk();
-    for (int64_t i = begin; i < std::min(begin + step, mesh.num_vertices());
-         ++i) {
-      for (int d = 0; d < mesh.dimension; ++d)
-        c->add_positions(mesh.positions[i][d]);
+    if (begin < mesh.num_vertices()) {
+      wire::AppendFlattened(absl::MakeConstSpan(mesh.positions)
+                                .subspan(begin, static_cast<size_t>(step)),
+                            mesh.dimension, c->mutable_positions());
     }
     for (int64_t f = begin; f < std::min(begin + step, mesh.num_faces()); ++f) {
       const Face& face = mesh.faces[f];
