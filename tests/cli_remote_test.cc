@@ -142,7 +142,11 @@ TEST_F(CliRemoteTest, TemporarySessionsAreDeletedNamedOnesKeptAndChecked) {
   auto info = client_->Get("kept");
   ASSERT_TRUE(info.ok()) << info.status();
   // Used again, not re-uploaded: the session's cached pass serves the VJP.
-  ASSERT_EQ(RunCli("remote grad " + knight + " --rays 10" + on).exit_code, 0);
+  // (The connection flags may also come before the verb.)
+  ASSERT_EQ(RunCli("remote --server " + target_ + " grad " + knight +
+                   " --rays 10 --session-id kept")
+                .exit_code,
+            0);
   EXPECT_THAT(
       metrics_.Text(),
       HasSubstr("meshgauge_hit_cache_requests_total{result=\"reused\"} 1"));

@@ -171,6 +171,11 @@ TEST(CliTest, HelpListsEachVerbsOwnFlagsAndExitsZero) {
   const CliRun remote_sdf = RunCli("remote sdf --help");
   EXPECT_EQ(remote_sdf.exit_code, 0);
   EXPECT_THAT(remote_sdf.out, HasSubstr("--method"));
+  EXPECT_THAT(remote_sdf.out, HasSubstr("--ply"));  // the local verb's files.
+  EXPECT_THAT(remote_sdf.out, HasSubstr("--session-id"));
+  EXPECT_THAT(remote_sdf.out, HasSubstr("--server"));  // after the verb too.
+  EXPECT_THAT(remote_sdf.out, HasSubstr("--token-file"));
+  EXPECT_THAT(sdf.out, Not(HasSubstr("--server")));  // local only.
 }
 
 TEST(CliTest, VersionNamesTheProjectVersionAndBuildType) {
