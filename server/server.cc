@@ -155,12 +155,8 @@ void MeshGaugeServer::Shutdown() {
       std::chrono::duration_cast<std::chrono::system_clock::duration>(
           std::chrono::duration<double>(options_.shutdown_grace_seconds));
   service_.Drain(deadline);
-  // A handler that returned may still be sending its reply: gRPC keeps
-  // such calls until this deadline (the rest of the grace time, at least
-  // 100 ms) and cancels them only then; a shorter one turned finished calls
-  // into CANCELLED on a loaded machine (seen in the chaos test's restart).
-  server_->Shutdown(std::max(deadline, std::chrono::system_clock::now() +
-                                           std::chrono::milliseconds(100)));
+  server_->Shutdown(std::chrono::system_clock::now() +
+                    std::chrono::milliseconds(100));
 }
 
 void MeshGaugeServer::Wait() {
