@@ -33,6 +33,7 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/shapes.h"
@@ -63,6 +64,7 @@ struct Stats {
   std::map<std::string, int64_t> client_errors;        // session id -> errors.
   std::map<std::string, std::vector<double>> latency;  // per RPC, seconds.
   std::map<std::string, int64_t> errors;               // "RPC CODE" -> n.
+  std::map<std::string, std::string> first_message;    // "RPC CODE" -> text.
   int64_t mismatches = 0, iterations = 0, recreated = 0, lost = 0;
   void Latency(const std::string& rpc, double s) {
     std::lock_guard<std::mutex> l(mu);
@@ -72,7 +74,16 @@ struct Stats {
              const absl::Status& st) {
     std::lock_guard<std::mutex> l(mu);
     ++client_errors[client];
-    ++errors[absl::StrCat(rpc, " ", absl::StatusCodeToString(st.code()))];
+    const std::string key =
+        absl::StrCat(rpc, " ", absl::StatusCodeToString(st.code()));
+    if (++errors[key] == 1) first_message[key] = std::string(st.message());
+  }
+  // One line per "RPC CODE": the count and the first message.
+  void PrintErrors() const {
+    for (const auto& [key, n] : errors) {
+      std::printf("  %s: %lld (first: %s)\n", key.c_str(),
+                  static_cast<long long>(n), first_message.at(key).c_str());
+    }
   }
 };
 
@@ -227,8 +238,7 @@ int Run() {
   if (!RunClient(target, options, prefix + "-reference", mesh, iterations,
                  stop_at, &reference, nullptr, ref_stats)) {
     std::printf("reference run failed\n");
-    for (const auto& [k, n] : ref_stats.errors)
-      std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
+    ref_stats.PrintErrors();
     return 1;
   }
   Stats stats;
@@ -267,9 +277,7 @@ int Run() {
                 1e3 * Percentile(v, 0.99));
   }
   std::printf("errors: %lld\n", static_cast<long long>(errors));
-  for (const auto& [k, n] : stats.errors) {
-    std::printf("  %s: %lld\n", k.c_str(), static_cast<long long>(n));
-  }
+  stats.PrintErrors();
   int untouched = 0;
   for (int i = 0; i < clients; ++i) {
     untouched += stats.client_errors.count(absl::StrCat(prefix, "-", i)) == 0;
@@ -294,6 +302,8 @@ int Run() {
 }  // namespace meshgauge::bench
 
 int main(int argc, char** argv) {
+  absl::SetProgramUsageMessage(
+      "meshgauge-load --target HOST:PORT [--clients N] [--iterations M] ...");
   absl::ParseCommandLine(argc, argv);
   return meshgauge::bench::Run();
 }

@@ -6,7 +6,7 @@
 # checked at the end) runs through the balancer, one fault per phase:
 #   kill     a replica's server process is SIGKILLed (a crash; its restart
 #            policy brings it back)
-#   restart  a replica is restarted (graceful stop, start)
+#   restart  each replica in turn is restarted (graceful stop, start)
 #   scale    a third replica is added (deploy/stack.sh scale 3)
 #   stop     a replica is stopped gracefully (drain) and stays down
 #   redis    Redis is restarted (its AOF keeps the sessions)
@@ -78,6 +78,8 @@ phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
   sleep 2
   echo "== phase $name: $fault"
   eval "$fault" || { echo "FAIL: the fault command failed"; failed=1; }
+  kill -0 "$load" 2>/dev/null ||
+    { echo "FAIL: the clients finished before the fault was over"; failed=1; }
   local rc=0
   wait "$load" || rc=$?
   sleep 3  # a scrape after the phase
@@ -97,7 +99,8 @@ healthy 2
 # manual stop and suspend the restart policy).
 phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(replica 1)")"'
 healthy 2  # the restart policy brought it back
-phase restart 'docker restart -t 30 "$(replica 2)"'
+phase restart 'docker restart -t 30 "$(replica 2)" && healthy 2 &&
+  docker restart -t 30 "$(replica 1)"'
 healthy 2
 phase scale './stack.sh scale 3'
 healthy 3

@@ -4,7 +4,9 @@ Every metric in the alert rules and the Grafana dashboard must be one that
 server/metrics.cc registers (or Prometheus' own `up`, or the Redis
 exporter's `redis_up`), the dashboard must be Grafana JSON with a Prometheus
 target per panel, and the rules must cover replica down, error ratio, p95
-latency and Redis down.
+latency and Redis down. The balancer's health check, raw HTTP/2 frames in
+hex, must decode to a grpc.health.v1.Health/Check call that passes only on
+SERVING.
 """
 
 import json
@@ -56,6 +58,92 @@ class DeployConfigTest(unittest.TestCase):
                 used = metrics_in(t["expr"])
                 self.assertTrue(used, t["expr"])
                 self.assertLessEqual(used, known, t["expr"])
+
+    def test_balancer_health_check_is_a_grpc_health_call(self):
+        cfg = open(os.path.join(ROOT, "deploy", "haproxy", "haproxy.cfg")).read()
+        sent = bytes.fromhex("".join(
+            re.findall(r"^\s*tcp-check send-binary ([0-9a-f]+)", cfg, re.M)))
+        preface = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n"
+        self.assertTrue(sent.startswith(preface))
+        frames = h2_frames(sent[len(preface):])
+        self.assertEqual([(t, f, sid) for t, f, sid, _ in frames],
+                         [(H2_SETTINGS, 0, 0), (H2_HEADERS, END_HEADERS, 1),
+                          (H2_DATA, END_STREAM, 1)])
+        self.assertEqual(frames[0][3], b"")
+        self.assertEqual(hpack_fields(frames[1][3]), [
+            (":method", "POST"), (":scheme", "http"),
+            (":path", "/grpc.health.v1.Health/Check"),
+            (":authority", "meshgauge"),
+            ("content-type", "application/grpc"), ("te", "trailers")])
+        # An empty HealthCheckRequest: not compressed, length 0.
+        self.assertEqual(frames[2][3], b"\0" + (0).to_bytes(4, "big"))
+        # Healthy: a 2-byte HealthCheckResponse, status (field 1) = SERVING
+        # (1); the first expect waits for any status, the second decides.
+        expects = re.findall(r"^\s*tcp-check expect (.+?) comment", cfg, re.M)
+        self.assertEqual(len(expects), 2)
+        self.assertEqual(expects[0], "rbinary ^([0-9A-F]{2})*000000000208")
+        self.assertEqual(expects[1], "min-recv 0 binary 00000000020801")
+        self.assertEqual(bytes.fromhex("00000000020801"),
+                         b"\0" + (2).to_bytes(4, "big") + bytes([1 << 3 | 0, 1]))
+        self.assertRegex(cfg, r"default-server proto h2 check check-proto none ")
+        self.assertRegex(cfg, r"\n\s*option tcp-check\n\s*tcp-check connect\n")
+
+
+H2_DATA, H2_HEADERS, H2_SETTINGS = 0, 1, 4
+END_STREAM, END_HEADERS = 0x1, 0x4
+
+
+def h2_frames(data):
+    """(type, flags, stream id, payload) of each HTTP/2 frame (RFC 9113 4.1)."""
+    frames = []
+    while data:
+        n = int.from_bytes(data[:3], "big")
+        sid = int.from_bytes(data[5:9], "big") & 0x7FFFFFFF
+        frames.append((data[3], data[4], sid, data[9:9 + n]))
+        data = data[9 + n:]
+    return frames
+
+
+HPACK_STATIC = {1: ":authority", 2: (":method", "GET"), 3: (":method", "POST"),
+                4: ":path", 6: (":scheme", "http"), 7: (":scheme", "https"),
+                31: "content-type"}
+
+
+def hpack_fields(block):
+    """The fields of an HPACK block (RFC 7541) made of indexed static fields
+    and literals without indexing, without Huffman coding (what the check
+    sends); anything else fails."""
+    pos = 0
+
+    def integer(prefix_bits):  # RFC 7541 5.1
+        nonlocal pos
+        mask = (1 << prefix_bits) - 1
+        value = block[pos] & mask
+        pos += 1
+        shift = 0
+        while value >= mask and (shift == 0 or block[pos - 1] & 0x80):
+            value += (block[pos] & 0x7F) << shift
+            pos, shift = pos + 1, shift + 7
+        return value
+
+    def string():
+        nonlocal pos
+        assert not block[pos] & 0x80, "Huffman-coded string"
+        n = integer(7)
+        text, pos = block[pos:pos + n].decode(), pos + n
+        return text
+
+    fields = []
+    while pos < len(block):
+        if block[pos] & 0x80:  # indexed field
+            fields.append(HPACK_STATIC[integer(7)])
+        elif block[pos] & 0xF0 == 0:  # literal without indexing
+            index = integer(4)
+            name = HPACK_STATIC[index] if index else string()
+            fields.append((name, string()))
+        else:
+            raise AssertionError(f"unexpected HPACK representation {block[pos]:#x}")
+    return fields
 
 
 if __name__ == "__main__":

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# A replica's graceful stop behind the deployment's balancer costs no client
+# a call. HAProxy runs deploy/haproxy/haproxy.cfg with its backend and
+# health check unchanged (only the listener and the two replicas' addresses
+# are made local); the two replicas share sessions through Redis. While
+# meshgauge-load's clients iterate through the balancer, each replica in
+# turn gets SIGTERM (health NOT_SERVING for its 4 s drain notice, then
+# drain and stop) and is started again.
+# Pass, per stop: the balancer marks the replica DOWN within 3.5 s, while
+# it still serves (so no call can reach it as gRPC shuts down, where it
+# would end CANCELLED), and UP again after its restart; at the end the load
+# client saw 0 errors, 0 mismatches, 0 lost sessions.
+#   balancer_drain_test.sh SERVER LOAD CFG [CYCLES]
+set -euo pipefail
+server=$1 load=$2 cfg=$3 cycles=${4:-2}
+for tool in haproxy redis-server; do
+  command -v "$tool" >/dev/null || { echo "needs $tool (scripts/install_deps.sh)"; exit 1; }
+done
+tmp=$(mktemp -d)
+pids=()
+cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$tmp"; }
+trap cleanup EXIT
+free_port() {
+  /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'
+}
+fail() {
+  echo "--- load client"; cat "$tmp/load.txt" 2>/dev/null || true
+  echo "--- balancer"; cat "$tmp/haproxy.log"
+  echo "FAIL: $*"
+  exit 1
+}
+# Waits up to $2 tenths of a second for the balancer's log to hold more
+# than $3 lines matching $1.
+await_log() {
+  for _ in $(seq 1 "$2"); do
+    [ "$(grep -c "$1" "$tmp/haproxy.log")" -gt "$3" ] && return 0
+    sleep 0.1
+  done
+  return 1
+}
+
+rp=$(free_port)
+redis-server --port "$rp" --bind 127.0.0.1 --save "" --appendonly no \
+  --dir "$tmp" --logfile "$tmp/redis.log" &
+pids+=($!)
+
+ports=("$(free_port)" "$(free_port)")
+replica_pid=()
+start_replica() {  # INDEX
+  "$server" --address "127.0.0.1:${ports[$1]}" --metrics_address= \
+    --session_store "redis://127.0.0.1:$rp" --drain_notice_seconds=4 \
+    --shutdown_grace_seconds=20 2>>"$tmp/replica$1.log" &
+  replica_pid[$1]=$!
+  pids+=($!)
+}
+start_replica 0
+start_replica 1
+
+hp=$(free_port)
+sed -e "s|^ *bind .*|  bind 127.0.0.1:$hp proto h2|" \
+    -e "s|^ *server-template .*|  server r0 127.0.0.1:${ports[0]}\n  server r1 127.0.0.1:${ports[1]}|" \
+    "$cfg" >"$tmp/haproxy.cfg"
+haproxy -db -f "$tmp/haproxy.cfg" 2>"$tmp/haproxy.log" &
+pids+=($!)
+sleep 2
+
+"$load" --target "127.0.0.1:$hp" --clients 4 --iterations $((cycles * 150)) \
+  --frequency 4 --session_prefix drain --time_limit_seconds 120 >"$tmp/load.txt" 2>&1 &
+load_pid=$!
+for _ in $(seq 1 100); do
+  grep -q "concurrent phase: started" "$tmp/load.txt" && break
+  sleep 0.1
+done
+for c in $(seq 1 "$cycles"); do
+  r=$((c % 2))
+  sleep 1
+  downs=$(grep -c "meshgauge/r$r is DOWN" "$tmp/haproxy.log" || true)
+  ups=$(grep -c "meshgauge/r$r is UP" "$tmp/haproxy.log" || true)
+  kill -0 "$load_pid" 2>/dev/null || fail "the load ended before stop $c"
+  echo "stop $c: SIGTERM to replica $r"
+  kill -TERM "${replica_pid[$r]}"
+  await_log "meshgauge/r$r is DOWN" 35 "$downs" ||
+    fail "3.5 s after SIGTERM the balancer still routes to replica $r"
+  kill -0 "${replica_pid[$r]}" 2>/dev/null ||
+    fail "replica $r stopped before the balancer marked it DOWN"
+  wait "${replica_pid[$r]}" || true
+  start_replica "$r"
+  await_log "meshgauge/r$r is UP" 100 "$ups" ||
+    fail "the balancer did not take replica $r back within 10 s"
+done
+rc=0
+wait "$load_pid" || rc=$?
+sed -n '/^errors:/,$p' "$tmp/load.txt"
+[ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" ||
+  fail "a graceful stop cost the clients calls"
+echo "PASS: $cycles graceful stops, each replica left the balancer before it stopped, no client saw an error"
