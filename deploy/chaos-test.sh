@@ -6,7 +6,8 @@
 # checked at the end) runs through the balancer, one fault per phase:
 #   kill     a replica's server process is SIGKILLed (a crash; its restart
 #            policy brings it back)
-#   restart  each replica in turn is restarted (graceful stop, start)
+#   restart  the replicas in turn are restarted (graceful stop, start;
+#            CHAOS_RESTARTS times, default 2: each once)
 #   scale    a third replica is added (deploy/stack.sh scale 3)
 #   stop     a replica is stopped gracefully (drain) and stays down
 #   redis    Redis is restarted (its AOF keeps the sessions)
@@ -23,6 +24,7 @@ COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 export MESHGAUGE_VERSION="$VERSION"
 PROM=http://127.0.0.1:9090
 ITERATIONS=${CHAOS_ITERATIONS:-30}
+RESTARTS=${CHAOS_RESTARTS:-2}
 REPORT=/tmp/meshgauge-chaos
 mkdir -p "$REPORT"
 
@@ -99,13 +101,20 @@ healthy 2
 # manual stop and suspend the restart policy).
 phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(replica 1)")"'
 healthy 2  # the restart policy brought it back
-phase restart 'docker restart -t 30 "$(replica 2)" && healthy 2 &&
-  docker restart -t 30 "$(replica 1)"'
+restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
+  for i in $(seq 1 "$RESTARTS"); do
+    local r=$((2 - (i + 1) % 2))
+    echo "   restart $i of $RESTARTS: replica $r"
+    docker restart -t 30 "$(replica "$r")" >/dev/null
+    healthy 2
+  done
+}
+phase restart restarts
 healthy 2
 phase scale './stack.sh scale 3'
 healthy 3
-phase stop 'docker stop -t 30 "$(replica 1)"'
-phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)"'
+phase stop 'docker stop -t 30 "$(replica 1)" >/dev/null'
+phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)" >/dev/null'
 
 kill -TERM "$PLAIN_PID"
 wait "$PLAIN_PID" || true

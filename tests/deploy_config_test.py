@@ -19,8 +19,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EXTERNAL = {"up", "redis_up"}
 
 
+def read(*path):
+    with open(os.path.join(ROOT, *path)) as f:
+        return f.read()
+
+
 def exported():
-    src = open(os.path.join(ROOT, "server", "metrics.cc")).read()
+    src = read("server", "metrics.cc")
     names = set(re.findall(r'\.Name\("([a-z_]+)"\)', src))
     # Histograms also export _bucket, _sum and _count.
     return names | {n + s for n in names for s in ("_bucket", "_sum", "_count")}
@@ -34,7 +39,7 @@ def metrics_in(expr):
 
 class DeployConfigTest(unittest.TestCase):
     def test_alert_rules_use_exported_metrics(self):
-        text = open(os.path.join(ROOT, "deploy", "prometheus", "alerts.yml")).read()
+        text = read("deploy", "prometheus", "alerts.yml")
         exprs = re.findall(r"expr: \|?\n?((?:.+\n)+?)\s+for:", text)
         self.assertGreaterEqual(len(exprs), 5)
         known = exported() | EXTERNAL
@@ -47,8 +52,7 @@ class DeployConfigTest(unittest.TestCase):
             self.assertIn(f"alert: {alert}", text)
 
     def test_dashboard_is_grafana_json_with_exported_metrics(self):
-        dash = json.load(open(os.path.join(
-            ROOT, "deploy", "grafana", "meshgauge-dashboard.json")))
+        dash = json.loads(read("deploy", "grafana", "meshgauge-dashboard.json"))
         self.assertEqual(dash["uid"], "meshgauge")
         self.assertGreaterEqual(len(dash["panels"]), 6)
         known = exported() | EXTERNAL
@@ -60,7 +64,7 @@ class DeployConfigTest(unittest.TestCase):
                 self.assertLessEqual(used, known, t["expr"])
 
     def test_balancer_health_check_is_a_grpc_health_call(self):
-        cfg = open(os.path.join(ROOT, "deploy", "haproxy", "haproxy.cfg")).read()
+        cfg = read("deploy", "haproxy", "haproxy.cfg")
         sent = bytes.fromhex("".join(
             re.findall(r"^\s*tcp-check send-binary ([0-9a-f]+)", cfg, re.M)))
         preface = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n"
