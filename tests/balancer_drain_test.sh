@@ -77,10 +77,11 @@ for c in $(seq 1 "$cycles"); do
   downs=$(grep -c "meshgauge/r$r is DOWN" "$tmp/haproxy.log" || true)
   ups=$(grep -c "meshgauge/r$r is UP" "$tmp/haproxy.log" || true)
   kill -0 "$load_pid" 2>/dev/null || fail "the load ended before stop $c"
-  echo "stop $c: SIGTERM to replica $r"
+  t0=$(date +%s.%N)
   kill -TERM "${replica_pid[$r]}"
   await_log "meshgauge/r$r is DOWN" 35 "$downs" ||
     fail "3.5 s after SIGTERM the balancer still routes to replica $r"
+  echo "stop $c: replica $r out of the balancer $(awk -v t0="$t0" -v t1="$(date +%s.%N)" 'BEGIN { printf "%.2f", t1 - t0 }') s after SIGTERM"
   kill -0 "${replica_pid[$r]}" 2>/dev/null ||
     fail "replica $r stopped before the balancer marked it DOWN"
   wait "${replica_pid[$r]}" || true
