@@ -81,14 +81,15 @@ class DeployConfigTest(unittest.TestCase):
             ("content-type", "application/grpc"), ("te", "trailers")])
         # An empty HealthCheckRequest: not compressed, length 0.
         self.assertEqual(frames[2][3], b"\0" + (0).to_bytes(4, "big"))
-        # Healthy: a 2-byte HealthCheckResponse, status (field 1) = SERVING
-        # (1); the first expect waits for any status, the second decides.
+        # Healthy: a 2-byte HealthCheckResponse, status (field 1, varint) =
+        # SERVING (1). The first expect waits for the reply up to the
+        # status value (HAProxy matches rbinary on upper-case hex, from a
+        # byte boundary); the second decides.
+        serving = b"\0" + (2).to_bytes(4, "big") + bytes([1 << 3 | 0, 1])
         expects = re.findall(r"^\s*tcp-check expect (.+?) comment", cfg, re.M)
-        self.assertEqual(len(expects), 2)
-        self.assertEqual(expects[0], "rbinary ^([0-9A-F]{2})*000000000208")
-        self.assertEqual(expects[1], "min-recv 0 binary 00000000020801")
-        self.assertEqual(bytes.fromhex("00000000020801"),
-                         b"\0" + (2).to_bytes(4, "big") + bytes([1 << 3 | 0, 1]))
+        self.assertEqual(expects, [
+            "rbinary ^([0-9A-F]{2})*" + serving[:-1].hex().upper(),
+            "min-recv 0 binary " + serving.hex()])
         self.assertRegex(cfg, r"default-server proto h2 check check-proto none ")
         self.assertRegex(cfg, r"\n\s*option tcp-check\n\s*tcp-check connect\n")
 
@@ -124,11 +125,16 @@ def hpack_fields(block):
         mask = (1 << prefix_bits) - 1
         value = block[pos] & mask
         pos += 1
+        if value < mask:
+            return value
         shift = 0
-        while value >= mask and (shift == 0 or block[pos - 1] & 0x80):
-            value += (block[pos] & 0x7F) << shift
-            pos, shift = pos + 1, shift + 7
-        return value
+        while True:  # continuation bytes, 7 bits each, low first
+            byte = block[pos]
+            pos += 1
+            value += (byte & 0x7F) << shift
+            shift += 7
+            if not byte & 0x80:
+                return value
 
     def string():
         nonlocal pos
