@@ -36,6 +36,11 @@ ABSL_FLAG(int64_t, memory_budget_bytes_per_tenant, 0,
 ABSL_FLAG(int64_t, max_concurrent_uploads, 16, "CreateSession calls at once");
 ABSL_FLAG(double, upload_idle_seconds, 30,
           "an upload silent this long is aborted");
+ABSL_FLAG(double, upload_deadline_seconds, 600,
+          "an upload still running after this long is aborted");
+ABSL_FLAG(double, upload_min_bytes_per_second, 65536,
+          "after its first --upload_idle_seconds, an upload averaging fewer "
+          "bytes per second is aborted (0: no minimum)");
 ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
           "largest gRPC message accepted or sent");
 ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
@@ -72,6 +77,9 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
       absl::GetFlag(FLAGS_memory_budget_bytes_per_tenant);
   o.max_concurrent_uploads = absl::GetFlag(FLAGS_max_concurrent_uploads);
   o.upload_idle_seconds = absl::GetFlag(FLAGS_upload_idle_seconds);
+  o.upload_deadline_seconds = absl::GetFlag(FLAGS_upload_deadline_seconds);
+  o.upload_min_bytes_per_second =
+      absl::GetFlag(FLAGS_upload_min_bytes_per_second);
   o.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
   o.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   o.max_vertices = absl::GetFlag(FLAGS_max_vertices);
@@ -111,6 +119,8 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       " memory_budget_bytes_per_tenant=", o.memory_budget_bytes_per_tenant,
       " max_concurrent_uploads=", o.max_concurrent_uploads,
       " upload_idle_seconds=", o.upload_idle_seconds,
+      " upload_deadline_seconds=", o.upload_deadline_seconds,
+      " upload_min_bytes_per_second=", o.upload_min_bytes_per_second,
       " drain_notice_seconds=", o.drain_notice_seconds,
       " shutdown_grace_seconds=", o.shutdown_grace_seconds);
 }

@@ -72,8 +72,56 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
   return absl::OkStatus();
 }
 
+absl::Status MeshAssembler::CheckRoom(
+    const v1::CreateSessionRequest::Chunk& c) const {
+  const int dim = mesh_.dimension;
+  const int64_t coords =
+      declared_vertices_ * dim - mesh_.num_vertices() * dim - std::ssize(coords_);
+  if (c.positions_size() > coords) {
+    return Invalid(absl::StrCat("a chunk of ", c.positions_size(),
+                                " coordinates: more than the declared ",
+                                declared_vertices_, " vertices (", coords,
+                                " coordinates still to come)"));
+  }
+  const int64_t sizes =
+      declared_faces_ - mesh_.num_faces() - std::ssize(pending_sizes_);
+  if (c.face_sizes_size() > sizes) {
+    return Invalid(absl::StrCat("a chunk of ", c.face_sizes_size(),
+                                " face sizes: more than the declared ",
+                                declared_faces_, " faces (", sizes,
+                                " still to come)"));
+  }
+  // At most 4 indices for each face still to come.
+  const int64_t indices = 4 * (declared_faces_ - mesh_.num_faces()) -
+                          std::ssize(pending_indices_);
+  if (c.face_indices_size() > indices) {
+    return Invalid(
+        absl::StrCat("more face indices than the declared ", declared_faces_,
+                     " faces can hold (", mesh_.num_faces(), " complete, ",
+                     pending_indices_.size(), " indices pending)"));
+  }
+  const int64_t regions = declared_faces_ - std::ssize(mesh_.face_regions);
+  if (c.face_regions_size() > regions) {
+    return Invalid(absl::StrCat("more than the declared ", declared_faces_,
+                                " face regions"));
+  }
+  return absl::OkStatus();
+}
+
+int64_t MeshAssembler::bytes_held() const {
+  return static_cast<int64_t>(
+      mesh_.positions.capacity() * sizeof(Vec3) +
+      mesh_.faces.capacity() * sizeof(Face) +
+      (mesh_.face_regions.capacity() + pending_sizes_.capacity() +
+       pending_indices_.capacity()) *
+          sizeof(int32_t) +
+      coords_.capacity() * sizeof(double));
+}
+
 absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
   const int dim = mesh_.dimension;
+  // Nothing is stored from a chunk that would exceed the header's counts.
+  if (absl::Status s = CheckRoom(c); !s.ok()) return s;
   // Positions.
   if (c.positions_size() > 0) {
     crc_[0] =
@@ -87,10 +135,6 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
             {coords_[0], coords_[1], dim == 3 ? coords_[2] : 0.0});
         coords_.clear();
       }
-    }
-    if (mesh_.num_vertices() > declared_vertices_) {
-      return Invalid(absl::StrCat("more than the declared ", declared_vertices_,
-                                  " vertices"));
     }
   }
   // Faces: sizes and indices may arrive in different chunks.
@@ -116,17 +160,6 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
         crc32(crc_[2], reinterpret_cast<const Bytef*>(c.face_indices().data()),
               c.face_indices_size() * sizeof(int32_t));
     crc_len_[2] += c.face_indices_size() * sizeof(int32_t);
-    // Nothing may grow past what the header allows: at most 4 indices for
-    // each face still to come (so an upload cannot buffer without bound by
-    // sending indices without sizes).
-    const int64_t room = 4 * (declared_faces_ - mesh_.num_faces()) -
-                         std::ssize(pending_indices_);
-    if (c.face_indices_size() > room) {
-      return Invalid(
-          absl::StrCat("more face indices than the declared ", declared_faces_,
-                       " faces can hold (", mesh_.num_faces(), " complete, ",
-                       pending_indices_.size(), " indices pending)"));
-    }
     pending_indices_.insert(pending_indices_.end(), c.face_indices().begin(),
                             c.face_indices().end());
   }
@@ -144,10 +177,6 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
                        pending_sizes_.begin() + consumed_sizes);
   pending_indices_.erase(pending_indices_.begin(),
                          pending_indices_.begin() + used);
-  if (mesh_.num_faces() + std::ssize(pending_sizes_) > declared_faces_) {
-    return Invalid(
-        absl::StrCat("more than the declared ", declared_faces_, " faces"));
-  }
   if (!pending_indices_.empty() && pending_sizes_.empty() &&
       mesh_.num_faces() == declared_faces_) {
     return Invalid("more face indices than the face sizes account for");
@@ -159,10 +188,6 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
     crc_len_[3] += c.face_regions_size() * sizeof(int32_t);
     mesh_.face_regions.insert(mesh_.face_regions.end(),
                               c.face_regions().begin(), c.face_regions().end());
-    if (std::ssize(mesh_.face_regions) > declared_faces_) {
-      return Invalid(absl::StrCat("more than the declared ", declared_faces_,
-                                  " face regions"));
-    }
   }
   return absl::OkStatus();
 }

@@ -1,5 +1,7 @@
 // Assembles a CreateSession stream (header, chunks, footer) into a Mesh,
-// checking it as it arrives: declared counts and server limits, face sizes
+// checking it as it arrives: declared counts (a chunk is refused whole,
+// before anything of it is stored, when its arrays exceed them) and server
+// limits, face sizes
 // against indices, the final counts and CRC-32, then SPEC §1 validation.
 #pragma once
 
@@ -29,10 +31,15 @@ class MeshAssembler {
   int dimension() const { return mesh_.dimension; }
   int64_t declared_vertices() const { return declared_vertices_; }
   int64_t declared_faces() const { return declared_faces_; }
+  // Bytes buffered so far (the arrays' capacities).
+  int64_t bytes_held() const;
 
  private:
   absl::Status Header(const v1::CreateSessionRequest::Header& h);
   absl::Status Chunk(const v1::CreateSessionRequest::Chunk& c);
+  // INVALID_ARGUMENT when a chunk's arrays hold more than the header's
+  // counts leave room for (checked before anything is stored).
+  absl::Status CheckRoom(const v1::CreateSessionRequest::Chunk& c) const;
   absl::Status Footer(const v1::CreateSessionRequest::Footer& f);
 
   const ServerOptions& options_;

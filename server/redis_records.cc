@@ -22,12 +22,10 @@ struct RedisRecords::Reply {
 
 namespace {
 
-// KEYS: session hash, tenant ids, all sessions. ARGV: id, ttl ms, max
-// sessions, max per tenant, max bytes per tenant, bytes, hash prefix, then
-// field/value pairs. Returns {code, count}: 0 created, 1 exists, 2 server
-// limit, 3 tenant limit, 4 tenant bytes.
-constexpr char kCreate[] = R"lua(
-if redis.call('EXISTS', KEYS[1]) == 1 then return {1, 0} end
+// Shared by kReserve and kCreate: counts of live sessions and live upload
+// claims, and the check of the limits. Claims are sorted sets scored by
+// their expiry (Redis's clock, milliseconds); expired ones are dropped.
+constexpr char kLimits[] = R"lua(
 local function live(z, prefix)
   local n, bytes = 0, 0
   for _, m in ipairs(redis.call('ZRANGE', z, 0, -1)) do
@@ -37,43 +35,111 @@ local function live(z, prefix)
   end
   return n, bytes
 end
-local total = live(KEYS[3], '')
-if total >= tonumber(ARGV[3]) then return {2, total} end
-local n, bytes = live(KEYS[2], ARGV[7])
-if n >= tonumber(ARGV[4]) then return {3, n} end
-if bytes + tonumber(ARGV[6]) > tonumber(ARGV[5]) then return {4, bytes} end
+local function claims(z, h, skip)
+  local t = redis.call('TIME')
+  local now = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
+  for _, m in ipairs(redis.call('ZRANGEBYSCORE', z, '-inf', now)) do
+    redis.call('ZREM', z, m)
+    if h then redis.call('HDEL', h, m) end
+  end
+  local n, bytes = 0, 0
+  for _, m in ipairs(redis.call('ZRANGE', z, 0, -1)) do
+    if m ~= skip then
+      n = n + 1
+      if h then bytes = bytes + tonumber(redis.call('HGET', h, m) or '0') end
+    end
+  end
+  return n, bytes
+end
+-- KEYS[2..6]: tenant ids, all sessions, all claims, tenant claims, tenant
+-- claim bytes. A: max sessions, max per tenant, max bytes, bytes, hash
+-- prefix, token. nil when it fits, else {code, count}: 2 server limit,
+-- 3 tenant limit, 4 tenant bytes.
+local function over(A)
+  local token = A[6]
+  local total = live(KEYS[3], '')
+  local all_claims = claims(KEYS[4], false, KEYS[5] .. '|' .. token)
+  if total + all_claims >= tonumber(A[1]) then return {2, total + all_claims} end
+  local n, bytes = live(KEYS[2], A[5])
+  local cn, cbytes = claims(KEYS[5], KEYS[6], token)
+  if n + cn >= tonumber(A[2]) then return {3, n + cn} end
+  if bytes + cbytes + tonumber(A[4]) > tonumber(A[3]) then
+    return {4, bytes + cbytes}
+  end
+  return nil
+end
+local function unclaim(token)
+  redis.call('ZREM', KEYS[4], KEYS[5] .. '|' .. token)
+  redis.call('ZREM', KEYS[5], token)
+  redis.call('HDEL', KEYS[6], token)
+end
+)lua";
+
+// KEYS: session hash, then kLimits's. ARGV: max sessions, max per tenant,
+// max bytes per tenant, bytes, hash prefix, token, ttl ms, then field/value
+// pairs. Returns {code, count}: 0 created, 1 exists, else as kLimits.
+constexpr char kCreateBody[] = R"lua(
+if redis.call('EXISTS', KEYS[1]) == 1 then return {1, 0} end
+local refused = over(ARGV)
+if refused then return refused end
+unclaim(ARGV[6])
 local fields = {}
 for i = 8, #ARGV do fields[#fields + 1] = ARGV[i] end
 redis.call('HSET', KEYS[1], unpack(fields))
-redis.call('PEXPIRE', KEYS[1], ARGV[2])
-redis.call('ZADD', KEYS[2], 0, ARGV[1])
+redis.call('PEXPIRE', KEYS[1], ARGV[7])
+local id = string.sub(KEYS[1], #ARGV[5] + 1)
+redis.call('ZADD', KEYS[2], 0, id)
 redis.call('ZADD', KEYS[3], 0, KEYS[1])
 return {0, 0}
 )lua";
 
-// KEYS: hash. ARGV: ttl ms, touch (0/1). The generation or -1.
-constexpr char kGeneration[] = R"lua(
-local g = redis.call('HGET', KEYS[1], 'gen')
-if not g then return -1 end
-if ARGV[2] == '1' then redis.call('PEXPIRE', KEYS[1], ARGV[1]) end
-return tonumber(g)
+// KEYS: unused, then kLimits's. ARGV: as kCreateBody's first seven (ttl:
+// the claim's). Returns {code, count} as kCreateBody's.
+constexpr char kReserveBody[] = R"lua(
+local refused = over(ARGV)
+if refused then return refused end
+local t = redis.call('TIME')
+local expiry = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000) +
+               tonumber(ARGV[7])
+redis.call('ZADD', KEYS[4], expiry, KEYS[5] .. '|' .. ARGV[6])
+redis.call('ZADD', KEYS[5], expiry, ARGV[6])
+redis.call('HSET', KEYS[6], ARGV[6], ARGV[4])
+return {0, 0}
 )lua";
 
-// KEYS: hash. {info, topo, pos, base, gen, base_gen, pttl}.
+// KEYS: as kReserveBody's. ARGV: token at 6.
+constexpr char kUnreserveBody[] = R"lua(
+unclaim(ARGV[6])
+return 0
+)lua";
+
+// KEYS: hash. ARGV: ttl ms, touch (0/1). {generation, incarnation}, or
+// {-1} when there is no record.
+constexpr char kVersion[] = R"lua(
+local v = redis.call('HMGET', KEYS[1], 'gen', 'inc')
+if not v[1] then return {-1} end
+if ARGV[2] == '1' then redis.call('PEXPIRE', KEYS[1], ARGV[1]) end
+return {tonumber(v[1]), v[2] or ''}
+)lua";
+
+// KEYS: hash. {info, topo, pos, base, gen, base_gen, inc, pttl}.
 constexpr char kLoad[] = R"lua(
 local v = redis.call('HMGET', KEYS[1], 'info', 'topo', 'pos', 'base', 'gen',
-                     'base_gen')
+                     'base_gen', 'inc')
 if not v[1] then return false end
-v[7] = redis.call('PTTL', KEYS[1])
+v[7] = v[7] or ''
+v[8] = redis.call('PTTL', KEYS[1])
 return v
 )lua";
 
-// KEYS: hash. ARGV: expected, positions, rebase (0/1), ttl ms. {1, gen}
-// applied (or already applied), {0, gen} other generation, {-1} missing.
+// KEYS: hash. ARGV: expected generation, positions, rebase (0/1), ttl ms,
+// expected incarnation. {1, gen} applied (or already applied), {0, gen}
+// other generation, {-1} missing, {-2} another incarnation.
 constexpr char kCommit[] = R"lua(
-local g = redis.call('HGET', KEYS[1], 'gen')
-if not g then return {-1} end
-g = tonumber(g)
+local v = redis.call('HMGET', KEYS[1], 'gen', 'inc')
+if not v[1] then return {-1} end
+if (v[2] or '') ~= ARGV[5] then return {-2} end
+local g = tonumber(v[1])
 local e = tonumber(ARGV[1])
 if g == e + 1 and redis.call('HGET', KEYS[1], 'pos') == ARGV[2] then
   redis.call('PEXPIRE', KEYS[1], ARGV[4])
@@ -99,7 +165,8 @@ return n
 )lua";
 
 // KEYS: tenant ids. ARGV: after ('' = from the start), limit, hash prefix.
-// Up to limit + 1 entries {id, info, gen, pttl}; expired ids are dropped.
+// Up to limit + 1 entries {id, info, gen, pttl, inc}; expired ids are
+// dropped.
 constexpr char kList[] = R"lua(
 local out = {}
 local start = ARGV[1] == '' and '-' or ('(' .. ARGV[1])
@@ -109,9 +176,11 @@ while #out < want do
   if #ids == 0 then break end
   for _, id in ipairs(ids) do
     local k = ARGV[3] .. id
-    local v = redis.call('HMGET', k, 'info', 'gen')
+    local v = redis.call('HMGET', k, 'info', 'gen', 'inc')
     if v[1] then
-      if #out < want then out[#out + 1] = {id, v[1], v[2], redis.call('PTTL', k)} end
+      if #out < want then
+        out[#out + 1] = {id, v[1], v[2], redis.call('PTTL', k), v[3] or ''}
+      end
     else
       redis.call('ZREM', KEYS[1], id)
     end
@@ -292,73 +361,121 @@ absl::Status RedisRecords::Ping() {
   return r.ok() ? absl::OkStatus() : r.status();
 }
 
-absl::Status RedisRecords::Create(const std::string& tenant,
-                                  const SessionRecord& record,
-                                  const RecordLimits& limits) {
-  const wire::SessionInfo& info = record.info;
+std::vector<std::string> RedisRecords::LimitKeys(
+    const std::string& tenant, const std::string& id) const {
   const std::string prefix = TenantPrefix(tenant);
-  std::vector<std::string> args = {info.session_id,
-                                   absl::StrCat(TtlMillis()),
-                                   absl::StrCat(limits.max_sessions),
-                                   absl::StrCat(limits.max_sessions_per_tenant),
-                                   absl::StrCat(limits.max_bytes_per_tenant),
-                                   absl::StrCat(info.memory_bytes),
-                                   absl::StrCat(prefix, "s:"),
-                                   "info",
-                                   EncodeInfo(info),
-                                   "topo",
-                                   EncodeTopology(record.mesh),
-                                   "pos",
-                                   EncodePositions(record.mesh.positions),
-                                   "base",
-                                   "",
-                                   "gen",
-                                   "0",
-                                   "base_gen",
-                                   "0",
-                                   "bytes",
-                                   absl::StrCat(info.memory_bytes)};
-  auto r =
-      Eval(kCreate,
-           {SessionKey(tenant, info.session_id), absl::StrCat(prefix, "ids"),
-            absl::StrCat(options_.key_prefix, "all")},
-           args);
-  if (!r.ok()) return r.status();
-  const redisReply* reply = (*r)->reply;
+  return {SessionKey(tenant, id),
+          absl::StrCat(prefix, "ids"),
+          absl::StrCat(options_.key_prefix, "all"),
+          absl::StrCat(options_.key_prefix, "claims"),
+          absl::StrCat(prefix, "claims"),
+          absl::StrCat(prefix, "claim_bytes")};
+}
+
+std::vector<std::string> RedisRecords::LimitArgs(const std::string& tenant,
+                                                 const RecordLimits& limits,
+                                                 int64_t bytes,
+                                                 const std::string& token,
+                                                 int64_t ttl_ms) const {
+  return {absl::StrCat(limits.max_sessions),
+          absl::StrCat(limits.max_sessions_per_tenant),
+          absl::StrCat(limits.max_bytes_per_tenant),
+          absl::StrCat(bytes),
+          absl::StrCat(TenantPrefix(tenant), "s:"),
+          token,
+          absl::StrCat(ttl_ms)};
+}
+
+namespace {
+
+absl::Status LimitStatus(const redisReply* reply, const RecordLimits& limits,
+                         int64_t bytes, const std::string& id) {
   const int64_t count = Int(At(reply, 1));
   switch (Int(At(reply, 0))) {
     case 0:
       return absl::OkStatus();
     case 1:
       return absl::AlreadyExistsError(
-          absl::StrCat("session '", info.session_id, "' already exists"));
+          absl::StrCat("session '", id, "' already exists"));
     case 2:
       return absl::ResourceExhaustedError(absl::StrCat(
           "the service holds the maximum of ", limits.max_sessions,
-          " sessions (--max_sessions, over all replicas); delete one first"));
+          " sessions and uploads in flight (--max_sessions, over all "
+          "replicas); delete one first"));
     case 3:
       return absl::ResourceExhaustedError(absl::StrCat(
           "this tenant holds its maximum of ", limits.max_sessions_per_tenant,
-          " sessions (--max_sessions_per_tenant); delete one first"));
+          " sessions and uploads in flight (--max_sessions_per_tenant, over "
+          "all replicas); delete one first"));
     default:
       return absl::ResourceExhaustedError(absl::StrCat(
-          "this tenant's sessions hold ", count, " bytes; this one (",
-          info.memory_bytes, ") would exceed its budget of ",
+          "this tenant's sessions and uploads in flight hold ", count,
+          " bytes; this one (", bytes, ") would exceed its budget of ",
           limits.max_bytes_per_tenant,
           " bytes (--memory_budget_bytes_per_tenant); delete a session "
           "first"));
   }
 }
 
-absl::StatusOr<int64_t> RedisRecords::Generation(const std::string& tenant,
-                                                 const std::string& id,
-                                                 bool touch) {
-  auto r = Eval(kGeneration, {SessionKey(tenant, id)},
+}  // namespace
+
+absl::Status RedisRecords::Reserve(const std::string& tenant,
+                                   const std::string& token, int64_t bytes,
+                                   const RecordLimits& limits,
+                                   double ttl_seconds) {
+  const auto ttl_ms = static_cast<int64_t>(std::ceil(ttl_seconds * 1000));
+  auto r = Eval(absl::StrCat(kLimits, kReserveBody), LimitKeys(tenant, ""),
+                LimitArgs(tenant, limits, bytes, token, ttl_ms));
+  if (!r.ok()) return r.status();
+  return LimitStatus((*r)->reply, limits, bytes, "");
+}
+
+void RedisRecords::Unreserve(const std::string& tenant,
+                             const std::string& token) {
+  (void)Eval(absl::StrCat(kLimits, kUnreserveBody), LimitKeys(tenant, ""),
+             LimitArgs(tenant, {}, 0, token, 0));
+}
+
+absl::Status RedisRecords::Create(const std::string& tenant,
+                                  const SessionRecord& record,
+                                  const RecordLimits& limits,
+                                  const std::string& token) {
+  const wire::SessionInfo& info = record.info;
+  std::vector<std::string> args =
+      LimitArgs(tenant, limits, info.memory_bytes, token, TtlMillis());
+  const std::string fields[] = {"info",
+                                EncodeInfo(info),
+                                "topo",
+                                EncodeTopology(record.mesh),
+                                "pos",
+                                EncodePositions(record.mesh.positions),
+                                "base",
+                                "",
+                                "gen",
+                                "0",
+                                "base_gen",
+                                "0",
+                                "inc",
+                                record.incarnation,
+                                "bytes",
+                                absl::StrCat(info.memory_bytes)};
+  args.insert(args.end(), std::begin(fields), std::end(fields));
+  auto r = Eval(absl::StrCat(kLimits, kCreateBody),
+                LimitKeys(tenant, info.session_id), args);
+  if (!r.ok()) return r.status();
+  return LimitStatus((*r)->reply, limits, info.memory_bytes, info.session_id);
+}
+
+absl::StatusOr<RecordVersion> RedisRecords::Version(const std::string& tenant,
+                                                    const std::string& id,
+                                                    bool touch) {
+  auto r = Eval(kVersion, {SessionKey(tenant, id)},
                 {absl::StrCat(TtlMillis()), touch ? "1" : "0"});
   if (!r.ok()) return r.status();
-  const int64_t g = Int((*r)->reply);
+  const redisReply* v = (*r)->reply;
+  const int64_t g = Int(At(v, 0));
   if (g < 0) return NoSession(id);
-  return g;
+  return RecordVersion{g, Str(At(v, 1))};
 }
 
 absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
@@ -366,7 +483,7 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   auto r = Eval(kLoad, {SessionKey(tenant, id)}, {});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
-  if (v->type != REDIS_REPLY_ARRAY || v->elements < 7) return NoSession(id);
+  if (v->type != REDIS_REPLY_ARRAY || v->elements < 8) return NoSession(id);
   SessionRecord rec;
   rec.info.session_id = id;
   if (absl::Status s = DecodeInfo(Str(At(v, 0)), &rec.info); !s.ok()) return s;
@@ -383,7 +500,8 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   }
   rec.info.generation = Int(At(v, 4));
   rec.base_generation = Int(At(v, 5));
-  rec.info.idle_seconds = IdleSeconds(Int(At(v, 6)));
+  rec.incarnation = Str(At(v, 6));
+  rec.info.idle_seconds = IdleSeconds(Int(At(v, 7)));
   if (rec.mesh.num_faces() != rec.info.num_faces) {
     return absl::DataLossError("the session store holds a corrupt record");
   }
@@ -392,19 +510,26 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
 
 absl::StatusOr<int64_t> RedisRecords::CommitPositions(
     const std::string& tenant, const std::string& id,
-    int64_t expected_generation, const std::vector<Vec3>& positions,
+    const RecordVersion& expected, const std::vector<Vec3>& positions,
     bool rebase) {
   auto r = Eval(kCommit, {SessionKey(tenant, id)},
-                {absl::StrCat(expected_generation), EncodePositions(positions),
-                 rebase ? "1" : "0", absl::StrCat(TtlMillis())});
+                {absl::StrCat(expected.generation), EncodePositions(positions),
+                 rebase ? "1" : "0", absl::StrCat(TtlMillis()),
+                 expected.incarnation});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t code = Int(At(v, 0)), gen = Int(At(v, 1));
-  if (code < 0) return NoSession(id);
+  if (code == -1) return NoSession(id);
+  if (code == -2) {
+    return absl::AbortedError(absl::StrCat(
+        "session '", id,
+        "' was deleted and created again while the update was checked; "
+        "read it again and retry"));
+  }
   if (code == 0) {
-    return absl::AbortedError(
-        absl::StrCat("session '", id, "' is at generation ", gen,
-                     ", the update expected generation ", expected_generation));
+    return absl::AbortedError(absl::StrCat(
+        "session '", id, "' is at generation ", gen,
+        ", the update expected generation ", expected.generation));
   }
   return gen;
 }
@@ -420,7 +545,7 @@ absl::Status RedisRecords::Delete(const std::string& tenant,
   return Int((*r)->reply) > 0 ? absl::OkStatus() : NoSession(id);
 }
 
-absl::StatusOr<std::vector<wire::SessionInfo>> RedisRecords::List(
+absl::StatusOr<std::vector<RecordSummary>> RedisRecords::List(
     const std::string& tenant, const std::string& after, int limit,
     std::string* next) {
   const std::string prefix = TenantPrefix(tenant);
@@ -428,20 +553,22 @@ absl::StatusOr<std::vector<wire::SessionInfo>> RedisRecords::List(
                 {after, absl::StrCat(limit), absl::StrCat(prefix, "s:")});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
-  std::vector<wire::SessionInfo> out;
+  std::vector<RecordSummary> out;
   next->clear();
   for (size_t i = 0; v->type == REDIS_REPLY_ARRAY && i < v->elements; ++i) {
     if (std::ssize(out) == limit) {
-      *next = out.back().session_id;
+      *next = out.back().info.session_id;
       break;
     }
     const redisReply* e = v->element[i];
-    wire::SessionInfo info;
+    RecordSummary listed;
+    wire::SessionInfo& info = listed.info;
     info.session_id = Str(At(e, 0));
     if (absl::Status s = DecodeInfo(Str(At(e, 1)), &info); !s.ok()) return s;
     info.generation = Int(At(e, 2));
     info.idle_seconds = IdleSeconds(Int(At(e, 3)));
-    out.push_back(std::move(info));
+    listed.incarnation = Str(At(e, 4));
+    out.push_back(std::move(listed));
   }
   return out;
 }

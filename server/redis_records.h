@@ -39,21 +39,26 @@ class RedisRecords : public SessionRecords {
   ~RedisRecords() override;
 
   std::string Describe() const override;
+  absl::Status Reserve(const std::string& tenant, const std::string& token,
+                       int64_t bytes, const RecordLimits& limits,
+                       double ttl_seconds) override;
+  void Unreserve(const std::string& tenant, const std::string& token) override;
   absl::Status Create(const std::string& tenant, const SessionRecord& record,
-                      const RecordLimits& limits) override;
-  absl::StatusOr<int64_t> Generation(const std::string& tenant,
-                                     const std::string& id,
-                                     bool touch) override;
+                      const RecordLimits& limits,
+                      const std::string& token) override;
+  absl::StatusOr<RecordVersion> Version(const std::string& tenant,
+                                        const std::string& id,
+                                        bool touch) override;
   absl::StatusOr<SessionRecord> Load(const std::string& tenant,
                                      const std::string& id) override;
   absl::StatusOr<int64_t> CommitPositions(const std::string& tenant,
                                           const std::string& id,
-                                          int64_t expected_generation,
+                                          const RecordVersion& expected,
                                           const std::vector<Vec3>& positions,
                                           bool rebase) override;
   absl::Status Delete(const std::string& tenant,
                       const std::string& id) override;
-  absl::StatusOr<std::vector<wire::SessionInfo>> List(
+  absl::StatusOr<std::vector<RecordSummary>> List(
       const std::string& tenant, const std::string& after, int limit,
       std::string* next) override;
 
@@ -73,6 +78,13 @@ class RedisRecords : public SessionRecords {
   std::string TenantPrefix(const std::string& tenant) const;
   std::string SessionKey(const std::string& tenant,
                          const std::string& id) const;
+  // KEYS and the first ARGV of the scripts that check the limits (kLimits).
+  std::vector<std::string> LimitKeys(const std::string& tenant,
+                                     const std::string& id) const;
+  std::vector<std::string> LimitArgs(const std::string& tenant,
+                                     const RecordLimits& limits, int64_t bytes,
+                                     const std::string& token,
+                                     int64_t ttl_ms) const;
   int64_t TtlMillis() const;
   double IdleSeconds(int64_t pttl_ms) const;
 

@@ -59,8 +59,7 @@ MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
       auth_(std::move(auth)),
       records_(std::move(records)),
       store_(options, metrics, clock, records_.get()),
-      uploads_(options.max_concurrent_uploads, options.upload_idle_seconds,
-               clock),
+      uploads_(options, clock),
       service_(options, &store_, &uploads_, &auth_, metrics, clock) {}
 
 absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(

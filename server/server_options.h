@@ -32,6 +32,11 @@ struct ServerOptions {
   int64_t memory_budget_bytes_per_tenant = 0;
   int64_t max_concurrent_uploads = 16;
   double upload_idle_seconds = 30;    // an upload silent this long is aborted.
+  // An upload is aborted when it has run this long in all, or when, after
+  // its first upload_idle_seconds, it averages fewer bytes per second than
+  // upload_min_bytes_per_second (0: no minimum).
+  double upload_deadline_seconds = 600;
+  double upload_min_bytes_per_second = 65536;
   double session_ttl_seconds = 3600;  // idle sessions are evicted.
   int rebuild_every_updates = 32;     // BVH refits between full rebuilds.
   int compute_threads = 0;            // per computation; 0 = all cores.

@@ -1,5 +1,7 @@
 #include "server/service.h"
 
+#include <malloc.h>
+
 #include <chrono>
 #include <cmath>
 #include <optional>
@@ -180,11 +182,12 @@ grpc::Status MeshGaugeService::CreateSession(
         auto upload = uploads_->Start(ctx);
         if (!upload.ok()) return upload.status();
         absl::Status s = ReceiveUpload(ctx, reader, tenant, *upload, response);
-        if (uploads_->Finish(*upload)) {
-          return absl::DeadlineExceededError(absl::StrCat(
-              "CreateSession: the upload was idle for more than ",
-              uploads_->idle_seconds(), " s (--upload_idle_seconds)"));
+        if (absl::Status aborted = uploads_->Finish(*upload); !aborted.ok()) {
+          s = aborted;
         }
+        // A refused upload may have buffered up to a message of data: give
+        // the freed pages back to the system.
+        if (!s.ok()) malloc_trim(0);
         return s;
       });
 }
@@ -199,9 +202,13 @@ absl::Status MeshGaugeService::ReceiveUpload(
   bool reserved = false;
   v1::CreateSessionRequest request;
   while (reader->Read(&request)) {
-    uploads_->Touch(upload);
+    uploads_->Touch(upload, static_cast<int64_t>(request.ByteSizeLong()));
     if (absl::Status s = assembler.Add(request); !s.ok()) return s;
-    if (!reserved) {
+    if (reserved) {
+      if (absl::Status s = ticket.Arrived(assembler.bytes_held()); !s.ok()) {
+        return s;
+      }
+    } else {
       // The header's declared size is claimed before any data is buffered.
       auto r = store_->Reserve(
           tenant, Session::EstimateBytes(assembler.declared_vertices(),
@@ -218,8 +225,6 @@ absl::Status MeshGaugeService::ReceiveUpload(
   auto session = store_->Create(tenant, assembler.session_id(),
                                 std::move(*mesh), std::move(ticket));
   if (!session.ok()) return session.status();
-  // Quads take two primitives: account the session's true size now.
-  store_->EnforceBudget(session->get());
   wire::ToWire(ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
                response->mutable_session());
   return absl::OkStatus();

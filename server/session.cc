@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <random>
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/components.h"
@@ -15,6 +16,13 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 }
 
 }  // namespace
+
+std::string NewIncarnation() {
+  static thread_local std::random_device device;
+  std::string out;
+  for (int i = 0; i < 4; ++i) absl::StrAppend(&out, absl::Hex(device(), absl::kZeroPad8));
+  return out;
+}
 
 bool IsBvhBase(int64_t generation, const ServerOptions& options) {
   return generation % options.rebuild_every_updates == 0;
@@ -45,6 +53,7 @@ int64_t Session::EstimateBaseBytes(const Mesh& mesh) {
 Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
                  Metrics* metrics, double now)
     : id_(std::move(id)),
+      incarnation_(NewIncarnation()),
       options_(options),
       metrics_(metrics),
       dimension_(mesh.dimension),
@@ -60,6 +69,7 @@ Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
 Session::Session(SessionRecord record, const ServerOptions& options,
                  Metrics* metrics, double now)
     : id_(record.info.session_id),
+      incarnation_(std::move(record.incarnation)),
       options_(options),
       metrics_(metrics),
       dimension_(record.info.dimension),

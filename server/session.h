@@ -59,6 +59,8 @@ class Session {
           double now);
 
   const std::string& id() const { return id_; }
+  // Made at creation (NewIncarnation), kept in the record.
+  const std::string& incarnation() const { return incarnation_; }
   int dimension() const { return dimension_; }
   int64_t num_vertices() const { return num_vertices_; }
 
@@ -104,6 +106,7 @@ class Session {
   absl::Status EnsureEvaluator();
 
   const std::string id_;
+  const std::string incarnation_;
   const ServerOptions& options_;
   Metrics* metrics_;
   const int dimension_;
@@ -136,6 +139,10 @@ bool IsBvhBase(int64_t generation, const ServerOptions& options);
 
 // Every SessionInfo field of a snapshot taken at `now` (clock seconds).
 wire::SessionInfo ToSessionInfo(const SessionSnapshot& s, double now);
+
+// 32 random hex digits (128 bits from the system's random source): a
+// session's incarnation, an upload's claim.
+std::string NewIncarnation();
 
 // True when two parameter sets give the same values (threads excluded).
 bool SameSdfParams(const SdfParams& a, const SdfParams& b);

@@ -29,16 +29,23 @@ std::string QuoteId(const std::string& id) {
 UploadReservation& UploadReservation::operator=(
     UploadReservation&& o) noexcept {
   if (this != &o) {
-    if (store_) store_->Release(tenant_, bytes_);
+    if (store_) store_->Release(this);
     store_ = std::exchange(o.store_, nullptr);
     tenant_ = std::move(o.tenant_);
+    token_ = std::move(o.token_);
     bytes_ = std::exchange(o.bytes_, 0);
+    arrived_ = std::exchange(o.arrived_, 0);
   }
   return *this;
 }
 
 UploadReservation::~UploadReservation() {
-  if (store_) store_->Release(tenant_, bytes_);
+  if (store_) store_->Release(this);
+}
+
+absl::Status UploadReservation::Arrived(int64_t bytes) {
+  if (!store_ || bytes <= arrived_) return absl::OkStatus();
+  return store_->Arrive(this, bytes);
 }
 
 SessionStore::SessionStore(const ServerOptions& options, Metrics* metrics,
@@ -65,6 +72,11 @@ absl::Status SessionStore::CheckCountLimitsLocked(
   return absl::OkStatus();
 }
 
+RecordLimits SessionStore::Limits() const {
+  return {options_.max_sessions, options_.SessionsPerTenant(),
+          options_.BudgetPerTenant()};
+}
+
 absl::StatusOr<UploadReservation> SessionStore::Reserve(
     const std::string& tenant, int64_t bytes) {
   const bool tenant_budget = options_.memory_budget_bytes_per_tenant > 0;
@@ -76,40 +88,43 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
         std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
         " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
   }
+  UploadReservation r;
+  if (records_) {
+    // The slot is claimed in the records, over all replicas, until the
+    // upload's deadline at the latest.
+    r.token_ = NewIncarnation();
+    if (absl::Status s = records_->Reserve(tenant, r.token_, bytes, Limits(),
+                                           options_.upload_deadline_seconds);
+        !s.ok()) {
+      return s;
+    }
+  }
   std::lock_guard<std::mutex> lock(mu_);
   Reserved& mine = reserved_[tenant];
-  if (absl::Status s = CheckCountLimitsLocked(tenant, mine.uploads); !s.ok()) {
-    if (mine.uploads == 0) reserved_.erase(tenant);
-    return s;
-  }
-  if (!records_ && tenant_budget &&
+  absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
+  if (refused.ok() && !records_ && tenant_budget &&
       TenantBytesLocked(tenant) + mine.bytes + bytes >
           options_.BudgetPerTenant()) {
-    return absl::ResourceExhaustedError(absl::StrCat(
+    refused = absl::ResourceExhaustedError(absl::StrCat(
         "this tenant's sessions and uploads would exceed its memory budget "
         "of ",
         options_.BudgetPerTenant(),
         " bytes (--memory_budget_bytes_per_tenant); delete a session first"));
   }
-  // Make room in the server's budget: least recently used first.
-  while (TotalBytesLocked() + reserved_total_.bytes + bytes >
-             options_.memory_budget_bytes &&
-         !sessions_.empty()) {
-    auto lru = sessions_.begin();
-    for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
-      if (it->second->last_used() < lru->second->last_used()) lru = it;
-    }
-    EvictLocked(lru, "memory");
-  }
-  if (reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
-    return absl::ResourceExhaustedError(
+  if (refused.ok() &&
+      reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
+    refused = absl::ResourceExhaustedError(
         "uploads in flight hold the server's memory budget; retry later");
+  }
+  if (!refused.ok()) {
+    if (mine.uploads == 0) reserved_.erase(tenant);
+    if (records_) records_->Unreserve(tenant, r.token_);
+    return refused;
   }
   ++mine.uploads;
   mine.bytes += bytes;
   ++reserved_total_.uploads;
   reserved_total_.bytes += bytes;
-  UploadReservation r;
   r.store_ = this;
   r.tenant_ = tenant;
   r.bytes_ = bytes;
@@ -117,20 +132,38 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
   return r;
 }
 
-void SessionStore::Release(const std::string& tenant, int64_t bytes) {
+void SessionStore::Release(UploadReservation* r) {
+  if (records_ && !r->token_.empty()) records_->Unreserve(r->tenant_, r->token_);
   std::lock_guard<std::mutex> lock(mu_);
-  ReleaseLocked(tenant, bytes);
+  ReleaseLocked(r);
   PublishLocked();
 }
 
-void SessionStore::ReleaseLocked(const std::string& tenant, int64_t bytes) {
-  auto it = reserved_.find(tenant);
+void SessionStore::ReleaseLocked(UploadReservation* r) {
+  r->store_ = nullptr;
+  auto it = reserved_.find(r->tenant_);
   if (it == reserved_.end()) return;
   --it->second.uploads;
-  it->second.bytes -= bytes;
+  it->second.bytes -= r->bytes_;
+  it->second.arrived -= r->arrived_;
   --reserved_total_.uploads;
-  reserved_total_.bytes -= bytes;
+  reserved_total_.bytes -= r->bytes_;
+  reserved_total_.arrived -= r->arrived_;
   if (it->second.uploads == 0) reserved_.erase(it);
+}
+
+absl::Status SessionStore::Arrive(UploadReservation* r, int64_t bytes) {
+  std::lock_guard<std::mutex> lock(mu_);
+  const int64_t delta = bytes - r->arrived_;
+  r->arrived_ = bytes;
+  reserved_[r->tenant_].arrived += delta;
+  reserved_total_.arrived += delta;
+  const bool fits = MakeRoomLocked(nullptr);
+  PublishLocked();
+  if (fits) return absl::OkStatus();
+  return absl::ResourceExhaustedError(
+      "the data of uploads in flight fill the server's memory budget "
+      "(--memory_budget_bytes); retry later");
 }
 
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
@@ -154,35 +187,29 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
     auto session = std::make_shared<Session>(id, std::move(mesh), options_,
                                              metrics_, clock_->NowSeconds());
     record.info = session->Info();
-    const RecordLimits limits{options_.max_sessions,
-                              options_.SessionsPerTenant(),
-                              options_.BudgetPerTenant()};
-    absl::Status s = records_->Create(tenant, record, limits);
+    record.incarnation = session->incarnation();
+    absl::Status s = records_->Create(tenant, record, Limits(), ticket.token_);
     for (int retry = 0; chosen && retry < 3 && absl::IsAlreadyExists(s);
          ++retry) {
       record.info.session_id = random_id();
-      s = records_->Create(tenant, record, limits);
+      s = records_->Create(tenant, record, Limits(), ticket.token_);
     }
     if (!s.ok()) return s;
+    ticket.token_.clear();  // consumed by the record.
     if (record.info.session_id != id) {
       session = std::make_shared<Session>(record, options_, metrics_,
                                           clock_->NowSeconds());
     }
     std::lock_guard<std::mutex> lock(mu_);
-    if (ticket.store_ == this) {
-      ReleaseLocked(ticket.tenant_, ticket.bytes_);
-      ticket.store_ = nullptr;
-    }
+    if (ticket.store_ == this) ReleaseLocked(&ticket);
     sessions_[Key{tenant, record.info.session_id}] = session;
+    MakeRoomLocked(session.get());
     PublishLocked();
     return session;
   }
   std::lock_guard<std::mutex> lock(mu_);
   // The reservation becomes the session, under the same lock.
-  if (ticket.store_ == this) {
-    ReleaseLocked(ticket.tenant_, ticket.bytes_);
-    ticket.store_ = nullptr;
-  }
+  if (ticket.store_ == this) ReleaseLocked(&ticket);
   if (chosen) {
     do {
       id = random_id();
@@ -194,6 +221,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
   auto session = std::make_shared<Session>(id, std::move(mesh), options_,
                                            metrics_, clock_->NowSeconds());
   sessions_.emplace(Key{tenant, id}, session);
+  MakeRoomLocked(session.get());
   PublishLocked();
   return session;
 }
@@ -217,24 +245,27 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
   if (!ValidSessionId(id)) {
     return absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
   }
-  auto generation = records_->Generation(tenant, id, touch);
-  if (!generation.ok()) {
-    if (absl::IsNotFound(generation.status())) {
+  auto version = records_->Version(tenant, id, touch);
+  if (!version.ok()) {
+    if (absl::IsNotFound(version.status())) {
       std::lock_guard<std::mutex> lock(mu_);
       sessions_.erase({tenant, id});  // deleted or expired elsewhere.
     }
-    return generation.status();
+    return version.status();
   }
   {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = sessions_.find({tenant, id});
-    if (it != sessions_.end() && it->second->generation() == *generation) {
+    if (it != sessions_.end() &&
+        it->second->incarnation() == version->incarnation &&
+        it->second->generation() == version->generation) {
       if (touch) it->second->Touch(clock_->NowSeconds());
       metrics_->RecordSessionCache(true, 0);
       return it->second;
     }
   }
-  // A miss: first use on this replica, evicted, or updated elsewhere.
+  // A miss: first use on this replica, evicted, updated elsewhere, or
+  // deleted and created again elsewhere.
   const double start = clock_->NowSeconds();
   const auto wall = std::chrono::steady_clock::now();
   auto record = records_->Load(tenant, id);
@@ -315,9 +346,11 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
     }
     all = std::move(moved.positions);
   }
-  auto committed =
-      records_->CommitPositions(tenant, id, expected_generation, all,
-                                IsBvhBase(expected_generation + 1, options_));
+  // The positions were checked against this incarnation's mesh: the record
+  // takes them only if it is still that incarnation.
+  auto committed = records_->CommitPositions(
+      tenant, id, {expected_generation, s.incarnation()}, all,
+      IsBvhBase(expected_generation + 1, options_));
   if (!committed.ok()) return committed.status();
   if (maybe_retry) {
     return UpdateOutcome{.generation = *committed,
@@ -336,15 +369,17 @@ absl::StatusOr<std::vector<SessionSnapshot>> SessionStore::List(
     const std::string& tenant, const std::string& page_token, int page_size,
     std::string* next_token) {
   if (records_) {
-    auto infos = records_->List(tenant, page_token, page_size, next_token);
-    if (!infos.ok()) return infos.status();
+    auto listed = records_->List(tenant, page_token, page_size, next_token);
+    if (!listed.ok()) return listed.status();
     const double now = clock_->NowSeconds();
     std::vector<SessionSnapshot> out;
     std::lock_guard<std::mutex> lock(mu_);
-    for (const wire::SessionInfo& info : *infos) {
+    for (const RecordSummary& record : *listed) {
+      const wire::SessionInfo& info = record.info;
       SessionSnapshot s;
       auto it = sessions_.find({tenant, info.session_id});
       if (it != sessions_.end() &&
+          it->second->incarnation() == record.incarnation &&
           it->second->generation() == info.generation) {
         s = it->second->Snapshot();  // with this replica's BVH counts.
       } else {
@@ -388,20 +423,36 @@ void SessionStore::Sweep() {
 
 void SessionStore::EnforceBudget(const Session* keep) {
   std::lock_guard<std::mutex> lock(mu_);
-  while (TotalBytesLocked() + reserved_total_.bytes >
+  MakeRoomLocked(keep);
+  PublishLocked();
+}
+
+bool SessionStore::MakeRoomLocked(const Session* keep) {
+  while (TotalBytesLocked() + reserved_total_.arrived >
          options_.memory_budget_bytes) {
-    auto lru = sessions_.end();
+    // The tenant holding the most bytes gives up its least recently used
+    // session (never `keep`).
+    std::map<std::string, int64_t> held;
+    for (const auto& [key, s] : sessions_) held[key.first] += s->memory_bytes();
+    auto victim = sessions_.end();
     for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
       if (it->second.get() == keep) continue;
-      if (lru == sessions_.end() ||
-          it->second->last_used() < lru->second->last_used()) {
-        lru = it;
+      if (victim == sessions_.end()) {
+        victim = it;
+        continue;
+      }
+      const int64_t mine = held[it->first.first];
+      const int64_t theirs = held[victim->first.first];
+      if (mine > theirs ||
+          (mine == theirs &&
+           it->second->last_used() < victim->second->last_used())) {
+        victim = it;
       }
     }
-    if (lru == sessions_.end()) break;
-    EvictLocked(lru, "memory");
+    if (victim == sessions_.end()) return false;
+    EvictLocked(victim, "memory");
   }
-  PublishLocked();
+  return true;
 }
 
 int64_t SessionStore::size() const {
@@ -447,7 +498,7 @@ int64_t SessionStore::TenantSessionsLocked(const std::string& tenant) const {
 void SessionStore::PublishLocked() {
   metrics_->SetSessions(
       static_cast<double>(sessions_.size()),
-      static_cast<double>(TotalBytesLocked() + reserved_total_.bytes));
+      static_cast<double>(TotalBytesLocked() + reserved_total_.arrived));
 }
 
 }  // namespace meshgauge::server

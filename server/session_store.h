@@ -12,7 +12,17 @@
 //   (evaluator, BVH, last ray pass) per session and generation, loaded on a
 //   miss. Eviction drops cache entries, never a session; count and byte
 //   limits are checked over all replicas when a record is created; delete,
-//   TTL and listing are global.
+//   TTL and listing are global. Every cached read checks the record's
+//   generation and incarnation, so a session deleted and created again
+//   elsewhere is never served from the old one's cache.
+//
+// Memory: an upload's header claims its declared size against the
+// uploads' share (reservations alone never exceed the budget) and, per
+// tenant, against the tenant's budget and session limit; a header evicts
+// nothing. Eviction makes room only for bytes that have arrived (an
+// upload's buffered data, a new session, a cached ray pass): its victim is
+// the least recently used session of the tenant that holds the most bytes,
+// so one tenant filling the budget evicts its own sessions first.
 #pragma once
 
 #include <map>
@@ -42,12 +52,18 @@ class UploadReservation {
   UploadReservation& operator=(UploadReservation&& o) noexcept;
   ~UploadReservation();
   int64_t bytes() const { return bytes_; }
+  // The upload now buffers `bytes` in all: evicts (see SessionStore) to
+  // make room for them. RESOURCE_EXHAUSTED when the budget cannot hold
+  // them (other uploads' data fill it).
+  absl::Status Arrived(int64_t bytes);
 
  private:
   friend class SessionStore;
   SessionStore* store_ = nullptr;
   std::string tenant_;
+  std::string token_;  // the claim in the records, if any.
   int64_t bytes_ = 0;
+  int64_t arrived_ = 0;
 };
 
 class SessionStore {
@@ -57,11 +73,11 @@ class SessionStore {
   SessionStore(const ServerOptions& options, Metrics* metrics,
                const Clock* clock, SessionRecords* records = nullptr);
 
-  // Claims a slot and `bytes` for an upload of `tenant`. Errors:
-  // RESOURCE_EXHAUSTED when the sessions plus uploads would exceed
-  // --max_sessions or the tenant's limit, or the memory (sessions'
-  // accounted bytes plus reservations, after evicting what LRU allows)
-  // would exceed the server's or the tenant's budget.
+  // Claims a slot and `bytes` for an upload of `tenant`; evicts nothing.
+  // Errors: RESOURCE_EXHAUSTED when the sessions plus uploads would exceed
+  // --max_sessions or the tenant's limit (with records: over all
+  // replicas), when the tenant's sessions and uploads would exceed its
+  // budget, or when the uploads in flight would exceed the server's budget.
   absl::StatusOr<UploadReservation> Reserve(const std::string& tenant,
                                             int64_t bytes);
 
@@ -96,8 +112,9 @@ class SessionStore {
 
   // Evicts sessions idle longer than the TTL.
   void Sweep();
-  // Evicts least recently used sessions (never `keep`) while the accounted
-  // memory exceeds the budget; call after a session's cache grew.
+  // Evicts (never `keep`; see the top of this file) while the accounted
+  // memory (sessions and uploads' arrived bytes) exceeds the budget; call
+  // after a session's cache grew.
   void EnforceBudget(const Session* keep);
   int64_t size() const;
   // Reservations of uploads in flight (server-wide).
@@ -107,12 +124,17 @@ class SessionStore {
   friend class UploadReservation;
   using Key = std::pair<std::string, std::string>;  // (tenant, id).
   using Map = std::map<Key, std::shared_ptr<Session>>;
-  void Release(const std::string& tenant, int64_t bytes);
-  void ReleaseLocked(const std::string& tenant, int64_t bytes);
+  void Release(UploadReservation* r);
+  void ReleaseLocked(UploadReservation* r);
+  absl::Status Arrive(UploadReservation* r, int64_t bytes);
+  // Evicts while sessions plus arrived bytes exceed the budget; false when
+  // nothing but `keep` is left to evict.
+  bool MakeRoomLocked(const Session* keep);
   // With records: the cached session at the record's generation, loading
   // the record on a miss.
   absl::StatusOr<std::shared_ptr<Session>> GetRecorded(
       const std::string& tenant, const std::string& id, bool touch);
+  RecordLimits Limits() const;
   absl::Status CheckCountLimitsLocked(const std::string& tenant,
                                       int64_t tenant_uploads) const;
   void EvictLocked(Map::iterator it, const std::string& reason);
@@ -128,7 +150,7 @@ class SessionStore {
   mutable std::mutex mu_;
   Map sessions_;
   struct Reserved {
-    int64_t uploads = 0, bytes = 0;
+    int64_t uploads = 0, bytes = 0, arrived = 0;
   };
   std::map<std::string, Reserved> reserved_;  // by tenant.
   Reserved reserved_total_;

@@ -6,30 +6,56 @@ namespace meshgauge::server {
 
 absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContext* ctx) {
   std::lock_guard<std::mutex> lock(mu_);
-  if (std::ssize(uploads_) >= max_) {
+  if (std::ssize(uploads_) >= options_.max_concurrent_uploads) {
     return absl::ResourceExhaustedError(absl::StrCat(
-        max_,
+        options_.max_concurrent_uploads,
         " uploads are already in flight (--max_concurrent_uploads); "
         "retry later"));
   }
   const int64_t id = next_++;
-  uploads_.emplace(id, Entry{ctx, clock_->NowSeconds()});
+  const double now = clock_->NowSeconds();
+  uploads_.emplace(id, Entry{ctx, now, now});
   return id;
 }
 
-void UploadWatch::Touch(int64_t id) {
+void UploadWatch::Touch(int64_t id, int64_t bytes) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = uploads_.find(id);
-  if (it != uploads_.end()) it->second.last = clock_->NowSeconds();
+  if (it == uploads_.end()) return;
+  it->second.last = clock_->NowSeconds();
+  it->second.bytes += bytes;
 }
 
-bool UploadWatch::Finish(int64_t id) {
+absl::Status UploadWatch::Finish(int64_t id) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = uploads_.find(id);
-  if (it == uploads_.end()) return false;
-  const bool aborted = it->second.aborted;
+  if (it == uploads_.end()) return absl::OkStatus();
+  const std::string aborted = std::move(it->second.aborted);
   uploads_.erase(it);
-  return aborted;
+  if (aborted.empty()) return absl::OkStatus();
+  return absl::DeadlineExceededError(
+      absl::StrCat("CreateSession: the upload was aborted: ", aborted));
+}
+
+std::string UploadWatch::Verdict(const Entry& e, double now) const {
+  if (now - e.last > options_.upload_idle_seconds) {
+    return absl::StrCat("idle for more than ", options_.upload_idle_seconds,
+                        " s (--upload_idle_seconds)");
+  }
+  const double elapsed = now - e.start;
+  if (elapsed > options_.upload_deadline_seconds) {
+    return absl::StrCat("still running after ",
+                        options_.upload_deadline_seconds,
+                        " s (--upload_deadline_seconds)");
+  }
+  if (elapsed > options_.upload_idle_seconds &&
+      e.bytes < options_.upload_min_bytes_per_second * elapsed) {
+    return absl::StrCat(e.bytes, " bytes in ", elapsed,
+                        " s, below the minimum rate of ",
+                        options_.upload_min_bytes_per_second,
+                        " bytes/s (--upload_min_bytes_per_second)");
+  }
+  return "";
 }
 
 int UploadWatch::AbortIdle() {
@@ -37,11 +63,11 @@ int UploadWatch::AbortIdle() {
   const double now = clock_->NowSeconds();
   int n = 0;
   for (auto& [id, e] : uploads_) {
-    if (!e.aborted && now - e.last > idle_seconds_) {
-      e.aborted = true;
-      e.ctx->TryCancel();
-      ++n;
-    }
+    if (!e.aborted.empty()) continue;
+    e.aborted = Verdict(e, now);
+    if (e.aborted.empty()) continue;
+    e.ctx->TryCancel();
+    ++n;
   }
   return n;
 }

@@ -1,7 +1,10 @@
-// Uploads in flight and their last activity: caps how many run at once and
-// aborts (TryCancel) the ones idle longer than --upload_idle_seconds, so a
-// client that opens an upload and goes silent holds neither a thread nor
-// its reservation for long.
+// Uploads in flight and their progress: caps how many run at once and
+// aborts (TryCancel) the ones idle longer than --upload_idle_seconds,
+// running longer than --upload_deadline_seconds, or, after their first
+// --upload_idle_seconds, averaging fewer than
+// --upload_min_bytes_per_second; so a client that opens an upload and goes
+// silent, or trickles bytes, holds neither a thread nor its reservation for
+// long.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -9,34 +12,40 @@
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <string>
 
 #include "absl/status/statusor.h"
 #include "server/clock.h"
+#include "server/server_options.h"
 
 namespace meshgauge::server {
 
 class UploadWatch {
  public:
-  UploadWatch(int64_t max_concurrent, double idle_seconds, const Clock* clock)
-      : max_(max_concurrent), idle_seconds_(idle_seconds), clock_(clock) {}
+  // options and clock must outlive the watch.
+  UploadWatch(const ServerOptions& options, const Clock* clock)
+      : options_(options), clock_(clock) {}
 
   // Registers an upload; RESOURCE_EXHAUSTED when max_concurrent are running.
   absl::StatusOr<int64_t> Start(grpc::ServerContext* ctx);
-  void Touch(int64_t id);
-  // True when Abort cancelled this upload for idling.
-  bool Finish(int64_t id);
-  // Cancels every upload idle longer than the limit; returns how many.
+  // A message of `bytes` arrived.
+  void Touch(int64_t id, int64_t bytes);
+  // OK, or DEADLINE_EXCEEDED saying why AbortIdle cancelled this upload.
+  absl::Status Finish(int64_t id);
+  // Cancels every upload that is idle, past its deadline or too slow;
+  // returns how many.
   int AbortIdle();
-  double idle_seconds() const { return idle_seconds_; }
 
  private:
   struct Entry {
     grpc::ServerContext* ctx;
-    double last;
-    bool aborted = false;
+    double start, last;
+    int64_t bytes = 0;
+    std::string aborted;  // why, once cancelled.
   };
-  const int64_t max_;
-  const double idle_seconds_;
+  std::string Verdict(const Entry& e, double now) const;
+
+  const ServerOptions& options_;
   const Clock* clock_;
   std::mutex mu_;
   int64_t next_ = 0;
