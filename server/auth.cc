@@ -77,12 +77,20 @@ absl::StatusOr<Authenticator> Authenticator::FromFile(const std::string& path) {
 
 absl::StatusOr<std::string> Authenticator::Authenticate(
     const grpc::ServerContext& ctx) const {
+  return AuthenticateMetadata(ctx.client_metadata());
+}
+
+absl::StatusOr<std::string> Authenticator::AuthenticateMetadata(
+    const std::multimap<grpc::string_ref, grpc::string_ref>& md) const {
   if (!enabled_) return std::string();
-  const auto& md = ctx.client_metadata();
   const auto it = md.find("authorization");
   if (it == md.end()) {
     return absl::UnauthenticatedError(
         "missing 'authorization: Bearer <token>' metadata");
+  }
+  if (md.count("authorization") > 1) {
+    return absl::UnauthenticatedError(
+        "more than one 'authorization' metadata entry: send exactly one");
   }
   const absl::string_view value(it->second.data(), it->second.size());
   constexpr absl::string_view kBearer = "Bearer ";

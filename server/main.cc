@@ -9,8 +9,10 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/reflection.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
@@ -61,6 +63,43 @@ ABSL_FLAG(std::string, port_file, "",
           "write the bound gRPC port to this file once serving (for tests)");
 
 namespace {
+
+// absl's parser exits 1 on a malformed flag value; like a value out of
+// range, it is a usage error here: exit 2. Numeric flags are checked before
+// absl parses the command line (bool and string values cannot be malformed
+// this way; unknown flags are absl's to report).
+bool NumericFlagsParse(int argc, char** argv) {
+  for (int i = 1; i < argc; ++i) {
+    absl::string_view arg = argv[i];
+    if (arg == "--") break;
+    if (!absl::ConsumePrefix(&arg, "--") && !absl::ConsumePrefix(&arg, "-")) {
+      continue;
+    }
+    const size_t eq = arg.find('=');
+    absl::CommandLineFlag* flag =
+        absl::FindCommandLineFlag(arg.substr(0, eq));
+    if (flag == nullptr ||
+        !(flag->IsOfType<int>() || flag->IsOfType<int64_t>() ||
+          flag->IsOfType<double>())) {
+      continue;
+    }
+    std::string value;
+    if (eq != absl::string_view::npos) {
+      value = std::string(arg.substr(eq + 1));
+    } else if (i + 1 < argc) {
+      value = argv[++i];
+    } else {
+      continue;  // absl reports the missing value.
+    }
+    std::string error;
+    if (!flag->ParseFrom(value, &error)) {
+      std::cerr << "meshgauge-server: --" << flag->Name() << ": " << error
+                << "\n";
+      return false;
+    }
+  }
+  return true;
+}
 
 meshgauge::server::ServerOptions OptionsFromFlags() {
   meshgauge::server::ServerOptions o;
@@ -129,6 +168,7 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("meshgauge-server [flags]");
+  if (!NumericFlagsParse(argc, argv)) return 2;
   absl::ParseCommandLine(argc, argv);
   const meshgauge::server::ServerOptions options = OptionsFromFlags();
   if (absl::Status s = meshgauge::server::ValidateServerOptions(options);

@@ -2,32 +2,102 @@
 
 #include <dlfcn.h>
 #include <grpcpp/health_check_service_interface.h>
+#include <grpc/support/log.h>
 #include <grpcpp/security/server_credentials.h>
+#include <openssl/err.h>
+#include <openssl/pem.h>
 
 #include <algorithm>
 
 #include "absl/strings/str_cat.h"
 #include "lib/io/text_file.h"
 #include "server/redis_records.h"
+#include "server/reflection_guard.h"
 
 namespace meshgauge::server {
 namespace {
 
-absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag) {
-  return ReadTextFile(path, absl::StrCat("--", flag, " file"));
+// A PEM file's text, checked to hold what the flag names (certificates, or
+// a private key), so that a bad file is named here and not reported later
+// as a failure to listen.
+absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag,
+                                    bool key) {
+  auto text = ReadTextFile(path, absl::StrCat("--", flag, " file"));
+  if (!text.ok()) return text.status();
+  BIO* bio = BIO_new_mem_buf(text->data(), static_cast<int>(text->size()));
+  bool ok = false;
+  if (key) {
+    EVP_PKEY* k = PEM_read_bio_PrivateKey(bio, nullptr, nullptr, nullptr);
+    ok = k != nullptr;
+    EVP_PKEY_free(k);
+  } else {
+    X509* cert = PEM_read_bio_X509(bio, nullptr, nullptr, nullptr);
+    ok = cert != nullptr;
+    X509_free(cert);
+  }
+  BIO_free(bio);
+  ERR_clear_error();
+  if (!ok) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--", flag, " file '", path, "' holds no PEM ",
+        key ? "private key" : "certificate"));
+  }
+  return text;
 }
+
+// gRPC's own log lines while the server binds: kept, so that a failure is
+// reported in one line of ours that names gRPC's cause.
+class BindLog {
+ public:
+  BindLog() {
+    std::lock_guard<std::mutex> lock(Mu());
+    Lines().clear();
+    gpr_set_log_function(&BindLog::Keep);
+  }
+  ~BindLog() { gpr_set_log_function(nullptr); }  // gRPC's default again.
+  // The system's error when gRPC names one (os_error:"..."), else the first
+  // line's text before its details.
+  std::string Cause() const {
+    std::lock_guard<std::mutex> lock(Mu());
+    absl::string_view lines = Lines();
+    constexpr absl::string_view kOsError = "os_error:\"";
+    if (size_t at = lines.find(kOsError); at != absl::string_view::npos) {
+      absl::string_view rest = lines.substr(at + kOsError.size());
+      return std::string(rest.substr(0, rest.find('"')));
+    }
+    return std::string(lines.substr(0, lines.find(" {")));
+  }
+
+ private:
+  static std::mutex& Mu() {
+    static std::mutex mu;
+    return mu;
+  }
+  static std::string& Lines() {
+    static std::string lines;
+    return lines;
+  }
+  static void Keep(gpr_log_func_args* args) {
+    if (args->severity != GPR_LOG_SEVERITY_ERROR) return;
+    std::lock_guard<std::mutex> lock(Mu());
+    std::string& lines = Lines();
+    if (lines.size() < 2000) {
+      absl::StrAppend(&lines, lines.empty() ? "" : "; ", args->message);
+    }
+  }
+};
 
 absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(
     const ServerOptions& o) {
   if (o.tls_cert_file.empty()) return grpc::InsecureServerCredentials();
-  auto cert = ReadPem(o.tls_cert_file, "tls_cert_file");
+  auto cert = ReadPem(o.tls_cert_file, "tls_cert_file", false);
   if (!cert.ok()) return cert.status();
-  auto key = ReadPem(o.tls_key_file, "tls_key_file");
+  auto key = ReadPem(o.tls_key_file, "tls_key_file", true);
   if (!key.ok()) return key.status();
   grpc::SslServerCredentialsOptions ssl;
   ssl.pem_key_cert_pairs.push_back({*key, *cert});
   if (!o.tls_client_ca_file.empty()) {
-    auto ca = ReadPem(o.tls_client_ca_file, "tls_client_ca_file");
+    auto ca = ReadPem(o.tls_client_ca_file, "tls_client_ca_file", false);
     if (!ca.ok()) return ca.status();
     ssl.pem_root_certs = *ca;
     ssl.client_certificate_request =
@@ -65,6 +135,7 @@ MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
 absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
     const ServerOptions& options, Metrics* metrics, const Clock* clock) {
   if (absl::Status s = ValidateServerOptions(options); !s.ok()) return s;
+  if (absl::Status s = CheckListenAddress(options.address); !s.ok()) return s;
   Authenticator auth;
   if (!options.auth_tokens_file.empty()) {
     auto loaded = Authenticator::FromFile(options.auth_tokens_file);
@@ -94,15 +165,27 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   // A second server on a taken port must fail, not split the clients.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&s->service_);
+  if (options.reflection && s->auth_.enabled()) {
+    std::vector<std::unique_ptr<
+        grpc::experimental::ServerInterceptorFactoryInterface>>
+        guards;
+    guards.push_back(std::make_unique<ReflectionGuardFactory>(&s->auth_));
+    builder.experimental().SetInterceptorCreators(std::move(guards));
+  }
   const int max_bytes =
       static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_bytes);
   builder.SetMaxSendMessageSize(max_bytes);
-  s->server_ = builder.BuildAndStart();
+  std::string cause;
+  {
+    BindLog log;
+    s->server_ = builder.BuildAndStart();
+    cause = log.Cause();
+  }
   if (!s->server_ || s->port_ == 0) {
-    return absl::UnavailableError(
-        absl::StrCat("cannot listen on ", options.address,
-                     " (invalid address, or the port is taken)"));
+    return absl::UnavailableError(absl::StrCat(
+        "cannot listen on ", options.address, ": ",
+        cause.empty() ? "the port is taken or the host is not local" : cause));
   }
   s->server_->GetHealthCheckService()->SetServingStatus(true);
   s->sweeper_ = std::thread([raw = s.get()] { raw->SweepLoop(); });

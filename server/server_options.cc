@@ -2,7 +2,9 @@
 
 #include <cmath>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 
 namespace meshgauge::server {
 namespace {
@@ -15,6 +17,37 @@ absl::Status InRange(const char* flag, T value, T lo, T hi) {
 }
 
 }  // namespace
+
+absl::Status CheckListenAddress(const std::string& address) {
+  const auto bad = [&address](const char* why) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--address '", address, "' ", why,
+        ": use HOST:PORT, [IPV6]:PORT (PORT in [0, 65535], 0: any free "
+        "port) or unix:PATH"));
+  };
+  absl::string_view a = address;
+  if (absl::ConsumePrefix(&a, "unix:")) {
+    return a.empty() ? bad("has no path") : absl::OkStatus();
+  }
+  const size_t colon = a.rfind(':');
+  if (colon == absl::string_view::npos) return bad("has no port");
+  absl::string_view host = a.substr(0, colon), port = a.substr(colon + 1);
+  if (absl::ConsumePrefix(&host, "[") && !absl::ConsumeSuffix(&host, "]")) {
+    return bad("has an unclosed '['");
+  }
+  if (host.empty()) return bad("has no host");
+  if (host.find_first_of(" \t[]") != absl::string_view::npos ||
+      (host.find(':') != absl::string_view::npos && a[0] != '[')) {
+    return bad("has a malformed host");
+  }
+  int value = 0;
+  if (port.empty() || port.size() > 5 ||
+      port.find_first_not_of("0123456789") != absl::string_view::npos ||
+      !absl::SimpleAtoi(port, &value) || value > 65535) {
+    return bad("has no port in [0, 65535]");
+  }
+  return absl::OkStatus();
+}
 
 absl::Status ValidateServerOptions(const ServerOptions& o) {
   constexpr int64_t kInt32 = 2147483647;

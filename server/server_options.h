@@ -59,4 +59,9 @@ struct ServerOptions {
 // (--field) and the range.
 absl::Status ValidateServerOptions(const ServerOptions& options);
 
+// A listen address: HOST:PORT or [IPV6]:PORT with a host and a decimal
+// port in [0, 65535] (0: any free port), or unix:PATH. InvalidArgument
+// naming --address and the expected form.
+absl::Status CheckListenAddress(const std::string& address);
+
 }  // namespace meshgauge::server

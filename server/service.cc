@@ -202,7 +202,11 @@ absl::Status MeshGaugeService::ReceiveUpload(
   bool reserved = false;
   v1::CreateSessionRequest request;
   while (reader->Read(&request)) {
-    uploads_->Touch(upload, static_cast<int64_t>(request.ByteSizeLong()));
+    if (absl::Status s = uploads_->Touch(
+            upload, static_cast<int64_t>(request.ByteSizeLong()));
+        !s.ok()) {
+      return s;
+    }
     if (absl::Status s = assembler.Add(request); !s.ok()) return s;
     if (reserved) {
       if (absl::Status s = ticket.Arrived(assembler.bytes_held()); !s.ok()) {
@@ -347,16 +351,18 @@ grpc::Status MeshGaugeService::ComputeSdf(
             return Interrupted(ctx, absl::CancelledError("cancelled"));
           }
           end = std::min(nv, begin + chunk);
-          if (jac) {
-            // End the chunk early so that its rows fit in one message.
-            int64_t bytes = 0;
-            for (int64_t p = begin; p < end; ++p) {
-              bytes += 40 + (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
-                                (4 + 8 * dim);
-              if (bytes > budget && p > begin) {
-                end = p;
-                break;
-              }
+          // End the chunk early so that its values (and rows) fit in one
+          // message.
+          int64_t bytes = 0;
+          for (int64_t p = begin; p < end; ++p) {
+            bytes += 40;
+            if (jac) {
+              bytes += (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
+                       (4 + 8 * dim);
+            }
+            if (bytes > budget && p > begin) {
+              end = p;
+              break;
             }
           }
           v1::ComputeSdfResponse msg;

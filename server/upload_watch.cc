@@ -18,44 +18,40 @@ absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContext* ctx) {
   return id;
 }
 
-void UploadWatch::Touch(int64_t id, int64_t bytes) {
+absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = uploads_.find(id);
-  if (it == uploads_.end()) return;
-  it->second.last = clock_->NowSeconds();
-  it->second.bytes += bytes;
+  if (it == uploads_.end()) return absl::OkStatus();
+  Entry& e = it->second;
+  const double now = clock_->NowSeconds();
+  e.last = now;
+  e.bytes += bytes;
+  const double elapsed = now - e.start;
+  if (elapsed > options_.upload_deadline_seconds) {
+    return absl::DeadlineExceededError(absl::StrCat(
+        "CreateSession: the upload is still running after ",
+        options_.upload_deadline_seconds, " s (--upload_deadline_seconds)"));
+  }
+  if (elapsed > options_.upload_idle_seconds &&
+      e.bytes < options_.upload_min_bytes_per_second * elapsed) {
+    return absl::DeadlineExceededError(absl::StrCat(
+        "CreateSession: the upload sent ", e.bytes, " bytes in ", elapsed,
+        " s, below the minimum of ", options_.upload_min_bytes_per_second,
+        " bytes/s (--upload_min_bytes_per_second)"));
+  }
+  return absl::OkStatus();
 }
 
 absl::Status UploadWatch::Finish(int64_t id) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = uploads_.find(id);
   if (it == uploads_.end()) return absl::OkStatus();
-  const std::string aborted = std::move(it->second.aborted);
+  const bool aborted = it->second.aborted;
   uploads_.erase(it);
-  if (aborted.empty()) return absl::OkStatus();
+  if (!aborted) return absl::OkStatus();
   return absl::DeadlineExceededError(
-      absl::StrCat("CreateSession: the upload was aborted: ", aborted));
-}
-
-std::string UploadWatch::Verdict(const Entry& e, double now) const {
-  if (now - e.last > options_.upload_idle_seconds) {
-    return absl::StrCat("idle for more than ", options_.upload_idle_seconds,
-                        " s (--upload_idle_seconds)");
-  }
-  const double elapsed = now - e.start;
-  if (elapsed > options_.upload_deadline_seconds) {
-    return absl::StrCat("still running after ",
-                        options_.upload_deadline_seconds,
-                        " s (--upload_deadline_seconds)");
-  }
-  if (elapsed > options_.upload_idle_seconds &&
-      e.bytes < options_.upload_min_bytes_per_second * elapsed) {
-    return absl::StrCat(e.bytes, " bytes in ", elapsed,
-                        " s, below the minimum rate of ",
-                        options_.upload_min_bytes_per_second,
-                        " bytes/s (--upload_min_bytes_per_second)");
-  }
-  return "";
+      absl::StrCat("CreateSession: the upload was idle for more than ",
+                   options_.upload_idle_seconds, " s (--upload_idle_seconds)"));
 }
 
 int UploadWatch::AbortIdle() {
@@ -63,11 +59,11 @@ int UploadWatch::AbortIdle() {
   const double now = clock_->NowSeconds();
   int n = 0;
   for (auto& [id, e] : uploads_) {
-    if (!e.aborted.empty()) continue;
-    e.aborted = Verdict(e, now);
-    if (e.aborted.empty()) continue;
-    e.ctx->TryCancel();
-    ++n;
+    if (!e.aborted && now - e.last > options_.upload_idle_seconds) {
+      e.aborted = true;
+      e.ctx->TryCancel();
+      ++n;
+    }
   }
   return n;
 }

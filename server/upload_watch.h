@@ -1,10 +1,10 @@
-// Uploads in flight and their progress: caps how many run at once and
-// aborts (TryCancel) the ones idle longer than --upload_idle_seconds,
-// running longer than --upload_deadline_seconds, or, after their first
-// --upload_idle_seconds, averaging fewer than
-// --upload_min_bytes_per_second; so a client that opens an upload and goes
-// silent, or trickles bytes, holds neither a thread nor its reservation for
-// long.
+// Uploads in flight and their progress: caps how many run at once, aborts
+// (TryCancel: the client sees CANCELLED) the ones idle longer than
+// --upload_idle_seconds, and refuses the next message of one running longer
+// than --upload_deadline_seconds or, after its first --upload_idle_seconds,
+// averaging fewer than --upload_min_bytes_per_second (DEADLINE_EXCEEDED);
+// so a client that opens an upload and goes silent, or trickles bytes,
+// holds neither a thread nor its reservation for long.
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -28,12 +28,12 @@ class UploadWatch {
 
   // Registers an upload; RESOURCE_EXHAUSTED when max_concurrent are running.
   absl::StatusOr<int64_t> Start(grpc::ServerContext* ctx);
-  // A message of `bytes` arrived.
-  void Touch(int64_t id, int64_t bytes);
-  // OK, or DEADLINE_EXCEEDED saying why AbortIdle cancelled this upload.
+  // A message of `bytes` arrived. DEADLINE_EXCEEDED, naming the flag, when
+  // the upload is past its deadline or below the minimum rate.
+  absl::Status Touch(int64_t id, int64_t bytes);
+  // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
   absl::Status Finish(int64_t id);
-  // Cancels every upload that is idle, past its deadline or too slow;
-  // returns how many.
+  // Cancels every upload idle longer than the limit; returns how many.
   int AbortIdle();
 
  private:
@@ -41,9 +41,8 @@ class UploadWatch {
     grpc::ServerContext* ctx;
     double start, last;
     int64_t bytes = 0;
-    std::string aborted;  // why, once cancelled.
+    bool aborted = false;
   };
-  std::string Verdict(const Entry& e, double now) const;
 
   const ServerOptions& options_;
   const Clock* clock_;

@@ -230,7 +230,8 @@ TEST_F(RedisStoreTest, CommitToAnotherIncarnationIsAborted) {
               .dimension = 3,
               .num_vertices = rec.mesh.num_vertices(),
               .num_faces = rec.mesh.num_faces(),
-              .memory_bytes = 1000};
+              .memory_bytes = 1000,
+              .warnings = {}};
   rec.incarnation = "first";
   const server::RecordLimits limits{10, 10, 1 << 30};
   ASSERT_TRUE(records.Create("", rec, limits, "").ok());

@@ -7,6 +7,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <thread>
 
@@ -140,6 +141,27 @@ TEST_F(SecurityTest, PerTenantSessionLimit) {
   EXPECT_TRUE(bob_->Upload(m, "b1").ok()) << "Alice's limit is not Bob's";
 }
 
+// One tenant filling the memory budget evicts its own sessions first: the
+// other tenant's session stays although it is the least recently used.
+TEST_F(SecurityTest, ATenantFillingTheBudgetEvictsItsOwnSessionsFirst) {
+  const Mesh sphere = MakeIcosphere(1, 10);
+  server::ServerOptions o = options_;
+  o.memory_budget_bytes = server::Session::EstimateBaseBytes(sphere) * 7 / 2;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  ASSERT_TRUE(alice_->Upload(sphere, "a1").ok());
+  for (int i = 1; i <= 4; ++i) {
+    clock_.Advance(1);
+    ASSERT_TRUE(bob_->Upload(sphere, "b" + std::to_string(i)).ok());
+  }
+  EXPECT_TRUE(alice_->Get("a1").ok());
+  EXPECT_EQ(Code(bob_->Get("b1")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(bob_->Get("b2")), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(bob_->Get("b3").ok());
+  EXPECT_TRUE(bob_->Get("b4").ok());
+}
+
 TEST(AuthenticatorTest, RejectsMalformedTokenFiles) {
   EXPECT_THAT(std::string(server::Authenticator::FromText("alice xyz\n", "f")
                               .status()
@@ -265,6 +287,117 @@ TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
   EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
   WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
+}
+
+// An upload that sends tiny messages just often enough not to be idle.
+TEST_F(UploadAttackTest, ATrickleBelowTheMinimumRateIsAborted) {
+  server::ServerOptions o;
+  o.upload_idle_seconds = 0.2;  // checked every 0.05 s of real time.
+  o.upload_min_bytes_per_second = 1000;
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(1000, 1000)));
+  v1::CreateSessionRequest trickle;
+  for (int i = 0; i < 3; ++i) trickle.mutable_chunk()->add_positions(0.5);
+  for (int i = 0; i < 20; ++i) {
+    clock_.Advance(0.15);  // never idle for 0.2 s, but ~100 bytes/s.
+    if (!w->Write(trickle)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  }
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_THAT(s.error_message(), HasSubstr("--upload_min_bytes_per_second"));
+  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
+  EXPECT_EQ(server_->store().reserved_uploads(), 0);
+}
+
+TEST_F(UploadAttackTest, AnUploadPastItsDeadlineIsAborted) {
+  server::ServerOptions o;
+  o.upload_idle_seconds = 0.2;
+  o.upload_deadline_seconds = 0.5;
+  o.upload_min_bytes_per_second = 0;
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(1000, 1000)));
+  v1::CreateSessionRequest vertex;
+  for (int i = 0; i < 3; ++i) vertex.mutable_chunk()->add_positions(0.5);
+  for (int i = 0; i < 20; ++i) {
+    clock_.Advance(0.15);
+    if (!w->Write(vertex)) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(60));
+  }
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
+  EXPECT_THAT(s.error_message(), HasSubstr("--upload_deadline_seconds"));
+}
+
+// A chunk whose arrays exceed the header's counts is refused whole: none
+// of it is stored (the message names the chunk, not a running total).
+TEST_F(UploadAttackTest, AChunkOverTheDeclaredCountsIsRefusedWhole) {
+  struct Case {
+    const char* field;
+    std::function<void(v1::CreateSessionRequest::Chunk*)> fill;
+  };
+  const Case cases[] = {
+      {"face sizes",
+       [](auto* c) {
+         for (int i = 0; i < 5; ++i) c->add_face_sizes(3);
+       }},
+      {"coordinates",
+       [](auto* c) {
+         for (int i = 0; i < 13; ++i) c->add_positions(1);
+       }},
+      {"face regions", [](auto* c) {
+         for (int i = 0; i < 5; ++i) c->add_face_regions(1);
+       }}};
+  for (const Case& k : cases) {
+    grpc::ClientContext ctx;
+    v1::CreateSessionResponse resp;
+    auto w = Open(&ctx, &resp);
+    ASSERT_TRUE(w->Write(Header(4, 4)));
+    v1::CreateSessionRequest chunk;
+    k.fill(chunk.mutable_chunk());
+    w->Write(chunk);
+    const grpc::Status s = w->Finish();
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << k.field;
+    EXPECT_THAT(s.error_message(), HasSubstr(k.field));
+    EXPECT_THAT(s.error_message(), HasSubstr("declared 4"));
+  }
+}
+
+// A header's reservation makes no room: the victim's session stays, also
+// when a second reservation is then refused.
+TEST_F(UploadAttackTest, AHeaderAloneEvictsNothing) {
+  const Mesh sphere = MakeIcosphere(1, 10);
+  const int64_t base = server::Session::EstimateBaseBytes(sphere);
+  server::ServerOptions o;
+  o.memory_budget_bytes = 3 * base;
+  RestartServer(o);
+  ASSERT_TRUE(client_->Upload(sphere, "victim").ok());
+  // Each header declares about 2.5 sessions' worth.
+  const int64_t nv = sphere.num_vertices() * 5 / 2,
+                nf = sphere.num_faces() * 5 / 2;
+  grpc::ClientContext c1, c2;
+  v1::CreateSessionResponse r1, r2;
+  auto w1 = Open(&c1, &r1);
+  ASSERT_TRUE(w1->Write(Header(nv, nf)));
+  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
+  EXPECT_TRUE(client_->Get("victim").ok());
+  auto w2 = Open(&c2, &r2);
+  w2->Write(Header(nv, nf));
+  const grpc::Status refused = w2->Finish();
+  EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(refused.error_message(), HasSubstr("uploads in flight"));
+  EXPECT_TRUE(client_->Get("victim").ok());
+  EXPECT_THAT(metrics_.Text(),
+              Not(HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1")));
+  c1.TryCancel();
+  w1->Finish();
+  EXPECT_TRUE(client_->Get("victim").ok());
 }
 
 TEST_F(UploadAttackTest, DuplicateRegionDirectionsAreRejected) {

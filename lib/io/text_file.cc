@@ -1,7 +1,6 @@
 #include "lib/io/text_file.h"
 
 #include <fstream>
-#include <sstream>
 
 #include "absl/strings/str_cat.h"
 
@@ -14,9 +13,19 @@ absl::StatusOr<std::string> ReadTextFile(const std::string& path,
     return absl::NotFoundError(
         absl::StrCat("cannot read the ", what, " '", path, "'"));
   }
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  std::string text(kMaxTextFileBytes + 1, '\0');
+  in.read(text.data(), std::ssize(text));
+  if (in.bad()) {
+    return absl::NotFoundError(
+        absl::StrCat("cannot read the ", what, " '", path, "'"));
+  }
+  if (in.gcount() > kMaxTextFileBytes) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("the ", what, " '", path, "' is larger than ",
+                     kMaxTextFileBytes, " bytes: not a ", what));
+  }
+  text.resize(in.gcount());
+  return text;
 }
 
 }  // namespace meshgauge
