@@ -45,6 +45,9 @@ ABSL_FLAG(double, upload_min_bytes_per_second, 65536,
           "bytes per second is aborted (0: no minimum)");
 ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
           "largest gRPC message accepted or sent");
+ABSL_FLAG(int64_t, max_upload_message_bytes, 16ll << 20,
+          "largest CreateSession message, checked before it is parsed "
+          "(<= --max_message_bytes)");
 ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
 ABSL_FLAG(int64_t, max_vertices, 5'000'000, "vertices per session");
 ABSL_FLAG(int64_t, max_faces, 10'000'000, "faces per session");
@@ -120,6 +123,7 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
   o.upload_min_bytes_per_second =
       absl::GetFlag(FLAGS_upload_min_bytes_per_second);
   o.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
+  o.max_upload_message_bytes = absl::GetFlag(FLAGS_max_upload_message_bytes);
   o.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   o.max_vertices = absl::GetFlag(FLAGS_max_vertices);
   o.max_faces = absl::GetFlag(FLAGS_max_faces);
@@ -148,6 +152,7 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       ", sessions ",
       o.session_store.empty() ? "in memory" : "in " + o.session_store,
       "; max_message_bytes=", o.max_message_bytes,
+      " max_upload_message_bytes=", o.max_upload_message_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
       " max_faces=", o.max_faces, " max_rays=", o.max_rays,
       " memory_budget_bytes=", o.memory_budget_bytes,

@@ -1,5 +1,8 @@
 #include "server/mesh_upload.h"
 
+#include <grpcpp/impl/codegen/proto_utils.h>
+#include <grpcpp/support/proto_buffer_reader.h>
+
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -244,3 +247,25 @@ absl::StatusOr<Mesh> MeshAssembler::Finish() {
 }
 
 }  // namespace meshgauge::server
+
+grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
+                                       void>::Deserialize(
+    grpc::ByteBuffer* buffer, meshgauge::server::UploadMessage* msg) {
+  msg->received_bytes = static_cast<int64_t>(buffer->Length());
+  msg->too_large = msg->received_bytes > msg->limit;
+  if (msg->too_large) {
+    buffer->Clear();
+    msg->request.Clear();
+    return grpc::Status::OK;
+  }
+  return grpc::GenericDeserialize<grpc::ProtoBufferReader,
+                                  meshgauge::v1::CreateSessionRequest>(
+      buffer, &msg->request);
+}
+
+grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
+                                       void>::Serialize(
+    const meshgauge::server::UploadMessage&, grpc::ByteBuffer*, bool*) {
+  return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
+                      "UploadMessage is only read");
+}

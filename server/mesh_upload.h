@@ -5,6 +5,10 @@
 // against indices, the final counts and CRC-32, then SPEC §1 validation.
 #pragma once
 
+#include <grpcpp/support/byte_buffer.h>
+#include <grpcpp/support/config.h>
+#include <grpcpp/impl/codegen/serialization_traits.h>
+#include <grpcpp/support/status.h>
 #include <zlib.h>
 
 #include <string>
@@ -15,6 +19,18 @@
 #include "server/server_options.h"
 
 namespace meshgauge::server {
+
+// One CreateSession message as the server reads it: the received message's
+// size is checked against `limit` before it is parsed, since a parsed
+// message of packed varints takes up to 4 bytes per byte received (and
+// more while its arrays grow). A message over the limit is not parsed.
+struct UploadMessage {
+  explicit UploadMessage(int64_t limit) : limit(limit) {}
+  const int64_t limit;
+  int64_t received_bytes = 0;
+  bool too_large = false;
+  v1::CreateSessionRequest request;
+};
 
 class MeshAssembler {
  public:
@@ -58,3 +74,14 @@ class MeshAssembler {
 };
 
 }  // namespace meshgauge::server
+
+// The server reads CreateSession as UploadMessage (see service.cc).
+template <>
+class grpc::SerializationTraits<meshgauge::server::UploadMessage, void> {
+ public:
+  static grpc::Status Deserialize(grpc::ByteBuffer* buffer,
+                                  meshgauge::server::UploadMessage* msg);
+  // Never sent; present for the handler's template.
+  static grpc::Status Serialize(const meshgauge::server::UploadMessage&,
+                                grpc::ByteBuffer*, bool*);
+};

@@ -12,7 +12,6 @@
 #include "lib/core/sensitivity.h"
 #include "lib/embree/calibration.h"
 #include "proto/wire/convert.h"
-#include "server/mesh_upload.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
@@ -64,7 +63,19 @@ MeshGaugeService::MeshGaugeService(const ServerOptions& options,
       uploads_(uploads),
       auth_(auth),
       metrics_(metrics),
-      clock_(clock) {}
+      clock_(clock) {
+  // Method 0 of the generated service is CreateSession (the proto's first
+  // rpc): its handler reads UploadMessage instead of the parsed request.
+  MarkMethodStreamed(
+      0, new grpc::internal::ClientStreamingHandler<
+             MeshGaugeService, UploadMessage, v1::CreateSessionResponse>(
+             [](MeshGaugeService* service, grpc::ServerContext* ctx,
+                grpc::ServerReader<UploadMessage>* reader,
+                v1::CreateSessionResponse* response) {
+               return service->BoundedCreateSession(ctx, reader, response);
+             },
+             this));
+}
 
 absl::Status MeshGaugeService::CheckReplySize(int64_t values) const {
   // Packed doubles plus a small envelope.
@@ -173,9 +184,8 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
   return Pass{std::move(pass), false};
 }
 
-grpc::Status MeshGaugeService::CreateSession(
-    grpc::ServerContext* ctx,
-    grpc::ServerReader<v1::CreateSessionRequest>* reader,
+grpc::Status MeshGaugeService::BoundedCreateSession(
+    grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     v1::CreateSessionResponse* response) {
   return Instrumented(
       "CreateSession", ctx, [&](const std::string& tenant) -> absl::Status {
@@ -193,21 +203,27 @@ grpc::Status MeshGaugeService::CreateSession(
 }
 
 absl::Status MeshGaugeService::ReceiveUpload(
-    grpc::ServerContext* ctx,
-    grpc::ServerReader<v1::CreateSessionRequest>* reader,
+    grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     const std::string& tenant, int64_t upload,
     v1::CreateSessionResponse* response) {
   MeshAssembler assembler(options_);
   UploadReservation ticket;
   bool reserved = false;
-  v1::CreateSessionRequest request;
-  while (reader->Read(&request)) {
-    if (absl::Status s = uploads_->Touch(
-            upload, static_cast<int64_t>(request.ByteSizeLong()));
+  UploadMessage message(options_.max_upload_message_bytes);
+  while (reader->Read(&message)) {
+    if (message.too_large) {
+      return absl::ResourceExhaustedError(absl::StrCat(
+          "CreateSession: a message of ", message.received_bytes,
+          " bytes exceeds the upload limit of ",
+          options_.max_upload_message_bytes,
+          " bytes per message (--max_upload_message_bytes); send smaller "
+          "chunks"));
+    }
+    if (absl::Status s = uploads_->Touch(upload, message.received_bytes);
         !s.ok()) {
       return s;
     }
-    if (absl::Status s = assembler.Add(request); !s.ok()) return s;
+    if (absl::Status s = assembler.Add(message.request); !s.ok()) return s;
     if (reserved) {
       if (absl::Status s = ticket.Arrived(assembler.bytes_held()); !s.ok()) {
         return s;

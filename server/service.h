@@ -13,6 +13,7 @@
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 #include "server/auth.h"
 #include "server/clock.h"
+#include "server/mesh_upload.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/session_store.h"
@@ -28,10 +29,11 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                    UploadWatch* uploads, const Authenticator* auth,
                    Metrics* metrics, const Clock* clock);
 
-  grpc::Status CreateSession(
-      grpc::ServerContext* ctx,
-      grpc::ServerReader<v1::CreateSessionRequest>* reader,
-      v1::CreateSessionResponse* response) override;
+  // CreateSession is served by BoundedCreateSession: its messages are read
+  // as UploadMessage, whose size is checked before they are parsed.
+  grpc::Status BoundedCreateSession(grpc::ServerContext* ctx,
+                                    grpc::ServerReader<UploadMessage>* reader,
+                                    v1::CreateSessionResponse* response);
   grpc::Status GetSession(grpc::ServerContext* ctx,
                           const v1::GetSessionRequest* request,
                           v1::GetSessionResponse* response) override;
@@ -90,8 +92,7 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                             Body body);
   // The CreateSession stream after its upload slot was taken.
   absl::Status ReceiveUpload(
-      grpc::ServerContext* ctx,
-      grpc::ServerReader<v1::CreateSessionRequest>* reader,
+      grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
       const std::string& tenant, int64_t upload,
       v1::CreateSessionResponse* response);
   // RESOURCE_EXHAUSTED when a reply of `values` doubles would exceed

@@ -2,12 +2,16 @@
 // meshes; quads keep their diagonal when reversed.
 #include "lib/core/components.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "lib/core/shapes.h"
 
 namespace meshgauge {
 namespace {
+
+using ::testing::HasSubstr;
+using ::testing::Not;
 
 Mesh TwoBoxes(bool second_inward) {
   Mesh a = MakeBox(1, 1, 1, 0.5, /*quads=*/true);
@@ -76,6 +80,17 @@ TEST(ComponentsTest, DropDegenerateFacesKeepsVerticesAndRegions) {
   EXPECT_EQ(DropDegenerateFaces(m), 2);
   EXPECT_EQ(m.num_vertices(), 4);
   EXPECT_EQ(m.face_regions, std::vector<int32_t>{4});
+}
+
+TEST(ComponentsTest, TinyCoordinatesAreWarnedAbout) {
+  Mesh tiny = MakeIcosphere(1, 2);
+  for (Vec3& p : tiny.positions) p = p * 4e-320;  // subnormal coordinates.
+  const MeshDiagnostics d = DiagnoseMesh(tiny);
+  ASSERT_FALSE(d.warnings.empty());
+  EXPECT_THAT(d.warnings.back(), HasSubstr("coordinates are tiny"));
+  for (const std::string& w : DiagnoseMesh(MakeIcosphere(1, 2)).warnings) {
+    EXPECT_THAT(w, Not(HasSubstr("tiny")));
+  }
 }
 
 TEST(ComponentsTest, SignedVolumeIsExactFarFromTheOrigin) {

@@ -14,7 +14,9 @@
 #include <fstream>
 
 #include "lib/core/mesh.h"
+#include "absl/strings/str_cat.h"
 #include "lib/io/mesh_io.h"
+#include "lib/io/readers.h"
 #include "tests/openmesh_reference.h"
 #include "tests/test_util.h"
 
@@ -145,6 +147,16 @@ TEST(MeshReaderTest, ObjIndexFormsAndNegativeIndices) {
   auto r = ReadMeshFile(Corpus("obj/slash_indices.obj"));
   ASSERT_TRUE(r.ok()) << r.status();
   EXPECT_EQ(r->mesh.faces[0].v, (std::array<int32_t, 4>{0, 1, 2, -1}));
+}
+
+TEST(MeshReaderTest, MalformedFaceTokenIsAnErrorNamingTheLine) {
+  EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/malformed_texture_index.obj"))),
+              HasSubstr(": line 5: '1/x' is not a vertex index"));
+  for (const char* bad : {"1/", "1/2/3/4", "1//", "1/2/x", "x/1"}) {
+    const std::string text =
+        absl::StrCat("v 0 0 0\nv 1 0 0\nv 0 1 0\nf ", bad, " 2 3\n");
+    EXPECT_FALSE(io::ParseObj(text, "t.obj").ok()) << bad;
+  }
 }
 
 TEST(MeshReaderTest, PolygonsAreTriangulatedAndCounted) {

@@ -82,6 +82,25 @@ TEST_F(SecurityTest, CallsWithoutAValidTokenAreUnauthenticated) {
   EXPECT_TRUE(*serving);
 }
 
+// Two authorization entries (one valid, one not, in either order) do not
+// let the caller pick the one that is checked.
+TEST_F(SecurityTest, TwoAuthorizationEntriesAreUnauthenticated) {
+  ASSERT_TRUE(alice_->Upload(MakeIcosphere(1, 1), "mine").ok());
+  for (bool valid_first : {true, false}) {
+    grpc::ClientContext ctx;
+    ctx.AddMetadata("authorization", valid_first ? "Bearer alice-secret"
+                                                 : "Bearer wrong");
+    ctx.AddMetadata("authorization", valid_first ? "Bearer wrong"
+                                                 : "Bearer alice-secret");
+    v1::GetSessionRequest req;
+    req.set_session_id("mine");
+    v1::GetSessionResponse resp;
+    const grpc::Status s = client_->stub().GetSession(&ctx, req, &resp);
+    EXPECT_EQ(s.error_code(), grpc::StatusCode::UNAUTHENTICATED);
+    EXPECT_THAT(s.error_message(), HasSubstr("more than one"));
+  }
+}
+
 TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
   const Mesh victim_mesh = MakeIcosphere(1, 3);
   ASSERT_TRUE(alice_->Upload(victim_mesh, "shared-name").ok());
@@ -444,6 +463,22 @@ TEST_F(LimitsTest, RepliesOverTheMessageLimitAreRefusedBeforeComputing) {
   EXPECT_TRUE(sdf->jacobian.has_value());
 }
 
+// The smallest allowed message limit still streams every value: chunks end
+// early to fit it (the server would otherwise fail after computing).
+TEST_F(LimitsTest, SdfValueChunksFitTheMessageLimit) {
+  server::ServerOptions o;
+  o.max_message_bytes = 4096;
+  RestartServer(o);
+  ClientOptions co;
+  co.upload_chunk_vertices = 50;
+  RemoteClient c(target_, co);
+  const Mesh sphere = MakeIcosphere(1, 10);
+  ASSERT_TRUE(c.Upload(sphere, "s").ok());
+  auto sdf = c.ComputeSdf("s", SdfParams{}, {.chunk_vertices = 65536});
+  ASSERT_TRUE(sdf.ok()) << sdf.status();
+  EXPECT_EQ(std::ssize(sdf->result.values), sphere.num_vertices());
+}
+
 TEST_F(LimitsTest, IdsWithControlCharactersAreEscapedInMessages) {
   auto r = client_->Get("evil\x01\x1b[2Jid");
   EXPECT_EQ(Code(r), absl::StatusCode::kNotFound);
@@ -480,10 +515,18 @@ TEST(StartupTest, ATakenPortFailsCleanlyWithoutReusePort) {
   EXPECT_EQ(Code(second), absl::StatusCode::kUnavailable);
   EXPECT_THAT(std::string(second.status().message()),
               HasSubstr("cannot listen on " + b.address));
-  server::ServerOptions bad = a;
-  bad.address = "not an address:::";
-  EXPECT_EQ(Code(server::MeshGaugeServer::Start(bad, &metrics_b, &clock)),
-            absl::StatusCode::kUnavailable);
+  EXPECT_THAT(std::string(second.status().message()),
+              HasSubstr("Address already in use"));
+  for (const char* address :
+       {"not an address:::", "127.0.0.1:99999", "127.0.0.1:", ":50051",
+        "127.0.0.1:5x", "127.0.0.1:-1", "[::1:80", "unix:"}) {
+    server::ServerOptions bad = a;
+    bad.address = address;
+    auto refused = server::MeshGaugeServer::Start(bad, &metrics_b, &clock);
+    EXPECT_EQ(Code(refused), absl::StatusCode::kInvalidArgument) << address;
+    EXPECT_THAT(std::string(refused.status().message()),
+                HasSubstr("--address"));
+  }
   server::ServerOptions limits = a;
   limits.max_message_bytes = -1;
   EXPECT_THAT(

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "lib/io/mesh_builder.h"
 #include "lib/io/readers.h"
@@ -14,11 +15,17 @@ namespace meshgauge::io {
 namespace {
 
 // The vertex part of `i`, `i/t`, `i//n`, `i/t/n`; 1-based, negative
-// relative to the vertices defined so far.
+// relative to the vertices defined so far. The texture and normal parts
+// are not used but must be indices too (`1/x` is malformed).
 bool ParseObjIndex(absl::string_view token, int64_t defined, int64_t* out) {
-  const size_t slash = token.find('/');
-  int64_t i = 0;
-  if (!ParseInt64(token.substr(0, slash), &i) || i == 0) return false;
+  const std::vector<absl::string_view> parts = absl::StrSplit(token, '/');
+  int64_t i = 0, unused = 0;
+  if (parts.size() > 3 || !ParseInt64(parts[0], &i) || i == 0) return false;
+  if (parts.size() >= 2 && !(parts[1].empty() && parts.size() == 3) &&
+      !ParseInt64(parts[1], &unused)) {
+    return false;
+  }
+  if (parts.size() == 3 && !ParseInt64(parts[2], &unused)) return false;
   *out = i > 0 ? i - 1 : defined + i;
   return true;
 }

@@ -9,6 +9,7 @@ import os
 import socket
 import subprocess
 import tempfile
+import threading
 import time
 import unittest
 
@@ -76,13 +77,14 @@ def run_server(*flags, timeout=20):
                           capture_output=True, text=True, timeout=timeout)
 
 
-def list_services_by_reflection(target):
+def list_services_by_reflection(target, metadata=None):
     """A raw reflection request (list_services = "", field 7): the response
     bytes, or the grpc error code."""
     with grpc.insecure_channel(target) as channel:
         call = channel.stream_stream(REFLECTION)
         try:
-            return b"".join(call(iter([b"\x3a\x00"]), timeout=5))
+            return b"".join(call(iter([b"\x3a\x00"]), timeout=5,
+                                 metadata=metadata))
         except grpc.RpcError as e:
             return e.code()
 
@@ -109,9 +111,40 @@ class StartupAndFlags(unittest.TestCase):
             p = run_server(f"--address=127.0.0.1:{port}")
             self.assertEqual(p.returncode, 1, p.stderr)
             self.assertIn(f"cannot listen on 127.0.0.1:{port}", p.stderr)
-        p = run_server("--address=this is not an address")
+            # One line of ours naming the cause, none of gRPC's.
+            self.assertIn("Address already in use", p.stderr)
+            self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
+        for address in ["this is not an address", "127.0.0.1:99999",
+                        "127.0.0.1:", ":50051", "127.0.0.1:80x"]:
+            p = run_server(f"--address={address}")
+            self.assertEqual(p.returncode, 1, (address, p.stderr))
+            self.assertIn(f"--address '{address}'", p.stderr)
+            self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
+
+    def test_malformed_numeric_flags_exit_2(self):
+        for flag, value in [("max_rays", "abc"), ("max_message_bytes", "1e3x"),
+                            ("session_ttl_seconds", "soon")]:
+            p = run_server(f"--{flag}={value}", "--address=127.0.0.1:0")
+            self.assertEqual(p.returncode, 2, (flag, p.stderr))
+            self.assertIn(f"--{flag}", p.stderr)
+            p = run_server(f"--{flag}", value, "--address=127.0.0.1:0")
+            self.assertEqual(p.returncode, 2, (flag, p.stderr))
+
+    def test_oversized_and_malformed_files_are_named(self):
+        p = run_server("--address=127.0.0.1:0",
+                       "--auth_tokens_file=/dev/zero")
         self.assertEqual(p.returncode, 1, p.stderr)
-        self.assertIn("cannot listen on", p.stderr)
+        self.assertIn("'/dev/zero' is larger than 1048576 bytes", p.stderr)
+        with tempfile.NamedTemporaryFile("w", suffix=".pem") as junk:
+            junk.write("not a certificate\n")
+            junk.flush()
+            p = run_server("--address=127.0.0.1:0",
+                           f"--tls_cert_file={junk.name}",
+                           f"--tls_key_file={junk.name}")
+            self.assertEqual(p.returncode, 1, p.stderr)
+            self.assertIn(f"--tls_cert_file file '{junk.name}' holds no PEM "
+                          "certificate", p.stderr)
+            self.assertEqual(len(p.stderr.strip().splitlines()), 1, p.stderr)
 
     def test_a_second_server_on_the_same_port_fails(self):
         first = Server()
@@ -138,12 +171,117 @@ class StartupAndFlags(unittest.TestCase):
         finally:
             on.stop()
 
+    def test_reflection_needs_a_token_when_tokens_are_on(self):
+        with tempfile.NamedTemporaryFile("w") as tokens:
+            tokens.write("alice " + hashlib.sha256(b"s3cret").hexdigest() +
+                         "\n")
+            tokens.flush()
+            on = Server("--reflection", f"--auth_tokens_file={tokens.name}")
+            try:
+                self.assertEqual(list_services_by_reflection(on.target),
+                                 grpc.StatusCode.UNAUTHENTICATED)
+                self.assertEqual(
+                    list_services_by_reflection(
+                        on.target, [("authorization", "Bearer wrong")]),
+                    grpc.StatusCode.UNAUTHENTICATED)
+                reply = list_services_by_reflection(
+                    on.target, [("authorization", "Bearer s3cret")])
+                self.assertIsInstance(reply, bytes)
+                self.assertIn(b"meshgauge.v1.MeshGauge", reply)
+            finally:
+                on.stop()
+
     def test_open_mode_is_logged(self):
         s = Server()
         try:
             self.assertIn("UNAUTHENTICATED (open mode", s.stderr())
         finally:
             s.stop()
+
+
+def _varint(n):
+    out = b""
+    while True:
+        low, n = n & 0x7F, n >> 7
+        if not n:
+            return out + bytes([low])
+        out += bytes([low | 0x80])
+
+
+def _field(number, payload):
+    """A length-delimited protobuf field."""
+    return bytes([(number << 3) | 2]) + _varint(len(payload)) + payload
+
+
+def _memory_mib(pid):
+    """VmHWM (peak) and VmRSS of a process, in MiB."""
+    out = {}
+    with open(f"/proc/{pid}/status") as f:
+        for line in f:
+            key, value = line.split(":", 1)
+            if key in ("VmHWM", "VmRSS"):
+                out[key] = int(value.split()[0]) / 1024
+    return out
+
+
+class UploadMemory(unittest.TestCase):
+    """Upload amplification, measured from the server's /proc: a header
+    declaring 4 faces followed by chunks of packed face sizes (one byte each
+    on the wire, four once parsed). Stated bound: per upload in flight, at
+    most 6 x --max_upload_message_bytes above the idle server, and what a
+    refused upload used is given back."""
+
+    HEADER = _field(1, b"\x10\x03\x18\x04\x20\x04")  # 3D, 4 v, 4 f.
+    LIMIT_MIB = 16  # --max_upload_message_bytes' default.
+
+    def upload(self, target, chunk_bytes, results):
+        chunk = _field(2, _field(2, b"\x03" * chunk_bytes))
+        with grpc.insecure_channel(target) as channel:
+            call = channel.stream_unary(
+                "/meshgauge.v1.MeshGauge/CreateSession")
+            try:
+                call(iter([self.HEADER, chunk]), timeout=60)
+                results.append(("OK", ""))
+            except grpc.RpcError as e:
+                results.append((e.code(), e.details()))
+
+    def run_uploads(self, chunk_mib, count):
+        s = Server("--memory_budget_bytes=268435456")
+        try:
+            base = _memory_mib(s.proc.pid)
+            results = []
+            threads = [threading.Thread(target=self.upload,
+                                        args=(s.target, chunk_mib << 20,
+                                              results))
+                       for _ in range(count)]
+            for t in threads:
+                t.start()
+            for t in threads:
+                t.join()
+            time.sleep(0.3)
+            return base, _memory_mib(s.proc.pid), results
+        finally:
+            s.stop()
+
+    def test_oversized_chunks_are_refused_before_they_are_parsed(self):
+        base, after, results = self.run_uploads(64, 4)
+        for code, details in results:
+            self.assertEqual(code, grpc.StatusCode.RESOURCE_EXHAUSTED)
+            self.assertIn("--max_upload_message_bytes", details)
+        peak = after["VmHWM"] - base["VmRSS"]
+        print(f"4 uploads of 64 MiB chunks: peak +{peak:.0f} MiB, "
+              f"held +{after['VmRSS'] - base['VmRSS']:.0f} MiB")
+        self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
+        self.assertLess(after["VmRSS"] - base["VmRSS"], 64)
+
+    def test_chunks_over_the_declared_counts_are_refused_unstored(self):
+        base, after, results = self.run_uploads(12, 4)
+        for code, details in results:
+            self.assertEqual(code, grpc.StatusCode.INVALID_ARGUMENT)
+            self.assertIn("more than the declared 4 faces", details)
+        peak = after["VmHWM"] - base["VmRSS"]
+        print(f"4 uploads of 12 MiB chunks: peak +{peak:.0f} MiB")
+        self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
 
 
 class TlsAndTokens(unittest.TestCase):
