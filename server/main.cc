@@ -47,7 +47,7 @@ ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
           "largest gRPC message accepted or sent");
 ABSL_FLAG(int64_t, max_upload_message_bytes, 16ll << 20,
           "largest CreateSession message, checked before it is parsed "
-          "(<= --max_message_bytes)");
+          "(--max_message_bytes applies first)");
 ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
 ABSL_FLAG(int64_t, max_vertices, 5'000'000, "vertices per session");
 ABSL_FLAG(int64_t, max_faces, 10'000'000, "faces per session");

@@ -54,7 +54,7 @@ absl::Status ValidateServerOptions(const ServerOptions& o) {
   const absl::Status checks[] = {
       InRange<int64_t>("max_message_bytes", o.max_message_bytes, 4096, kInt32),
       InRange<int64_t>("max_upload_message_bytes",
-                       o.max_upload_message_bytes, 4096, o.max_message_bytes),
+                       o.max_upload_message_bytes, 4096, kInt32),
       InRange<int64_t>("max_sessions", o.max_sessions, 1, 1'000'000),
       InRange<int64_t>("max_vertices", o.max_vertices, 1, kInt32),
       InRange<int64_t>("max_faces", o.max_faces, 1, kInt32 / 2),

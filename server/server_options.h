@@ -22,8 +22,8 @@ struct ServerOptions {
   // "redis://HOST[:PORT]" keeps them in Redis, shared by every replica.
   std::string session_store;
   int64_t max_message_bytes = 256ll << 20;  // per gRPC message, both ways.
-  // Per CreateSession message, checked before it is parsed (<=
-  // max_message_bytes).
+  // Per CreateSession message, checked before it is parsed (gRPC refuses
+  // anything over max_message_bytes before that).
   int64_t max_upload_message_bytes = 16ll << 20;
   int64_t max_sessions = 64;                // sessions and uploads in flight.
   int64_t max_vertices = 5'000'000;         // per session.

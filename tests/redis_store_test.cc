@@ -343,6 +343,41 @@ TEST_F(RedisStoreTest, LimitsHoldOverAllReplicas) {
   EXPECT_TRUE(a_->client->Upload(mesh, "x3").ok());
 }
 
+// An upload in flight on one replica holds a slot of the tenant's limit on
+// every replica (claimed in Redis at its header), and gives it back when
+// it ends.
+TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
+  server::ServerOptions o;
+  o.max_sessions_per_tenant = 2;
+  Start(o);
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(a_->client->Upload(mesh, "x1").ok());
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = b_->client->stub().CreateSession(&ctx, &resp);
+  v1::CreateSessionRequest header;
+  header.mutable_header()->set_dimension(3);
+  header.mutable_header()->set_num_vertices(3);
+  header.mutable_header()->set_num_faces(1);
+  ASSERT_TRUE(w->Write(header));
+  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() == 0;
+       ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(b_->server->store().reserved_uploads(), 1);
+  auto refused = a_->client->Upload(mesh, "x2");
+  EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(refused.status().message()),
+              HasSubstr("uploads in flight"));
+  ctx.TryCancel();
+  w->Finish();
+  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() > 0;
+       ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_TRUE(a_->client->Upload(mesh, "x2").ok());
+}
+
 TEST_F(RedisStoreTest, IdleTtlIsGlobalAndSlides) {
   server::ServerOptions o;
   o.session_ttl_seconds = 1.5;

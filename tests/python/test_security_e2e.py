@@ -20,6 +20,7 @@ from meshgauge_client import MeshGaugeClient, MeshGaugeError
 
 SERVER = os.environ["MESHGAUGE_SERVER"]
 CLI = os.environ["MESHGAUGE_CLI"]
+SANITIZED = bool(os.environ.get("MESHGAUGE_SANITIZED"))
 HERE = os.path.dirname(os.path.abspath(__file__))
 REFLECTION = "/grpc.reflection.v1alpha.ServerReflection/ServerReflectionInfo"
 
@@ -264,14 +265,16 @@ class UploadMemory(unittest.TestCase):
             s.stop()
 
     def test_oversized_chunks_are_refused_before_they_are_parsed(self):
-        base, after, results = self.run_uploads(64, 4)
+        base, after, results = self.run_uploads(64, 8)
         for code, details in results:
             self.assertEqual(code, grpc.StatusCode.RESOURCE_EXHAUSTED)
             self.assertIn("--max_upload_message_bytes", details)
         peak = after["VmHWM"] - base["VmRSS"]
-        print(f"4 uploads of 64 MiB chunks: peak +{peak:.0f} MiB, "
+        print(f"8 uploads of 64 MiB chunks: peak +{peak:.0f} MiB, "
               f"held +{after['VmRSS'] - base['VmRSS']:.0f} MiB")
-        self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
+        if SANITIZED:
+            return  # ASan's shadow memory and quarantine change the sizes.
+        self.assertLess(peak, 8 * 6 * self.LIMIT_MIB)
         self.assertLess(after["VmRSS"] - base["VmRSS"], 64)
 
     def test_chunks_over_the_declared_counts_are_refused_unstored(self):
@@ -281,7 +284,8 @@ class UploadMemory(unittest.TestCase):
             self.assertIn("more than the declared 4 faces", details)
         peak = after["VmHWM"] - base["VmRSS"]
         print(f"4 uploads of 12 MiB chunks: peak +{peak:.0f} MiB")
-        self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
+        if not SANITIZED:
+            self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
 
 
 class TlsAndTokens(unittest.TestCase):
