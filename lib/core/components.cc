@@ -1,9 +1,8 @@
 #include "lib/core/components.h"
 
 #include <algorithm>
-#include <map>
+#include <array>
 #include <numeric>
-#include <unordered_map>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -16,103 +15,104 @@ int32_t Find(std::vector<int32_t>& parent, int32_t v) {
   return v;
 }
 
-uint64_t EdgeKey(int32_t a, int32_t b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<uint64_t>(static_cast<uint32_t>(a)) << 32) |
-         static_cast<uint32_t>(b);
-}
+// Components with closedness and signed volume, and the count of edges (2D:
+// vertices) used once, from one sort of the edge uses. Every face of an
+// edge is in the edge's vertex's component, so the edge's run decides that
+// component's closedness.
+struct Topology {
+  std::vector<Component> components;
+  int64_t boundary_edges = 0;
+};
 
-// Uses of each undirected edge (3D) or vertex (2D) by the faces.
-std::unordered_map<uint64_t, int> BoundaryUses(
-    const Mesh& mesh, absl::Span<const int32_t> faces) {
-  std::unordered_map<uint64_t, int> uses;
-  for (int32_t id : faces) {
-    const Face& f = mesh.faces[id];
-    if (f.size == 2) {
-      ++uses[static_cast<uint32_t>(f.v[0])];
-      ++uses[static_cast<uint32_t>(f.v[1])];
-      continue;
-    }
-    for (int k = 0; k < f.size; ++k)
-      ++uses[EdgeKey(f.v[k], f.v[(k + 1) % f.size])];
-  }
-  return uses;
-}
-
-}  // namespace
-
-std::vector<Component> ConnectedComponents(const Mesh& mesh) {
-  std::vector<int32_t> parent(mesh.num_vertices());
+Topology AnalyzeTopology(const Mesh& mesh) {
+  const int32_t nv = static_cast<int32_t>(mesh.num_vertices());
+  std::vector<int32_t> parent(nv);
   std::iota(parent.begin(), parent.end(), 0);
   for (const Face& f : mesh.faces) {
     for (int k = 1; k < f.size; ++k) {
       parent[Find(parent, f.v[k])] = Find(parent, f.v[0]);
     }
   }
-  std::unordered_map<int32_t, size_t> index;
-  std::vector<Component> out;
+  // Component index by root, in the order of each component's first face.
+  std::vector<int32_t> index(nv, -1);
+  Topology t;
   for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
-    const int32_t root = Find(parent, mesh.faces[id].v[0]);
-    auto [it, inserted] = index.try_emplace(root, out.size());
-    if (inserted) out.emplace_back();
-    out[it->second].faces.push_back(id);
+    int32_t& c = index[Find(parent, mesh.faces[id].v[0])];
+    if (c < 0) {
+      c = static_cast<int32_t>(t.components.size());
+      t.components.emplace_back().closed = true;
+    }
+    t.components[c].faces.push_back(id);
   }
-  for (Component& c : out) {
-    const auto uses = BoundaryUses(mesh, c.faces);
-    c.closed = std::all_of(uses.begin(), uses.end(),
-                           [](const auto& e) { return e.second == 2; });
+  const std::vector<uint64_t> keys = SortedEdgeUses(mesh);
+  for (size_t i = 0, j = 0; i < keys.size(); i = j) {
+    while (j < keys.size() && keys[j] == keys[i]) ++j;
+    if (j - i == 2) continue;
+    t.boundary_edges += j - i == 1;
+    const int32_t v = EdgeKeyVertex(keys[i], mesh.dimension);
+    t.components[index[Find(parent, v)]].closed = false;
+  }
+  for (Component& c : t.components) {
     c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
   }
-  return out;
+  return t;
+}
+
+// A polygon's corners in cyclic order starting at its smallest index
+// (padded with -1): equal for two faces exactly when they are the same
+// polygon with the same orientation.
+using CyclicKey = std::array<int32_t, 4>;
+
+CyclicKey Cyclic(const Face& f) {
+  const int start = static_cast<int>(
+      std::min_element(f.v.begin(), f.v.begin() + f.size) - f.v.begin());
+  CyclicKey key = {-1, -1, -1, -1};
+  for (int k = 0; k < f.size; ++k) key[k] = f.v[(start + k) % f.size];
+  return key;
+}
+
+// Faces that have another face with the same corners in the opposite
+// cyclic order (double-sided), by one sort of the faces' cyclic keys.
+int64_t CountDoubleSidedFaces(const Mesh& mesh) {
+  std::vector<CyclicKey> keys;
+  keys.reserve(mesh.faces.size());
+  for (const Face& f : mesh.faces) {
+    if (f.size > 2) keys.push_back(Cyclic(f));
+  }
+  std::sort(keys.begin(), keys.end());
+  int64_t count = 0;
+  for (const Face& f : mesh.faces) {
+    if (f.size == 2) continue;
+    Face reversed = f;
+    ReverseFace(reversed);
+    const CyclicKey want = Cyclic(reversed);
+    auto [lo, hi] = std::equal_range(keys.begin(), keys.end(), want);
+    // A face is never its own reverse unless a corner repeats.
+    const int64_t others = (hi - lo) - (want == Cyclic(f) ? 1 : 0);
+    count += others > 0;
+  }
+  return count;
+}
+
+}  // namespace
+
+std::vector<Component> ConnectedComponents(const Mesh& mesh) {
+  return AnalyzeTopology(mesh).components;
 }
 
 MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
   MeshDiagnostics d;
-  const std::vector<Component> components = ConnectedComponents(mesh);
-  d.components = std::ssize(components);
-  for (size_t i = 0; i < components.size(); ++i) {
-    const Component& c = components[i];
+  const Topology t = AnalyzeTopology(mesh);
+  d.components = std::ssize(t.components);
+  for (size_t i = 0; i < t.components.size(); ++i) {
+    const Component& c = t.components[i];
     if (c.closed && c.signed_volume < 0) {
       d.inward_components.push_back(static_cast<int64_t>(i));
       d.inward_component_faces.push_back(std::ssize(c.faces));
     }
   }
-  // Double-sided: a face whose sorted corners match another face's, with
-  // the opposite cyclic order.
-  std::map<std::vector<int32_t>, std::vector<int32_t>> by_corners;
-  for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
-    const Face& f = mesh.faces[id];
-    if (f.size == 2) continue;
-    std::vector<int32_t> key(f.v.begin(), f.v.begin() + f.size);
-    std::sort(key.begin(), key.end());
-    by_corners[key].push_back(id);
-  }
-  for (const auto& [key, ids] : by_corners) {
-    if (ids.size() < 2) continue;
-    for (int32_t a : ids) {
-      Face reversed = mesh.faces[a];
-      ReverseFace(reversed);
-      bool opposite = false;
-      for (int32_t b : ids) {
-        if (b == a) continue;
-        const Face& g = mesh.faces[b];
-        // Same cyclic sequence as `reversed`, up to rotation.
-        for (int r = 0; r < g.size && !opposite; ++r) {
-          bool same = true;
-          for (int k = 0; k < g.size && same; ++k) {
-            same = g.v[(k + r) % g.size] == reversed.v[k];
-          }
-          opposite = same;
-        }
-      }
-      d.double_sided_faces += opposite;
-    }
-  }
-  std::vector<int32_t> all(mesh.faces.size());
-  std::iota(all.begin(), all.end(), 0);
-  for (const auto& [key, uses] : BoundaryUses(mesh, all)) {
-    d.boundary_edges += uses == 1;
-  }
+  d.double_sided_faces = CountDoubleSidedFaces(mesh);
+  d.boundary_edges = t.boundary_edges;
   if (!d.inward_components.empty()) {
     d.warnings.push_back(absl::StrCat(
         d.inward_components.size(), " of ", d.components,

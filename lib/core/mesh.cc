@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <unordered_map>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -255,27 +254,37 @@ double SignedVolume(const Mesh& mesh) {
   return SignedVolumeOfFaces(mesh, all);
 }
 
-bool IsClosed(const Mesh& mesh) {
-  if (mesh.dimension == 2) {
-    std::vector<int> uses(mesh.positions.size(), 0);
-    for (const Face& f : mesh.faces) {
-      ++uses[f.v[0]];
-      ++uses[f.v[1]];
-    }
-    return std::all_of(uses.begin(), uses.end(),
-                       [](int u) { return u == 0 || u == 2; });
-  }
-  std::unordered_map<uint64_t, int> edge_uses;
+std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh) {
+  std::vector<uint64_t> keys;
+  keys.reserve(mesh.dimension == 2 ? 2 * mesh.faces.size()
+                                   : 4 * mesh.faces.size());
   for (const Face& f : mesh.faces) {
+    if (f.size == 2) {
+      keys.push_back(static_cast<uint32_t>(f.v[0]));
+      keys.push_back(static_cast<uint32_t>(f.v[1]));
+      continue;
+    }
     for (int k = 0; k < f.size; ++k) {
       uint64_t a = static_cast<uint32_t>(f.v[k]);
       uint64_t b = static_cast<uint32_t>(f.v[(k + 1) % f.size]);
       if (a > b) std::swap(a, b);
-      ++edge_uses[(a << 32) | b];
+      keys.push_back((a << 32) | b);
     }
   }
-  return std::all_of(edge_uses.begin(), edge_uses.end(),
-                     [](const auto& e) { return e.second == 2; });
+  std::sort(keys.begin(), keys.end());
+  return keys;
+}
+
+bool IsClosed(const Mesh& mesh) {
+  const std::vector<uint64_t> keys = SortedEdgeUses(mesh);
+  for (size_t i = 0; i < keys.size(); i += 2) {
+    // Every run has length exactly 2.
+    if (i + 1 >= keys.size() || keys[i + 1] != keys[i] ||
+        (i + 2 < keys.size() && keys[i + 2] == keys[i])) {
+      return false;
+    }
+  }
+  return true;
 }
 
 void ReverseFace(Face& f) {

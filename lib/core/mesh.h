@@ -104,6 +104,16 @@ double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces);
 // vertex (2D) by exactly two segments: the "closed" of shared/meshes/README.
 bool IsClosed(const Mesh& mesh);
 
+// One key per use of an undirected edge by a face (3D: the two corners,
+// smaller first, packed in 64 bits) or of a vertex by a segment (2D: the
+// vertex), sorted, so that a run of equal keys counts an edge's uses.
+// O(F log F) time on one flat array. Precondition: indices in range.
+std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh);
+// The (smaller) vertex of a SortedEdgeUses key.
+inline int32_t EdgeKeyVertex(uint64_t key, int dimension) {
+  return static_cast<int32_t>(dimension == 2 ? key : key >> 32);
+}
+
 // Reverses the orientation of every face: (a, b, c) -> (a, c, b) and
 // (a, b, c, d) -> (a, d, c, b), so a quad keeps its split diagonal a-c.
 void ReverseFaces(Mesh& mesh);
