@@ -15,6 +15,7 @@
 #include "lib/core/estimator.h"
 #include "lib/core/hit.h"
 #include "lib/core/normalized_sdf.h"
+#include "lib/core/spatial_order.h"
 #include "lib/core/vertex_cone.h"
 
 namespace meshgauge {
@@ -89,6 +90,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   ev->policy_ = options.bvh_policy;
   ev->generation_ = options.generation;
+  ev->order_ = MortonOrder(ev->mesh_.positions);
   if (absl::Status s = ev->RebuildBvh(); !s.ok()) return s;
   return ev;
 }
@@ -153,7 +155,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     std::vector<double> scratch;
     scratch.reserve(num_rays);
     int64_t traced = 0, world_frames = 0;
-    for (int64_t p = range.begin(); p < range.end(); ++p) {
+    for (int64_t i = range.begin(); i < range.end(); ++i) {
+      const int64_t p = order_[i];
       const auto one_ring = topo_.vertex_faces.Of(p);
       if (one_ring.empty()) {
         result.status[p] = VertexStatus::kNoFaces;

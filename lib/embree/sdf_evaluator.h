@@ -66,6 +66,10 @@ class SdfEvaluator : public MeshGeometry {
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   std::unique_ptr<RayScene> scene_;
+  // The ray pass visits vertices in this Morton order of the positions at
+  // creation (kept across updates; results stay in vertex order and do not
+  // depend on it).
+  std::vector<int32_t> order_;
 };
 
 }  // namespace meshgauge
