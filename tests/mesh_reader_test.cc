@@ -149,6 +149,41 @@ TEST(MeshReaderTest, ObjIndexFormsAndNegativeIndices) {
   EXPECT_EQ(r->mesh.faces[0].v, (std::array<int32_t, 4>{0, 1, 2, -1}));
 }
 
+// A tetrahedron: the same mesh however the three files spell it.
+void ExpectTetrahedron(const absl::StatusOr<io::MeshFile>& r) {
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(r->mesh.num_vertices(), 4);
+  EXPECT_EQ(r->mesh.positions[1].x, 1);
+  EXPECT_EQ(r->mesh.positions[3].z, 1);
+  ASSERT_EQ(r->mesh.num_faces(), 4);
+  EXPECT_EQ(r->mesh.faces[0].v, (std::array<int32_t, 4>{0, 2, 1, -1}));
+  EXPECT_EQ(r->mesh.faces[1].v, (std::array<int32_t, 4>{0, 1, 3, -1}));
+  EXPECT_EQ(r->mesh.faces[3].v, (std::array<int32_t, 4>{2, 0, 3, -1}));
+}
+
+// A UTF-8 byte-order mark used to hide the first vertex and shift every
+// face index by one.
+TEST(MeshReaderTest, ByteOrderMarkIsSkippedNotAVertexLost) {
+  ExpectTetrahedron(ReadMeshFile(Corpus("obj/bom_tetrahedron.obj")));
+  ExpectTetrahedron(ParseMeshContents(
+      "\xEF\xBB\xBFOFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n"
+      "3 0 1 3\n3 1 2 3\n3 2 0 3\n",
+      ".off", "t.off"));
+}
+
+TEST(MeshReaderTest, ObjLineContinuationJoinsTheNextLine) {
+  ExpectTetrahedron(ReadMeshFile(Corpus("obj/line_continuation.obj")));
+  // A face continued on a line of its own keeps the later line numbers.
+  EXPECT_THAT(Message(io::ParseObj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\\n2 3\n"
+                                   "f 1 2 9\n",
+                                   "t.obj")),
+              HasSubstr(": line 6: face 1 refers to vertex 8"));
+}
+
+TEST(MeshReaderTest, OffFaceAndVertexMaySpreadOverLines) {
+  ExpectTetrahedron(ReadMeshFile(Corpus("off/face_over_two_lines.off")));
+}
+
 TEST(MeshReaderTest, MalformedFaceTokenIsAnErrorNamingTheLine) {
   EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/malformed_texture_index.obj"))),
               HasSubstr(": line 5: '1/x' is not a vertex index"));

@@ -5,7 +5,9 @@
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/strip.h"
 #include "lib/io/readers.h"
+#include "lib/io/scan.h"
 
 namespace meshgauge {
 namespace {
@@ -36,6 +38,12 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
                                                const std::string& name) {
   const Parser parse = ParserFor(extension);
   if (!parse) return Unsupported(extension, name);
+  // A byte-order mark would hide the first statement of a text format (an
+  // OBJ would lose its first vertex and shift every index): skipped. A
+  // binary STL's 80-byte header may start with anything, so STL is read
+  // as it is.
+  const std::string ext = absl::AsciiStrToLower(extension);
+  if (ext != ".stl") absl::ConsumePrefix(&contents, io::kUtf8Bom);
   return parse(contents, name);
 }
 

@@ -1,5 +1,6 @@
 // Wavefront OBJ: `v` vertices (extra numbers such as w or colours are
-// parsed and ignored), `f` faces and `l` polylines (2D curves), `g ID` with
+// parsed and ignored), `f` faces and `l` polylines (2D curves; a statement
+// may continue on the next line after a backslash), `g ID` with
 // an integer ID sets the region of what follows. Every other statement
 // (vt, vn, mtllib, usemtl, o, s, ...) is ignored: no side file is opened.
 #include <vector>
@@ -38,7 +39,7 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
   // are built for the right dimension.
   bool has_f = false, has_l = false;
   {
-    TokenScanner scan(text, '#');
+    TokenScanner scan(text, '#', /*continuation=*/true);
     absl::string_view tok;
     while (scan.Next(&tok)) {
       has_f |= tok == "f";
@@ -54,7 +55,7 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
   }
   const int dimension = has_l ? 2 : 3;
   MeshBuilder builder(path, dimension);
-  TokenScanner scan(text, '#');
+  TokenScanner scan(text, '#', /*continuation=*/true);
   absl::string_view tok;
   std::vector<int64_t> corners;
   int32_t region = 0;

@@ -1,6 +1,9 @@
 // ASCII OFF (and COFF, NOFF, CNOFF: extra numbers per vertex are parsed and
-// ignored): a header, the counts "V F E", one vertex per line, then one face
-// per line "n i_1 ... i_n [colour]". Binary OFF is not supported.
+// ignored): a header, the counts "V F E", the vertices "x y z [colour]",
+// then the faces "n i_1 ... i_n [colour]"; coordinates and indices may
+// spread over lines (as libigl and others write long faces), a colour
+// stands on the line that ends its vertex or face. Binary OFF is not
+// supported.
 #include <vector>
 
 #include "absl/strings/str_cat.h"
@@ -57,8 +60,7 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
   for (int64_t v = 0; v < nv; ++v) {
     double xyz[3];
     for (int c = 0; c < 3; ++c) {
-      const bool got = c == 0 ? scan.Next(&tok) : scan.NextOnLine(&tok);
-      if (!got) {
+      if (!scan.Next(&tok)) {
         return LineError(
             path, scan.line(),
             absl::StrCat("vertex ", v, " of ", nv, ": expected 3 coordinates"));
@@ -96,9 +98,10 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
     corners.clear();
     for (int64_t k = 0; k < n; ++k) {
       int64_t index;
-      if (!scan.NextOnLine(&tok) || !ParseInt64(tok, &index)) {
+      // The indices may continue on the following lines.
+      if (!scan.Next(&tok) || !ParseInt64(tok, &index)) {
         return LineError(
-            path, line,
+            path, scan.line(),
             absl::StrCat("face ", f, ": expected ", n, " vertex indices"));
       }
       corners.push_back(index);

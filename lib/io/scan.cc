@@ -15,10 +15,23 @@ bool IsSpace(char c) {
 
 }  // namespace
 
+size_t TokenScanner::ContinuationAt(size_t at) const {
+  if (!continuation_ || at >= text_.size() || text_[at] != '\\') return 0;
+  if (at + 1 < text_.size() && text_[at + 1] == '\n') return 2;
+  if (at + 2 < text_.size() && text_[at + 1] == '\r' &&
+      text_[at + 2] == '\n') {
+    return 3;
+  }
+  return 0;
+}
+
 void TokenScanner::SkipSpace(bool cross_lines) {
   while (pos_ < text_.size()) {
     const char c = text_[pos_];
-    if (c == '\n') {
+    if (const size_t n = ContinuationAt(pos_); n > 0) {
+      pos_ += n;
+      ++line_;
+    } else if (c == '\n') {
       if (!cross_lines) return;
       ++line_;
       ++pos_;
@@ -42,7 +55,8 @@ bool TokenScanner::NextOnLine(absl::string_view* token) {
   if (pos_ >= text_.size() || text_[pos_] == '\n') return false;
   const size_t start = pos_;
   while (pos_ < text_.size() && !IsSpace(text_[pos_]) &&
-         !(comment_ != 0 && text_[pos_] == comment_)) {
+         !(comment_ != 0 && text_[pos_] == comment_) &&
+         ContinuationAt(pos_) == 0) {
     ++pos_;
   }
   *token = text_.substr(start, pos_ - start);
@@ -50,7 +64,14 @@ bool TokenScanner::NextOnLine(absl::string_view* token) {
 }
 
 void TokenScanner::SkipLine() {
-  while (pos_ < text_.size() && text_[pos_] != '\n') ++pos_;
+  while (pos_ < text_.size() && text_[pos_] != '\n') {
+    if (const size_t n = ContinuationAt(pos_); n > 0) {
+      pos_ += n;
+      ++line_;
+    } else {
+      ++pos_;
+    }
+  }
   if (pos_ < text_.size()) {
     ++pos_;
     ++line_;

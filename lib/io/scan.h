@@ -14,12 +14,19 @@
 
 namespace meshgauge::io {
 
+// A UTF-8 byte-order mark, which some editors write at the start of a text
+// file.
+inline constexpr absl::string_view kUtf8Bom = "\xEF\xBB\xBF";
+
 // Whitespace-separated tokens; `comment` starts a comment to the end of the
-// line (0: none). Every call advances, so a scan is O(text size).
+// line (0: none); with `continuation`, a backslash right before a line end
+// joins the next line to this one (OBJ). Every call advances, so a scan is
+// O(text size).
 class TokenScanner {
  public:
-  explicit TokenScanner(absl::string_view text, char comment = 0)
-      : text_(text), comment_(comment) {}
+  explicit TokenScanner(absl::string_view text, char comment = 0,
+                        bool continuation = false)
+      : text_(text), comment_(comment), continuation_(continuation) {}
   // The next token, or false at the end of the text.
   bool Next(absl::string_view* token);
   // The next token if it is on the current line (does not cross a newline).
@@ -32,8 +39,11 @@ class TokenScanner {
 
  private:
   void SkipSpace(bool cross_lines);
+  // The length of a line continuation ("\\\n" or "\\\r\n") at `at`, or 0.
+  size_t ContinuationAt(size_t at) const;
   absl::string_view text_;
   char comment_;
+  bool continuation_;
   size_t pos_ = 0;
   int64_t line_ = 1;
 };
