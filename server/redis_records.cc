@@ -35,10 +35,12 @@ local function live(z, prefix)
   end
   return n, bytes
 end
-local function claims(z, h, skip)
+local function now_ms()
   local t = redis.call('TIME')
-  local now = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
-  for _, m in ipairs(redis.call('ZRANGEBYSCORE', z, '-inf', now)) do
+  return tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
+end
+local function claims(z, h, skip)
+  for _, m in ipairs(redis.call('ZRANGEBYSCORE', z, '-inf', now_ms())) do
     redis.call('ZREM', z, m)
     if h then redis.call('HDEL', h, m) end
   end
@@ -77,9 +79,18 @@ end
 
 // KEYS: session hash, then kLimits's. ARGV: max sessions, max per tenant,
 // max bytes per tenant, bytes, hash prefix, token, ttl ms, then field/value
-// pairs. Returns {code, count}: 0 created, 1 exists, else as kLimits.
+// pairs (with the incarnation as 'inc'). Returns {code, count}: 0 created
+// (or created before by this same call), 1 exists, else as kLimits.
 constexpr char kCreateBody[] = R"lua(
-if redis.call('EXISTS', KEYS[1]) == 1 then return {1, 0} end
+if redis.call('EXISTS', KEYS[1]) == 1 then
+  -- This very creation, retried after its reply was lost: done.
+  for i = 8, #ARGV - 1, 2 do
+    if ARGV[i] == 'inc' and redis.call('HGET', KEYS[1], 'inc') == ARGV[i + 1] then
+      return {0, 0}
+    end
+  end
+  return {1, 0}
+end
 local refused = over(ARGV)
 if refused then return refused end
 unclaim(ARGV[6])
@@ -98,13 +109,19 @@ return {0, 0}
 constexpr char kReserveBody[] = R"lua(
 local refused = over(ARGV)
 if refused then return refused end
-local t = redis.call('TIME')
-local expiry = tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000) +
-               tonumber(ARGV[7])
+local expiry = now_ms() + tonumber(ARGV[7])
 redis.call('ZADD', KEYS[4], expiry, KEYS[5] .. '|' .. ARGV[6])
 redis.call('ZADD', KEYS[5], expiry, ARGV[6])
 redis.call('HSET', KEYS[6], ARGV[6], ARGV[4])
 return {0, 0}
+)lua";
+
+// KEYS: as kReserveBody's. ARGV: token at 6, ttl ms at 7.
+constexpr char kRenewBody[] = R"lua(
+local expiry = now_ms() + tonumber(ARGV[7])
+redis.call('ZADD', KEYS[4], 'XX', expiry, KEYS[5] .. '|' .. ARGV[6])
+redis.call('ZADD', KEYS[5], 'XX', expiry, ARGV[6])
+return 0
 )lua";
 
 // KEYS: as kReserveBody's. ARGV: token at 6.
@@ -312,7 +329,8 @@ absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Command(
   }
   std::string cause;
   // A pooled connection may have died with a Redis restart: one retry on a
-  // fresh one (every script is safe to repeat; see kCommit).
+  // fresh one (the scripts are safe to repeat: kCommit and kCreateBody
+  // recognise their own earlier run, claims are keyed by token).
   auto unavailable = [this](absl::Status s) {
     if (metrics_) metrics_->RecordSessionStoreError();
     return s;
@@ -428,6 +446,13 @@ absl::Status RedisRecords::Reserve(const std::string& tenant,
                 LimitArgs(tenant, limits, bytes, token, ttl_ms));
   if (!r.ok()) return r.status();
   return LimitStatus((*r)->reply, limits, bytes, "");
+}
+
+void RedisRecords::Renew(const std::string& tenant, const std::string& token,
+                         double ttl_seconds) {
+  const auto ttl_ms = static_cast<int64_t>(std::ceil(ttl_seconds * 1000));
+  (void)Eval(absl::StrCat(kLimits, kRenewBody), LimitKeys(tenant, ""),
+             LimitArgs(tenant, {}, 0, token, ttl_ms));
 }
 
 void RedisRecords::Unreserve(const std::string& tenant,

@@ -42,6 +42,8 @@ class RedisRecords : public SessionRecords {
   absl::Status Reserve(const std::string& tenant, const std::string& token,
                        int64_t bytes, const RecordLimits& limits,
                        double ttl_seconds) override;
+  void Renew(const std::string& tenant, const std::string& token,
+             double ttl_seconds) override;
   void Unreserve(const std::string& tenant, const std::string& token) override;
   absl::Status Create(const std::string& tenant, const SessionRecord& record,
                       const RecordLimits& limits,

@@ -11,13 +11,21 @@ using grpc::experimental::InterceptionHookPoints;
 
 class ReflectionGuard : public grpc::experimental::Interceptor {
  public:
-  explicit ReflectionGuard(const Authenticator* auth) : auth_(auth) {}
+  ReflectionGuard(const Authenticator* auth,
+                  grpc::experimental::ServerRpcInfo* info)
+      : auth_(auth), info_(info) {}
 
   void Intercept(grpc::experimental::InterceptorBatchMethods* m) override {
     if (m->QueryInterceptionHookPoint(
             InterceptionHookPoints::POST_RECV_INITIAL_METADATA)) {
       auto tenant = auth_->AuthenticateMetadata(*m->GetRecvInitialMetadata());
-      if (!tenant.ok()) refusal_ = std::string(tenant.status().message());
+      if (!tenant.ok()) {
+        refusal_ = std::string(tenant.status().message());
+        // gRPC's reflection handler reads until the client half-closes; a
+        // client that keeps its stream open would wait for ever, holding a
+        // thread: the call is ended now (such a client sees CANCELLED).
+        info_->server_context()->TryCancel();
+      }
     }
     if (!refusal_.empty()) {
       if (m->QueryInterceptionHookPoint(
@@ -35,6 +43,7 @@ class ReflectionGuard : public grpc::experimental::Interceptor {
 
  private:
   const Authenticator* auth_;
+  grpc::experimental::ServerRpcInfo* info_;
   std::string refusal_;
 };
 
@@ -43,7 +52,7 @@ class ReflectionGuard : public grpc::experimental::Interceptor {
 grpc::experimental::Interceptor* ReflectionGuardFactory::CreateServerInterceptor(
     grpc::experimental::ServerRpcInfo* info) {
   if (!absl::StartsWith(info->method(), "/grpc.reflection.")) return nullptr;
-  return new ReflectionGuard(auth_);
+  return new ReflectionGuard(auth_, info);
 }
 
 }  // namespace meshgauge::server

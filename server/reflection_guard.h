@@ -1,7 +1,8 @@
 // gRPC server reflection is gRPC's own service, outside MeshGaugeService
 // and its authentication. With tokens on, this interceptor lets only
-// authenticated callers read the schema: for any other caller every reply
-// message is emptied and the call ends UNAUTHENTICATED.
+// authenticated callers read the schema: for any other caller the call is
+// cancelled at once, every reply it may still send is emptied, and its
+// status (when the client half-closed first) is UNAUTHENTICATED.
 #pragma once
 
 #include <grpcpp/support/server_interceptor.h>

@@ -27,7 +27,9 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag,
   BIO* bio = BIO_new_mem_buf(text->data(), static_cast<int>(text->size()));
   bool ok = false;
   if (key) {
-    EVP_PKEY* k = PEM_read_bio_PrivateKey(bio, nullptr, nullptr, nullptr);
+    // No passphrase prompt: an encrypted key is refused, not asked about.
+    pem_password_cb* no_passphrase = [](char*, int, int, void*) { return 0; };
+    EVP_PKEY* k = PEM_read_bio_PrivateKey(bio, nullptr, no_passphrase, nullptr);
     ok = k != nullptr;
     EVP_PKEY_free(k);
   } else {
@@ -40,7 +42,7 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag,
   if (!ok) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--", flag, " file '", path, "' holds no PEM ",
-        key ? "private key" : "certificate"));
+        key ? "private key (unencrypted)" : "certificate"));
   }
   return text;
 }

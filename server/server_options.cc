@@ -23,11 +23,13 @@ absl::Status CheckListenAddress(const std::string& address) {
     return absl::InvalidArgumentError(absl::StrCat(
         "--address '", address, "' ", why,
         ": use HOST:PORT, [IPV6]:PORT (PORT in [0, 65535], 0: any free "
-        "port) or unix:PATH"));
+        "port), unix:PATH, unix-abstract:NAME or vsock:CID:PORT"));
   };
   absl::string_view a = address;
-  if (absl::ConsumePrefix(&a, "unix:")) {
-    return a.empty() ? bad("has no path") : absl::OkStatus();
+  for (absl::string_view scheme : {"unix:", "unix-abstract:", "vsock:"}) {
+    if (absl::ConsumePrefix(&a, scheme)) {
+      return a.empty() ? bad("has nothing after its scheme") : absl::OkStatus();
+    }
   }
   const size_t colon = a.rfind(':');
   if (colon == absl::string_view::npos) return bad("has no port");

@@ -63,8 +63,9 @@ struct ServerOptions {
 absl::Status ValidateServerOptions(const ServerOptions& options);
 
 // A listen address: HOST:PORT or [IPV6]:PORT with a host and a decimal
-// port in [0, 65535] (0: any free port), or unix:PATH. InvalidArgument
-// naming --address and the expected form.
+// port in [0, 65535] (0: any free port), or one of gRPC's unix:PATH,
+// unix-abstract:NAME, vsock:CID:PORT. InvalidArgument naming --address and
+// the expected form.
 absl::Status CheckListenAddress(const std::string& address);
 
 }  // namespace meshgauge::server

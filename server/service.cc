@@ -18,6 +18,8 @@ namespace meshgauge::server {
 namespace {
 
 constexpr int kDefaultChunkVertices = 16384;
+// A refused upload that received more than this returns its memory.
+constexpr int64_t kTrimAfterBytes = 16ll << 20;
 constexpr int kMaxChunkVertices = 65536;
 
 const char* CodeName(grpc::StatusCode code) {
@@ -191,13 +193,16 @@ grpc::Status MeshGaugeService::BoundedCreateSession(
       "CreateSession", ctx, [&](const std::string& tenant) -> absl::Status {
         auto upload = uploads_->Start(ctx);
         if (!upload.ok()) return upload.status();
-        absl::Status s = ReceiveUpload(ctx, reader, tenant, *upload, response);
+        int64_t received = 0;
+        absl::Status s =
+            ReceiveUpload(ctx, reader, tenant, *upload, response, &received);
         if (absl::Status aborted = uploads_->Finish(*upload); !aborted.ok()) {
           s = aborted;
         }
-        // A refused upload may have buffered up to a message of data: give
-        // the freed pages back to the system.
-        if (!s.ok()) malloc_trim(0);
+        // A refused upload that buffered much: give the freed pages back to
+        // the system (trimming takes every arena's lock, so not for small
+        // ones).
+        if (!s.ok() && received > kTrimAfterBytes) malloc_trim(0);
         return s;
       });
 }
@@ -205,12 +210,13 @@ grpc::Status MeshGaugeService::BoundedCreateSession(
 absl::Status MeshGaugeService::ReceiveUpload(
     grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     const std::string& tenant, int64_t upload,
-    v1::CreateSessionResponse* response) {
+    v1::CreateSessionResponse* response, int64_t* received) {
   MeshAssembler assembler(options_);
   UploadReservation ticket;
   bool reserved = false;
   UploadMessage message(options_.max_upload_message_bytes);
   while (reader->Read(&message)) {
+    *received += message.received_bytes;
     if (message.too_large) {
       return absl::ResourceExhaustedError(absl::StrCat(
           "CreateSession: a message of ", message.received_bytes,

@@ -5,10 +5,17 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
-#include "lib/core/components.h"
 
 namespace meshgauge::server {
 namespace {
+
+// What a record keeps of the diagnostics at upload.
+MeshDiagnostics RecordedDiagnostics(const wire::SessionInfo& info) {
+  MeshDiagnostics d;
+  d.closed = info.closed;
+  d.warnings = info.warnings;
+  return d;
+}
 
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
@@ -60,8 +67,7 @@ Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
       num_vertices_(mesh.num_vertices()),
       num_faces_(mesh.num_faces()),
       signed_volume_(SignedVolume(mesh)),
-      closed_(IsClosed(mesh)),
-      warnings_(DiagnoseMesh(mesh).warnings),
+      diagnostics_(DiagnoseMesh(mesh)),
       base_bytes_(EstimateBaseBytes(mesh)),
       pending_mesh_(std::move(mesh)),
       last_used_(now) {}
@@ -76,8 +82,7 @@ Session::Session(SessionRecord record, const ServerOptions& options,
       num_vertices_(record.info.num_vertices),
       num_faces_(record.info.num_faces),
       signed_volume_(record.info.signed_volume),
-      closed_(record.info.closed),
-      warnings_(std::move(record.info.warnings)),
+      diagnostics_(RecordedDiagnostics(record.info)),
       base_bytes_(record.info.memory_bytes),
       pending_mesh_(std::move(record.mesh)),
       generation_(record.info.generation),
@@ -96,8 +101,8 @@ wire::SessionInfo Session::Info() const {
   info.num_faces = num_faces_;
   info.memory_bytes = base_bytes_;
   info.signed_volume = signed_volume_;
-  info.closed = closed_;
-  info.warnings = warnings_;
+  info.closed = diagnostics_.closed;
+  info.warnings = diagnostics_.warnings;
   info.generation = generation_;
   return info;
 }

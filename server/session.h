@@ -16,6 +16,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
+#include "lib/core/components.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "proto/wire/types.h"
 #include "server/metrics.h"
@@ -112,8 +113,8 @@ class Session {
   const int dimension_;
   const int64_t num_vertices_, num_faces_;
   const double signed_volume_;
-  const bool closed_;
-  const std::vector<std::string> warnings_;
+  // At upload (or from the record): closed and the warnings are used.
+  const MeshDiagnostics diagnostics_;
   const int64_t base_bytes_;
   mutable std::shared_mutex mu_;
   // Until the evaluator takes them: the mesh at the BVH base and, when they

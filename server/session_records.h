@@ -62,14 +62,17 @@ class SessionRecords {
   virtual std::string Describe() const = 0;
 
   // Claims a session slot and `bytes` of the tenant's budget for an upload
-  // in flight, under `token` (unique), for at most `ttl_seconds` (so a
-  // replica that dies mid-upload holds nothing for long). The limits count
+  // in flight, under `token` (unique), for `ttl_seconds` unless renewed
+  // (so a replica that dies mid-upload holds nothing for long). The limits count
   // records and live claims of every replica. Errors: RESOURCE_EXHAUSTED
   // naming the limit, UNAVAILABLE.
   virtual absl::Status Reserve(const std::string& tenant,
                                const std::string& token, int64_t bytes,
                                const RecordLimits& limits,
                                double ttl_seconds) = 0;
+  // Extends a live claim to `ttl_seconds` from now (best effort).
+  virtual void Renew(const std::string& tenant, const std::string& token,
+                     double ttl_seconds) = 0;
   // Drops a claim (best effort: an unreachable store lets it expire).
   virtual void Unreserve(const std::string& tenant,
                          const std::string& token) = 0;

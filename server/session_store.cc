@@ -79,7 +79,6 @@ RecordLimits SessionStore::Limits() const {
 
 absl::StatusOr<UploadReservation> SessionStore::Reserve(
     const std::string& tenant, int64_t bytes) {
-  const bool tenant_budget = options_.memory_budget_bytes_per_tenant > 0;
   if (bytes > options_.memory_budget_bytes ||
       bytes > options_.BudgetPerTenant()) {
     return absl::ResourceExhaustedError(absl::StrCat(
@@ -89,20 +88,39 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
         " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
   }
   UploadReservation r;
+  r.tenant_ = tenant;
+  r.bytes_ = bytes;
   if (records_) {
-    // The slot is claimed in the records, over all replicas, until the
-    // upload's deadline at the latest.
+    // The slot is claimed in the records, over all replicas, for a while
+    // that every arriving message renews (Arrive).
     r.token_ = NewIncarnation();
     if (absl::Status s = records_->Reserve(tenant, r.token_, bytes, Limits(),
-                                           options_.upload_deadline_seconds);
+                                           ClaimSeconds());
         !s.ok()) {
       return s;
     }
+    r.renewed_at_ = clock_->NowSeconds();
   }
+  if (absl::Status s = ClaimLocally(&r); !s.ok()) {
+    if (records_) records_->Unreserve(tenant, r.token_);  // not under mu_.
+    return s;
+  }
+  return r;
+}
+
+double SessionStore::ClaimSeconds() const {
+  return std::min(options_.upload_deadline_seconds,
+                  2 * options_.upload_idle_seconds);
+}
+
+absl::Status SessionStore::ClaimLocally(UploadReservation* r) {
+  const std::string& tenant = r->tenant_;
+  const int64_t bytes = r->bytes_;
   std::lock_guard<std::mutex> lock(mu_);
   Reserved& mine = reserved_[tenant];
   absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
-  if (refused.ok() && !records_ && tenant_budget &&
+  if (refused.ok() && !records_ &&
+      options_.memory_budget_bytes_per_tenant > 0 &&
       TenantBytesLocked(tenant) + mine.bytes + bytes >
           options_.BudgetPerTenant()) {
     refused = absl::ResourceExhaustedError(absl::StrCat(
@@ -118,18 +136,15 @@ absl::StatusOr<UploadReservation> SessionStore::Reserve(
   }
   if (!refused.ok()) {
     if (mine.uploads == 0) reserved_.erase(tenant);
-    if (records_) records_->Unreserve(tenant, r.token_);
     return refused;
   }
   ++mine.uploads;
   mine.bytes += bytes;
   ++reserved_total_.uploads;
   reserved_total_.bytes += bytes;
-  r.store_ = this;
-  r.tenant_ = tenant;
-  r.bytes_ = bytes;
+  r->store_ = this;
   PublishLocked();
-  return r;
+  return absl::OkStatus();
 }
 
 void SessionStore::Release(UploadReservation* r) {
@@ -153,6 +168,15 @@ void SessionStore::ReleaseLocked(UploadReservation* r) {
 }
 
 absl::Status SessionStore::Arrive(UploadReservation* r, int64_t bytes) {
+  if (records_ && !r->token_.empty()) {
+    const double now = clock_->NowSeconds();
+    if (now - r->renewed_at_ > options_.upload_idle_seconds / 2) {
+      records_->Renew(r->tenant_, r->token_, ClaimSeconds());
+      r->renewed_at_ = now;
+    }
+  }
+  // What was reserved bounds what may evict (the estimate covers the data).
+  bytes = std::min(bytes, r->bytes_);
   std::lock_guard<std::mutex> lock(mu_);
   const int64_t delta = bytes - r->arrived_;
   r->arrived_ = bytes;

@@ -55,13 +55,14 @@ class UploadReservation {
   // The upload now buffers `bytes` in all: evicts (see SessionStore) to
   // make room for them. RESOURCE_EXHAUSTED when the budget cannot hold
   // them (other uploads' data fill it).
-  absl::Status Arrived(int64_t bytes);
+  absl::Status Arrived(int64_t bytes);  // also renews the claim.
 
  private:
   friend class SessionStore;
   SessionStore* store_ = nullptr;
   std::string tenant_;
   std::string token_;  // the claim in the records, if any.
+  double renewed_at_ = 0;  // when the claim was last made or renewed.
   int64_t bytes_ = 0;
   int64_t arrived_ = 0;
 };
@@ -135,6 +136,10 @@ class SessionStore {
   absl::StatusOr<std::shared_ptr<Session>> GetRecorded(
       const std::string& tenant, const std::string& id, bool touch);
   RecordLimits Limits() const;
+  // How long a claim in the records lives unless renewed.
+  double ClaimSeconds() const;
+  // The local half of Reserve (counts, budgets) under mu_; sets r->store_.
+  absl::Status ClaimLocally(UploadReservation* r);
   absl::Status CheckCountLimitsLocked(const std::string& tenant,
                                       int64_t tenant_uploads) const;
   void EvictLocked(Map::iterator it, const std::string& reason);

@@ -378,6 +378,56 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
   EXPECT_TRUE(a_->client->Upload(mesh, "x2").ok());
 }
 
+// A claim lives twice --upload_idle_seconds unless a message renews it: a
+// slow but live upload keeps its slot past that, on every replica.
+TEST_F(RedisStoreTest, ALiveUploadRenewsItsClaim) {
+  server::ServerOptions o;
+  o.max_sessions_per_tenant = 1;
+  o.upload_idle_seconds = 0.4;  // claims live 0.8 s unless renewed.
+  o.upload_min_bytes_per_second = 0;
+  Start(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = b_->client->stub().CreateSession(&ctx, &resp);
+  v1::CreateSessionRequest header;
+  header.mutable_header()->set_dimension(3);
+  header.mutable_header()->set_num_vertices(1000);
+  header.mutable_header()->set_num_faces(1000);
+  ASSERT_TRUE(w->Write(header));
+  v1::CreateSessionRequest vertex;
+  for (int i = 0; i < 3; ++i) vertex.mutable_chunk()->add_positions(0.5);
+  for (int i = 0; i < 10; ++i) {  // 2 s of messages every 0.2 s.
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    ASSERT_TRUE(w->Write(vertex));
+  }
+  auto refused = a_->client->Upload(Knight(), "late");
+  EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
+  ctx.TryCancel();
+  w->Finish();
+}
+
+// A creation retried after its reply was lost (same incarnation) succeeds
+// again instead of leaving an orphan; another incarnation is ALREADY_EXISTS.
+TEST_F(RedisStoreTest, RetriedCreateIsIdempotent) {
+  server::RedisOptions ro;
+  ASSERT_TRUE(server::ParseRedisUrl(redis_.url(), &ro).ok());
+  server::RedisRecords records(ro);
+  server::SessionRecord rec;
+  rec.mesh = MakeIcosphere(1.0, 1);
+  rec.info.session_id = "again";
+  rec.info.dimension = 3;
+  rec.info.num_vertices = rec.mesh.num_vertices();
+  rec.info.num_faces = rec.mesh.num_faces();
+  rec.info.memory_bytes = 1000;
+  rec.incarnation = "one";
+  const server::RecordLimits limits{10, 10, 1 << 30};
+  ASSERT_TRUE(records.Create("", rec, limits, "").ok());
+  EXPECT_TRUE(records.Create("", rec, limits, "").ok());
+  rec.incarnation = "two";
+  EXPECT_EQ(records.Create("", rec, limits, "").code(),
+            absl::StatusCode::kAlreadyExists);
+}
+
 TEST_F(RedisStoreTest, IdleTtlIsGlobalAndSlides) {
   server::ServerOptions o;
   o.session_ttl_seconds = 1.5;

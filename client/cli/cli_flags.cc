@@ -223,7 +223,7 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   for (const std::string& w : loaded.diagnostics.warnings) {
     loaded.warnings.push_back(w);
   }
-  loaded.closed = IsClosed(loaded.mesh);
+  loaded.closed = loaded.diagnostics.closed;
   loaded.signed_volume = SignedVolume(loaded.mesh);
   return loaded;
 }

@@ -22,6 +22,7 @@ int32_t Find(std::vector<int32_t>& parent, int32_t v) {
 struct Topology {
   std::vector<Component> components;
   int64_t boundary_edges = 0;
+  bool closed = true;
 };
 
 Topology AnalyzeTopology(const Mesh& mesh) {
@@ -48,6 +49,7 @@ Topology AnalyzeTopology(const Mesh& mesh) {
   for (size_t i = 0, j = 0; i < keys.size(); i = j) {
     while (j < keys.size() && keys[j] == keys[i]) ++j;
     if (j - i == 2) continue;
+    t.closed = false;
     t.boundary_edges += j - i == 1;
     const int32_t v = EdgeKeyVertex(keys[i], mesh.dimension);
     t.components[index[Find(parent, v)]].closed = false;
@@ -104,6 +106,7 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
   MeshDiagnostics d;
   const Topology t = AnalyzeTopology(mesh);
   d.components = std::ssize(t.components);
+  d.closed = t.closed;
   for (size_t i = 0; i < t.components.size(); ++i) {
     const Component& c = t.components[i];
     if (c.closed && c.signed_volume < 0) {

@@ -23,6 +23,8 @@ std::vector<Component> ConnectedComponents(const Mesh& mesh);
 
 struct MeshDiagnostics {
   int64_t components = 0;
+  // Every edge (2D: every used vertex) used exactly twice (IsClosed).
+  bool closed = false;
   // Closed components with negative signed volume (faces point into the
   // solid), by index in ConnectedComponents order, with their face counts.
   std::vector<int64_t> inward_components;
