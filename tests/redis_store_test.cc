@@ -70,6 +70,34 @@ class RedisStoreTest : public ::testing::Test {
     o.session_store = "";
     memory_ = std::make_unique<Replica>(o);
   }
+  // Options of a RedisRecords on the test's Redis.
+  server::RedisOptions RecordsOptions() const {
+    server::RedisOptions ro;
+    EXPECT_TRUE(server::ParseRedisUrl(redis_.url(), &ro).ok());
+    return ro;
+  }
+  // A small record (an icosphere) for the records' own tests.
+  static server::SessionRecord SmallRecord(const std::string& id,
+                                           const std::string& incarnation) {
+    server::SessionRecord rec;
+    rec.mesh = MakeIcosphere(1.0, 1);
+    rec.info.session_id = id;
+    rec.info.dimension = 3;
+    rec.info.num_vertices = rec.mesh.num_vertices();
+    rec.info.num_faces = rec.mesh.num_faces();
+    rec.info.memory_bytes = 1000;
+    rec.incarnation = incarnation;
+    return rec;
+  }
+  static constexpr server::RecordLimits kRoomy{10, 10, 1 << 30};
+  // The first message of a raw 3D upload.
+  static v1::CreateSessionRequest UploadHeader(int64_t nv, int64_t nf) {
+    v1::CreateSessionRequest r;
+    r.mutable_header()->set_dimension(3);
+    r.mutable_header()->set_num_vertices(nv);
+    r.mutable_header()->set_num_faces(nf);
+    return r;
+  }
   testing::RedisProcess redis_;
   std::unique_ptr<Replica> a_, b_, memory_;
 };
@@ -221,20 +249,9 @@ TEST_F(RedisStoreTest, ReCreatedSessionIsNeverServedOrWrittenFromAStaleCache) {
 // another incarnation (the session was deleted and created again between
 // a replica's read and its commit).
 TEST_F(RedisStoreTest, CommitToAnotherIncarnationIsAborted) {
-  server::RedisOptions ro;
-  ASSERT_TRUE(server::ParseRedisUrl(redis_.url(), &ro).ok());
-  server::RedisRecords records(ro);
-  server::SessionRecord rec;
-  rec.mesh = MakeIcosphere(1.0, 1);
-  rec.info = {.session_id = "inc",
-              .dimension = 3,
-              .num_vertices = rec.mesh.num_vertices(),
-              .num_faces = rec.mesh.num_faces(),
-              .memory_bytes = 1000,
-              .warnings = {}};
-  rec.incarnation = "first";
-  const server::RecordLimits limits{10, 10, 1 << 30};
-  ASSERT_TRUE(records.Create("", rec, limits, "").ok());
+  server::RedisRecords records(RecordsOptions());
+  server::SessionRecord rec = SmallRecord("inc", "first");
+  ASSERT_TRUE(records.Create("", rec, kRoomy, "").ok());
   auto version = records.Version("", "inc", false);
   ASSERT_TRUE(version.ok());
   EXPECT_EQ(version->incarnation, "first");
@@ -355,11 +372,7 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
   grpc::ClientContext ctx;
   v1::CreateSessionResponse resp;
   auto w = b_->client->stub().CreateSession(&ctx, &resp);
-  v1::CreateSessionRequest header;
-  header.mutable_header()->set_dimension(3);
-  header.mutable_header()->set_num_vertices(3);
-  header.mutable_header()->set_num_faces(1);
-  ASSERT_TRUE(w->Write(header));
+  ASSERT_TRUE(w->Write(UploadHeader(3, 1)));
   for (int i = 0; i < 200 && b_->server->store().reserved_uploads() == 0;
        ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -389,11 +402,7 @@ TEST_F(RedisStoreTest, ALiveUploadRenewsItsClaim) {
   grpc::ClientContext ctx;
   v1::CreateSessionResponse resp;
   auto w = b_->client->stub().CreateSession(&ctx, &resp);
-  v1::CreateSessionRequest header;
-  header.mutable_header()->set_dimension(3);
-  header.mutable_header()->set_num_vertices(1000);
-  header.mutable_header()->set_num_faces(1000);
-  ASSERT_TRUE(w->Write(header));
+  ASSERT_TRUE(w->Write(UploadHeader(1000, 1000)));
   v1::CreateSessionRequest vertex;
   for (int i = 0; i < 3; ++i) vertex.mutable_chunk()->add_positions(0.5);
   for (int i = 0; i < 10; ++i) {  // 2 s of messages every 0.2 s.
@@ -409,22 +418,12 @@ TEST_F(RedisStoreTest, ALiveUploadRenewsItsClaim) {
 // A creation retried after its reply was lost (same incarnation) succeeds
 // again instead of leaving an orphan; another incarnation is ALREADY_EXISTS.
 TEST_F(RedisStoreTest, RetriedCreateIsIdempotent) {
-  server::RedisOptions ro;
-  ASSERT_TRUE(server::ParseRedisUrl(redis_.url(), &ro).ok());
-  server::RedisRecords records(ro);
-  server::SessionRecord rec;
-  rec.mesh = MakeIcosphere(1.0, 1);
-  rec.info.session_id = "again";
-  rec.info.dimension = 3;
-  rec.info.num_vertices = rec.mesh.num_vertices();
-  rec.info.num_faces = rec.mesh.num_faces();
-  rec.info.memory_bytes = 1000;
-  rec.incarnation = "one";
-  const server::RecordLimits limits{10, 10, 1 << 30};
-  ASSERT_TRUE(records.Create("", rec, limits, "").ok());
-  EXPECT_TRUE(records.Create("", rec, limits, "").ok());
+  server::RedisRecords records(RecordsOptions());
+  server::SessionRecord rec = SmallRecord("again", "one");
+  ASSERT_TRUE(records.Create("", rec, kRoomy, "").ok());
+  EXPECT_TRUE(records.Create("", rec, kRoomy, "").ok());
   rec.incarnation = "two";
-  EXPECT_EQ(records.Create("", rec, limits, "").code(),
+  EXPECT_EQ(records.Create("", rec, kRoomy, "").code(),
             absl::StatusCode::kAlreadyExists);
 }
 

@@ -261,7 +261,10 @@ class UploadMemory(unittest.TestCase):
             except grpc.RpcError as e:
                 results.append((e.code(), e.details()))
 
-    def run_uploads(self, chunk_mib, count):
+    def run_uploads(self, chunk_mib, count, code, detail):
+        """count concurrent uploads of one chunk_mib chunk each, every one
+        refused with code and detail; the server's peak and held memory
+        above its idle size, in MiB."""
         s = Server("--memory_budget_bytes=268435456")
         try:
             base = _memory_mib(s.proc.pid)
@@ -275,30 +278,31 @@ class UploadMemory(unittest.TestCase):
             for t in threads:
                 t.join()
             time.sleep(0.3)
-            return base, _memory_mib(s.proc.pid), results
+            after = _memory_mib(s.proc.pid)
         finally:
             s.stop()
+        self.assertEqual(len(results), count)
+        for got, details in results:
+            self.assertEqual(got, code)
+            self.assertIn(detail, details)
+        peak = after["VmHWM"] - base["VmRSS"]
+        held = after["VmRSS"] - base["VmRSS"]
+        print(f"{count} uploads of {chunk_mib} MiB chunks: peak +{peak:.0f} "
+              f"MiB, held +{held:.0f} MiB")
+        return peak, held
 
     def test_oversized_chunks_are_refused_before_they_are_parsed(self):
-        base, after, results = self.run_uploads(64, 8)
-        for code, details in results:
-            self.assertEqual(code, grpc.StatusCode.RESOURCE_EXHAUSTED)
-            self.assertIn("--max_upload_message_bytes", details)
-        peak = after["VmHWM"] - base["VmRSS"]
-        print(f"8 uploads of 64 MiB chunks: peak +{peak:.0f} MiB, "
-              f"held +{after['VmRSS'] - base['VmRSS']:.0f} MiB")
+        peak, held = self.run_uploads(64, 8,
+                                      grpc.StatusCode.RESOURCE_EXHAUSTED,
+                                      "--max_upload_message_bytes")
         if SANITIZED:
             return  # ASan's shadow memory and quarantine change the sizes.
         self.assertLess(peak, 8 * 6 * self.LIMIT_MIB)
-        self.assertLess(after["VmRSS"] - base["VmRSS"], 64)
+        self.assertLess(held, 64)
 
     def test_chunks_over_the_declared_counts_are_refused_unstored(self):
-        base, after, results = self.run_uploads(12, 4)
-        for code, details in results:
-            self.assertEqual(code, grpc.StatusCode.INVALID_ARGUMENT)
-            self.assertIn("more than the declared 4 faces", details)
-        peak = after["VmHWM"] - base["VmRSS"]
-        print(f"4 uploads of 12 MiB chunks: peak +{peak:.0f} MiB")
+        peak, _ = self.run_uploads(12, 4, grpc.StatusCode.INVALID_ARGUMENT,
+                                   "more than the declared 4 faces")
         if not SANITIZED:
             self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
 
