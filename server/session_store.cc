@@ -33,6 +33,7 @@ UploadReservation& UploadReservation::operator=(
     store_ = std::exchange(o.store_, nullptr);
     tenant_ = std::move(o.tenant_);
     token_ = std::move(o.token_);
+    renewed_at_ = o.renewed_at_;
     bytes_ = std::exchange(o.bytes_, 0);
     arrived_ = std::exchange(o.arrived_, 0);
   }
