@@ -1,8 +1,10 @@
 #include "server/mesh_upload.h"
 
+#include <google/protobuf/io/coded_stream.h>
 #include <grpcpp/impl/codegen/proto_utils.h>
 #include <grpcpp/support/proto_buffer_reader.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -248,14 +250,69 @@ absl::StatusOr<Mesh> MeshAssembler::Finish() {
 
 }  // namespace meshgauge::server
 
+namespace meshgauge::server {
+namespace {
+
+// The largest length-delimited top-level field `field` of a serialized
+// message (0 when absent), read from its wire bytes without parsing them;
+// -1 when they are malformed (the parser then says so).
+int64_t LargestField(grpc::ByteBuffer* buffer, uint32_t field) {
+  grpc::ProtoBufferReader reader(buffer);
+  google::protobuf::io::CodedInputStream in(&reader);
+  int64_t largest = 0;
+  while (const uint32_t tag = in.ReadTag()) {
+    uint64_t u64 = 0;
+    uint32_t u32 = 0;
+    bool ok = false;
+    switch (tag & 7) {
+      case 0:
+        ok = in.ReadVarint64(&u64);
+        break;
+      case 1:
+        ok = in.ReadLittleEndian64(&u64);
+        break;
+      case 5:
+        ok = in.ReadLittleEndian32(&u32);
+        break;
+      case 2:
+        ok = in.ReadVarint32(&u32) && in.Skip(static_cast<int>(u32));
+        if (ok && tag >> 3 == field) {
+          largest = std::max<int64_t>(largest, u32);
+        }
+        break;
+      default:
+        break;
+    }
+    if (!ok) return -1;
+  }
+  return largest;
+}
+
+}  // namespace
+}  // namespace meshgauge::server
+
 grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
                                        void>::Deserialize(
     grpc::ByteBuffer* buffer, meshgauge::server::UploadMessage* msg) {
+  using meshgauge::server::kMaxUploadHeaderBytes;
+  msg->request.Clear();
+  msg->refused.clear();
   msg->received_bytes = static_cast<int64_t>(buffer->Length());
-  msg->too_large = msg->received_bytes > msg->limit;
-  if (msg->too_large) {
+  if (msg->received_bytes > msg->limit) {
+    msg->refused = absl::StrCat(
+        "CreateSession: a message of ", msg->received_bytes,
+        " bytes exceeds the upload limit of ", msg->limit,
+        " bytes per message (--max_upload_message_bytes); send smaller "
+        "chunks");
+  } else if (const int64_t header =
+                 meshgauge::server::LargestField(buffer, 1);
+             header > kMaxUploadHeaderBytes) {
+    msg->refused = absl::StrCat(
+        "CreateSession: a header of ", header, " bytes exceeds the limit of ",
+        kMaxUploadHeaderBytes, " bytes (too many region directions)");
+  }
+  if (!msg->refused.empty()) {
     buffer->Clear();
-    msg->request.Clear();
     return grpc::Status::OK;
   }
   return grpc::GenericDeserialize<grpc::ProtoBufferReader,

@@ -20,17 +20,23 @@
 
 namespace meshgauge::server {
 
-// One CreateSession message as the server reads it: the received message's
-// size is checked against `limit` before it is parsed, since a parsed
-// message of packed varints takes up to 4 bytes per byte received (and
-// more while its arrays grow). A message over the limit is not parsed.
+// One CreateSession message as the server reads it, checked before it is
+// parsed: a parsed message takes more memory than its bytes (a packed
+// varint 4 bytes per byte; an empty sub-message, 2 bytes on the wire, a
+// heap object), so its size is checked against `limit` and a header's
+// against kMaxUploadHeaderBytes (a header holds an id and region
+// directions; chunks hold packed arrays only). A refused message is not
+// parsed.
 struct UploadMessage {
   explicit UploadMessage(int64_t limit) : limit(limit) {}
   const int64_t limit;
   int64_t received_bytes = 0;
-  bool too_large = false;
+  std::string refused;  // why it was not parsed; empty: `request` holds it.
   v1::CreateSessionRequest request;
 };
+
+// Largest header of an upload: 1 MiB, some 130,000 region directions.
+inline constexpr int64_t kMaxUploadHeaderBytes = int64_t{1} << 20;
 
 class MeshAssembler {
  public:

@@ -19,7 +19,7 @@ namespace {
 
 constexpr int kDefaultChunkVertices = 16384;
 // A refused upload that received more than this returns its memory.
-constexpr int64_t kTrimAfterBytes = 16ll << 20;
+constexpr int64_t kTrimAfterBytes = 1ll << 20;
 constexpr int kMaxChunkVertices = 65536;
 
 const char* CodeName(grpc::StatusCode code) {
@@ -199,9 +199,9 @@ grpc::Status MeshGaugeService::BoundedCreateSession(
         if (absl::Status aborted = uploads_->Finish(*upload); !aborted.ok()) {
           s = aborted;
         }
-        // A refused upload that buffered much: give the freed pages back to
-        // the system (trimming takes every arena's lock, so not for small
-        // ones).
+        // A refused upload that received over 1 MiB: give the freed pages
+        // back to the system (trimming takes every arena's lock, so not for
+        // small ones).
         if (!s.ok() && received > kTrimAfterBytes) malloc_trim(0);
         return s;
       });
@@ -217,13 +217,8 @@ absl::Status MeshGaugeService::ReceiveUpload(
   UploadMessage message(options_.max_upload_message_bytes);
   while (reader->Read(&message)) {
     *received += message.received_bytes;
-    if (message.too_large) {
-      return absl::ResourceExhaustedError(absl::StrCat(
-          "CreateSession: a message of ", message.received_bytes,
-          " bytes exceeds the upload limit of ",
-          options_.max_upload_message_bytes,
-          " bytes per message (--max_upload_message_bytes); send smaller "
-          "chunks"));
+    if (!message.refused.empty()) {
+      return absl::ResourceExhaustedError(message.refused);
     }
     if (absl::Status s = uploads_->Touch(upload, message.received_bytes);
         !s.ok()) {
@@ -368,6 +363,23 @@ grpc::Status MeshGaugeService::ComputeSdf(
         const int dim = ev.mesh().dimension;
         // Per vertex about 30 bytes of values; per Jacobian entry 4 + 8 dim.
         const int64_t budget = options_.max_message_bytes / 2;
+        auto vertex_bytes = [&](int64_t p) {
+          return 40 + (jac ? (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
+                                 (4 + 8 * dim)
+                           : 0);
+        };
+        // A message holds at least one vertex: refuse before streaming when
+        // one vertex's row cannot fit.
+        for (int64_t p = 0; jac && p < nv; ++p) {
+          if (vertex_bytes(p) > budget) {
+            return absl::ResourceExhaustedError(absl::StrCat(
+                "vertex ", p, "'s Jacobian row takes about ", vertex_bytes(p),
+                " bytes, more than half the message limit of ",
+                options_.max_message_bytes,
+                " bytes (--max_message_bytes); use fewer rays or ask for "
+                "the VJP instead"));
+          }
+        }
         for (int64_t begin = 0, end = 0; begin < nv; begin = end) {
           if (ctx->IsCancelled()) {
             return Interrupted(ctx, absl::CancelledError("cancelled"));
@@ -377,11 +389,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
           // message.
           int64_t bytes = 0;
           for (int64_t p = begin; p < end; ++p) {
-            bytes += 40;
-            if (jac) {
-              bytes += (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
-                       (4 + 8 * dim);
-            }
+            bytes += vertex_bytes(p);
             if (bytes > budget && p > begin) {
               end = p;
               break;

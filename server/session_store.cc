@@ -45,8 +45,7 @@ UploadReservation::~UploadReservation() {
 }
 
 absl::Status UploadReservation::Arrived(int64_t bytes) {
-  if (!store_ || bytes <= arrived_) return absl::OkStatus();
-  return store_->Arrive(this, bytes);
+  return store_ ? store_->Arrive(this, bytes) : absl::OkStatus();
 }
 
 SessionStore::SessionStore(const ServerOptions& options, Metrics* metrics,
@@ -178,12 +177,13 @@ absl::Status SessionStore::Arrive(UploadReservation* r, int64_t bytes) {
   }
   // What was reserved bounds what may evict (the estimate covers the data).
   bytes = std::min(bytes, r->bytes_);
+  if (bytes <= r->arrived_) return absl::OkStatus();
   std::lock_guard<std::mutex> lock(mu_);
   const int64_t delta = bytes - r->arrived_;
   r->arrived_ = bytes;
   reserved_[r->tenant_].arrived += delta;
   reserved_total_.arrived += delta;
-  const bool fits = MakeRoomLocked(nullptr);
+  const bool fits = MakeRoomLocked(nullptr, &r->tenant_);
   PublishLocked();
   if (fits) return absl::OkStatus();
   return absl::ResourceExhaustedError(
@@ -452,26 +452,41 @@ void SessionStore::EnforceBudget(const Session* keep) {
   PublishLocked();
 }
 
-bool SessionStore::MakeRoomLocked(const Session* keep) {
+bool SessionStore::MakeRoomLocked(const Session* keep,
+                                  const std::string* for_tenant) {
   while (TotalBytesLocked() + reserved_total_.arrived >
          options_.memory_budget_bytes) {
-    // The tenant holding the most bytes gives up its least recently used
-    // session (never `keep`).
+    // What each tenant holds: its sessions and its uploads' arrived data.
     std::map<std::string, int64_t> held;
     for (const auto& [key, s] : sessions_) held[key.first] += s->memory_bytes();
+    for (const auto& [tenant, r] : reserved_) held[tenant] += r.arrived;
+    // The tenant holding the most gives up its least recently used session
+    // (never `keep`). When that is the tenant asking for room and it has
+    // nothing left to give but its own upload, nobody else is evicted.
+    auto most = held.begin();
+    for (auto it = held.begin(); it != held.end(); ++it) {
+      if (it->second > most->second) most = it;
+    }
     auto victim = sessions_.end();
-    for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
+    for (auto it = sessions_.lower_bound({most->first, ""});
+         it != sessions_.end() && it->first.first == most->first; ++it) {
       if (it->second.get() == keep) continue;
-      if (victim == sessions_.end()) {
+      if (victim == sessions_.end() ||
+          it->second->last_used() < victim->second->last_used()) {
         victim = it;
-        continue;
       }
-      const int64_t mine = held[it->first.first];
-      const int64_t theirs = held[victim->first.first];
-      if (mine > theirs ||
-          (mine == theirs &&
-           it->second->last_used() < victim->second->last_used())) {
-        victim = it;
+    }
+    if (victim == sessions_.end() && for_tenant == nullptr) {
+      // The largest holder has nothing evictable (only `keep` or uploads):
+      // the next session by the same rule, from anyone.
+      for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
+        if (it->second.get() == keep) continue;
+        if (victim == sessions_.end() ||
+            held[it->first.first] > held[victim->first.first] ||
+            (held[it->first.first] == held[victim->first.first] &&
+             it->second->last_used() < victim->second->last_used())) {
+          victim = it;
+        }
       }
     }
     if (victim == sessions_.end()) return false;

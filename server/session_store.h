@@ -129,8 +129,11 @@ class SessionStore {
   void ReleaseLocked(UploadReservation* r);
   absl::Status Arrive(UploadReservation* r, int64_t bytes);
   // Evicts while sessions plus arrived bytes exceed the budget; false when
-  // nothing but `keep` is left to evict.
-  bool MakeRoomLocked(const Session* keep);
+  // nothing may be evicted. For an upload of `for_tenant` (not null), only
+  // the tenant holding the most bytes gives up sessions: an upload never
+  // pushes out a tenant that holds less than its own tenant.
+  bool MakeRoomLocked(const Session* keep,
+                      const std::string* for_tenant = nullptr);
   // With records: the cached session at the record's generation, loading
   // the record on a miss.
   absl::StatusOr<std::shared_ptr<Session>> GetRecorded(

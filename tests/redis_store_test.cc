@@ -403,11 +403,12 @@ TEST_F(RedisStoreTest, ALiveUploadRenewsItsClaim) {
   v1::CreateSessionResponse resp;
   auto w = b_->client->stub().CreateSession(&ctx, &resp);
   ASSERT_TRUE(w->Write(UploadHeader(1000, 1000)));
-  v1::CreateSessionRequest vertex;
-  for (int i = 0; i < 3; ++i) vertex.mutable_chunk()->add_positions(0.5);
+  // Empty chunks: the upload is alive but buffers nothing more.
+  v1::CreateSessionRequest empty;
+  empty.mutable_chunk();
   for (int i = 0; i < 10; ++i) {  // 2 s of messages every 0.2 s.
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
-    ASSERT_TRUE(w->Write(vertex));
+    ASSERT_TRUE(w->Write(empty));
   }
   auto refused = a_->client->Upload(Knight(), "late");
   EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);

@@ -181,6 +181,43 @@ TEST_F(SecurityTest, ATenantFillingTheBudgetEvictsItsOwnSessionsFirst) {
   EXPECT_TRUE(bob_->Get("b4").ok());
 }
 
+// Data of an upload in flight counts as its tenant's: bob's upload evicts
+// bob's session, never alice's, although alice holds more sessions.
+TEST_F(SecurityTest, AnUploadInFlightNeverEvictsASmallerTenant) {
+  server::ServerOptions o = options_;
+  o.memory_budget_bytes = 1 << 20;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  for (int i = 0; i < 5; ++i) {
+    ASSERT_TRUE(alice_->Upload(MakeIcosphere(1, 4), "a" + std::to_string(i))
+                    .ok());
+    clock_.Advance(1);
+  }
+  ASSERT_TRUE(bob_->Upload(MakeIcosphere(1, 7), "b").ok());
+  grpc::ClientContext ctx;
+  ctx.AddMetadata("authorization", "Bearer bob-secret");
+  v1::CreateSessionResponse resp;
+  auto w = bob_->stub().CreateSession(&ctx, &resp);
+  v1::CreateSessionRequest header;
+  header.mutable_header()->set_dimension(3);
+  header.mutable_header()->set_num_vertices(12000);
+  header.mutable_header()->set_num_faces(1);
+  ASSERT_TRUE(w->Write(header));
+  v1::CreateSessionRequest chunk;
+  for (int i = 0; i < 3 * 3000; ++i) chunk.mutable_chunk()->add_positions(i);
+  for (int k = 0; k < 4 && w->Write(chunk); ++k) {
+  }
+  // The upload's data (about 390 kB) arrived: the budget needs room.
+  WaitFor([&] { return Code(bob_->Get("b")) == absl::StatusCode::kNotFound; });
+  EXPECT_EQ(Code(bob_->Get("b")), absl::StatusCode::kNotFound);
+  for (int i = 0; i < 5; ++i) {
+    EXPECT_TRUE(alice_->Get("a" + std::to_string(i)).ok()) << i;
+  }
+  ctx.TryCancel();
+  w->Finish();
+}
+
 TEST(AuthenticatorTest, RejectsMalformedTokenFiles) {
   EXPECT_THAT(std::string(server::Authenticator::FromText("alice xyz\n", "f")
                               .status()
@@ -471,6 +508,31 @@ TEST_F(LimitsTest, SdfValueChunksFitTheMessageLimit) {
   auto sdf = c.ComputeSdf("s", SdfParams{}, {.chunk_vertices = 65536});
   ASSERT_TRUE(sdf.ok()) << sdf.status();
   EXPECT_EQ(std::ssize(sdf->result.values), sphere.num_vertices());
+  // With the Jacobian, one vertex's row at 1024 rays exceeds the limit: a
+  // clear refusal before streaming, not gRPC's "larger than max".
+  SdfParams many;
+  many.rays = 1024;
+  auto rows = c.ComputeSdf("s", many, {.include_jacobian = true});
+  EXPECT_EQ(Code(rows), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(rows.status().message()),
+              HasSubstr("Jacobian row takes about"));
+}
+
+// A header of empty region directions (2 bytes each on the wire, a heap
+// object each once parsed) is refused unparsed past 1 MiB.
+TEST_F(LimitsTest, AHeaderOfManyRegionDirectionsIsRefusedUnparsed) {
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = client_->stub().CreateSession(&ctx, &resp);
+  v1::CreateSessionRequest h;
+  h.mutable_header()->set_dimension(3);
+  h.mutable_header()->set_num_vertices(3);
+  h.mutable_header()->set_num_faces(1);
+  for (int i = 0; i < 600'000; ++i) h.mutable_header()->add_region_directions();
+  w->Write(h);
+  const grpc::Status s = w->Finish();
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(s.error_message(), HasSubstr("region directions"));
 }
 
 TEST_F(LimitsTest, IdsWithControlCharactersAreEscapedInMessages) {

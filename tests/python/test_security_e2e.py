@@ -243,35 +243,39 @@ def _memory_mib(pid):
 class UploadMemory(unittest.TestCase):
     """Upload amplification, measured from the server's /proc: a header
     declaring 4 faces followed by chunks of packed face sizes (one byte each
-    on the wire, four once parsed). Stated bound: per upload in flight, at
-    most 6 x --max_upload_message_bytes above the idle server, and what a
-    refused upload used is given back."""
+    on the wire, four once parsed, and more while the array grows). Stated
+    bound: per upload in flight, at most 8 x --max_upload_message_bytes above
+    the idle server, and what a refused upload used is given back."""
 
     HEADER = _field(1, b"\x10\x03\x18\x04\x20\x04")  # 3D, 4 v, 4 f.
     LIMIT_MIB = 16  # --max_upload_message_bytes' default.
 
-    def upload(self, target, chunk_bytes, results):
-        chunk = _field(2, _field(2, b"\x03" * chunk_bytes))
+    @staticmethod
+    def chunk(mib):
+        """A header declaring 4 faces, then mib MiB of packed face sizes."""
+        return [UploadMemory.HEADER,
+                _field(2, _field(2, b"\x03" * (mib << 20)))]
+
+    def upload(self, target, messages, results):
         with grpc.insecure_channel(target) as channel:
             call = channel.stream_unary(
                 "/meshgauge.v1.MeshGauge/CreateSession")
             try:
-                call(iter([self.HEADER, chunk]), timeout=60)
+                call(iter(messages), timeout=60)
                 results.append(("OK", ""))
             except grpc.RpcError as e:
                 results.append((e.code(), e.details()))
 
-    def run_uploads(self, chunk_mib, count, code, detail):
-        """count concurrent uploads of one chunk_mib chunk each, every one
-        refused with code and detail; the server's peak and held memory
-        above its idle size, in MiB."""
+    def run_uploads(self, messages, count, code, detail):
+        """count concurrent uploads of `messages`, every one refused with
+        code and detail; the server's peak and held memory above its idle
+        size, in MiB."""
         s = Server("--memory_budget_bytes=268435456")
         try:
             base = _memory_mib(s.proc.pid)
             results = []
             threads = [threading.Thread(target=self.upload,
-                                        args=(s.target, chunk_mib << 20,
-                                              results))
+                                        args=(s.target, messages, results))
                        for _ in range(count)]
             for t in threads:
                 t.start()
@@ -287,24 +291,37 @@ class UploadMemory(unittest.TestCase):
             self.assertIn(detail, details)
         peak = after["VmHWM"] - base["VmRSS"]
         held = after["VmRSS"] - base["VmRSS"]
-        print(f"{count} uploads of {chunk_mib} MiB chunks: peak +{peak:.0f} "
-              f"MiB, held +{held:.0f} MiB")
+        print(f"{count} uploads of {len(messages[-1]) >> 20} MiB messages: "
+              f"peak +{peak:.0f} MiB, held +{held:.0f} MiB")
         return peak, held
 
     def test_oversized_chunks_are_refused_before_they_are_parsed(self):
-        peak, held = self.run_uploads(64, 8,
+        peak, held = self.run_uploads(self.chunk(64), 8,
                                       grpc.StatusCode.RESOURCE_EXHAUSTED,
                                       "--max_upload_message_bytes")
         if SANITIZED:
             return  # ASan's shadow memory and quarantine change the sizes.
-        self.assertLess(peak, 8 * 6 * self.LIMIT_MIB)
+        self.assertLess(peak, 8 * 8 * self.LIMIT_MIB)
         self.assertLess(held, 64)
 
     def test_chunks_over_the_declared_counts_are_refused_unstored(self):
-        peak, _ = self.run_uploads(12, 4, grpc.StatusCode.INVALID_ARGUMENT,
+        peak, _ = self.run_uploads(self.chunk(12), 4,
+                                   grpc.StatusCode.INVALID_ARGUMENT,
                                    "more than the declared 4 faces")
         if not SANITIZED:
-            self.assertLess(peak, 4 * 6 * self.LIMIT_MIB)
+            self.assertLess(peak, 4 * 8 * self.LIMIT_MIB)
+
+    def test_a_header_of_empty_sub_messages_is_refused_unparsed(self):
+        # Just under 16 MiB of empty region directions (2 bytes each on the
+        # wire, a heap object each once parsed).
+        header = _field(1, b"\x10\x03\x18\x04\x20\x04" +
+                        b"\x2a\x00" * 8_388_000)
+        peak, held = self.run_uploads([header], 4,
+                                      grpc.StatusCode.RESOURCE_EXHAUSTED,
+                                      "region directions")
+        if not SANITIZED:
+            self.assertLess(peak, 4 * 8 * self.LIMIT_MIB)
+            self.assertLess(held, 64)
 
 
 class TlsAndTokens(unittest.TestCase):
