@@ -12,7 +12,7 @@ PACKAGES=(
   python3 python3-grpcio python3-protobuf python3-numpy python3-scipy
   clang-14 libfuzzer-14-dev openssl libssl-dev
   python3-venv python3-pip python3-wheel python3-setuptools mypy libcli11-dev
-  redis-server libhiredis-dev haproxy
+  redis-server libhiredis-dev haproxy libpng-dev chromium
 )
 
 missing=()

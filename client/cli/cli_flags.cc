@@ -86,6 +86,33 @@ void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
                   "write dP/dx (dG/dx) as CSV vertex,dx,dy,dz");
 }
 
+void AddReportFlags(CLI::App* app, ReportFlags* f) {
+  app->add_option("--t-min", f->t_min, "minimum thickness, mesh units, > 0")
+      ->required();
+  app->add_option("--out", f->out,
+                  "directory for views.png, histogram.png, report.json, "
+                  "index.html and colored.ply (created)")
+      ->required();
+  app->add_option("--min-region-area", f->min_region_area,
+                  "thin regions of less area (length in 2D) are specks: "
+                  "listed, not outlined")
+      ->capture_default_str();
+  app->add_option("--view-size", f->view_size, "pixels per view: W H")
+      ->expected(2)
+      ->check(CLI::Range(16, 8192))
+      ->capture_default_str();
+  app->add_option("--up", f->up, "the mesh's up axis (names the views)")
+      ->check(CLI::IsMember({"y", "z"}))
+      ->capture_default_str();
+  app->add_option("--bins", f->bins, "histogram bins")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app->add_option("--color-range", f->color_range,
+                  "thickness at the ends of the colour map: LO HI (default: "
+                  "the values' range, widened to t_min)")
+      ->expected(2);
+}
+
 void AddGradFlags(CLI::App* app, GradFlags* f) {
   app->add_option("--weights", f->weights,
                   "per-vertex weights g (one number per line, #V lines; "

@@ -70,6 +70,17 @@ struct GradcheckFlags {
   double fd_tolerance = 1e-5;
 };
 
+// --t-min --min-region-area --out --view-size --up --bins --color-range.
+struct ReportFlags {
+  double t_min = 0;
+  double min_region_area = 0;
+  std::string out;
+  std::vector<int> view_size = {500, 400};
+  std::string up = "z";
+  int bins = 40;
+  std::vector<double> color_range;  // empty: the values' range and t_min.
+};
+
 // --server --tls-ca-file --tls-cert-file --tls-key-file --token-file.
 struct RemoteFlags {
   std::string server = "127.0.0.1:50051";
@@ -85,6 +96,7 @@ void AddGradFlags(CLI::App* app, GradFlags* f);
 void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f);
 void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f);
 void AddRemoteFlags(CLI::App* app, RemoteFlags* f);
+void AddReportFlags(CLI::App* app, ReportFlags* f);
 
 // SdfParams, validated. Errors: InvalidArgument naming the flag.
 absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f);

@@ -48,6 +48,12 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& penalty,
 absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& cal,
                           const BackendFactory& make);
 
+// meshgauge report MESH --t-min T --out DIR: views.png, histogram.png,
+// report.json, index.html and colored.ply in DIR, and the one-line answer
+// on stdout.
+absl::Status RunReport(const MeshInput& in, const ReportFlags& report,
+                       const BackendFactory& make);
+
 // meshgauge gradcheck MESH: central differences against the analytic
 // derivatives (SPEC §6), and of the penalty with --t-min; FailedPrecondition
 // (exit 1) on FAIL.

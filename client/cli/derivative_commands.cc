@@ -9,6 +9,7 @@
 #include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
+#include "client/cli/thin_summary.h"
 
 namespace meshgauge::cli {
 
@@ -95,6 +96,15 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   j["missing_area_fraction"] = pen->missing.area_fraction;
   j["world_frame_vertices"] = result->world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
+  auto thin =
+      FindThinRegions(opened->loaded.mesh, result->values, {.t_min = pp.t_min});
+  if (!thin.ok()) return thin.status();
+  const std::string sentence =
+      ThinSentence(*thin, opened->loaded.mesh.dimension == 2);
+  j["thin"] = ThinJson(*thin);
+  j["thin"].erase("regions");
+  j["thin_regions"] = thin->regions.size();
+  j["sentence"] = sentence;
   if (in.out.json) {
     std::cout << j.dump() << "\n";
     return absl::OkStatus();
@@ -112,6 +122,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
       "value)\n",
       pen->missing.faces, 100 * pen->missing.area_fraction,
       pen->missing.vertices);
+  std::cout << sentence << "\n";
   return absl::OkStatus();
 }
 

@@ -54,12 +54,13 @@ struct MeshVerbs {
   GradFlags grad;
   PenaltyFlags penalty;
   CalibrateFlags calibrate;
+  ReportFlags report;
 };
 
 using BackendSource = std::function<absl::StatusOr<BackendFactory>()>;
 
-// Adds sdf, grad, penalty and calibrate to `app`; after parsing, `backend`
-// gives the backend they compute with.
+// Adds sdf, grad, penalty, calibrate and report to `app`; after parsing,
+// `backend` gives the backend they compute with.
 void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
                   Run* run) {
   auto with = [backend,
@@ -97,6 +98,14 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
   AddCalibrateFlags(c, &v->calibrate);
   c->callback(with([v](const BackendFactory& make) {
     return RunCalibrate(v->in, v->calibrate, make);
+  }));
+  CLI::App* r = MeshVerb(app, "report",
+                         "where it is thinner than --t-min: pictures, thin "
+                         "regions, a web page and a coloured PLY in --out",
+                         &v->in, false);
+  AddReportFlags(r, &v->report);
+  r->callback(with([v](const BackendFactory& make) {
+    return RunReport(v->in, v->report, make);
   }));
 }
 
@@ -146,7 +155,7 @@ int Main(int argc, char** argv) {
   AddMeshVerbs(
       *remote, &remote_verbs,
       [&] { return RemoteBackend(r.remote, remote_session); }, &run);
-  for (const char* verb : {"sdf", "grad", "penalty", "calibrate"}) {
+  for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "report"}) {
     remote->get_subcommand(verb)->add_option(
         "--session-id", remote_session,
         "compute on this session (kept; created from MESH if missing) "

@@ -101,7 +101,12 @@ absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
 }
 
 absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
-                             const std::vector<double>& values) {
+                             const std::vector<double>& values,
+                             const std::vector<Rgb>& colors) {
+  if (!colors.empty() && colors.size() != mesh.positions.size()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        colors.size(), " colours for ", mesh.positions.size(), " vertices"));
+  }
   std::ofstream out(path, std::ios::binary);
   if (!out)
     return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
@@ -111,6 +116,9 @@ absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
       << "element vertex " << mesh.positions.size() << "\n"
       << "property float x\nproperty float y\nproperty float z\n"
       << "property float quality\n";
+  if (!colors.empty()) {
+    out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  }
   if (curve) {
     out << "element edge " << mesh.faces.size() << "\n"
         << "property int vertex1\nproperty int vertex2\n";
@@ -130,6 +138,11 @@ absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
     put(static_cast<float>(p.y));
     put(static_cast<float>(p.z));
     put(static_cast<float>(values[i]));
+    if (!colors.empty()) {
+      put(colors[i].r);
+      put(colors[i].g);
+      put(colors[i].b);
+    }
   }
   for (const Face& f : mesh.faces) {
     if (curve) {

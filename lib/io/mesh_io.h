@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "lib/core/image.h"
 #include "lib/core/mesh.h"
 #include "lib/io/mesh_file.h"
 
@@ -46,9 +47,12 @@ absl::Status WriteObj(const std::string& path, const Mesh& mesh);
 
 // Writes a binary little-endian PLY with float x y z and a per-vertex float
 // `quality` property (MeshLab's colour source) holding values[i] (#V; NaN is
-// written as NaN). 3D faces as `face` lists; 2D segments as an `edge`
-// element. Errors: Internal when the file cannot be written.
+// written as NaN) and, when `colors` is not empty (#V), uchar red green
+// blue. 3D faces as `face` lists; 2D segments as an `edge` element. Errors:
+// InvalidArgument for a colour count other than #V; Internal when the file
+// cannot be written.
 absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
-                             const std::vector<double>& values);
+                             const std::vector<double>& values,
+                             const std::vector<Rgb>& colors = {});
 
 }  // namespace meshgauge

@@ -1,0 +1,182 @@
+// meshgauge report: where the part is thinner than t_min, as pictures, a
+// JSON report, a web page and a coloured PLY.
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+
+#include "absl/strings/str_cat.h"
+#include "client/cli/backend.h"
+#include "client/cli/commands.h"
+#include "client/cli/report_draw.h"
+#include "client/cli/report_page.h"
+#include "client/cli/summary.h"
+#include "client/cli/thin_summary.h"
+#include "lib/core/missing_values.h"
+#include "lib/embree/render.h"
+#include "lib/io/mesh_io.h"
+#include "lib/io/png_file.h"
+
+namespace meshgauge::cli {
+namespace {
+
+double Since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// The colour map's range: --color-range, or the values' range widened to
+// t_min (never empty).
+absl::StatusOr<ColorScale> ScaleOf(const ReportFlags& flags,
+                                   const std::vector<double>& values) {
+  if (flags.color_range.size() == 2) {
+    const double lo = flags.color_range[0], hi = flags.color_range[1];
+    if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "--color-range: LO < HI, both finite, got ", lo, " ", hi));
+    }
+    return ColorScale{lo, hi};
+  }
+  ColorScale scale{flags.t_min, flags.t_min};
+  for (double v : values) {
+    if (std::isnan(v)) continue;
+    scale.lo = std::min(scale.lo, v);
+    scale.hi = std::max(scale.hi, v);
+  }
+  if (!(scale.hi > scale.lo)) scale.hi = scale.lo + std::abs(scale.lo) + 1;
+  return scale;
+}
+
+absl::StatusOr<std::string> WritePicture(const std::string& path,
+                                         const Image& image) {
+  if (absl::Status s = WritePng(path, image); !s.ok()) return s;
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  if (!in) return absl::InternalError(absl::StrCat("cannot read '", path, "'"));
+  return bytes.str();
+}
+
+absl::Status WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary);
+  out << text;
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
+                       const BackendFactory& make) {
+  ThinRegionParams thin_params{flags.t_min, flags.min_region_area};
+  if (!(thin_params.t_min > 0) || !std::isfinite(thin_params.t_min)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("--t-min must be positive, got ", flags.t_min));
+  }
+  if (!(thin_params.min_region_area >= 0)) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "--min-region-area must be >= 0, got ", flags.min_region_area));
+  }
+  std::error_code ec;
+  std::filesystem::create_directories(flags.out, ec);
+  if (ec || !std::filesystem::is_directory(flags.out)) {
+    return absl::FailedPreconditionError(
+        absl::StrCat("--out '", flags.out, "' is not a directory we can make",
+                     ec ? ": " + ec.message() : ""));
+  }
+  auto start = std::chrono::steady_clock::now();
+  auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
+  if (!opened.ok()) return opened.status();
+  const Mesh& mesh = opened->loaded.mesh;
+  auto result = opened->backend->Sdf(opened->params, false);
+  if (!result.ok()) return result.status();
+  const double sdf_seconds = Since(start);
+  const std::vector<double>& values = result->values;
+
+  auto thin = FindThinRegions(mesh, values, thin_params);
+  if (!thin.ok()) return thin.status();
+  auto scale = ScaleOf(flags, values);
+  if (!scale.ok()) return scale.status();
+  auto histogram =
+      ThicknessAreaHistogram(mesh, values, scale->lo, scale->hi, flags.bins);
+  if (!histogram.ok()) return histogram.status();
+  std::vector<int32_t> outline(thin->face_region);
+  for (int32_t& r : outline) {
+    if (r >= 0 && thin->regions[r].speck) r = -1;
+  }
+  start = std::chrono::steady_clock::now();
+  RenderOptions render;
+  render.width = flags.view_size[0];
+  render.height = flags.view_size[1];
+  auto views = RenderViews(mesh, values, *scale, outline,
+                           StandardViews(flags.up == "y" ? 1 : 2), render);
+  if (!views.ok()) return views.status();
+  const double render_seconds = Since(start);
+
+  const bool curve = mesh.dimension == 2;
+  const std::filesystem::path dir(flags.out);
+  auto views_png = WritePicture((dir / "views.png").string(),
+                                ComposeViews(*views, *scale, flags.t_min));
+  if (!views_png.ok()) return views_png.status();
+  auto histogram_png = WritePicture(
+      (dir / "histogram.png").string(),
+      DrawHistogram(
+          *histogram, *scale, flags.t_min,
+          thin->total_area > 0 ? thin->thin_area / thin->total_area : 0,
+          curve));
+  if (!histogram_png.ok()) return histogram_png.status();
+  std::vector<Rgb> colors(values.size());
+  for (size_t i = 0; i < values.size(); ++i) colors[i] = (*scale)(values[i]);
+  if (absl::Status s =
+          WriteQualityPly((dir / "colored.ply").string(), mesh, values, colors);
+      !s.ok()) {
+    return s;
+  }
+
+  const std::string sentence = ThinSentence(*thin, curve);
+  nlohmann::json report;
+  report["mesh"] = in.mesh;
+  report["sentence"] = sentence;
+  report["summary"] = SummaryJson(opened->loaded, *result, sdf_seconds);
+  const nlohmann::json& summary = report["summary"];
+  report["parameters"] = {
+      {"t_min", flags.t_min},
+      {"min_region_area", flags.min_region_area},
+      {"method", summary["method"]},
+      {"cone_angle_degrees", summary["cone_angle_degrees"]},
+      {"rays_per_vertex", summary["rays_per_vertex"]},
+      {"kappa", in.sdf.kappa},
+      {"normals", in.sdf.normals},
+      {"max_distance", in.sdf.max_distance},
+      {"color_range", {scale->lo, scale->hi}},
+      {"bins", flags.bins},
+      {"view_size", flags.view_size},
+      {"up", flags.up},
+  };
+  if (result->missing.vertices > 0) {
+    report["missing_cause"] = LikelyMissingCause(mesh, result->Causes());
+  }
+  report["thin"] = ThinJson(*thin);
+  report["histogram"] = {
+      {"lo", histogram->lo}, {"hi", histogram->hi}, {"area", histogram->area}};
+  report["timing"] = {{"sdf_seconds", sdf_seconds},
+                      {"render_seconds", render_seconds}};
+  if (absl::Status s =
+          WriteText((dir / "report.json").string(), report.dump(2) + "\n");
+      !s.ok()) {
+    return s;
+  }
+  if (absl::Status s =
+          WriteText((dir / "index.html").string(),
+                    ReportHtml(report, *views_png, *histogram_png));
+      !s.ok()) {
+    return s;
+  }
+  std::cout << sentence << "\n";
+  return absl::OkStatus();
+}
+
+}  // namespace meshgauge::cli

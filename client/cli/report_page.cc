@@ -1,0 +1,123 @@
+#include "client/cli/report_page.h"
+
+#include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "absl/strings/str_replace.h"
+
+namespace meshgauge::cli {
+namespace {
+
+std::string Escape(const std::string& s) {
+  return absl::StrReplaceAll(s, {{"&", "&amp;"},
+                                 {"<", "&lt;"},
+                                 {">", "&gt;"},
+                                 {"\"", "&quot;"},
+                                 {"'", "&#39;"}});
+}
+
+std::string Text(const nlohmann::json& v) {
+  if (v.is_string()) return Escape(v.get<std::string>());
+  if (v.is_number_float()) return absl::StrFormat("%.6g", v.get<double>());
+  return Escape(v.dump());
+}
+
+std::string Point(const nlohmann::json& p) {
+  return absl::StrFormat("(%.6g, %.6g, %.6g)", p[0].get<double>(),
+                         p[1].get<double>(), p[2].get<double>());
+}
+
+std::string Picture(const std::string& png, const std::string& alt) {
+  return absl::StrCat("<img alt=\"", alt, "\" src=\"data:image/png;base64,",
+                      absl::Base64Escape(png), "\">");
+}
+
+std::string RegionTable(const nlohmann::json& thin) {
+  const double total = thin["total_area"].get<double>();
+  std::string rows;
+  int rank = 0;
+  for (const nlohmann::json& r : thin["regions"]) {
+    const double area = r["area"].get<double>();
+    absl::StrAppendFormat(
+        &rows,
+        "<tr%s><td>%d</td><td>%.6g</td><td>%.3g %%</td><td>%.6g</td>"
+        "<td>%s</td><td>%s</td><td>%s &ndash; %s</td><td>%d</td><td>%s</td>"
+        "</tr>\n",
+        r["speck"].get<bool>() ? " class=\"speck\"" : "", ++rank, area,
+        total > 0 ? 100 * area / total : 0.0, r["min_thickness"].get<double>(),
+        Point(r["min_point"]), Point(r["centroid"]), Point(r["box_min"]),
+        Point(r["box_max"]), r["faces"].get<int64_t>(),
+        r["speck"].get<bool>() ? "speck" : "");
+  }
+  if (rank == 0) rows = "<tr><td colspan=\"9\">no thin region</td></tr>\n";
+  return absl::StrCat(
+      "<table><tr><th>#</th><th>area</th><th>share</th><th>min</th>"
+      "<th>thinnest at</th><th>centroid</th><th>bounding box</th>"
+      "<th>faces</th><th></th></tr>\n",
+      rows, "</table>\n");
+}
+
+std::string KeyValues(const nlohmann::json& object) {
+  std::string rows;
+  for (const auto& [key, value] : object.items()) {
+    absl::StrAppend(&rows, "<tr><th>", Escape(key), "</th><td>", Text(value),
+                    "</td></tr>\n");
+  }
+  return absl::StrCat("<table class=\"kv\">\n", rows, "</table>\n");
+}
+
+}  // namespace
+
+std::string ReportHtml(const nlohmann::json& report,
+                       const std::string& views_png,
+                       const std::string& histogram_png) {
+  const nlohmann::json& summary = report["summary"];
+  nlohmann::json missing = {
+      {"vertices without a value", summary["missing_vertices"]},
+      {"faces skipped", summary["missing_faces"]},
+      {"share of the surface", summary["missing_area_fraction"]},
+      {"rays that hit nothing (vertices)", summary["no_hit"]},
+      {"degenerate normals (vertices)", summary["degenerate_normal"]},
+  };
+  if (report.contains("missing_cause")) {
+    missing["likely cause"] = report["missing_cause"];
+  }
+  std::string warnings;
+  for (const nlohmann::json& w : summary["warnings"]) {
+    absl::StrAppend(&warnings, "<li>", Escape(w.get<std::string>()), "</li>\n");
+  }
+  return absl::StrCat(
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+      "<title>meshgauge report: ",
+      Escape(report["mesh"].get<std::string>()),
+      "</title>\n<style>\n"
+      "body{font-family:sans-serif;margin:1.5em;color:#141414}\n"
+      "img{max-width:100%;border:1px solid #ccc}\n"
+      "table{border-collapse:collapse;margin:.5em 0}\n"
+      "td,th{border:1px solid #ccc;padding:.2em .5em;text-align:right}\n"
+      ".kv th{text-align:left}\n.speck{color:#888}\n"
+      ".answer{font-size:1.2em;font-weight:bold}\n"
+      "</style>\n</head>\n<body>\n<h1>Thickness of ",
+      Escape(report["mesh"].get<std::string>()), "</h1>\n<p class=\"answer\">",
+      Escape(report["sentence"].get<std::string>()), "</p>\n",
+      "<h2>Views</h2>\n<p>Thin regions outlined in red; grey: no value.</p>\n",
+      Picture(views_png, "the mesh coloured by thickness"),
+      "\n<h2>Histogram</h2>\n",
+      Picture(histogram_png, "surface measure per thickness bin"),
+      "\n<h2>Thin regions</h2>\n", RegionTable(report["thin"]),
+      "<h2>Parameters</h2>\n", KeyValues(report["parameters"]),
+      "<h2>SDF summary</h2>\n",
+      KeyValues(nlohmann::json{
+          {"vertices", summary["vertices"]},
+          {"faces", summary["faces"]},
+          {"method", summary["method"]},
+          {"sdf min", summary["sdf_min"]},
+          {"sdf median", summary["sdf_median"]},
+          {"sdf max", summary["sdf_max"]},
+      }),
+      "<h2>Missing values</h2>\n", KeyValues(missing),
+      warnings.empty() ? "" : absl::StrCat("<ul>\n", warnings, "</ul>\n"),
+      "</body>\n</html>\n");
+}
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,344 @@
+#include "lib/core/thin_regions.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// The part of a simplex (segment or triangle) whose interpolated value is
+// below s: a polygon of up to 4 points (2 for a segment).
+struct Piece {
+  std::array<Vec3, 4> p;
+  int n = 0;
+};
+
+Piece ClipBelow(const Vec3* p, const double* v, int n, double s) {
+  Piece out;
+  if (n == 2) {
+    if (v[0] >= s && v[1] >= s) return out;
+    for (int i = 0; i < 2; ++i) {
+      const int j = 1 - i;
+      out.p[i] =
+          v[i] < s ? p[i] : p[j] + (p[i] - p[j]) * ((s - v[j]) / (v[i] - v[j]));
+    }
+    out.n = 2;
+    return out;
+  }
+  for (int i = 0; i < 3; ++i) {
+    const int j = (i + 1) % 3;
+    const bool in_i = v[i] < s, in_j = v[j] < s;
+    if (in_i) out.p[out.n++] = p[i];
+    if (in_i != in_j) {
+      out.p[out.n++] = p[i] + (p[j] - p[i]) * ((s - v[i]) / (v[j] - v[i]));
+    }
+  }
+  return out;
+}
+
+// Measure and measure-weighted centroid of a clipped piece.
+std::pair<double, Vec3> MeasureAndCentroid(const Piece& piece) {
+  if (piece.n == 2) {
+    return {Norm(piece.p[1] - piece.p[0]), (piece.p[0] + piece.p[1]) * 0.5};
+  }
+  double area = 0;
+  Vec3 moment;
+  for (int k = 1; k + 1 < piece.n; ++k) {
+    const double a =
+        0.5 * Norm(Cross(piece.p[k] - piece.p[0], piece.p[k + 1] - piece.p[0]));
+    area += a;
+    moment += (piece.p[0] + piece.p[k] + piece.p[k + 1]) * (a / 3);
+  }
+  return {area, area > 0 ? moment / area : piece.p[0]};
+}
+
+// Calls f(points, values, count) for each simplex of `face`: the segment,
+// the triangle, or a quad's two triangles.
+template <typename F>
+void ForEachSimplex(const Mesh& mesh, const Face& face,
+                    const std::vector<double>& values, F&& f) {
+  std::array<Vec3, 3> p;
+  std::array<double, 3> v;
+  if (face.size == 2) {
+    for (int k = 0; k < 2; ++k) {
+      p[k] = mesh.positions[face.v[k]];
+      v[k] = values[face.v[k]];
+    }
+    f(p.data(), v.data(), 2);
+    return;
+  }
+  for (int t = 0; t + 2 < face.size; ++t) {
+    const std::array<int32_t, 3> ids = {face.v[0], face.v[t + 1],
+                                        face.v[t + 2]};
+    for (int k = 0; k < 3; ++k) {
+      p[k] = mesh.positions[ids[k]];
+      v[k] = values[ids[k]];
+    }
+    f(p.data(), v.data(), 3);
+  }
+}
+
+bool HasValues(const Face& face, const std::vector<double>& values) {
+  for (int k = 0; k < face.size; ++k) {
+    if (std::isnan(values[face.v[k]])) return false;
+  }
+  return true;
+}
+
+double SimplexMeasure(const Vec3* p, int n) {
+  return n == 2 ? Norm(p[1] - p[0])
+                : 0.5 * Norm(Cross(p[1] - p[0], p[2] - p[0]));
+}
+
+double SimplexMeasureBelow(const Vec3* p, const double* v, int n, double s) {
+  const double measure = SimplexMeasure(p, n);
+  if (n == 3) return TriangleAreaBelow(measure, v[0], v[1], v[2], s);
+  const double lo = std::min(v[0], v[1]), hi = std::max(v[0], v[1]);
+  if (s <= lo) return 0;
+  if (s >= hi) return measure;
+  return measure * (s - lo) / (hi - lo);
+}
+
+int32_t Find(std::vector<int32_t>& parent, int32_t x) {
+  while (parent[x] != x) {
+    parent[x] = parent[parent[x]];
+    x = parent[x];
+  }
+  return x;
+}
+
+void Unite(std::vector<int32_t>& parent, int32_t a, int32_t b) {
+  a = Find(parent, a);
+  b = Find(parent, b);
+  if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+// Joins thin faces that share an edge (3D) or a vertex (2D) whose own
+// interpolation falls below t_min.
+void JoinThinFaces(const Mesh& mesh, const std::vector<double>& values,
+                   const std::vector<char>& thin, double t_min,
+                   std::vector<int32_t>& parent) {
+  std::vector<std::pair<uint64_t, int32_t>> uses;
+  for (int32_t f = 0; f < mesh.num_faces(); ++f) {
+    if (!thin[f]) continue;
+    const Face& face = mesh.faces[f];
+    if (face.size == 2) {
+      for (int k = 0; k < 2; ++k) {
+        if (values[face.v[k]] < t_min) uses.push_back({uint64_t(face.v[k]), f});
+      }
+      continue;
+    }
+    for (int k = 0; k < face.size; ++k) {
+      const int32_t a = face.v[k], b = face.v[(k + 1) % face.size];
+      if (std::min(values[a], values[b]) >= t_min) continue;
+      const uint64_t key =
+          (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
+      uses.push_back({key, f});
+    }
+  }
+  std::sort(uses.begin(), uses.end());
+  for (size_t i = 1; i < uses.size(); ++i) {
+    if (uses[i].first == uses[i - 1].first) {
+      Unite(parent, uses[i].second, uses[i - 1].second);
+    }
+  }
+}
+
+absl::Status CheckValues(const Mesh& mesh, const std::vector<double>& values) {
+  if (std::ssize(values) != mesh.num_vertices()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("values has ", values.size(), " entries for ",
+                     mesh.num_vertices(), " vertices"));
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
+double TriangleAreaBelow(double area, double a, double b, double c, double s) {
+  if (a > b) std::swap(a, b);
+  if (b > c) std::swap(b, c);
+  if (a > b) std::swap(a, b);
+  if (s <= a) return 0;
+  if (s >= c) return area;
+  if (s <= b) return area * ((s - a) / (b - a)) * ((s - a) / (c - a));
+  return area - area * ((c - s) / (c - a)) * ((c - s) / (c - b));
+}
+
+absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
+                                            const std::vector<double>& values,
+                                            const ThinRegionParams& params) {
+  if (!(params.t_min > 0) || !std::isfinite(params.t_min)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("t_min must be positive and finite, got ", params.t_min));
+  }
+  if (!(params.min_region_area >= 0) ||
+      !std::isfinite(params.min_region_area)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_region_area must be >= 0 and finite, got ",
+                     params.min_region_area));
+  }
+  if (absl::Status s = CheckValues(mesh, values); !s.ok()) return s;
+  const double t_min = params.t_min;
+  const int32_t nf = static_cast<int32_t>(mesh.num_faces());
+  ThinSurface out;
+  out.t_min = t_min;
+  out.min_thickness = kNaN;
+  out.face_region.assign(nf, -1);
+  std::vector<char> thin(nf, 0);
+  for (int32_t f = 0; f < nf; ++f) {
+    const Face& face = mesh.faces[f];
+    const bool valued = HasValues(face, values);
+    ForEachSimplex(mesh, face, values,
+                   [&](const Vec3* p, const double*, int n) {
+                     const double m = SimplexMeasure(p, n);
+                     out.total_area += m;
+                     if (!valued) out.missing_area += m;
+                   });
+    if (!valued) continue;
+    for (int k = 0; k < face.size; ++k) {
+      const int32_t v = face.v[k];
+      const double t = values[v];
+      if (t < t_min) thin[f] = 1;
+      if (out.min_vertex < 0 || t < out.min_thickness ||
+          (t == out.min_thickness && v < out.min_vertex)) {
+        out.min_thickness = t;
+        out.min_vertex = v;
+      }
+    }
+  }
+  if (out.min_vertex >= 0) out.min_point = mesh.positions[out.min_vertex];
+
+  std::vector<int32_t> parent(nf);
+  std::iota(parent.begin(), parent.end(), 0);
+  JoinThinFaces(mesh, values, thin, t_min, parent);
+
+  // Regions in order of their lowest face id, then sorted by area.
+  std::vector<int32_t> root_region(nf, -1);
+  std::vector<ThinRegion> regions;
+  std::vector<int32_t> first_face;
+  std::vector<Vec3> moment;
+  for (int32_t f = 0; f < nf; ++f) {
+    if (!thin[f]) continue;
+    const int32_t root = Find(parent, f);
+    if (root_region[root] < 0) {
+      root_region[root] = static_cast<int32_t>(regions.size());
+      ThinRegion r;
+      r.box_min = {kInf, kInf, kInf};
+      r.box_max = {-kInf, -kInf, -kInf};
+      regions.push_back(r);
+      first_face.push_back(f);
+      moment.push_back({});
+    }
+    const int32_t id = root_region[root];
+    out.face_region[f] = id;
+    ThinRegion& r = regions[id];
+    ++r.faces;
+    const Face& face = mesh.faces[f];
+    for (int k = 0; k < face.size; ++k) {
+      const int32_t v = face.v[k];
+      const double t = values[v];
+      if (r.min_vertex < 0 || t < r.min_thickness ||
+          (t == r.min_thickness && v < r.min_vertex)) {
+        r.min_thickness = t;
+        r.min_vertex = v;
+      }
+    }
+    ForEachSimplex(
+        mesh, face, values, [&](const Vec3* p, const double* v, int n) {
+          const Piece piece = ClipBelow(p, v, n, t_min);
+          if (piece.n == 0) return;
+          const auto [m, c] = MeasureAndCentroid(piece);
+          r.area += m;
+          moment[id] += c * m;
+          for (int k = 0; k < piece.n; ++k) {
+            for (int axis = 0; axis < 3; ++axis) {
+              r.box_min[axis] = std::min(r.box_min[axis], piece.p[k][axis]);
+              r.box_max[axis] = std::max(r.box_max[axis], piece.p[k][axis]);
+            }
+          }
+        });
+  }
+  for (size_t i = 0; i < regions.size(); ++i) {
+    ThinRegion& r = regions[i];
+    r.min_point = mesh.positions[r.min_vertex];
+    r.centroid = r.area > 0 ? moment[i] / r.area : r.min_point;
+    r.speck = r.area < params.min_region_area;
+  }
+  std::vector<int32_t> order(regions.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
+    if (regions[a].area != regions[b].area) {
+      return regions[a].area > regions[b].area;
+    }
+    return first_face[a] < first_face[b];
+  });
+  std::vector<int32_t> rank(regions.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    rank[order[i]] = static_cast<int32_t>(i);
+    out.regions.push_back(regions[order[i]]);
+    out.thin_area += regions[order[i]].area;
+  }
+  for (int32_t& id : out.face_region) {
+    if (id >= 0) id = rank[id];
+  }
+  return out;
+}
+
+absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
+    const Mesh& mesh, const std::vector<double>& values, double lo, double hi,
+    int bins) {
+  if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("histogram range [", lo, ", ", hi, "] is empty"));
+  }
+  if (bins < 1 || bins > 10000) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("bins must be in 1..10000, got ", bins));
+  }
+  if (absl::Status s = CheckValues(mesh, values); !s.ok()) return s;
+  AreaHistogram h{lo, hi, std::vector<double>(bins, 0.0)};
+  auto bin_of = [&](double t) {
+    const double x = (t - lo) / (hi - lo) * bins;
+    return x <= 0 ? 0 : std::min(bins - 1, static_cast<int>(x));
+  };
+  // The bins' inner edges; the outer ones are open (clamping).
+  auto edge = [&](int k) {
+    if (k <= 0) return -kInf;
+    if (k >= bins) return kInf;
+    return lo + (hi - lo) * k / bins;
+  };
+  for (const Face& face : mesh.faces) {
+    if (!HasValues(face, values)) continue;
+    ForEachSimplex(
+        mesh, face, values, [&](const Vec3* p, const double* v, int n) {
+          const double vmin = *std::min_element(v, v + n);
+          const double vmax = *std::max_element(v, v + n);
+          const int k0 = bin_of(vmin), k1 = bin_of(vmax);
+          if (k0 == k1) {
+            h.area[k0] += SimplexMeasure(p, n);
+            return;
+          }
+          double below = 0;
+          for (int k = k0; k <= k1; ++k) {
+            const double next = k == k1
+                                    ? SimplexMeasure(p, n)
+                                    : SimplexMeasureBelow(p, v, n, edge(k + 1));
+            h.area[k] += next - below;
+            below = next;
+          }
+        });
+  }
+  return h;
+}
+
+}  // namespace meshgauge
