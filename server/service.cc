@@ -10,6 +10,7 @@
 #include "lib/core/integrals.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
+#include "lib/core/thin_regions.h"
 #include "lib/embree/calibration.h"
 #include "proto/wire/convert.h"
 #include "server/session_store.h"
@@ -463,6 +464,8 @@ grpc::Status MeshGaugeService::ComputePenalty(
         const auto start = std::chrono::steady_clock::now();
         auto pp = wire::PenaltyFromWire(*request);
         if (!pp.ok()) return pp.status();
+        auto thin_request = wire::ThinFromWire(*request);
+        if (!thin_request.ok()) return thin_request.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
                             request->expected_generation());
@@ -493,6 +496,13 @@ grpc::Status MeshGaugeService::ComputePenalty(
         if (request->with_gradient()) {
           wire::AppendFlattened(pen->gradient, ev.mesh().dimension,
                                 response->mutable_gradient());
+        }
+        if (*thin_request) {
+          auto thin = FindThinRegions(ev.mesh(), sdf.values,
+                                      (*thin_request)->params);
+          if (!thin.ok()) return thin.status();
+          wire::ToWire(*thin, (*thin_request)->max_regions,
+                       response->mutable_thin());
         }
         response->set_sdf_min(SummarizeValues(sdf.values).min);
         response->set_reused_hits(pass->reused);

@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -131,6 +132,33 @@ TEST_F(CliRemoteTest, CalibrateIsTheLocalOne) {
   const std::string knight = SharedMesh("decimated-knight.off");
   ExpectSameOutputs("calibrate", knight, "--t-min 0.2 --rays 20", {});
   ExpectSameOutputs("calibrate", knight, "--t-min 0.2 --bins 7 --json", {});
+}
+
+TEST_F(CliRemoteTest, ReportIsTheLocalOne) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string args = " --t-min 0.1 --rays 20 --view-size 120 100 --out ";
+  const auto local = RunCli("report " + knight + args + Tmp("local_report"));
+  const auto remote = RunCli("remote report " + knight + args +
+                             Tmp("remote_report") + " --server " + target_);
+  ASSERT_EQ(local.exit_code, 0) << local.out;
+  ASSERT_EQ(remote.exit_code, 0) << remote.out;
+  EXPECT_EQ(remote.out, local.out);
+  for (const char* file : {"views.png", "histogram.png", "colored.ply"}) {
+    const std::string here = Slurp(Tmp("local_report/") + file);
+    EXPECT_FALSE(here.empty()) << file;
+    EXPECT_TRUE(here == Slurp(Tmp("remote_report/") + file)) << file;
+  }
+  // report.json: every number but the timings, bit for bit.
+  auto untimed = [](const std::string& dir) {
+    auto j = nlohmann::json::parse(Slurp(Tmp(dir + "/report.json")));
+    j.erase("timing");
+    j["summary"].erase("seconds");
+    j["summary"].erase("rays_per_second");
+    return j;
+  };
+  EXPECT_EQ(untimed("local_report").dump(), untimed("remote_report").dump());
+  std::filesystem::remove_all(Tmp("local_report"));
+  std::filesystem::remove_all(Tmp("remote_report"));
 }
 
 TEST_F(CliRemoteTest, TemporarySessionsAreDeletedNamedOnesKeptAndChecked) {

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <string>
 
+#include "lib/io/png_file.h"
 #include "tests/cli_test_util.h"
 #include "tests/test_util.h"
 
@@ -155,8 +156,8 @@ TEST(CliTest, TwoDimensionalHollowShapeWithRegionDirections) {
 TEST(CliTest, HelpListsEachVerbsOwnFlagsAndExitsZero) {
   const CliRun top = RunCli("--help");
   EXPECT_EQ(top.exit_code, 0);
-  for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "gradcheck",
-                           "shape", "remote"}) {
+  for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "report",
+                           "gradcheck", "shape", "remote"}) {
     EXPECT_THAT(top.out, HasSubstr(verb));
   }
   const CliRun sdf = RunCli("sdf --help");
@@ -366,6 +367,107 @@ TEST(CliDerivativesTest, CalibrateReportsAlphas) {
             2216);
   EXPECT_GT(j["alpha1"].get<double>(), 3.175 / 2);
   EXPECT_EQ(j["sdf_histogram"].size(), 20u);
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+std::string Slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+TEST(CliReportTest, WritesThePicturesTheTableThePageAndTheColouredPly) {
+  const std::filesystem::path dir = Tmp("report");
+  const CliRun r = RunCli("report " + SharedMesh("decimated-knight.off") +
+                              " --t-min 0.1 --rays 20 --view-size 160 120 "
+                              "--min-region-area 0.001 --out " +
+                              dir.string(),
+                          false);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, ::testing::ContainsRegex(
+                         "^[0-9.]+ % of the surface \\(area [0-9.e-]+ of "
+                         "[0-9.e-]+\\) is thinner than 0.1; thinnest "
+                         "[0-9.e-]+ at \\(.*\\)\n$"));
+  const auto j = nlohmann::json::parse(Slurp(dir / "report.json"));
+  EXPECT_EQ(j["sentence"].get<std::string>() + "\n", r.out);
+  const auto& regions = j["thin"]["regions"];
+  ASSERT_GT(regions.size(), 1u);
+  for (size_t i = 1; i < regions.size(); ++i) {
+    EXPECT_GE(regions[i - 1]["area"].get<double>(),
+              regions[i]["area"].get<double>());
+    EXPECT_EQ(regions[i]["speck"].get<bool>(),
+              regions[i]["area"].get<double>() < 0.001);
+  }
+  double binned = 0;
+  for (double a : j["histogram"]["area"]) binned += a;
+  EXPECT_NEAR(binned,
+              j["thin"]["total_area"].get<double>() -
+                  j["thin"]["missing_area"].get<double>(),
+              1e-9 * binned);
+  EXPECT_EQ(j["parameters"]["t_min"], 0.1);
+  EXPECT_EQ(j["parameters"]["rays_per_vertex"], 20);
+  auto views = ReadPng((dir / "views.png").string());
+  ASSERT_TRUE(views.ok()) << views.status();
+  EXPECT_EQ(views->width, 2 * (160 + 4) + 200);
+  EXPECT_EQ(views->height, 2 * (120 + 4));
+  auto histogram = ReadPng((dir / "histogram.png").string());
+  ASSERT_TRUE(histogram.ok()) << histogram.status();
+  const std::string ply = Slurp(dir / "colored.ply");
+  EXPECT_THAT(ply, HasSubstr("property float quality\nproperty uchar red\n"));
+  const std::string html = Slurp(dir / "index.html");
+  EXPECT_THAT(html, HasSubstr("src=\"data:image/png;base64,"));
+  EXPECT_THAT(html, HasSubstr("<h2>Thin regions</h2>"));
+  EXPECT_THAT(html, HasSubstr("<h2>Missing values</h2>"));
+  EXPECT_THAT(html, Not(HasSubstr("http")));  // nothing from the network.
+  std::filesystem::remove_all(dir);
+}
+
+TEST(CliReportTest, PenaltyAnswersWhereAndHowMuch) {
+  const CliRun r = RunCli("penalty " + SharedMesh("decimated-knight.off") +
+                          " --t-min 0.1 --rays 20");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, ::testing::ContainsRegex(
+                         "% of the surface \\(area .* of .*\\) is thinner "
+                         "than 0.1; thinnest .* at \\("));
+}
+
+TEST(CliReportTest, RejectsBadFlagsAndAnOutPathThatIsAFile) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string file = Tmp("not_a_dir");
+  std::ofstream(file) << "x";
+  struct Case {
+    std::string args, message;
+    int exit_code;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"report " + knight + " --out " + Tmp("r1"), "--t-min is required",
+            2},
+           {"report " + knight + " --t-min 1", "--out is required", 2},
+           {"report " + knight + " --t-min 1 --out x --up w", "--up", 2},
+           {"report " + knight + " --t-min 1 --out x --view-size 8 8",
+            "--view-size", 2},
+           {"report " + knight + " --t-min -1 --out " + Tmp("r2"),
+            "--t-min must be positive", 1},
+           {"report " + knight + " --t-min 1 --min-region-area -2 --out " +
+                Tmp("r3"),
+            "--min-region-area must be >= 0", 1},
+           {"report " + knight + " --t-min 1 --color-range 2 1 --out " +
+                Tmp("r4"),
+            "--color-range", 1},
+           {"report " + knight + " --t-min 1 --out " + file,
+            "is not a directory", 1}}) {
+    const CliRun r = RunCli(c.args);
+    EXPECT_EQ(r.exit_code, c.exit_code) << c.args << "\n" << r.out;
+    EXPECT_THAT(r.out, HasSubstr(c.message)) << c.args;
+  }
+  for (const char* d : {"r1", "r2", "r3", "r4"}) {
+    std::filesystem::remove_all(Tmp(d));
+  }
+  std::filesystem::remove(file);
 }
 
 }  // namespace

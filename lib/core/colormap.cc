@@ -36,9 +36,23 @@ Rgb ThicknessColor(double s) {
   s = std::clamp(s, 0.0, 1.0);
   const double lightness = 0.30 + 0.63 * s;
   const double hue = (300.0 - 195.0 * s) * std::numbers::pi / 180;
-  const double chroma = 0.11 + 0.04 * std::sin(std::numbers::pi * s);
+  // Chroma 0.13, reduced (bisection) where the colour would leave sRGB, so
+  // that clipping never changes the lightness.
+  const double ca = std::cos(hue), sa = std::sin(hue);
+  auto in_gamut = [&](double chroma, double rgb[3]) {
+    OkLabToLinear(lightness, chroma * ca, chroma * sa, rgb);
+    return std::min({rgb[0], rgb[1], rgb[2]}) >= 0 &&
+           std::max({rgb[0], rgb[1], rgb[2]}) <= 1;
+  };
   double rgb[3];
-  OkLabToLinear(lightness, chroma * std::cos(hue), chroma * std::sin(hue), rgb);
+  double lo = 0, hi = 0.13;
+  if (!in_gamut(hi, rgb)) {
+    for (int i = 0; i < 30; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (in_gamut(mid, rgb) ? lo : hi) = mid;
+    }
+    in_gamut(lo, rgb);
+  }
   return {Encode(rgb[0]), Encode(rgb[1]), Encode(rgb[2])};
 }
 

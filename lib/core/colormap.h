@@ -2,8 +2,9 @@
 // blue and green to light yellow (thick), readable in grey and by the
 // common colour-vision deficiencies. Built in the OKLab space: lightness
 // rises linearly from 0.30 to 0.93 while the hue turns from 300 to 105
-// degrees at moderate chroma, so equal steps of the value are close to
-// equal perceived steps (no false edges) and lightness alone orders them.
+// degrees at chroma 0.13 (less where sRGB cannot show it), so equal steps of
+// the value are close to equal perceived steps (no false edges) and lightness
+// alone orders them.
 #pragma once
 
 #include "lib/core/image.h"

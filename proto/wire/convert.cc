@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
 
@@ -104,6 +105,26 @@ void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out) {
   out->set_power(p.power);
   out->set_rho(p.rho);
   out->set_max_missing_fraction(p.max_missing_fraction);
+}
+
+absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(
+    const v1::ComputePenaltyRequest& r) {
+  if (!r.with_thin_regions()) return std::nullopt;
+  ThinRequest t;
+  t.params.t_min = r.t_min();
+  t.params.min_region_area = r.min_region_area();
+  if (!(t.params.min_region_area >= 0) ||
+      !std::isfinite(t.params.min_region_area)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_region_area must be >= 0 and finite, got ",
+                     r.min_region_area()));
+  }
+  if (r.max_thin_regions() < 0 || r.max_thin_regions() > 100000) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_thin_regions must be in 0..100000, got ", r.max_thin_regions()));
+  }
+  if (r.max_thin_regions() > 0) t.max_regions = r.max_thin_regions();
+  return t;
 }
 
 absl::StatusOr<PenaltyParams> PenaltyFromWire(
@@ -276,6 +297,81 @@ CalibrationReport FromWire(const v1::CalibrateResponse& r) {
                                   r.sdf_histogram().end());
   out.thickness_histogram.counts.assign(r.thickness_histogram().begin(),
                                         r.thickness_histogram().end());
+  return out;
+}
+
+namespace {
+
+void PointToWire(const Vec3& p, google::protobuf::RepeatedField<double>* out) {
+  out->Add(p.x);
+  out->Add(p.y);
+  out->Add(p.z);
+}
+
+absl::StatusOr<Vec3> PointFromWire(
+    const google::protobuf::RepeatedField<double>& p, const char* field) {
+  if (p.size() != 3) {
+    return absl::DataLossError(absl::StrCat("thin region ", field, " has ",
+                                            p.size(), " values, not 3"));
+  }
+  return Vec3{p[0], p[1], p[2]};
+}
+
+}  // namespace
+
+void ToWire(const ThinSurface& t, int max_regions, v1::ThinSurface* out) {
+  out->set_total_area(t.total_area);
+  out->set_missing_area(t.missing_area);
+  out->set_thin_area(t.thin_area);
+  out->set_min_thickness(t.min_thickness);
+  out->set_min_vertex(t.min_vertex);
+  PointToWire(t.min_point, out->mutable_min_point());
+  out->set_region_count(std::ssize(t.regions));
+  const int n = std::min<int64_t>(max_regions, std::ssize(t.regions));
+  for (int i = 0; i < n; ++i) {
+    const ThinRegion& r = t.regions[i];
+    v1::ThinRegion* w = out->add_regions();
+    w->set_faces(r.faces);
+    w->set_area(r.area);
+    w->set_min_thickness(r.min_thickness);
+    w->set_min_vertex(r.min_vertex);
+    PointToWire(r.min_point, w->mutable_min_point());
+    PointToWire(r.centroid, w->mutable_centroid());
+    PointToWire(r.box_min, w->mutable_box_min());
+    PointToWire(r.box_max, w->mutable_box_max());
+    w->set_speck(r.speck);
+  }
+}
+
+absl::StatusOr<ThinSurface> FromWire(const v1::ThinSurface& t, double t_min) {
+  ThinSurface out;
+  out.t_min = t_min;
+  out.total_area = t.total_area();
+  out.missing_area = t.missing_area();
+  out.thin_area = t.thin_area();
+  out.min_thickness = t.min_thickness();
+  out.min_vertex = t.min_vertex();
+  auto min_point = PointFromWire(t.min_point(), "min_point");
+  if (!min_point.ok()) return min_point.status();
+  out.min_point = *min_point;
+  for (const v1::ThinRegion& w : t.regions()) {
+    ThinRegion r;
+    r.faces = w.faces();
+    r.area = w.area();
+    r.min_thickness = w.min_thickness();
+    r.min_vertex = w.min_vertex();
+    r.speck = w.speck();
+    for (auto [field, point, name] :
+         {std::tuple{&w.min_point(), &r.min_point, "min_point"},
+          std::tuple{&w.centroid(), &r.centroid, "centroid"},
+          std::tuple{&w.box_min(), &r.box_min, "box_min"},
+          std::tuple{&w.box_max(), &r.box_max, "box_max"}}) {
+      auto p = PointFromWire(*field, name);
+      if (!p.ok()) return p.status();
+      *point = *p;
+    }
+    out.regions.push_back(r);
+  }
   return out;
 }
 

@@ -8,6 +8,7 @@
 #include <grpcpp/support/status.h>
 
 #include <cstdint>
+#include <optional>
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
@@ -15,6 +16,7 @@
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/thin_regions.h"
 #include "meshgauge/v1/meshgauge.pb.h"
 #include "proto/wire/types.h"
 
@@ -28,6 +30,10 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
                                    int threads);
 void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out);
 absl::StatusOr<PenaltyParams> PenaltyFromWire(
+    const v1::ComputePenaltyRequest& r);
+// nullopt without with_thin_regions. Errors: INVALID_ARGUMENT naming the
+// field (min_region_area < 0, max_thin_regions outside 0..100000).
+absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(
     const v1::ComputePenaltyRequest& r);
 void ToWire(const CalibrationParams& p, v1::CalibrateRequest* out);
 // `sdf` is the request's parameters already read with FromWire.
@@ -46,6 +52,10 @@ MissingValues FromWire(const v1::MissingValues& m);
 void ToWire(const SessionInfo& s, v1::SessionInfo* out);
 SessionInfo FromWire(const v1::SessionInfo& s);
 void ToWire(const CalibrationReport& r, v1::CalibrateResponse* out);
+// The largest `max_regions` regions (face_region is not sent).
+void ToWire(const ThinSurface& t, int max_regions, v1::ThinSurface* out);
+// t_min is the request's. Errors: DATA_LOSS for a point without 3 values.
+absl::StatusOr<ThinSurface> FromWire(const v1::ThinSurface& t, double t_min);
 CalibrationReport FromWire(const v1::CalibrateResponse& r);
 
 // `dimension` doubles per vertex.

@@ -11,6 +11,7 @@
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/sensitivity.h"
+#include "lib/core/thin_regions.h"
 
 namespace meshgauge::wire {
 
@@ -53,6 +54,12 @@ struct SdfReply {
 struct VjpReply {
   std::vector<Vec3> gradient;  // g^T J per vertex (z = 0 in 2D).
   CallFacts facts;
+};
+
+// ComputePenaltyRequest's thin-region fields.
+struct ThinRequest {
+  ThinRegionParams params;
+  int max_regions = 1000;
 };
 
 struct PenaltyReply {

@@ -200,6 +200,49 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertEqual(missing.returncode, 1)
         self.assertIn("no session 'cli'", missing.stderr)
 
+    def test_6_thin_regions_are_the_cli_reports_typed(self):
+        import json
+        from meshgauge_client import ThinRegion, ThinSurface
+        cli = os.environ["MESHGAUGE_CLI"]
+        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+                              "decimated-knight.off")
+        subprocess.run([cli, "remote", "upload", knight, "--session-id",
+                        "thin", "--server", self.target], check=True,
+                       capture_output=True, timeout=60)
+        out = os.path.join(self.tmp, "report")
+        subprocess.run([cli, "report", knight, "--t-min", "0.1", "--rays",
+                        "20", "--min-region-area", "0.001", "--out", out],
+                       check=True, capture_output=True, timeout=60)
+        with open(os.path.join(out, "report.json")) as f:
+            report = json.load(f)["thin"]
+        pen = self.client.penalty("thin", 0.1, rays=20, thin_regions=True,
+                                  min_region_area=0.001, gradient=False)
+        thin = pen.thin
+        self.assertIsInstance(thin, ThinSurface)
+        self.assertEqual(thin.region_count, len(report["regions"]))
+        self.assertEqual(thin.thin_area, report["thin_area"])
+        self.assertEqual(thin.total_area, report["total_area"])
+        self.assertEqual(thin.thin_fraction, report["thin_fraction"])
+        self.assertEqual(thin.min_vertex, report["thinnest"]["vertex"])
+        self.assertGreater(len(thin.regions), 1)
+        for got, want in zip(thin.regions, report["regions"]):
+            self.assertIsInstance(got, ThinRegion)
+            for name, value in want.items():
+                expect = tuple(value) if isinstance(value, list) else value
+                self.assertEqual(getattr(got, name), expect, name)
+        # The largest few only, and arguments checked before the call.
+        top = self.client.penalty("thin", 0.1, rays=20, thin_regions=True,
+                                  max_thin_regions=2, gradient=False).thin
+        self.assertEqual(len(top.regions), 2)
+        self.assertEqual(top.region_count, thin.region_count)
+        self.assertIsNone(self.client.penalty("thin", 0.1, rays=20).thin)
+        with self.assertRaises(ValueError):
+            self.client.penalty("thin", 0.1, thin_regions=True,
+                                max_thin_regions=0)
+        with self.assertRaises(ValueError):
+            self.client.penalty("thin", 0.1, thin_regions=True,
+                                min_region_area=-1)
+
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)

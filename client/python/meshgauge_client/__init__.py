@@ -20,7 +20,8 @@ from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
                                      UnauthenticatedError, UnavailableError,
                                      UnimplementedError, UnknownError)
 from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
-                                      SdfSummary, SessionInfo, VertexStatus)
+                                      SdfSummary, SessionInfo, ThinRegion,
+                                      ThinSurface, VertexStatus)
 from meshgauge_client.session import Session
 
 __version__ = "0.2.0"
@@ -31,7 +32,8 @@ __all__ = [
     "InternalError", "InvalidArgumentError", "MeshGaugeClient",
     "MeshGaugeError", "NotFoundError", "OutOfRangeError", "PenaltyResult",
     "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
-    "SdfResult", "SdfSummary", "Session", "SessionInfo",
+    "SdfResult", "SdfSummary", "Session", "SessionInfo", "ThinRegion",
+    "ThinSurface",
     "UnauthenticatedError", "UnavailableError", "UnimplementedError",
     "UnknownError", "VertexStatus", "mesh_crc32",
 ]

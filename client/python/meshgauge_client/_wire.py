@@ -1,14 +1,17 @@
 """The one conversion layer between Python arguments and the wire types."""
 
 import math
-from typing import Any, Optional, Sequence
+from typing import Any, Optional, Sequence, Tuple
 
+import grpc
 import numpy as np
 import numpy.typing as npt
 
 from meshgauge_client._stubs import pb
+from meshgauge_client.errors import DataLossError
 from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
-                                      SdfSummary, SessionInfo)
+                                      SdfSummary, SessionInfo, ThinRegion,
+                                      ThinSurface)
 
 METHODS = {"cone": pb.SDF_METHOD_CONE, "normal": pb.SDF_METHOD_NORMAL_RAY}
 NORMALS = {"area": pb.NORMAL_WEIGHTING_AREA, "angle": pb.NORMAL_WEIGHTING_ANGLE}
@@ -99,12 +102,34 @@ def summary(s: Any) -> SdfSummary:
                       s.missing.faces, s.missing.area_fraction)
 
 
-def penalty(resp: Any, dimension: int, form: str) -> PenaltyResult:
+def _point(p: Any, field: str) -> Tuple[float, float, float]:
+    if len(p) != 3:
+        raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                            f"thin region {field} has {len(p)} values, not 3")
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
+def thin_surface(t: Any, t_min: float) -> ThinSurface:
+    regions = [ThinRegion(r.faces, r.area, r.min_thickness, r.min_vertex,
+                          _point(r.min_point, "min_point"),
+                          _point(r.centroid, "centroid"),
+                          _point(r.box_min, "box_min"),
+                          _point(r.box_max, "box_max"), r.speck)
+               for r in t.regions]
+    return ThinSurface(t_min, t.total_area, t.missing_area, t.thin_area,
+                       t.min_thickness, t.min_vertex,
+                       _point(t.min_point, "min_point"), regions,
+                       t.region_count)
+
+
+def penalty(resp: Any, dimension: int, form: str, t_min: float,
+            with_thin: bool) -> PenaltyResult:
     gradient = flat(resp.gradient, dimension) if len(resp.gradient) else None
+    thin = thin_surface(resp.thin, t_min) if with_thin else None
     return PenaltyResult(resp.value, gradient, resp.sdf_min,
                          resp.missing.area_fraction, resp.missing.vertices,
                          resp.missing.faces, resp.world_frame_vertices,
-                         resp.generation, resp.reused_hits, form)
+                         resp.generation, resp.reused_hits, form, thin)
 
 
 def calibration(r: Any) -> Calibration:

@@ -324,11 +324,18 @@ class MeshGaugeClient:
                 power: float = 2.0, rho: float = 50.0,
                 max_missing_fraction: float = 0.5, gradient: bool = True,
                 expected_generation: Optional[int] = None,
+                thin_regions: bool = False, min_region_area: float = 0.0,
+                max_thin_regions: int = 1000,
                 **params: Any) -> PenaltyResult:
         """Minimum-thickness penalty (form one-sided or thesis, power n >= 1)
         or the aggregated KS constraint (form "ks", rho > 0), with its
         gradient (N, d). FailedPreconditionError when faces without values
-        cover more than max_missing_fraction of the surface."""
+        cover more than max_missing_fraction of the surface.
+
+        thin_regions: also PenaltyResult.thin, where the surface is thinner
+        than t_min (ThinSurface; the max_thin_regions largest regions,
+        1..100000; regions under min_region_area marked speck), the table
+        of `meshgauge report`."""
         t = _wire._number("t_min", t_min, 0, np.inf, lo_open=True)
         req = pb.ComputePenaltyRequest(
             session_id=session_id, params=_wire.sdf_params(**params), t_min=t,
@@ -338,10 +345,20 @@ class MeshGaugeClient:
             max_missing_fraction=_wire._number(
                 "max_missing_fraction", max_missing_fraction, 0, 1),
             with_gradient=gradient)
+        if thin_regions:
+            if (not isinstance(max_thin_regions, int)
+                    or not 1 <= max_thin_regions <= 100000):
+                raise ValueError("max_thin_regions must be an int in "
+                                 f"[1, 100000], got {max_thin_regions!r}")
+            req.with_thin_regions = True
+            req.min_region_area = _wire._number(
+                "min_region_area", min_region_area, 0, np.inf)
+            req.max_thin_regions = max_thin_regions
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputePenalty, req, session_id)
-        return _wire.penalty(resp, self._dim(session_id), form)
+        return _wire.penalty(resp, self._dim(session_id), form, t,
+                             thin_regions)
 
     def constraint(self, session_id: str, t_min: float, *, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:

@@ -69,6 +69,45 @@ class SdfResult:
 
 
 @dataclass(frozen=True)
+class ThinRegion:
+    """A connected set of faces whose linearly interpolated thickness falls
+    below t_min. area: of the part below t_min (length in 2D); points are
+    (x, y, z) in mesh units; speck: area < min_region_area."""
+
+    faces: int
+    area: float
+    min_thickness: float
+    min_vertex: int
+    min_point: Tuple[float, float, float]
+    centroid: Tuple[float, float, float]
+    box_min: Tuple[float, float, float]
+    box_max: Tuple[float, float, float]
+    speck: bool
+
+
+@dataclass(frozen=True)
+class ThinSurface:
+    """Where the surface is thinner than t_min: the largest regions first
+    (region_count counts them all, sent or not); thinnest is the smallest
+    value on a face with values (min_vertex -1 when there is none)."""
+
+    t_min: float
+    total_area: float
+    missing_area: float
+    thin_area: float
+    min_thickness: float
+    min_vertex: int
+    min_point: Tuple[float, float, float]
+    regions: List[ThinRegion]
+    region_count: int
+
+    @property
+    def thin_fraction(self) -> float:
+        """Share of the whole surface below t_min."""
+        return self.thin_area / self.total_area if self.total_area else 0.0
+
+
+@dataclass(frozen=True)
 class PenaltyResult:
     """A penalty P = integral of phi(t) (length^(d-1)) or the aggregated
     constraint G (form "ks", dimensionless; bound it by 0) of SPEC v2 §7.
@@ -87,6 +126,7 @@ class PenaltyResult:
     generation: int
     reused_hits: bool
     form: str
+    thin: Optional[ThinSurface] = None  # with thin_regions=True.
 
 
 @dataclass(frozen=True)
