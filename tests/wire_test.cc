@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "proto/wire/convert.h"
 #include "tests/test_util.h"
@@ -209,6 +210,83 @@ TEST(WireTest, SessionInfoAndCalibrationReportRoundTrip) {
   EXPECT_EQ(rb.sdf_histogram.counts, rep.sdf_histogram.counts);
   EXPECT_EQ(rb.thickness_histogram.counts, rep.thickness_histogram.counts);
   EXPECT_EQ(rb.thickness_histogram.hi, 0.9);
+}
+
+TEST(WireTest, ThinSurfaceRoundTripsBitForBitAndOnlyTheLargestAreSent) {
+  ThinSurface t;
+  t.t_min = 0.1;
+  t.total_area = 1.0 + 1e-12;  // float32 would change these.
+  t.thin_area = 0.1 + 1e-13;
+  t.missing_area = 1e-20;
+  t.min_thickness = 0.01 + 1e-15;
+  t.min_vertex = 7;
+  t.min_point = {0.1, 0.2 + 1e-16, -0.3};
+  for (int i = 0; i < 3; ++i) {
+    ThinRegion r;
+    r.faces = 10 - i;
+    r.area = 0.05 / (i + 1) + 1e-14;
+    r.min_thickness = 0.02 + i * 1e-13;
+    r.min_vertex = 100 + i;
+    r.min_point = {1.0 / 3, 1.0 * i, 2};
+    r.centroid = {0.1 + 1e-12, 0, -1.0 * i};
+    r.box_min = {-1, -2, -3};
+    r.box_max = {1, 2, 3 + 1e-15};
+    r.speck = i == 2;
+    t.regions.push_back(r);
+  }
+  v1::ThinSurface w;
+  wire::ToWire(t, 2, &w);
+  EXPECT_EQ(w.region_count(), 3);
+  auto back = wire::FromWire(w, 0.1);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->total_area, t.total_area);
+  EXPECT_EQ(back->thin_area, t.thin_area);
+  EXPECT_EQ(back->missing_area, t.missing_area);
+  EXPECT_EQ(back->min_thickness, t.min_thickness);
+  EXPECT_EQ(back->min_vertex, 7);
+  EXPECT_EQ(back->min_point, t.min_point);
+  ASSERT_EQ(back->regions.size(), 2u);
+  for (int i = 0; i < 2; ++i) {
+    const ThinRegion &a = back->regions[i], &b = t.regions[i];
+    EXPECT_EQ(a.faces, b.faces);
+    EXPECT_EQ(a.area, b.area);
+    EXPECT_EQ(a.min_thickness, b.min_thickness);
+    EXPECT_EQ(a.min_vertex, b.min_vertex);
+    EXPECT_EQ(a.min_point, b.min_point);
+    EXPECT_EQ(a.centroid, b.centroid);
+    EXPECT_EQ(a.box_min, b.box_min);
+    EXPECT_EQ(a.box_max, b.box_max);
+    EXPECT_EQ(a.speck, b.speck);
+  }
+  w.mutable_regions(1)->mutable_centroid()->RemoveLast();
+  EXPECT_EQ(wire::FromWire(w, 0.1).status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
+TEST(WireTest, ThinRequestRejectsANegativeSpeckAreaAndTooManyRegions) {
+  v1::ComputePenaltyRequest r;
+  r.set_t_min(1);
+  auto none = wire::ThinFromWire(r);
+  ASSERT_TRUE(none.ok());
+  EXPECT_FALSE(none->has_value());
+  r.set_with_thin_regions(true);
+  auto defaults = wire::ThinFromWire(r);
+  ASSERT_TRUE(defaults.ok() && defaults->has_value());
+  EXPECT_EQ((*defaults)->max_regions, 1000);
+  EXPECT_EQ((*defaults)->params.t_min, 1);
+  r.set_min_region_area(-1);
+  EXPECT_EQ(wire::ThinFromWire(r).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  r.set_min_region_area(std::numeric_limits<double>::infinity());
+  EXPECT_EQ(wire::ThinFromWire(r).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  r.set_min_region_area(0);
+  r.set_max_thin_regions(100001);
+  EXPECT_EQ(wire::ThinFromWire(r).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  r.set_max_thin_regions(-1);
+  EXPECT_EQ(wire::ThinFromWire(r).status().code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 }  // namespace
