@@ -5,6 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
+#include "absl/strings/str_join.h"
 #include "lib/core/shapes.h"
 
 namespace meshgauge {
@@ -39,7 +42,7 @@ TEST(ComponentsTest, FindsTheInwardComponentAndFlipsOnlyIt) {
   const MeshDiagnostics d = DiagnoseMesh(m);
   EXPECT_EQ(d.inward_components, std::vector<int64_t>{1});
   const Mesh before = m;
-  EXPECT_EQ(ReorientInwardComponents(m), 1);
+  EXPECT_EQ(ReorientComponents(m).components_turned_outward, 1);
   for (size_t f = 0; f < comps[0].faces.size(); ++f) {
     EXPECT_EQ(m.faces[f].v, before.faces[f].v);  // first body untouched.
   }
@@ -97,6 +100,88 @@ TEST(ComponentsTest, SignedVolumeIsExactFarFromTheOrigin) {
   Mesh box = MakeBox(1, 1, 1, 1);
   for (Vec3& p : box.positions) p += Vec3(1e7, 1e7, 1e7);
   EXPECT_NEAR(SignedVolume(box), 1, 1e-6);
+}
+
+// A sphere with `flipped` faces reversed (every third face from the 5th).
+Mesh SphereWithFlippedFaces(int* flipped) {
+  Mesh m = MakeIcosphere(1, 3);
+  *flipped = 0;
+  for (size_t f = 5; f < m.faces.size(); f += 3) {
+    ReverseFace(m.faces[f]);
+    ++*flipped;
+  }
+  return m;
+}
+
+TEST(OrientationTest, EdgesUsedTwiceInOneDirectionAreNamedPerComponent) {
+  int flipped = 0;
+  const Mesh m = SphereWithFlippedFaces(&flipped);
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  // Each flipped face disagrees with its 3 neighbours unless one of them is
+  // flipped too: at least one disagreeing edge per flipped face.
+  EXPECT_GE(d.inconsistent_edges, flipped);
+  EXPECT_EQ(d.inconsistent_components, std::vector<int64_t>{0});
+  EXPECT_THAT(absl::StrJoin(d.warnings, "\n"),
+              HasSubstr("used twice in the same direction) in components 0"));
+  EXPECT_EQ(DiagnoseMesh(MakeIcosphere(1, 3)).inconsistent_edges, 0);
+}
+
+TEST(OrientationTest, ReorientMakesEachComponentConsistentThenOutward) {
+  int flipped = 0;
+  Mesh sphere = SphereWithFlippedFaces(&flipped);
+  // Second body: a box turned inside out, with one face then put back.
+  Mesh m = TwoBoxes(/*second_inward=*/true);
+  const int32_t offset = static_cast<int32_t>(m.positions.size());
+  ReverseFace(m.faces[m.faces.size() - 1]);
+  for (Vec3 p : sphere.positions) m.positions.push_back(p + Vec3(0, 5, 0));
+  for (Face f : sphere.faces) {
+    for (int k = 0; k < f.size; ++k) f.v[k] += offset;
+    m.faces.push_back(f);
+  }
+  ASSERT_TRUE(ValidateMesh(m).ok());
+  const Reorientation r = ReorientComponents(m);
+  EXPECT_EQ(r.faces_made_consistent, flipped + 1);
+  EXPECT_EQ(r.components_made_consistent, 2);
+  EXPECT_EQ(r.components_turned_outward, 1);  // the box.
+  EXPECT_EQ(r.non_orientable_components, 0);
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  EXPECT_EQ(d.inconsistent_edges, 0);
+  EXPECT_TRUE(d.inward_components.empty());
+  for (const Component& c : ConnectedComponents(m)) {
+    EXPECT_GT(c.signed_volume, 0);
+  }
+}
+
+TEST(OrientationTest, AMoebiusBandIsNamedNonOrientable) {
+  // A band of 8 quads whose ends join with a half twist.
+  Mesh m;
+  constexpr int kN = 8;
+  for (int i = 0; i < kN; ++i) {
+    const double a = 2 * M_PI * i / kN, t = 0.5 * a;
+    for (double s : {-0.3, 0.3}) {
+      m.positions.push_back({(1 + s * std::cos(t)) * std::cos(a),
+                             (1 + s * std::cos(t)) * std::sin(a),
+                             s * std::sin(t)});
+    }
+  }
+  for (int i = 0; i < kN; ++i) {
+    const int32_t a0 = 2 * i, a1 = 2 * i + 1;
+    int32_t b0 = 2 * ((i + 1) % kN), b1 = b0 + 1;
+    if (i == kN - 1) std::swap(b0, b1);  // the half twist.
+    m.faces.push_back(Face::Quad(a0, b0, b1, a1));
+  }
+  ASSERT_TRUE(ValidateMesh(m).ok());
+  EXPECT_EQ(ReorientComponents(m).non_orientable_components, 1);
+  EXPECT_EQ(DiagnoseMesh(m).inconsistent_edges, 1);
+}
+
+TEST(OrientationTest, AReversedSegmentOfACurveIsFound) {
+  Mesh c = MakeCircle(1, 16);
+  ReverseFace(c.faces[3]);
+  EXPECT_EQ(DiagnoseMesh(c).inconsistent_edges, 2);
+  EXPECT_EQ(ReorientComponents(c).faces_made_consistent, 1);
+  EXPECT_EQ(DiagnoseMesh(c).inconsistent_edges, 0);
+  EXPECT_GT(SignedVolume(c), 0);
 }
 
 }  // namespace

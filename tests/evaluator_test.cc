@@ -102,6 +102,36 @@ TEST(EvaluatorTest, RejectsNonFinitePositionsAndKeepsOldOnes) {
   EXPECT_EQ((*ev)->generation(), 0);
 }
 
+TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
+  // Embree asserts (aborting the process) on coordinates beyond ~1.8e18.
+  Mesh huge = MakeIcosphere(1, 2);
+  for (Vec3& p : huge.positions) p *= 1e18;
+  ASSERT_TRUE(ValidateMesh(huge).ok());
+  auto refused = SdfEvaluator::Create(huge);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(refused.status().message()),
+              HasSubstr("rescale the mesh"));
+  const Mesh sphere = MakeIcosphere(1, 2);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  const absl::Status s = (*ev)->UpdatePositions(huge.positions);
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ((*ev)->mesh().positions, sphere.positions);
+  EXPECT_EQ((*ev)->generation(), 0);
+  // Radius 1e13: Embree's triangle test overflows float, no ray hits.
+  for (Vec3& p : huge.positions) p *= 1e-5;
+  EXPECT_EQ(SdfEvaluator::Create(huge).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  // Radius 2e12 computes every value.
+  Mesh large = MakeIcosphere(1, 2);
+  for (Vec3& p : large.positions) p *= 2e12;
+  auto ok = SdfEvaluator::Create(large);
+  ASSERT_TRUE(ok.ok()) << ok.status();
+  auto values = (*ok)->Compute({});
+  ASSERT_TRUE(values.ok());
+  EXPECT_EQ(values->CountStatus(VertexStatus::kOk), large.num_vertices());
+}
+
 TEST(EvaluatorTest, RejectsUpdateCollapsingAFace) {
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);

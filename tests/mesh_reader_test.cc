@@ -13,8 +13,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "lib/core/mesh.h"
 #include "absl/strings/str_cat.h"
+#include "lib/core/mesh.h"
 #include "lib/io/mesh_io.h"
 #include "lib/io/readers.h"
 #include "tests/openmesh_reference.h"
@@ -216,11 +216,35 @@ TEST(MeshReaderTest, PolygonsAreTriangulatedAndCounted) {
   EXPECT_EQ(quad->polygons_triangulated, 0);
 }
 
-TEST(MeshReaderTest, NonSimplePolygonIsAnErrorNamingItsId) {
+TEST(MeshReaderTest, NonSimplePolygonsAreTriangulatedByTheFallback) {
+  // A self-crossing pentagon: no ear clipping in its plane, but a
+  // triangulation of its corners in order with no zero-area triangle.
+  auto bowtie = ReadMeshFile(Corpus("obj/bowtie.obj"));
+  ASSERT_TRUE(bowtie.ok()) << bowtie.status();
+  EXPECT_EQ(bowtie->polygons_triangulated, 1);
+  EXPECT_EQ(bowtie->polygons_fallback, 1);
+  EXPECT_EQ(bowtie->first_fallback_polygon, 0);
+  ASSERT_EQ(bowtie->mesh.num_faces(), 3);
+  EXPECT_TRUE(ValidateMesh(bowtie->mesh).ok());
+  // A non-planar hexagon folded like a saddle (seen edge-on in its best-fit
+  // plane), after a simple triangle: face 1 is the fallback's.
+  auto saddle = ParseMeshContents(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
+      "v 1 0 1\nv 0.5 0.87 -1\nv -0.5 0.87 1\nv -1 0 -1\nv -0.5 -0.87 1\n"
+      "v 0.5 -0.87 -1\nf 1 2 3\nf 4 5 6 7 8 9\n",
+      ".obj", "saddle.obj");
+  ASSERT_TRUE(saddle.ok()) << saddle.status();
+  EXPECT_EQ(saddle->mesh.num_faces(), 1 + 4);
+  EXPECT_TRUE(ValidateMesh(saddle->mesh).ok());
+  // Collinear corners have no triangulation without a zero-area triangle:
+  // an error naming the face.
   EXPECT_THAT(
-      Message(ReadMeshFile(Corpus("obj/bowtie.obj"))),
-      HasSubstr(": line 6: polygon face 0 (5 corners): the polygon is not "
-                "simple"));
+      Message(ParseMeshContents("v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nv 4 0 0\n"
+                                "f 1 2 3 4 5\n",
+                                ".obj", "line.obj")),
+      HasSubstr("polygon face 0 (5 corners): the polygon has no area "
+                "in its best-fit plane, and every triangulation of it "
+                "has a triangle of no area"));
 }
 
 TEST(MeshReaderTest, PolygonTrianglesKeepTheRegion) {

@@ -1,5 +1,7 @@
 #include "client/cli/cli_flags.h"
 
+#include <cmath>
+#include <limits>
 #include <map>
 
 #include "absl/strings/match.h"
@@ -10,6 +12,31 @@
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
+namespace {
+
+// A number in an interval, checked while parsing (a usage error, exit 2);
+// text that is not a number is left to the option's conversion error.
+CLI::Validator Interval(double lo, double hi, bool lo_open, bool hi_open) {
+  const std::string range = absl::StrCat(
+      lo_open ? "(" : "[", lo, ", ", std::isinf(hi) ? "inf" : absl::StrCat(hi),
+      hi_open ? ")" : "]");
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0;
+        if (!absl::SimpleAtod(text, &v)) return "";
+        const bool inside = std::isfinite(v) && (lo_open ? v > lo : v >= lo) &&
+                            (hi_open ? v < hi : v <= hi);
+        return inside ? "" : absl::StrCat("Value ", text, " not in ", range);
+      },
+      "in " + range);
+}
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+}  // namespace
+
+CLI::Validator Positive() { return Interval(0, kInf, true, true); }
+CLI::Validator NonNegative() { return Interval(0, kInf, false, true); }
 
 void AddSdfFlags(CLI::App* app, SdfFlags* f) {
   app->add_option("--method", f->method,
@@ -19,12 +46,14 @@ void AddSdfFlags(CLI::App* app, SdfFlags* f) {
       ->capture_default_str();
   app->add_option("--cone-angle", f->cone_angle,
                   "full cone opening angle in degrees, (0, 180)")
+      ->check(Interval(0, 180, true, true))
       ->capture_default_str();
   app->add_option("--rays", f->rays,
                   "rays per vertex, 1..4096 (default 100 in 3D, 32 in 2D)")
       ->check(CLI::Range(1, 4096));
   app->add_option("--kappa", f->kappa,
                   "outlier filter: keep |t - median| <= kappa sigma, >= 0")
+      ->check(NonNegative())
       ->capture_default_str();
   app->add_option("--threads", f->threads, "worker threads (0: all cores)")
       ->check(CLI::Range(0, 1024))
@@ -32,6 +61,7 @@ void AddSdfFlags(CLI::App* app, SdfFlags* f) {
   app->add_option("--max-distance", f->max_distance,
                   "rays longer than this are misses (0: bounding-box "
                   "diagonal)")
+      ->check(NonNegative())
       ->capture_default_str();
   app->add_option("--normals", f->normals,
                   "vertex normal weighting: area, or angle (values only)")
@@ -45,8 +75,9 @@ void AddMeshFlags(CLI::App* app, MeshFlags* f) {
                   "flag or separate with commas")
       ->delimiter(',');
   app->add_flag("--reorient", f->reorient,
-                "reverse the faces of every closed component whose signed "
-                "volume is negative (and only those)");
+                "make each component's faces agree with their neighbours, "
+                "then reverse each closed component whose signed volume is "
+                "negative");
   app->add_flag("--drop-degenerate-faces", f->drop_degenerate_faces,
                 "remove zero-area faces (and say how many) instead of "
                 "rejecting the mesh");
@@ -65,8 +96,9 @@ void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
 }
 
 void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
-  CLI::Option* t = app->add_option("--t-min", f->t_min,
-                                   "minimum thickness, mesh units, > 0");
+  CLI::Option* t =
+      app->add_option("--t-min", f->t_min, "minimum thickness, mesh units, > 0")
+          ->check(Positive());
   if (t_min_required) t->required();
   app->add_option("--form", f->form,
                   "one-sided max(0,1-t/t_min)^n, thesis (t/t_min-1)^n, or ks, "
@@ -75,12 +107,15 @@ void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
       ->check(CLI::IsMember({"one-sided", "thesis", "ks"}))
       ->capture_default_str();
   app->add_option("--power", f->power, "penalty power n >= 1")
+      ->check(Interval(1, kInf, false, true))
       ->capture_default_str();
   app->add_option("--rho", f->rho, "KS aggregation rho > 0 (--form ks)")
+      ->check(Positive())
       ->capture_default_str();
   app->add_option("--max-missing-fraction", f->max_missing_fraction,
                   "fail when faces without values cover more than this "
                   "fraction of the surface, [0, 1]")
+      ->check(Interval(0, 1, false, false))
       ->capture_default_str();
   app->add_option("--grad", f->grad,
                   "write dP/dx (dG/dx) as CSV vertex,dx,dy,dz");
@@ -88,6 +123,7 @@ void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
 
 void AddReportFlags(CLI::App* app, ReportFlags* f) {
   app->add_option("--t-min", f->t_min, "minimum thickness, mesh units, > 0")
+      ->check(Positive())
       ->required();
   app->add_option("--out", f->out,
                   "directory for views.png, histogram.png, report.json, "
@@ -96,6 +132,7 @@ void AddReportFlags(CLI::App* app, ReportFlags* f) {
   app->add_option("--min-region-area", f->min_region_area,
                   "thin regions of less area (length in 2D) are specks: "
                   "listed, not outlined")
+      ->check(NonNegative())
       ->capture_default_str();
   app->add_option("--view-size", f->view_size, "pixels per view: W H")
       ->expected(2)
@@ -124,9 +161,11 @@ void AddGradFlags(CLI::App* app, GradFlags* f) {
 
 void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f) {
   app->add_option("--t-min", f->t_min, "minimum thickness, mesh units, > 0")
+      ->check(Positive())
       ->required();
   app->add_option("--tolerance", f->tolerance,
-                  "relative tolerance for SDF == thickness")
+                  "relative tolerance for SDF == thickness, >= 0")
+      ->check(NonNegative())
       ->capture_default_str();
   app->add_option("--bins", f->bins, "histogram bins, 1..1000")
       ->check(CLI::Range(1, 1000))
@@ -139,7 +178,8 @@ void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f) {
       ->capture_default_str();
   app->add_option("--seed", f->seed, "sampling seed")->capture_default_str();
   app->add_option("--fd-tolerance", f->fd_tolerance,
-                  "relative error allowed on clean samples")
+                  "relative error allowed on clean samples, > 0")
+      ->check(Positive())
       ->capture_default_str();
 }
 
@@ -218,6 +258,15 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   loaded.mesh = std::move(read->mesh);
   loaded.format = read->format;
   loaded.polygons_triangulated = read->polygons_triangulated;
+  loaded.polygons_fallback = read->polygons_fallback;
+  if (read->polygons_fallback > 0) {
+    loaded.warnings.push_back(absl::StrCat(
+        read->polygons_fallback,
+        " polygons are not simple in their best-fit plane (non-planar or "
+        "self-touching; first: file face ",
+        read->first_fallback_polygon,
+        "): triangulated by the fallback (largest smallest triangle)"));
+  }
   if (absl::Status s =
           ApplyRegionDirections(loaded.mesh, flags.region_directions);
       !s.ok()) {
@@ -239,10 +288,23 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
                          : ""));
   }
   if (flags.reorient) {
-    loaded.reoriented = ReorientInwardComponents(loaded.mesh);
-    if (loaded.reoriented > 0) {
+    const Reorientation r = ReorientComponents(loaded.mesh);
+    loaded.reoriented = r.components_turned_outward;
+    loaded.faces_made_consistent = r.faces_made_consistent;
+    if (r.faces_made_consistent > 0) {
       loaded.warnings.push_back(absl::StrCat(
-          loaded.reoriented,
+          r.faces_made_consistent, " faces in ", r.components_made_consistent,
+          " components reversed to agree with their neighbours (--reorient)"));
+    }
+    if (r.non_orientable_components > 0) {
+      loaded.warnings.push_back(absl::StrCat(
+          r.non_orientable_components,
+          " components cannot be oriented consistently (non-orientable, or "
+          "faces meeting at edges of more than two faces)"));
+    }
+    if (r.components_turned_outward > 0) {
+      loaded.warnings.push_back(absl::StrCat(
+          r.components_turned_outward,
           " inward-oriented closed components reversed (--reorient)"));
     }
   }

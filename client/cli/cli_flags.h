@@ -87,6 +87,10 @@ struct RemoteFlags {
   std::string tls_ca_file, tls_cert_file, tls_key_file, token_file;
 };
 
+// Validators of numbers > 0 and >= 0 (out of range: a usage error).
+CLI::Validator Positive();
+CLI::Validator NonNegative();
+
 void AddSdfFlags(CLI::App* app, SdfFlags* f);
 void AddMeshFlags(CLI::App* app, MeshFlags* f);
 void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files);
@@ -109,11 +113,13 @@ struct LoadedMesh {
   Mesh mesh;
   std::string format;
   int64_t polygons_triangulated = 0;
+  int64_t polygons_fallback = 0;  // of those, not simple (fallback).
   int64_t dropped_faces = 0;
   double signed_volume = 0;
   bool closed = false;
-  int64_t reoriented = 0;       // components reversed.
-  MeshDiagnostics diagnostics;  // after the fixes.
+  int64_t reoriented = 0;             // closed components turned outward.
+  int64_t faces_made_consistent = 0;  // reversed to agree (--reorient).
+  MeshDiagnostics diagnostics;        // after the fixes.
   std::vector<std::string> warnings;
 };
 

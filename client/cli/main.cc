@@ -6,6 +6,8 @@
 #include <iostream>
 #include <string>
 
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
 #include "client/cli/backend.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
@@ -109,6 +111,24 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
   }));
 }
 
+// "unknown verb 'X' (verbs: ...)" when the first argument of `app` (argv
+// from `first`) is neither a flag nor one of its verbs; empty otherwise.
+std::string UnknownVerb(CLI::App& app, int argc, char** argv, int first) {
+  if (first >= argc || argv[first][0] == '-') return "";
+  std::vector<std::string> verbs;
+  for (const CLI::App* sub : app.get_subcommands({})) {
+    if (sub->get_name() == argv[first]) {
+      return sub->get_name() == "remote"
+                 ? UnknownVerb(*app.get_subcommand("remote"), argc, argv,
+                               first + 1)
+                 : "";
+    }
+    verbs.push_back(sub->get_name());
+  }
+  return absl::StrCat("unknown verb '", argv[first],
+                      "' (verbs: ", absl::StrJoin(verbs, ", "), ")");
+}
+
 }  // namespace
 
 int Main(int argc, char** argv) {
@@ -141,8 +161,12 @@ int Main(int argc, char** argv) {
       ->required()
       ->check(CLI::IsMember({"circle", "sphere", "torus", "hollow"}));
   sh->add_option("--out", shape.out, "output OBJ file")->required();
-  sh->add_option("--size", shape.size, "element size")->capture_default_str();
-  sh->add_option("--radius", shape.radius, "radius")->capture_default_str();
+  sh->add_option("--size", shape.size, "element size, > 0")
+      ->check(Positive())
+      ->capture_default_str();
+  sh->add_option("--radius", shape.radius, "radius, > 0")
+      ->check(Positive())
+      ->capture_default_str();
   sh->callback([&] { run = [&] { return RunShape(shape); }; });
 
   RemoteInput r;
@@ -184,6 +208,12 @@ int Main(int argc, char** argv) {
     AddRemoteFlags(sub, &r.remote);
   }
 
+  if (const std::string unknown = UnknownVerb(app, argc, argv, 1);
+      !unknown.empty()) {
+    std::cerr << "meshgauge: usage error: " << unknown
+              << "\nRun 'meshgauge --help' or 'meshgauge VERB --help'.\n";
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -50,12 +50,15 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
       loaded.signed_volume;
   j["format"] = loaded.format;
   j["polygons_triangulated"] = loaded.polygons_triangulated;
+  j["polygons_fallback"] = loaded.polygons_fallback;
   j["dropped_degenerate_faces"] = loaded.dropped_faces;
   j["components"] = loaded.diagnostics.components;
   j["inward_components"] = loaded.diagnostics.inward_components;
   j["double_sided_faces"] = loaded.diagnostics.double_sided_faces;
   j["boundary_edges"] = loaded.diagnostics.boundary_edges;
   j["reoriented_components"] = loaded.reoriented;
+  j["faces_made_consistent"] = loaded.faces_made_consistent;
+  j["inconsistent_edges"] = loaded.diagnostics.inconsistent_edges;
   j["world_frame_vertices"] = result.world_frame_vertices;
   j["missing_vertices"] = result.missing.vertices;
   j["missing_faces"] = result.missing.faces;

@@ -96,6 +96,49 @@ int64_t CountDoubleSidedFaces(const Mesh& mesh) {
   return count;
 }
 
+// Pairs of faces sharing an edge (2D: a vertex) used by exactly these two,
+// and whether they traverse it in the same direction (then they disagree).
+struct FacePair {
+  int32_t a, b;
+  bool same_direction;
+};
+
+std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
+  struct Use {
+    uint64_t key;
+    int32_t face;
+    bool forward;
+    bool operator<(const Use& o) const {
+      return key != o.key ? key < o.key : face < o.face;
+    }
+  };
+  std::vector<Use> uses;
+  for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
+    const Face& f = mesh.faces[id];
+    if (f.size == 2) {
+      uses.push_back({static_cast<uint32_t>(f.v[0]), id, true});
+      uses.push_back({static_cast<uint32_t>(f.v[1]), id, false});
+      continue;
+    }
+    for (int k = 0; k < f.size; ++k) {
+      const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
+      const uint64_t key =
+          (uint64_t{static_cast<uint32_t>(std::min(a, b))} << 32) |
+          static_cast<uint32_t>(std::max(a, b));
+      uses.push_back({key, id, a < b});
+    }
+  }
+  std::sort(uses.begin(), uses.end());
+  std::vector<FacePair> pairs;
+  for (size_t i = 0, j = 0; i < uses.size(); i = j) {
+    while (j < uses.size() && uses[j].key == uses[i].key) ++j;
+    if (j - i != 2 || uses[i].face == uses[i + 1].face) continue;
+    pairs.push_back({uses[i].face, uses[i + 1].face,
+                     uses[i].forward == uses[i + 1].forward});
+  }
+  return pairs;
+}
+
 }  // namespace
 
 std::vector<Component> ConnectedComponents(const Mesh& mesh) {
@@ -116,6 +159,21 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
   }
   d.double_sided_faces = CountDoubleSidedFaces(mesh);
   d.boundary_edges = t.boundary_edges;
+  std::vector<int32_t> component_of(mesh.faces.size());
+  for (size_t i = 0; i < t.components.size(); ++i) {
+    for (int32_t f : t.components[i].faces)
+      component_of[f] = static_cast<int32_t>(i);
+  }
+  std::vector<char> inconsistent(t.components.size(), 0);
+  for (const FacePair& p : ManifoldNeighbours(mesh)) {
+    if (!p.same_direction) continue;
+    ++d.inconsistent_edges;
+    inconsistent[component_of[p.a]] = 1;
+  }
+  for (size_t i = 0; i < inconsistent.size(); ++i) {
+    if (inconsistent[i])
+      d.inconsistent_components.push_back(static_cast<int64_t>(i));
+  }
   if (!d.inward_components.empty()) {
     d.warnings.push_back(absl::StrCat(
         d.inward_components.size(), " of ", d.components,
@@ -124,6 +182,16 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
         absl::StrJoin(d.inward_components, ", "), " with ",
         absl::StrJoin(d.inward_component_faces, ", "),
         " faces; --reorient flips exactly those"));
+  }
+  if (d.inconsistent_edges > 0) {
+    d.warnings.push_back(absl::StrCat(
+        d.inconsistent_edges,
+        mesh.dimension == 2 ? " vertices join" : " edges join",
+        " faces of disagreeing orientation (used twice in the same "
+        "direction) in components ",
+        absl::StrJoin(d.inconsistent_components, ", "),
+        ": normals there are wrong or cancel; --reorient makes each "
+        "component consistent"));
   }
   if (d.double_sided_faces > 0) {
     d.warnings.push_back(
@@ -141,8 +209,7 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
     lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
     hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
   }
-  if (const double extent =
-          std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  if (const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
       extent > 0 && extent < kTinyExtent) {
     d.warnings.push_back(absl::StrCat(
         "the coordinates are tiny (bounding box ", extent,
@@ -158,14 +225,75 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
   return d;
 }
 
-int64_t ReorientInwardComponents(Mesh& mesh) {
-  int64_t flipped = 0;
+Reorientation ReorientComponents(Mesh& mesh) {
+  Reorientation r;
+  const int32_t nf = static_cast<int32_t>(mesh.num_faces());
+  // Neighbours of each face (CSR) with the parity between them.
+  const std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
+  std::vector<int32_t> offsets(nf + 1, 0);
+  for (const FacePair& p : pairs) {
+    ++offsets[p.a + 1];
+    ++offsets[p.b + 1];
+  }
+  std::partial_sum(offsets.begin(), offsets.end(), offsets.begin());
+  std::vector<std::pair<int32_t, bool>> adjacent(offsets[nf]);
+  {
+    std::vector<int32_t> next(offsets.begin(), offsets.end() - 1);
+    for (const FacePair& p : pairs) {
+      adjacent[next[p.a]++] = {p.b, p.same_direction};
+      adjacent[next[p.b]++] = {p.a, p.same_direction};
+    }
+  }
+  // Each patch: faces reached through manifold edges from its lowest face,
+  // with their parity (1: reverse to agree with that face).
+  std::vector<int8_t> parity(nf, -1);
+  std::vector<int32_t> patch, queue;
+  std::vector<int32_t> component_of(nf);
+  const Topology t = AnalyzeTopology(mesh);
+  for (size_t i = 0; i < t.components.size(); ++i) {
+    for (int32_t f : t.components[i].faces)
+      component_of[f] = static_cast<int32_t>(i);
+  }
+  std::vector<char> changed(t.components.size(), 0),
+      conflict(t.components.size(), 0);
+  for (int32_t seed = 0; seed < nf; ++seed) {
+    if (parity[seed] >= 0) continue;
+    patch.assign(1, seed);
+    parity[seed] = 0;
+    int64_t ones = 0;
+    for (size_t head = 0; head < patch.size(); ++head) {
+      const int32_t f = patch[head];
+      for (int32_t k = offsets[f]; k < offsets[f + 1]; ++k) {
+        const auto [g, same] = adjacent[k];
+        const int8_t want = parity[f] ^ (same ? 1 : 0);
+        if (parity[g] < 0) {
+          parity[g] = want;
+          ones += want;
+          patch.push_back(g);
+        } else if (parity[g] != want) {
+          conflict[component_of[f]] = 1;
+        }
+      }
+    }
+    // Reverse the smaller side (ties: keep the seed's orientation).
+    const int8_t flip = 2 * ones > std::ssize(patch) ? 0 : 1;
+    for (int32_t f : patch) {
+      if (parity[f] != flip) continue;
+      ReverseFace(mesh.faces[f]);
+      ++r.faces_made_consistent;
+      changed[component_of[f]] = 1;
+    }
+  }
+  for (size_t i = 0; i < changed.size(); ++i) {
+    r.components_made_consistent += changed[i];
+    r.non_orientable_components += conflict[i];
+  }
   for (const Component& c : ConnectedComponents(mesh)) {
     if (!c.closed || !(c.signed_volume < 0)) continue;
     for (int32_t id : c.faces) ReverseFace(mesh.faces[id]);
-    ++flipped;
+    ++r.components_turned_outward;
   }
-  return flipped;
+  return r;
 }
 
 }  // namespace meshgauge

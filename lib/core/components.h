@@ -34,6 +34,12 @@ struct MeshDiagnostics {
   int64_t double_sided_faces = 0;
   // Edges used by one face only (3D) or vertices used by one segment (2D).
   int64_t boundary_edges = 0;
+  // Edges used by exactly two faces in the same direction (2D: vertices
+  // where two segments both start or both end): neighbours whose
+  // orientations disagree; and the components (ConnectedComponents order)
+  // that have such edges.
+  int64_t inconsistent_edges = 0;
+  std::vector<int64_t> inconsistent_components;
   // One sentence per finding, for summaries and SessionInfo.
   std::vector<std::string> warnings;
 };
@@ -41,9 +47,26 @@ struct MeshDiagnostics {
 // Precondition: ValidateMesh(mesh) is OK.
 MeshDiagnostics DiagnoseMesh(const Mesh& mesh);
 
-// Reverses every face of each closed component with negative signed volume
-// (and nothing else); returns how many components were flipped.
+// What ReorientComponents changed.
+struct Reorientation {
+  // Faces reversed to agree with their neighbours, and the components they
+  // were in.
+  int64_t faces_made_consistent = 0;
+  int64_t components_made_consistent = 0;
+  // Closed components then reversed because their signed volume was
+  // negative (faces pointing into the solid).
+  int64_t components_turned_outward = 0;
+  // Components that no choice of orientations makes consistent (a Moebius
+  // band, or faces meeting at an edge used by more than two faces in a way
+  // that conflicts); left with the fewest disagreeing edges found.
+  int64_t non_orientable_components = 0;
+};
+
+// Makes each component's faces agree across every edge shared by exactly
+// two faces (reversing, in each patch of faces joined by such edges, the
+// smaller set of faces; ties keep the lowest face's orientation), then
+// reverses each closed component with negative signed volume. O(F log F).
 // Precondition: ValidateMesh(mesh) is OK.
-int64_t ReorientInwardComponents(Mesh& mesh);
+Reorientation ReorientComponents(Mesh& mesh);
 
 }  // namespace meshgauge

@@ -1,6 +1,7 @@
 #include "lib/core/polygon.h"
 
 #include <cmath>
+#include <limits>
 
 #include "absl/strings/str_cat.h"
 
@@ -39,15 +40,11 @@ bool InTriangle(const P2& p, const P2& a, const P2& b, const P2& c,
          Cross2(c, a, p) >= -eps;
 }
 
-}  // namespace
-
-absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
+// Ear clipping in the best-fit plane; errors when the polygon is not simple
+// there.
+absl::StatusOr<std::vector<std::array<int32_t, 3>>> EarClip(
     absl::Span<const Vec3> corners) {
   const int n = static_cast<int>(corners.size());
-  if (n < 3 || n > kMaxPolygonCorners) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "a polygon needs 3 to ", kMaxPolygonCorners, " corners, got ", n));
-  }
   // Newell normal and an orthonormal basis of its plane.
   Vec3 normal, centre;
   for (int i = 0; i < n; ++i) {
@@ -117,6 +114,77 @@ absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
   }
   out.push_back({ring[0], ring[1], ring[2]});
   return out;
+}
+
+// Of all triangulations of the corners in their order (diagonals i-j), the
+// one whose smallest triangle (in 3D) is largest, by dynamic programming
+// over the index intervals (O(n^3)); empty when every triangulation has a
+// triangle of no area. Triangles (i, k, j), i < k < j, keep the polygon's
+// cyclic order.
+std::vector<std::array<int32_t, 3>> MaxMinTriangulation(
+    absl::Span<const Vec3> corners) {
+  const int n = static_cast<int>(corners.size());
+  double size = 0;
+  for (const Vec3& c : corners) size = std::max(size, Norm(c - corners[0]));
+  auto twice_area = [&](int i, int k, int j) {
+    return Norm(Cross(corners[k] - corners[i], corners[j] - corners[i]));
+  };
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  // best[i][j]: the largest smallest doubled area over triangulations of
+  // the sub-polygon i..j (kInf for an edge); split[i][j]: its apex.
+  std::vector<double> best(n * n, kInf);
+  std::vector<int32_t> split(n * n, -1);
+  for (int len = 2; len < n; ++len) {
+    for (int i = 0; i + len < n; ++i) {
+      const int j = i + len;
+      double b = -1;
+      for (int k = i + 1; k < j; ++k) {
+        const double v =
+            std::min({best[i * n + k], best[k * n + j], twice_area(i, k, j)});
+        if (v > b) {
+          b = v;
+          split[i * n + j] = k;
+        }
+      }
+      best[i * n + j] = b;
+    }
+  }
+  std::vector<std::array<int32_t, 3>> out;
+  // The zero-area test of ValidateMesh on the doubled area.
+  if (!(best[n - 1] > 1e-14 * size * size)) return out;
+  std::vector<std::pair<int32_t, int32_t>> stack = {{0, n - 1}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    if (j - i < 2) continue;
+    const int32_t k = split[i * n + j];
+    out.push_back({i, k, j});
+    stack.push_back({i, k});
+    stack.push_back({k, j});
+  }
+  return out;
+}
+
+}  // namespace
+
+absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
+    absl::Span<const Vec3> corners, bool* fallback_used) {
+  if (fallback_used != nullptr) *fallback_used = false;
+  const int n = static_cast<int>(corners.size());
+  if (n < 3 || n > kMaxPolygonCorners) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "a polygon needs 3 to ", kMaxPolygonCorners, " corners, got ", n));
+  }
+  auto clipped = EarClip(corners);
+  if (clipped.ok()) return clipped;
+  auto fallback = MaxMinTriangulation(corners);
+  if (fallback.empty()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        clipped.status().message(),
+        ", and every triangulation of it has a triangle of no area"));
+  }
+  if (fallback_used != nullptr) *fallback_used = true;
+  return fallback;
 }
 
 }  // namespace meshgauge

@@ -1,5 +1,6 @@
-// Triangulation of the simple polygons that OBJ and OFF files may hold
-// (SPEC v2 §1): ear clipping in the polygon's best-fit plane.
+// Triangulation of the polygons that OBJ and OFF files may hold (SPEC v2.1
+// §1): ear clipping in the polygon's best-fit plane, a fan for polygons that
+// are not simple there (the max-min triangulation).
 #pragma once
 
 #include <array>
@@ -18,10 +19,14 @@ inline constexpr int kMaxPolygonCorners = 256;
 // corners: the polygon's n >= 3 corner positions in order. Projects them on
 // the plane normal to their Newell normal and clips ears; returns n - 2
 // triangles as indices into `corners`, each with the polygon's orientation.
-// Errors: InvalidArgument when n < 3 or n > kMaxPolygonCorners, when the
-// polygon has no area in that plane, or when it is not simple there (two
-// edges cross or touch, or a corner repeats).
+// A polygon that is not simple in that plane (two edges cross or touch, a
+// corner repeats, a non-planar face seen edge-on) or has no area there is
+// triangulated instead by the triangulation of its corners in order whose
+// smallest triangle (in 3D) is largest (O(n^3)); `fallback_used`
+// (optional) tells which. Errors: InvalidArgument when n < 3 or
+// n > kMaxPolygonCorners, or when every triangulation has a triangle of no
+// area (the zero-area test of ValidateMesh): the face is degenerate.
 absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
-    absl::Span<const Vec3> corners);
+    absl::Span<const Vec3> corners, bool* fallback_used = nullptr);
 
 }  // namespace meshgauge

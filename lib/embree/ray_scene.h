@@ -33,8 +33,10 @@ enum class BvhUpdatePolicy {
 
 class RayScene {
  public:
-  // Builds the BVH. `topo` must outlive the scene. Errors: Internal on Embree
-  // failure (message from rtcGetDeviceError).
+  // Builds the BVH. `topo` must outlive the scene. Errors: InvalidArgument
+  // for a mesh too large for Embree's single precision (bounding-box
+  // diagonal x (longest edge)^2 over 1e38, or a diagonal over 1e17);
+  // Internal on Embree failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
       const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);
   ~RayScene();
@@ -42,7 +44,8 @@ class RayScene {
   RayScene& operator=(const RayScene&) = delete;
 
   // Copies mesh.positions (same vertex count) into the Embree buffers and
-  // refits or rebuilds per the policy.
+  // refits or rebuilds per the policy. Errors: InvalidArgument as Create's
+  // (the scene is unchanged).
   absl::Status UpdatePositions(const Mesh& mesh);
 
   // Closest hit of origin + t * dir with t in [t_near, t_far] (single

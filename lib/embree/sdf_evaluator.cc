@@ -264,7 +264,11 @@ absl::Status SdfEvaluator::CommitPositions(std::vector<Vec3> old_positions) {
     return absl::InvalidArgumentError(
         absl::StrCat("position update rejected: ", s.message()));
   }
-  if (absl::Status s = scene_->UpdatePositions(mesh_); !s.ok()) return s;
+  if (absl::Status s = scene_->UpdatePositions(mesh_); !s.ok()) {
+    mesh_.positions = std::move(old_positions);
+    return absl::Status(s.code(),
+                        absl::StrCat("position update rejected: ", s.message()));
+  }
   RefreshDerivedGeometry();
   ++generation_;
   return absl::OkStatus();

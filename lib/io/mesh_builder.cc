@@ -66,7 +66,8 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
     } else {
       ring.clear();
       for (int32_t k = 0; k < n; ++k) ring.push_back(mesh.positions[c[k]]);
-      auto tris = TriangulatePolygon(ring);
+      bool fallback = false;
+      auto tris = TriangulatePolygon(ring, &fallback);
       if (!tris.ok()) {
         const auto& [id, where] = polygon_places_[polygon];
         return absl::InvalidArgumentError(
@@ -78,6 +79,12 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
       }
       ++polygon;
       ++file_.polygons_triangulated;
+      if (fallback) {
+        if (file_.polygons_fallback == 0) {
+          file_.first_fallback_polygon = polygon_places_[polygon - 1].first;
+        }
+        ++file_.polygons_fallback;
+      }
     }
     if (any_region_) {
       mesh.face_regions.insert(mesh.face_regions.end(),

@@ -16,7 +16,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!file.ok()) return 0;
   if (meshgauge::ValidateMesh(file->mesh).ok()) {
     meshgauge::DiagnoseMesh(file->mesh);
-    meshgauge::ReorientInwardComponents(file->mesh);
+    meshgauge::ReorientComponents(file->mesh);
   }
   return 0;
 }
