@@ -3,6 +3,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -224,9 +225,16 @@ TEST(CliTest, PreciseErrors) {
            // Runtime errors: 1.
            {"sdf /nonexistent.obj", "cannot open mesh file '/nonexistent.obj'",
             1},
+           // Usage errors: 2, out-of-range numbers included.
            {"sdf " + knight + " --cone-angle 200",
-            "cone angle must be in (0, 180) degrees, got 200", 1},
-           // Usage errors: 2.
+            "--cone-angle: Value 200 not in (0, 180)", 2},
+           {"sdf " + knight + " --cone-angle 180", "not in (0, 180)", 2},
+           {"sdf " + knight + " --kappa -1", "--kappa: Value -1 not in [0", 2},
+           {"penalty " + knight + " --t-min 0", "--t-min: Value 0 not in (0",
+            2},
+           {"penalty " + knight + " --t-min 1 --max-missing-fraction 2",
+            "--max-missing-fraction: Value 2 not in [0, 1]", 2},
+           {"calibrate " + knight + " --t-min nan", "--t-min: Value nan", 2},
            {"sdf " + knight + " --rays 5000",
             "--rays: Value 5000 not in range 1 to 4096", 2},
            {"sdf " + knight + " --rays 0", "not in range 1 to 4096", 2},
@@ -238,7 +246,11 @@ TEST(CliTest, PreciseErrors) {
            {"sdf " + knight + " --no-such-flag", "not expected", 2},
            {"shape sphere", "--out is required", 2},
            {"penalty " + knight, "--t-min is required", 2},
-           {"frobnicate", "A subcommand is required", 2}}) {
+           {"frobnicate",
+            "unknown verb 'frobnicate' (verbs: sdf, grad, penalty, calibrate, "
+            "report, gradcheck, shape, remote)",
+            2},
+           {"remote frob", "unknown verb 'frob' (verbs: sdf, grad", 2}}) {
     const CliRun r = RunCli(c.args);
     EXPECT_EQ(r.exit_code, c.exit_code) << c.args << "\n" << r.out;
     EXPECT_THAT(r.out, HasSubstr(c.message)) << c.args;
@@ -412,8 +424,8 @@ TEST(CliReportTest, WritesThePicturesTheTableThePageAndTheColouredPly) {
   EXPECT_EQ(j["parameters"]["rays_per_vertex"], 20);
   auto views = ReadPng((dir / "views.png").string());
   ASSERT_TRUE(views.ok()) << views.status();
-  EXPECT_EQ(views->width, 2 * (160 + 4) + 200);
-  EXPECT_EQ(views->height, 2 * (120 + 4));
+  EXPECT_EQ(views->width, 2 * (160 + 8) + 210);
+  EXPECT_EQ(views->height, std::max(2 * (24 + 120 + 8), 320));  // bar room.
   auto histogram = ReadPng((dir / "histogram.png").string());
   ASSERT_TRUE(histogram.ok()) << histogram.status();
   const std::string ply = Slurp(dir / "colored.ply");
@@ -451,10 +463,13 @@ TEST(CliReportTest, RejectsBadFlagsAndAnOutPathThatIsAFile) {
            {"report " + knight + " --t-min 1 --out x --view-size 8 8",
             "--view-size", 2},
            {"report " + knight + " --t-min -1 --out " + Tmp("r2"),
-            "--t-min must be positive", 1},
+            "--t-min: Value -1 not in (0, inf)", 2},
            {"report " + knight + " --t-min 1 --min-region-area -2 --out " +
                 Tmp("r3"),
-            "--min-region-area must be >= 0", 1},
+            "--min-region-area: Value -2 not in [0, inf)", 2},
+           {"report " + knight + " --t-min 1 --color-range 0 inf --out " +
+                Tmp("r3"),
+            "--color-range: Value inf", 2},
            {"report " + knight + " --t-min 1 --color-range 2 1 --out " +
                 Tmp("r4"),
             "--color-range", 1},

@@ -134,9 +134,9 @@ void AddReportFlags(CLI::App* app, ReportFlags* f) {
                   "listed, not outlined")
       ->check(NonNegative())
       ->capture_default_str();
-  app->add_option("--view-size", f->view_size, "pixels per view: W H")
+  app->add_option("--view-size", f->view_size, "pixels per view: W H, 64..4096")
       ->expected(2)
-      ->check(CLI::Range(16, 8192))
+      ->check(CLI::Range(64, 4096))
       ->capture_default_str();
   app->add_option("--up", f->up, "the mesh's up axis (names the views)")
       ->check(CLI::IsMember({"y", "z"}))
@@ -147,7 +147,8 @@ void AddReportFlags(CLI::App* app, ReportFlags* f) {
   app->add_option("--color-range", f->color_range,
                   "thickness at the ends of the colour map: LO HI (default: "
                   "the values' range, widened to t_min)")
-      ->expected(2);
+      ->expected(2)
+      ->check(Interval(-kInf, kInf, true, true));
 }
 
 void AddGradFlags(CLI::App* app, GradFlags* f) {

@@ -1,7 +1,9 @@
 // meshgauge report: where the part is thinner than t_min, as pictures, a
 // JSON report, a web page and a coloured PLY.
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -60,26 +62,28 @@ absl::StatusOr<std::string> WritePicture(const std::string& path,
 }
 
 absl::Status WriteText(const std::string& path, const std::string& text) {
+  errno = 0;
   std::ofstream out(path, std::ios::binary);
   out << text;
-  if (!out)
-    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  out.close();
+  if (!out) {
+    return absl::InternalError(absl::StrCat(
+        "cannot write '", path, "': ", errno ? std::strerror(errno) : "error"));
+  }
   return absl::OkStatus();
+}
+
+// The JSON text of `j`, bytes that are not UTF-8 (a file name in another
+// encoding) replaced by U+FFFD.
+std::string Dump(const nlohmann::json& j, int indent) {
+  return j.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 }  // namespace
 
 absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
                        const BackendFactory& make) {
-  ThinRegionParams thin_params{flags.t_min, flags.min_region_area};
-  if (!(thin_params.t_min > 0) || !std::isfinite(thin_params.t_min)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("--t-min must be positive, got ", flags.t_min));
-  }
-  if (!(thin_params.min_region_area >= 0)) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--min-region-area must be >= 0, got ", flags.min_region_area));
-  }
+  const ThinRegionParams thin_params{flags.t_min, flags.min_region_area};
   std::error_code ec;
   std::filesystem::create_directories(flags.out, ec);
   if (ec || !std::filesystem::is_directory(flags.out)) {
@@ -138,7 +142,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
 
   const std::string sentence = ThinSentence(*thin, curve);
   nlohmann::json report;
-  report["mesh"] = in.mesh;
+  report["mesh"] = nlohmann::json::parse(Dump(in.mesh, -1));
   report["sentence"] = sentence;
   report["summary"] = SummaryJson(opened->loaded, *result, sdf_seconds);
   const nlohmann::json& summary = report["summary"];
@@ -165,7 +169,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   report["timing"] = {{"sdf_seconds", sdf_seconds},
                       {"render_seconds", render_seconds}};
   if (absl::Status s =
-          WriteText((dir / "report.json").string(), report.dump(2) + "\n");
+          WriteText((dir / "report.json").string(), Dump(report, 2) + "\n");
       !s.ok()) {
     return s;
   }
@@ -175,7 +179,10 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
       !s.ok()) {
     return s;
   }
-  std::cout << sentence << "\n";
+  for (const auto& w : report["summary"]["warnings"]) {
+    std::cerr << "meshgauge: warning: " << w.get<std::string>() << "\n";
+  }
+  std::cout << (in.out.json ? Dump(report, -1) : sentence) << "\n";
   return absl::OkStatus();
 }
 

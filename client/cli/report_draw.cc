@@ -113,22 +113,26 @@ void DrawText(Image& image, int x, int y, std::string_view text, Rgb color,
   }
 }
 
+// The value a fraction f of the way from lo to hi, without overflow.
+double Lerp(double lo, double hi, double f) { return lo * (1 - f) + hi * f; }
+
 Image ComposeViews(const std::vector<RenderedView>& views,
                    const ColorScale& scale, double t_min) {
   const int cols = views.size() > 1 ? 2 : 1;
   const int rows = (static_cast<int>(views.size()) + cols - 1) / cols;
   const int vw = views.empty() ? 0 : views[0].image.width;
   const int vh = views.empty() ? 0 : views[0].image.height;
-  constexpr int kBar = 200, kGap = 4;
-  Image sheet(cols * (vw + kGap) + kBar, rows * (vh + kGap));
+  constexpr int kBar = 210, kGap = 8, kTitle = 24;
+  const int cell_w = vw + kGap, cell_h = vh + kTitle + kGap;
+  Image sheet(cols * cell_w + kBar, std::max(rows * cell_h, 320));
   for (size_t i = 0; i < views.size(); ++i) {
-    const int x0 = static_cast<int>(i % cols) * (vw + kGap);
-    const int y0 = static_cast<int>(i / cols) * (vh + kGap);
-    Blit(sheet, views[i].image, x0, y0);
-    DrawText(sheet, x0 + 8, y0 + 8, views[i].name, kInk, 2);
+    const int x0 = static_cast<int>(i % cols) * cell_w;
+    const int y0 = static_cast<int>(i / cols) * cell_h;
+    DrawText(sheet, x0 + 4, y0 + 5, views[i].name, kInk, 2);
+    Blit(sheet, views[i].image, x0, y0 + kTitle);
   }
   // The colour bar: hi at the top, lo at the bottom.
-  const int bx = cols * (vw + kGap) + 16, bw = 28;
+  const int bx = cols * cell_w + 16, bw = 28;
   const int top = 40, bottom = sheet.height - 70;
   DrawText(sheet, bx, 10, "THICKNESS", kInk, 2);
   for (int y = top; y <= bottom; ++y) {
@@ -140,17 +144,25 @@ Image ComposeViews(const std::vector<RenderedView>& views,
            static_cast<int>(std::lround(
                (1 - std::clamp(scale.Position(t), 0.0, 1.0)) * (bottom - top)));
   };
+  const double p = scale.Position(t_min);
+  const bool inside = p >= 0 && p <= 1;
+  const int ty = y_of(t_min);
   for (int k = 0; k <= 4; ++k) {
-    const double t = scale.lo + (scale.hi - scale.lo) * k / 4;
+    const double t = Lerp(scale.lo, scale.hi, k / 4.0);
     const int y = y_of(t);
     FillRect(sheet, bx + bw, y, bx + bw + 6, y + 1, kInk);
+    // The t_min label has the room near its mark.
+    if (inside && std::abs(y - ty) < 22) continue;
     DrawText(sheet, bx + bw + 10, y - 7, Number(t), kInk, 2);
   }
-  const int ty = y_of(t_min);
-  FillRect(sheet, bx - 6, ty - 1, bx + bw + 6, ty + 2, kThinOutline);
   const std::string mark = "T_MIN " + Number(t_min);
-  DrawText(sheet, std::max(bx - 6, sheet.width - 4 - TextWidth(mark, 2)),
-           std::min(ty + 6, bottom + 20), mark, kThinOutline, 2);
+  if (inside) {
+    FillRect(sheet, bx - 6, ty - 1, bx + bw + 6, ty + 2, kThinOutline);
+    DrawText(sheet, bx + bw + 10, ty - 7, mark, kThinOutline, 2);
+  } else {
+    DrawText(sheet, bx, p > 1 ? 26 : bottom + 8,
+             mark + (p > 1 ? " ABOVE" : " BELOW"), kThinOutline, 1);
+  }
   FillRect(sheet, bx, sheet.height - 30, bx + bw, sheet.height - 12,
            kNoValueGrey);
   DrawText(sheet, bx + bw + 10, sheet.height - 28, "NO VALUE", kInk, 2);
@@ -159,45 +171,56 @@ Image ComposeViews(const std::vector<RenderedView>& views,
 
 Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
                     double t_min, double thin_share, bool curve) {
-  constexpr int kW = 800, kH = 420, kLeft = 110, kRight = 50, kTop = 50,
-                kBottom = 60;
+  const double max_area =
+      histogram.area.empty()
+          ? 0
+          : *std::max_element(histogram.area.begin(), histogram.area.end());
+  int label_width = 0;
+  for (int k = 0; k <= 4; ++k) {
+    label_width = std::max(label_width, TextWidth(Number(max_area * k / 4), 2));
+  }
+  constexpr int kW = 800, kH = 420, kRight = 50, kTop = 50, kBottom = 60;
+  const int kLeft = label_width + 24;
   Image image(kW, kH);
   const int pw = kW - kLeft - kRight, ph = kH - kTop - kBottom;
-  const double max_area = std::max(
-      1e-300, *std::max_element(histogram.area.begin(), histogram.area.end()));
   const int bins = static_cast<int>(histogram.area.size());
   auto x_of = [&](double t) {
-    return kLeft +
-           static_cast<int>(std::lround((t - histogram.lo) /
-                                        (histogram.hi - histogram.lo) * pw));
+    const double f = (t - histogram.lo) / (histogram.hi - histogram.lo);
+    return kLeft + static_cast<int>(std::lround(f * pw));
   };
-  for (int k = 0; k < bins; ++k) {
+  for (int k = 0; k < bins && max_area > 0; ++k) {
     const int x0 = kLeft + k * pw / bins, x1 = kLeft + (k + 1) * pw / bins;
     const int height =
         static_cast<int>(std::lround(histogram.area[k] / max_area * ph));
-    const double center =
-        histogram.lo + (histogram.hi - histogram.lo) * (k + 0.5) / bins;
+    const double center = Lerp(histogram.lo, histogram.hi, (k + 0.5) / bins);
     FillRect(image, x0, kTop + ph - height, std::max(x0 + 1, x1 - 1), kTop + ph,
              scale(center));
   }
   FillRect(image, kLeft - 2, kTop, kLeft, kTop + ph + 2, kInk);
   FillRect(image, kLeft - 2, kTop + ph, kLeft + pw, kTop + ph + 2, kInk);
   for (int k = 0; k <= 4; ++k) {
-    const double t = histogram.lo + (histogram.hi - histogram.lo) * k / 4;
-    const int x = x_of(t);
+    const int x = kLeft + pw * k / 4;
     FillRect(image, x, kTop + ph + 2, x + 1, kTop + ph + 8, kInk);
-    const std::string label = Number(t);
-    DrawText(image, x - TextWidth(label, 2) / 2, kTop + ph + 12, label, kInk,
-             2);
-    const double a = max_area * k / 4;
+    const std::string label = Number(Lerp(histogram.lo, histogram.hi, k / 4.0));
+    DrawText(
+        image,
+        std::clamp(x - TextWidth(label, 2) / 2, 0, kW - TextWidth(label, 2)),
+        kTop + ph + 12, label, kInk, 2);
+    if (max_area <= 0) continue;
     const int y = kTop + ph - ph * k / 4;
     FillRect(image, kLeft - 8, y, kLeft - 2, y + 1, kInk);
-    const std::string area = Number(a);
+    const std::string area = Number(max_area * k / 4);
     DrawText(image, kLeft - 12 - TextWidth(area, 2), y - 7, area, kInk, 2);
   }
-  const int tx = x_of(t_min);
-  FillRect(image, tx - 1, kTop - 6, tx + 2, kTop + ph, kThinOutline);
-  DrawText(image, kLeft, 12,
+  if (max_area <= 0) {
+    DrawText(image, kLeft + pw / 2 - TextWidth("NO VALUES", 2) / 2,
+             kTop + ph / 2, "NO VALUES", kInk, 2);
+  }
+  if (t_min >= histogram.lo && t_min <= histogram.hi) {
+    const int tx = x_of(t_min);
+    FillRect(image, tx - 1, kTop - 6, tx + 2, kTop + ph, kThinOutline);
+  }
+  DrawText(image, 12, 12,
            absl::StrFormat("%s PER THICKNESS BIN: %.3g %% BELOW T_MIN %s",
                            curve ? "LENGTH" : "AREA", 100 * thin_share,
                            Number(t_min)),

@@ -1,5 +1,7 @@
 #include "client/cli/report_page.h"
 
+#include <algorithm>
+
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -8,7 +10,15 @@
 namespace meshgauge::cli {
 namespace {
 
-std::string Escape(const std::string& s) {
+// HTML text of s; control characters (other than tab and newline) are
+// dropped.
+std::string Escape(std::string s) {
+  s.erase(std::remove_if(s.begin(), s.end(),
+                         [](char c) {
+                           return static_cast<unsigned char>(c) < 0x20 &&
+                                  c != '\t' && c != '\n';
+                         }),
+          s.end());
   return absl::StrReplaceAll(s, {{"&", "&amp;"},
                                  {"<", "&lt;"},
                                  {">", "&gt;"},
@@ -32,7 +42,7 @@ std::string Picture(const std::string& png, const std::string& alt) {
                       absl::Base64Escape(png), "\">");
 }
 
-std::string RegionTable(const nlohmann::json& thin) {
+std::string RegionTable(const nlohmann::json& thin, bool curve) {
   const double total = thin["total_area"].get<double>();
   std::string rows;
   int rank = 0;
@@ -51,10 +61,11 @@ std::string RegionTable(const nlohmann::json& thin) {
   }
   if (rank == 0) rows = "<tr><td colspan=\"9\">no thin region</td></tr>\n";
   return absl::StrCat(
-      "<table><tr><th>#</th><th>area</th><th>share</th><th>min</th>"
-      "<th>thinnest at</th><th>centroid</th><th>bounding box</th>"
-      "<th>faces</th><th></th></tr>\n",
-      rows, "</table>\n");
+      "<table><tr><th>#</th><th>", curve ? "length" : "area",
+      "</th><th>share</th><th>min</th><th>thinnest at</th><th>centroid</th>"
+      "<th>bounding box</th><th>",
+      curve ? "segments" : "faces", "</th><th></th></tr>\n", rows,
+      "</table>\n");
 }
 
 std::string KeyValues(const nlohmann::json& object) {
@@ -104,7 +115,8 @@ std::string ReportHtml(const nlohmann::json& report,
       Picture(views_png, "the mesh coloured by thickness"),
       "\n<h2>Histogram</h2>\n",
       Picture(histogram_png, "surface measure per thickness bin"),
-      "\n<h2>Thin regions</h2>\n", RegionTable(report["thin"]),
+      "\n<h2>Thin regions</h2>\n",
+      RegionTable(report["thin"], summary["dimension"].get<int>() == 2),
       "<h2>Parameters</h2>\n", KeyValues(report["parameters"]),
       "<h2>SDF summary</h2>\n",
       KeyValues(nlohmann::json{

@@ -9,6 +9,17 @@ nlohmann::json Point(const Vec3& p) { return {p.x, p.y, p.z}; }
 
 double Share(double part, double whole) { return whole > 0 ? part / whole : 0; }
 
+// 100 * share with 3 significant digits, more when those would round a
+// share below 1 up to "100".
+std::string Percent(double share) {
+  std::string text;
+  for (int digits = 3; digits <= 12; ++digits) {
+    text = absl::StrFormat("%.*g", digits, 100 * share);
+    if (share >= 1 || text != "100") break;
+  }
+  return text;
+}
+
 }  // namespace
 
 std::string ThinSentence(const ThinSurface& thin, bool curve) {
@@ -18,14 +29,14 @@ std::string ThinSentence(const ThinSurface& thin, bool curve) {
     return absl::StrFormat("no vertex of the %s has a value", surface);
   }
   std::string s = absl::StrFormat(
-      "%.3g %% of the %s (%s %.4g of %.4g) is thinner than %g; thinnest %.4g "
+      "%s %% of the %s (%s %.4g of %.4g) is thinner than %g; thinnest %.4g "
       "at (%.6g, %.6g, %.6g)",
-      100 * Share(thin.thin_area, thin.total_area), surface, measure,
+      Percent(Share(thin.thin_area, thin.total_area)), surface, measure,
       thin.thin_area, thin.total_area, thin.t_min, thin.min_thickness,
       thin.min_point.x, thin.min_point.y, thin.min_point.z);
   if (thin.missing_area > 0) {
-    s += absl::StrFormat("; %.3g %% has no value",
-                         100 * Share(thin.missing_area, thin.total_area));
+    s += absl::StrFormat("; %s %% has no value",
+                         Percent(Share(thin.missing_area, thin.total_area)));
   }
   return s;
 }

@@ -206,14 +206,14 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
                    });
     if (!valued) continue;
     for (int k = 0; k < face.size; ++k) {
-      const int32_t v = face.v[k];
-      const double t = values[v];
-      if (t < t_min) thin[f] = 1;
-      if (out.min_vertex < 0 || t < out.min_thickness ||
-          (t == out.min_thickness && v < out.min_vertex)) {
-        out.min_thickness = t;
-        out.min_vertex = v;
-      }
+      if (values[face.v[k]] < t_min) thin[f] = 1;
+    }
+  }
+  for (int32_t v = 0; v < static_cast<int32_t>(values.size()); ++v) {
+    if (!std::isnan(values[v]) &&
+        (out.min_vertex < 0 || values[v] < out.min_thickness)) {
+      out.min_thickness = values[v];
+      out.min_vertex = v;
     }
   }
   if (out.min_vertex >= 0) out.min_point = mesh.positions[out.min_vertex];

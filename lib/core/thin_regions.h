@@ -41,7 +41,8 @@ struct ThinSurface {
   double total_area = 0;    // every face.
   double missing_area = 0;  // faces with a vertex without a value.
   double thin_area = 0;     // sum of the regions' areas.
-  // The smallest value on a face with values (NaN and -1 when none).
+  // The smallest value of any vertex (NaN and -1 when no vertex has one;
+  // ties: the lowest vertex id).
   double min_thickness = 0;
   int32_t min_vertex = -1;
   Vec3 min_point;

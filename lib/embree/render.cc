@@ -44,29 +44,30 @@ double Interpolate(double a, double b, double c, double u, double w) {
   return (1 - u - w) * a + u * b + w * c;
 }
 
-// Outlines the boundaries between pixels of different marks.
+// Outlines marked regions from outside: a pixel that is not marked (or
+// marked otherwise) within 2 pixels of a marked one turns kThinOutline, so
+// the marked pixels keep their colours.
 void DrawOutlines(const std::vector<int32_t>& outline, RenderedView& view) {
   const int w = view.image.width, h = view.image.height;
-  auto mark = [&](int x, int y) {
-    const int32_t f = view.face[static_cast<size_t>(y) * w + x];
-    return f < 0 ? -1 : outline[f];
-  };
-  std::vector<char> edge(static_cast<size_t>(w) * h, 0);
+  std::vector<int32_t> mark(static_cast<size_t>(w) * h, -1);
+  for (size_t i = 0; i < mark.size(); ++i) {
+    if (view.face[i] >= 0) mark[i] = outline[view.face[i]];
+  }
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      const int32_t m = mark(x, y);
-      const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
-      for (int k = 0; k < 4; ++k) {
-        const int nx = x + dx[k], ny = y + dy[k];
-        if (!view.image.contains(nx, ny)) continue;
-        const int32_t n = mark(nx, ny);
-        if (n != m && std::max(n, m) >= 0)
-          edge[static_cast<size_t>(y) * w + x] = 1;
+      const int32_t own = mark[static_cast<size_t>(y) * w + x];
+      if (own >= 0) continue;
+      bool near = false;
+      for (int dy = -2; dy <= 2 && !near; ++dy) {
+        for (int dx = -2; dx <= 2 && !near; ++dx) {
+          if (dx * dx + dy * dy > 5 || !view.image.contains(x + dx, y + dy)) {
+            continue;
+          }
+          near = mark[static_cast<size_t>(y + dy) * w + x + dx] >= 0;
+        }
       }
+      if (near) view.image.at(x, y) = kThinOutline;
     }
-  }
-  for (size_t i = 0; i < edge.size(); ++i) {
-    if (edge[i]) view.image.pixels[i] = kThinOutline;
   }
 }
 

@@ -41,9 +41,9 @@ struct RenderedView {
   std::vector<int32_t> face;  // per pixel: the mesh face seen, -1 for none.
 };
 
-// values: #V (NaN: no value). outline: empty, or #F marks (-1: unmarked); the
-// boundary between pixels of different marks (a mark against the
-// background included) is drawn in kThinOutline, 2 pixels wide.
+// values: #V (NaN: no value). outline: empty, or #F marks (-1: unmarked);
+// unmarked pixels (faces or background) within 2 pixels of a marked face
+// are drawn in kThinOutline, so marked faces keep their colours.
 // 3D: one picture per view, framing the bounding sphere. 2D: one picture,
 // "plane", of the curve seen from +z (x right, y up), `views` ignored.
 // Precondition: mesh validated. Errors: InvalidArgument for sizes; Internal

@@ -32,7 +32,9 @@ def _number(name: str, value: float, lo: float, hi: float,
     v = float(value)
     if not math.isfinite(v) or v < lo or v > hi or (lo_open and v == lo):
         bracket = "(" if lo_open else "["
-        raise ValueError(f"{name} must be in {bracket}{lo}, {hi}], got {value}")
+        close = ")" if math.isinf(hi) else "]"
+        raise ValueError(f"{name} must be finite and in {bracket}{lo}, {hi}"
+                         f"{close}, got {value}")
     return v
 
 

@@ -346,13 +346,14 @@ class MeshGaugeClient:
                 "max_missing_fraction", max_missing_fraction, 0, 1),
             with_gradient=gradient)
         if thin_regions:
-            if (not isinstance(max_thin_regions, int)
+            if (isinstance(max_thin_regions, bool)
+                    or not isinstance(max_thin_regions, int)
                     or not 1 <= max_thin_regions <= 100000):
                 raise ValueError("max_thin_regions must be an int in "
                                  f"[1, 100000], got {max_thin_regions!r}")
             req.with_thin_regions = True
             req.min_region_area = _wire._number(
-                "min_region_area", min_region_area, 0, np.inf)
+                "min_region_area", min_region_area, 0, np.inf)  # finite.
             req.max_thin_regions = max_thin_regions
         if expected_generation is not None:
             req.expected_generation = expected_generation

@@ -88,8 +88,8 @@ class ThinRegion:
 @dataclass(frozen=True)
 class ThinSurface:
     """Where the surface is thinner than t_min: the largest regions first
-    (region_count counts them all, sent or not); thinnest is the smallest
-    value on a face with values (min_vertex -1 when there is none)."""
+    (region_count counts them all, sent or not); min_thickness is the
+    smallest value of any vertex (min_vertex -1 when none has a value)."""
 
     t_min: float
     total_area: float
