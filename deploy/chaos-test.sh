@@ -19,7 +19,7 @@
 # Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end.
 set -euo pipefail
 cd "$(dirname "$0")"
-VERSION=$(sed -n 's/^project(meshgauge VERSION \([0-9.]*\).*/\1/p' ../CMakeLists.txt)
+VERSION=$(cat ../VERSION)
 COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 export MESHGAUGE_VERSION="$VERSION"
 PROM=http://127.0.0.1:9090

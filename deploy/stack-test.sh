@@ -8,7 +8,7 @@
 # 127.0.0.1 only. Needs a Docker engine: deploy/ensure-docker.sh.
 set -euo pipefail
 cd "$(dirname "$0")"
-VERSION=$(sed -n 's/^project(meshgauge VERSION \([0-9.]*\).*/\1/p' ../CMakeLists.txt)
+VERSION=$(cat ../VERSION)
 FRONT=127.0.0.1:50051
 PROM=http://127.0.0.1:9090
 

@@ -17,7 +17,7 @@
 # 127.0.0.1:9090.
 set -euo pipefail
 cd "$(dirname "$0")"
-VERSION=$(sed -n 's/^project(meshgauge VERSION \([0-9.]*\).*/\1/p' ../CMakeLists.txt)
+VERSION=$(cat ../VERSION)
 export MESHGAUGE_VERSION="$VERSION"
 COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 

@@ -9,6 +9,7 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage_config.h"
 #include "absl/flags/reflection.h"
 #include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
@@ -173,6 +174,11 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("meshgauge-server [flags]");
+  absl::FlagsUsageConfig usage;
+  usage.version_string = [] {
+    return std::string("meshgauge-server ") + MESHGAUGE_VERSION + "\n";
+  };
+  absl::SetFlagsUsageConfig(usage);
   if (!NumericFlagsParse(argc, argv)) return 2;
   absl::ParseCommandLine(argc, argv);
   const meshgauge::server::ServerOptions options = OptionsFromFlags();

@@ -1,7 +1,8 @@
 """Generates the meshgauge.v1 Python stubs from proto/ into a package folder
 (meshgauge_client/_proto), with Debian's protoc and grpc_python_plugin, and
 makes their imports relative so that no top-level ``meshgauge`` package is
-created or needed.
+created or needed; writes meshgauge_client/_version.py from the source
+tree's VERSION (the one release version of every part).
 
     python3 gen_stubs.py OUT_DIR [PROTO_DIR]
 """
@@ -40,6 +41,16 @@ def generate(out_dir: str, proto_dir: str = DEFAULT_PROTO) -> None:
         f.write(text)
     for package in (out_dir, os.path.join(out_dir, "meshgauge"), v1):
         open(os.path.join(package, "__init__.py"), "a").close()
+    with open(os.path.join(os.path.dirname(os.path.abspath(out_dir)),
+                           "_version.py"), "w") as f:
+        f.write('"""Generated from VERSION by gen_stubs.py."""\n\n'
+                f'__version__ = "{release_version(proto_dir)}"\n')
+
+
+def release_version(proto_dir: str = DEFAULT_PROTO) -> str:
+    """The one line of the source tree's VERSION (next to proto/)."""
+    with open(os.path.join(proto_dir, "..", "VERSION")) as f:
+        return f.readline().strip()
 
 
 if __name__ == "__main__":

@@ -1,4 +1,5 @@
-"""Build hook: the stubs are generated from ../../proto at build time."""
+"""Build hook: the stubs (and _version.py) are generated from ../../proto
+and ../../VERSION at build time."""
 
 import os
 import sys
@@ -17,4 +18,5 @@ class BuildWithStubs(build_py):
                                         "_proto"))
 
 
-setup(cmdclass={"build_py": BuildWithStubs})
+setup(version=gen_stubs.release_version(),
+      cmdclass={"build_py": BuildWithStubs})

@@ -169,6 +169,26 @@ class PackageTest(unittest.TestCase):
         self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
 
 
+def release_version():
+    with open(os.path.join(SOURCE, "VERSION")) as f:
+        return f.readline().strip()
+
+
+class VersionTest(unittest.TestCase):
+    def test_cli_server_and_package_say_the_version_of_VERSION(self):
+        version = release_version()
+        self.assertRegex(version, r"^\d+\.\d+\.\d+$")
+        self.assertEqual(meshgauge_client.__version__, version)
+        cli = subprocess.run([os.environ["MESHGAUGE_CLI"], "--version"],
+                             capture_output=True, text=True, check=True)
+        self.assertTrue(cli.stdout.startswith(f"meshgauge {version} ("),
+                        cli.stdout)
+        server = subprocess.run([os.environ["MESHGAUGE_SERVER"], "--version"],
+                                capture_output=True, text=True)
+        self.assertEqual(server.returncode, 0, server.stderr)
+        self.assertEqual(server.stdout.strip(), f"meshgauge-server {version}")
+
+
 class VenvInstallTest(unittest.TestCase):
     def test_the_readme_install_and_the_e2e_tests_against_it(self):
         venv = os.path.join(tempfile.mkdtemp(), ".venv")
@@ -189,6 +209,12 @@ class VenvInstallTest(unittest.TestCase):
             check=True).stdout.split()
         self.assertTrue(where[0].startswith(venv), where)
         self.assertEqual(where[1], "None", "no top-level meshgauge package")
+        installed = subprocess.run(
+            [python, "-c", "import meshgauge_client as m, importlib.metadata "
+             "as md; print(m.__version__, md.version('meshgauge-client'))"],
+            capture_output=True, text=True, env=env, cwd=tempfile.gettempdir(),
+            check=True).stdout.split()
+        self.assertEqual(installed, [release_version()] * 2)
         p = subprocess.run([python, "-m", "unittest", "test_remote_e2e"],
                            capture_output=True, text=True, env=env, cwd=HERE,
                            timeout=300)

@@ -24,7 +24,7 @@ from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
                                       ThinSurface, VertexStatus)
 from meshgauge_client.session import Session
 
-__version__ = "0.2.0"
+from meshgauge_client._version import __version__  # noqa: E402
 
 __all__ = [
     "AbortedError", "AlreadyExistsError", "Calibration", "CancelledError",
