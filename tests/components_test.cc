@@ -5,9 +5,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
 
 #include "absl/strings/str_join.h"
+#include "lib/core/missing_diagnosis.h"
 #include "lib/core/shapes.h"
 
 namespace meshgauge {
@@ -182,6 +186,88 @@ TEST(OrientationTest, AReversedSegmentOfACurveIsFound) {
   EXPECT_EQ(ReorientComponents(c).faces_made_consistent, 1);
   EXPECT_EQ(DiagnoseMesh(c).inconsistent_edges, 0);
   EXPECT_GT(SignedVolume(c), 0);
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// Appends `part` to `mesh` as a new component, shifted by `offset`.
+void Append(Mesh& mesh, const Mesh& part, const Vec3& offset) {
+  const int32_t base = static_cast<int32_t>(mesh.positions.size());
+  for (const Vec3& p : part.positions) mesh.positions.push_back(p + offset);
+  for (Face f : part.faces) {
+    for (int k = 0; k < f.size; ++k) f.v[k] += base;
+    mesh.faces.push_back(f);
+  }
+}
+
+// Warnings for `part` with the values of `missing_faces` (all faces when
+// empty) removed, their vertices given `cause`.
+std::vector<std::string> WarningsFor(const Mesh& part,
+                                     VertexStatus cause = VertexStatus::kNoHit,
+                                     std::vector<int32_t> missing_faces = {},
+                                     double warn_fraction = 0.01) {
+  std::vector<double> values(part.positions.size(), 1.0);
+  std::vector<VertexStatus> status(part.positions.size(), VertexStatus::kOk);
+  if (missing_faces.empty()) {
+    missing_faces.resize(part.faces.size());
+    std::iota(missing_faces.begin(), missing_faces.end(), 0);
+  }
+  for (int32_t f : missing_faces) {
+    for (int k = 0; k < part.faces[f].size; ++k) {
+      values[part.faces[f].v[k]] = std::numeric_limits<double>::quiet_NaN();
+      status[part.faces[f].v[k]] = cause;
+    }
+  }
+  return MissingValueWarnings(part, values, status, warn_fraction);
+}
+
+TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
+  Mesh inward = MakeBox(1, 1, 1, 0.5);
+  ReverseFaces(inward);
+  EXPECT_THAT(absl::StrJoin(WarningsFor(inward), ""),
+              HasSubstr("component 0 (48 faces): 100% of its area (100% of "
+                        "the mesh's) has no value, 26 vertices: it is closed "
+                        "with a negative signed volume"));
+  Mesh mixed = MakeIcosphere(0.6, 2);
+  ReverseFace(mixed.faces[3]);
+  EXPECT_THAT(absl::StrJoin(WarningsFor(mixed), ""),
+              HasSubstr("disagree on orientation"));
+  EXPECT_THAT(absl::StrJoin(WarningsFor(MakeBox(1, 1, 1, 0.5),
+                                        VertexStatus::kDegenerateNormal),
+                            ""),
+              HasSubstr("degenerate normal"));
+  Mesh sheet = MakeBox(1, 1, 1, 0.5);
+  sheet.faces.resize(8);  // one side of the box: flat and open.
+  EXPECT_THAT(absl::StrJoin(WarningsFor(sheet), ""), HasSubstr("flat sheet"));
+  Mesh open = MakeBox(1, 1, 1, 0.5);
+  open.faces.resize(open.faces.size() - 8);  // a side removed.
+  EXPECT_THAT(absl::StrJoin(WarningsFor(open), ""), HasSubstr("it is open"));
+  EXPECT_THAT(absl::StrJoin(WarningsFor(MakeIcosphere(1, 3),
+                                        VertexStatus::kNoHit, {0, 1, 2}),
+                            ""),
+              HasSubstr("one-ring exclusion"));
+}
+
+TEST(MissingValueWarningsTest, BelowTheThresholdNothingAndBeyondFiveACount) {
+  // One face of 2880 and its neighbours: under 1 % of the surface.
+  EXPECT_TRUE(
+      WarningsFor(MakeIcosphere(1, 12), VertexStatus::kNoHit, {0}).empty());
+  EXPECT_FALSE(
+      WarningsFor(MakeIcosphere(1, 3), VertexStatus::kNoHit, {0}, 0.001)
+          .empty());
+  Mesh seven;
+  for (int i = 0; i < 7; ++i)
+    Append(seven, MakeBox(1, 1, 1 + i, 0.5), {3.0 * i, 0, 0});
+  const auto w = WarningsFor(seven);
+  ASSERT_EQ(w.size(), 6u);
+  EXPECT_THAT(w[0], HasSubstr("component 6 ("));  // the largest first.
+  EXPECT_EQ(w[5],
+            "2 more components have more than 1% of the surface "
+            "without values");
 }
 
 }  // namespace

@@ -93,6 +93,12 @@ void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
                     "property");
   }
   app->add_flag("--json", f->json, "print the summary as one JSON object");
+  app->add_option("--warn-missing-fraction", f->warn_missing_fraction,
+                  "warn, per component and with its likely cause, when "
+                  "values are missing on more than this fraction of the "
+                  "surface, [0, 1]")
+      ->check(Interval(0, 1, false, false))
+      ->capture_default_str();
 }
 
 void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {

@@ -35,10 +35,11 @@ struct MeshFlags {
   bool drop_degenerate_faces = false;
 };
 
-// --csv --ply --json.
+// --csv --ply --json --warn-missing-fraction.
 struct OutputFlags {
   std::string csv, ply;
   bool json = false;
+  double warn_missing_fraction = 0.01;
 };
 
 // --t-min --form --power --rho --max-missing-fraction --grad.

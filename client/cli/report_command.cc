@@ -144,7 +144,8 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   nlohmann::json report;
   report["mesh"] = nlohmann::json::parse(Dump(in.mesh, -1));
   report["sentence"] = sentence;
-  report["summary"] = SummaryJson(opened->loaded, *result, sdf_seconds);
+  report["summary"] = SummaryJson(opened->loaded, *result, sdf_seconds,
+                                  in.out.warn_missing_fraction);
   const nlohmann::json& summary = report["summary"];
   report["parameters"] = {
       {"t_min", flags.t_min},

@@ -40,7 +40,8 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
       return s;
     }
   }
-  const nlohmann::json summary = SummaryJson(opened->loaded, *result, seconds);
+  const nlohmann::json summary = SummaryJson(opened->loaded, *result, seconds,
+                                             in.out.warn_missing_fraction);
   if (in.out.json) {
     std::cout << summary.dump() << "\n";
   } else {

@@ -8,12 +8,13 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "lib/core/integrals.h"
+#include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
 
 namespace meshgauge::cli {
 
 nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
-                           double seconds) {
+                           double seconds, double warn_fraction) {
   nlohmann::json j;
   j["vertices"] = loaded.mesh.num_vertices();
   j["faces"] = loaded.mesh.num_faces();
@@ -64,12 +65,9 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j["missing_faces"] = result.missing.faces;
   j["missing_area_fraction"] = result.missing.area_fraction;
   std::vector<std::string> warnings = loaded.warnings;
-  // The default allowance of penalties (SPEC v2 §7): over it, say why.
-  if (result.missing.area_fraction > PenaltyParams{}.max_missing_fraction) {
-    warnings.push_back(absl::StrFormat(
-        "%.1f%% of the area has no value (%d vertices): %s",
-        100 * result.missing.area_fraction, result.missing.vertices,
-        LikelyMissingCause(loaded.mesh, result.Causes())));
+  for (std::string& w : MissingValueWarnings(loaded.mesh, result.values,
+                                             result.status, warn_fraction)) {
+    warnings.push_back(std::move(w));
   }
   j["warnings"] = warnings;
   return j;

@@ -12,9 +12,11 @@ namespace meshgauge::cli {
 
 // The JSON summary of SPEC/README: vertices, faces, dimension, ok, no_hit,
 // no_faces, degenerate_normal, sdf_min/median/max/mean (null when no value),
-// integral, rays, seconds, rays_per_second, plus method, warnings, volume.
+// integral, rays, seconds, rays_per_second, plus method, volume and
+// warnings: the mesh's, and a sentence per component whose missing values
+// cover more than warn_fraction of the surface (MissingValueWarnings).
 nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
-                           double seconds);
+                           double seconds, double warn_fraction);
 
 // Human-readable form of the same summary.
 std::string SummaryText(const nlohmann::json& summary);

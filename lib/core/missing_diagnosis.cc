@@ -1,0 +1,132 @@
+#include "lib/core/missing_diagnosis.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "absl/strings/str_format.h"
+#include "lib/core/components.h"
+#include "lib/core/integrals.h"
+
+namespace meshgauge {
+namespace {
+
+struct ComponentMissing {
+  int64_t component = 0;
+  double area = 0, missing_area = 0;
+  int64_t missing_vertices = 0, no_hit = 0, degenerate = 0;
+  Vec3 area_vector;       // sum of the faces' area vectors (3D).
+  double area_norms = 0;  // sum of their lengths.
+};
+
+std::string Cause(const Mesh& mesh, const Component& c,
+                  const ComponentMissing& m, bool inconsistent) {
+  if (c.closed && c.signed_volume < 0) {
+    return "it is closed with a negative signed volume: its faces point "
+           "inward and the cones look outside (--reorient, or reorient in "
+           "the Python client)";
+  }
+  if (inconsistent) {
+    return "neighbouring faces disagree on orientation, so normals there "
+           "are wrong or cancel (--reorient makes it consistent)";
+  }
+  if (m.degenerate > m.no_hit) {
+    return "most of its missing vertices have a degenerate normal: "
+           "double-sided or folded faces whose normals cancel";
+  }
+  if (mesh.dimension == 3 && !c.closed &&
+      Norm(m.area_vector) >= (1 - 1e-9) * m.area_norms) {
+    return "it is a flat sheet with no inside, so the rays escape (thicken "
+           "it, or give its region an OUTWARD cone)";
+  }
+  if (!c.closed) {
+    return "it is open, so rays escape through its holes (close it, or give "
+           "open regions an OUTWARD cone)";
+  }
+  return "it is closed and outward, so these are rays lost at sharp or "
+         "coarse corners, where the one-ring exclusion hides the nearby "
+         "surface (refine the mesh there, or widen the cone)";
+}
+
+}  // namespace
+
+std::vector<std::string> MissingValueWarnings(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::vector<VertexStatus>& status, double warn_fraction) {
+  const std::vector<Component> components = ConnectedComponents(mesh);
+  std::vector<int32_t> component_of(mesh.faces.size());
+  std::vector<ComponentMissing> per(components.size());
+  for (size_t i = 0; i < components.size(); ++i) {
+    per[i].component = static_cast<int64_t>(i);
+    for (int32_t f : components[i].faces) {
+      component_of[f] = static_cast<int32_t>(i);
+    }
+  }
+  double total = 0;
+  ForEachElement(mesh, [&](int64_t face, const Element& e) {
+    ComponentMissing& m = per[component_of[face]];
+    bool finite = true;
+    for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
+    total += e.measure;
+    m.area += e.measure;
+    if (!finite) m.missing_area += e.measure;
+    if (e.n == 3) {
+      const Vec3& a = mesh.positions[e.v[0]];
+      const Vec3 n =
+          Cross(mesh.positions[e.v[1]] - a, mesh.positions[e.v[2]] - a) * 0.5;
+      m.area_vector += n;
+      m.area_norms += Norm(n);
+    }
+  });
+  // Each missing vertex counted once, in the component of its first face.
+  std::vector<int32_t> vertex_component(mesh.positions.size(), -1);
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    for (int k = 0; k < mesh.faces[f].size; ++k) {
+      int32_t& c = vertex_component[mesh.faces[f].v[k]];
+      if (c < 0) c = component_of[f];
+    }
+  }
+  for (size_t v = 0; v < values.size(); ++v) {
+    if (vertex_component[v] < 0 || std::isfinite(values[v])) continue;
+    ComponentMissing& m = per[vertex_component[v]];
+    ++m.missing_vertices;
+    m.no_hit += status[v] == VertexStatus::kNoHit;
+    m.degenerate += status[v] == VertexStatus::kDegenerateNormal;
+  }
+  std::vector<ComponentMissing> flagged;
+  for (const ComponentMissing& m : per) {
+    if (total > 0 && m.missing_area > warn_fraction * total) {
+      flagged.push_back(m);
+    }
+  }
+  std::sort(flagged.begin(), flagged.end(), [](const auto& a, const auto& b) {
+    return a.missing_area != b.missing_area ? a.missing_area > b.missing_area
+                                            : a.component < b.component;
+  });
+  std::vector<int64_t> inconsistent;
+  if (!flagged.empty())
+    inconsistent = DiagnoseMesh(mesh).inconsistent_components;
+  std::vector<std::string> out;
+  constexpr size_t kNamed = 5;
+  for (size_t i = 0; i < flagged.size() && i < kNamed; ++i) {
+    const ComponentMissing& m = flagged[i];
+    const Component& c = components[m.component];
+    const bool mixed = std::binary_search(inconsistent.begin(),
+                                          inconsistent.end(), m.component);
+    out.push_back(absl::StrFormat(
+        "component %d (%d faces): %.3g%% of its %s (%.3g%% of the mesh's) "
+        "has no value, %d vertices: %s",
+        m.component, c.faces.size(), 100 * m.missing_area / m.area,
+        mesh.dimension == 2 ? "length" : "area", 100 * m.missing_area / total,
+        m.missing_vertices, Cause(mesh, c, m, mixed)));
+  }
+  if (flagged.size() > kNamed) {
+    out.push_back(absl::StrFormat(
+        "%d more components have more than %.3g%% of the surface without "
+        "values",
+        flagged.size() - kNamed, 100 * warn_fraction));
+  }
+  return out;
+}
+
+}  // namespace meshgauge
