@@ -8,6 +8,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/integrals.h"
+#include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/thin_regions.h"
@@ -407,6 +408,10 @@ grpc::Status MeshGaugeService::ComputeSdf(
         wire::ToWireSummary(r, IntegrateNodal(ev.mesh(), r.values).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
+        for (std::string& w :
+             MissingValueWarnings(ev.mesh(), r.values, r.status)) {
+          last.mutable_summary()->add_warnings(std::move(w));
+        }
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
         }
@@ -498,8 +503,8 @@ grpc::Status MeshGaugeService::ComputePenalty(
                                 response->mutable_gradient());
         }
         if (*thin_request) {
-          auto thin = FindThinRegions(ev.mesh(), sdf.values,
-                                      (*thin_request)->params);
+          auto thin =
+              FindThinRegions(ev.mesh(), sdf.values, (*thin_request)->params);
           if (!thin.ok()) return thin.status();
           wire::ToWire(*thin, (*thin_request)->max_regions,
                        response->mutable_thin());

@@ -243,6 +243,27 @@ class RemoteEndToEnd(unittest.TestCase):
             self.client.penalty("thin", 0.1, thin_regions=True,
                                 min_region_area=-1)
 
+    def test_7_missing_values_warn_with_their_cause(self):
+        import warnings
+        from meshgauge_client import MissingValuesWarning
+        v, f = octahedron()
+        self.client.upload(v, f[:, ::-1], session_id="inward")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            r = self.client.sdf("inward", rays=20)
+        self.assertTrue(np.all(np.isnan(r.values)))
+        self.assertEqual(len(r.summary.warnings), 1)
+        self.assertIn("negative signed volume", r.summary.warnings[0])
+        self.assertEqual([w.category for w in caught], [MissingValuesWarning])
+        self.assertIn("component 0 (8 faces): 100% of its area",
+                      str(caught[0].message))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            self.client.upload(v, f, session_id="outward")
+            ok = self.client.sdf("outward", rays=20)
+        self.assertEqual(ok.summary.warnings, ())
+        self.assertEqual(caught, [])
+
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)

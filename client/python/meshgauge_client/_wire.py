@@ -101,7 +101,8 @@ def summary(s: Any) -> SdfSummary:
                       s.degenerate_normal, s.sdf_min, s.sdf_median, s.sdf_max,
                       s.sdf_mean, s.integral, s.rays, s.seconds, s.reused_hits,
                       s.world_frame_vertices, s.missing.vertices,
-                      s.missing.faces, s.missing.area_fraction)
+                      s.missing.faces, s.missing.area_fraction,
+                      tuple(s.warnings))
 
 
 def _point(p: Any, field: str) -> Tuple[float, float, float]:

@@ -9,6 +9,7 @@ UNAVAILABLE with exponential backoff and waits for the server to be ready.
 
 import json
 import os
+import warnings
 import time
 import uuid
 import zlib
@@ -22,7 +23,8 @@ import scipy.sparse
 from meshgauge_client import _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
-from meshgauge_client.errors import MeshGaugeError, from_rpc_error
+from meshgauge_client.errors import (MeshGaugeError, MissingValuesWarning,
+                                     from_rpc_error)
 from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
                                       SdfResult, SessionInfo)
 
@@ -297,12 +299,15 @@ class MeshGaugeClient:
                 jac = scipy.sparse.csr_matrix(
                     (np.asarray(data, dtype=np.float64), full_cols, indptr),
                     shape=(n, n * d))
-            return SdfResult(np.asarray(values, dtype=np.float64),
-                             np.asarray(status, dtype=np.int64),
-                             np.asarray(hits, dtype=np.int64),
-                             np.asarray(kept, dtype=np.int64),
-                             np.asarray(normalized, dtype=np.float64),
-                             _wire.summary(summary), jac)
+            result = SdfResult(np.asarray(values, dtype=np.float64),
+                               np.asarray(status, dtype=np.int64),
+                               np.asarray(hits, dtype=np.int64),
+                               np.asarray(kept, dtype=np.int64),
+                               np.asarray(normalized, dtype=np.float64),
+                               _wire.summary(summary), jac)
+            for w in result.summary.warnings:
+                warnings.warn(w, MissingValuesWarning, stacklevel=4)
+            return result
 
         return self._retrying(stream)
 

@@ -6,6 +6,11 @@ from typing import Dict, Type
 import grpc
 
 
+class MissingValuesWarning(UserWarning):
+    """Some vertices have no SDF value: the message names the component and
+    the likely cause (inward faces, an open or flat sheet, ...)."""
+
+
 class MeshGaugeError(RuntimeError):
     """A failed call: ``code`` is the grpc.StatusCode, ``details`` the
     server's message."""

@@ -42,6 +42,8 @@ class SdfSummary:
     missing_vertices: int   # vertices on faces but without a value.
     missing_faces: int
     missing_fraction: float  # share of the area those faces cover, [0, 1].
+    # Per component with over 1 % of the surface missing: the likely cause.
+    warnings: Tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
