@@ -35,12 +35,13 @@ Metrics::Metrics()
                              "cached ray passes)")
                        .Register(*registry_)
                        .Add({})),
-      evictions_(prometheus::BuildCounter()
-                     .Name("meshgauge_session_evictions_total")
-                     .Help("Sessions evicted, by reason (ttl, memory; cache_ttl, "
-                           "cache_memory: only a replica's cache entry with "
-                           "--session_store)")
-                     .Register(*registry_)),
+      evictions_(
+          prometheus::BuildCounter()
+              .Name("meshgauge_session_evictions_total")
+              .Help("Sessions evicted, by reason (ttl, memory; cache_ttl, "
+                    "cache_memory: only a replica's cache entry with "
+                    "--session_store)")
+              .Register(*registry_)),
       bvh_builds_(prometheus::BuildCounter()
                       .Name("meshgauge_bvh_builds_total")
                       .Help("Full BVH builds")
@@ -101,7 +102,7 @@ Metrics::Metrics()
   for (const char* method :
        {"CreateSession", "GetSession", "ListSessions", "DeleteSession",
         "UpdatePositions", "ComputeSdf", "ComputeVjp", "ComputePenalty",
-        "Calibrate"}) {
+        "Calibrate", "GetServerInfo"}) {
     retried_attempts_.Add({{"method", method}});
   }
 }

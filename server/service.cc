@@ -533,4 +533,23 @@ grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
       });
 }
 
+grpc::Status MeshGaugeService::GetServerInfo(
+    grpc::ServerContext* ctx, const v1::GetServerInfoRequest*,
+    v1::GetServerInfoResponse* response) {
+  return Instrumented(
+      "GetServerInfo", ctx, [&](const std::string&) -> absl::Status {
+        response->set_version(MESHGAUGE_VERSION);
+        response->set_api("meshgauge.v1");
+        response->set_max_rays(options_.max_rays);
+        response->set_max_vertices(options_.max_vertices);
+        response->set_max_faces(options_.max_faces);
+        response->set_max_message_bytes(options_.max_message_bytes);
+        response->set_max_upload_message_bytes(
+            options_.max_upload_message_bytes);
+        response->set_max_sessions(options_.SessionsPerTenant());
+        response->set_memory_budget_bytes(options_.BudgetPerTenant());
+        return absl::OkStatus();
+      });
+}
+
 }  // namespace meshgauge::server

@@ -58,6 +58,9 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   grpc::Status Calibrate(grpc::ServerContext* ctx,
                          const v1::CalibrateRequest* request,
                          v1::CalibrateResponse* response) override;
+  grpc::Status GetServerInfo(grpc::ServerContext* ctx,
+                             const v1::GetServerInfoRequest* request,
+                             v1::GetServerInfoResponse* response) override;
 
   // From now on every new call fails UNAVAILABLE ("draining"); returns when
   // the calls in flight have finished or at `deadline`.

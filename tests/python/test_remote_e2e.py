@@ -264,6 +264,21 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertEqual(ok.summary.warnings, ())
         self.assertEqual(caught, [])
 
+    def test_8_server_info_and_its_limits_checked_before_calls(self):
+        info = self.client.server_info()
+        with open(os.path.join(HERE, "..", "..", "VERSION")) as f:
+            self.assertEqual(info.version, f.read().strip())
+        self.assertEqual(info.api, "meshgauge.v1")
+        self.assertEqual(info.max_rays, 1024)  # the server's default.
+        self.assertGreater(info.max_vertices, 0)
+        v, f = octahedron()
+        self.client.upload(v, f, session_id="limits")
+        # 2000 passes the wire's 4096 but not this server's --max_rays.
+        with self.assertRaises(ValueError) as e:
+            self.client.sdf("limits", rays=2000)
+        self.assertIn("at most 1024 on this server", str(e.exception))
+        self.assertEqual(self.client.sdf("limits", rays=1024).summary.ok, 6)
+
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)

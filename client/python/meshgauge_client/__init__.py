@@ -21,7 +21,8 @@ from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
                                      UnauthenticatedError, UnavailableError,
                                      UnimplementedError, UnknownError)
 from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
-                                      SdfSummary, SessionInfo, ThinRegion,
+                                      SdfSummary, ServerInfo, SessionInfo,
+                                      ThinRegion,
                                       ThinSurface, VertexStatus)
 from meshgauge_client.session import Session
 
@@ -34,7 +35,8 @@ __all__ = [
     "MeshGaugeError", "MissingValuesWarning", "NotFoundError",
     "OutOfRangeError", "PenaltyResult",
     "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
-    "SdfResult", "SdfSummary", "Session", "SessionInfo", "ThinRegion",
+    "SdfResult", "SdfSummary", "ServerInfo", "Session", "SessionInfo",
+    "ThinRegion",
     "ThinSurface",
     "UnauthenticatedError", "UnavailableError", "UnimplementedError",
     "UnknownError", "VertexStatus", "mesh_crc32",

@@ -26,7 +26,7 @@ from meshgauge_client._stubs import pb_grpc
 from meshgauge_client.errors import (MeshGaugeError, MissingValuesWarning,
                                      from_rpc_error)
 from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
-                                      SdfResult, SessionInfo)
+                                      SdfResult, ServerInfo, SessionInfo)
 
 if TYPE_CHECKING:
     from meshgauge_client.session import Session
@@ -103,6 +103,7 @@ class MeshGaugeClient:
         self._chunk = chunk
         self._retry_seconds = retry_seconds
         self._dims: "dict[str, int]" = {}
+        self._server_info: Optional[ServerInfo] = None
 
     def close(self) -> None:
         self._channel.close()
@@ -148,6 +149,26 @@ class MeshGaugeClient:
         return self._dims[session_id]
 
     # Sessions ---------------------------------------------------------------
+
+    def server_info(self) -> ServerInfo:
+        """The server's version and limits (asked once, then cached)."""
+        if self._server_info is None:
+            r = self._call(self._stub.GetServerInfo, pb.GetServerInfoRequest())
+            self._server_info = ServerInfo(
+                r.version, r.api, r.max_rays, r.max_vertices, r.max_faces,
+                r.max_message_bytes, r.max_upload_message_bytes,
+                r.max_sessions, r.memory_budget_bytes)
+        return self._server_info
+
+    def _params(self, params: "dict[str, Any]") -> Any:
+        """SdfParameters from the keyword arguments, checked here and
+        against the server's ray limit before any call."""
+        p = _wire.sdf_params(**params)
+        limit = self.server_info().max_rays
+        if p.rays > limit:
+            raise ValueError(f"rays must be at most {limit} on this server "
+                             f"(--max_rays), got {p.rays}")
+        return p
 
     def upload(self, vertices: Any, faces: Any, session_id: Optional[str] = None,
                regions: Optional[Sequence[int]] = None,
@@ -255,7 +276,7 @@ class MeshGaugeClient:
         kappa, max_distance, normals (the CLI's flags). jacobian=True adds
         the sparse Jacobian (N, N*d)."""
         req = pb.ComputeSdfRequest(session_id=session_id,
-                                   params=_wire.sdf_params(**params),
+                                   params=self._params(params),
                                    include_jacobian=jacobian)
         if expected_generation is not None:
             req.expected_generation = expected_generation
@@ -319,7 +340,7 @@ class MeshGaugeClient:
         if g.ndim != 1 or not np.all(np.isfinite(g)):
             raise ValueError("weights must be a finite (N,) array")
         req = pb.ComputeVjpRequest(session_id=session_id,
-                                   params=_wire.sdf_params(**params), weights=g)
+                                   params=self._params(params), weights=g)
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputeVjp, req, session_id)
@@ -343,7 +364,7 @@ class MeshGaugeClient:
         of `meshgauge report`."""
         t = _wire._number("t_min", t_min, 0, np.inf, lo_open=True)
         req = pb.ComputePenaltyRequest(
-            session_id=session_id, params=_wire.sdf_params(**params), t_min=t,
+            session_id=session_id, params=self._params(params), t_min=t,
             form=_wire._choice("form", form, _wire.FORMS),
             power=_wire._number("power", power, 1, np.inf),
             rho=_wire._number("rho", rho, 0, np.inf, lo_open=True),
@@ -381,7 +402,7 @@ class MeshGaugeClient:
             raise ValueError(f"bins must be an int in [1, 1000], got {bins!r}")
         return _wire.calibration(self._call(
             self._stub.Calibrate, pb.CalibrateRequest(
-                session_id=session_id, params=_wire.sdf_params(**params),
+                session_id=session_id, params=self._params(params),
                 t_min=t, equal_tolerance=_wire._number(
                     "tolerance", tolerance, 0, 1, lo_open=True), bins=bins),
             session_id))

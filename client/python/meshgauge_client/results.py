@@ -147,6 +147,22 @@ class Calibration:
 
 
 @dataclass(frozen=True)
+class ServerInfo:
+    """The server's release version and the limits it applies to this
+    client's tenant (GetServerInfo)."""
+
+    version: str
+    api: str
+    max_rays: int
+    max_vertices: int
+    max_faces: int
+    max_message_bytes: int
+    max_upload_message_bytes: int
+    max_sessions: int
+    memory_budget_bytes: int
+
+
+@dataclass(frozen=True)
 class SessionInfo:
     """A session on the server."""
 
