@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Builds the whole project with AddressSanitizer + UndefinedBehaviorSanitizer
-# (GCC, -O1) into build-asan and runs the whole test suite (CTest) there.
+# Builds the whole project but the benchmarks with AddressSanitizer +
+# UndefinedBehaviorSanitizer (GCC, -O1, line tables for the reports) into
+# build-asan and runs the whole test suite (CTest) there.
 # Any sanitizer report fails the run (halt_on_error, no recovery).
 #   scripts/sanitize.sh [ctest args...]
 set -euo pipefail
@@ -8,7 +9,7 @@ cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g" \
+  -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DMESHGAUGE_BENCHMARKS=OFF \
   -DCMAKE_CXX_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" \
   -DCMAKE_SHARED_LINKER_FLAGS="$SAN" >/dev/null
 cmake --build build-asan -j"$(nproc)"
