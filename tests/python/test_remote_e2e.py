@@ -279,6 +279,28 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertIn("at most 1024 on this server", str(e.exception))
         self.assertEqual(self.client.sdf("limits", rays=1024).summary.ok, 6)
 
+    def test_8b_sessions_from_mesh_objects(self):
+        import types
+        v, f = octahedron()
+        reference = self.client.sdf(self.client.upload(v, f).session_id,
+                                    rays=20).values
+        trimesh_like = types.SimpleNamespace(vertices=v, faces=f)
+        open3d_like = types.SimpleNamespace(vertices=list(v),
+                                            triangles=list(f))
+        meshio_like = types.SimpleNamespace(points=v, cells=[
+            types.SimpleNamespace(type="triangle", data=f[:4]),
+            types.SimpleNamespace(type="triangle", data=f[4:])])
+        for mesh in (trimesh_like, open3d_like, meshio_like):
+            with self.client.session(mesh) as s:
+                np.testing.assert_array_equal(s.sdf(rays=20).values,
+                                              reference)
+        with self.assertRaises(TypeError) as e:
+            self.client.session(object())
+        self.assertIn("is not a mesh", str(e.exception))
+        with self.assertRaises(ValueError):
+            self.client.session(types.SimpleNamespace(points=v, cells=[
+                types.SimpleNamespace(type="tetra", data=[[0, 1, 2, 3]])]))
+
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)

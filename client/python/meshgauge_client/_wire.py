@@ -85,6 +85,31 @@ def faces_list(faces: Any, dimension: int) -> "list[npt.NDArray[np.int64]]":
     return out
 
 
+def mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
+    """(vertices, faces) of a mesh object: trimesh-like (.vertices, .faces),
+    Open3D-like (.vertices, .triangles) or meshio-like (.points and .cells
+    blocks of type triangle, quad or line)."""
+    if hasattr(mesh, "points") and hasattr(mesh, "cells"):
+        faces: "list[Any]" = []
+        for block in mesh.cells:
+            kind = getattr(block, "type", None)
+            if kind not in ("triangle", "quad", "line"):
+                raise ValueError(f"meshio cell block of type {kind!r}: only "
+                                 "triangle, quad and line cells are surfaces")
+            faces.extend(np.asarray(block.data, dtype=np.int64))
+        return np.asarray(mesh.points, dtype=np.float64), faces
+    vertices = getattr(mesh, "vertices", None)
+    faces_attr = getattr(mesh, "faces", None)
+    if faces_attr is None:
+        faces_attr = getattr(mesh, "triangles", None)
+    if vertices is None or faces_attr is None:
+        raise TypeError(
+            f"{type(mesh).__name__} is not a mesh: pass (vertices, faces), or "
+            "an object with .vertices and .faces (trimesh), .vertices and "
+            ".triangles (Open3D), or .points and .cells (meshio)")
+    return np.asarray(vertices, dtype=np.float64), np.asarray(faces_attr)
+
+
 def flat(values: Sequence[float], dimension: int) -> FloatArray:
     return np.asarray(values, dtype=np.float64).reshape(-1, dimension)
 

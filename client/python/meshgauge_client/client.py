@@ -220,12 +220,18 @@ class MeshGaugeClient:
         self._dims[info.session_id] = dim
         return info
 
-    def session(self, vertices: Any, faces: Any, session_id: Optional[str] = None,
+    def session(self, vertices: Any, faces: Any = None,
+                session_id: Optional[str] = None,
                 regions: Optional[Sequence[int]] = None,
                 outward_regions: Sequence[int] = ()) -> "Session":
         """Uploads the mesh and returns a Session (a context manager that
-        deletes it on exit and re-creates it if the server lost it)."""
+        deletes it on exit and re-creates it if the server lost it).
+        vertices and faces are arrays, or `vertices` is a mesh object and
+        faces is omitted: trimesh (.vertices, .faces), Open3D (.vertices,
+        .triangles) or meshio (.points, .cells)."""
         from meshgauge_client.session import Session
+        if faces is None:
+            vertices, faces = _wire.mesh_arrays(vertices)
         return Session(self, vertices, faces, session_id, regions,
                        outward_regions)
 

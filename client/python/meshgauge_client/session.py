@@ -15,6 +15,8 @@ exit.
 
 from typing import Any, Callable, Optional, Sequence, TypeVar
 
+import scipy.sparse
+
 from meshgauge_client import _wire
 from meshgauge_client.client import MeshGaugeClient
 from meshgauge_client.errors import NotFoundError
@@ -103,7 +105,7 @@ class Session:
         return self._with_session(lambda: self._client.sdf(
             self.session_id, expected_generation=self.generation, **params))
 
-    def jacobian(self, **params: Any) -> Any:
+    def jacobian(self, **params: Any) -> "scipy.sparse.csr_matrix":
         """dSDF/dx as a scipy.sparse.csr_matrix of shape (N, N*d)."""
         return self._with_session(lambda: self._client.sdf(
             self.session_id, expected_generation=self.generation,
