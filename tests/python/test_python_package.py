@@ -6,6 +6,7 @@ result as an undisturbed run."""
 
 import dataclasses
 import os
+import re
 import shutil
 import signal
 import socket
@@ -191,14 +192,22 @@ class VersionTest(unittest.TestCase):
 
 class VenvInstallTest(unittest.TestCase):
     def test_the_readme_install_and_the_e2e_tests_against_it(self):
-        venv = os.path.join(tempfile.mkdtemp(), ".venv")
-        subprocess.run(["/usr/bin/python3", "-m", "venv",
-                        "--system-site-packages", venv], check=True,
-                       timeout=120)
-        subprocess.run([os.path.join(venv, "bin", "pip"), "install", "-q",
-                        "--no-build-isolation",
-                        os.path.join(SOURCE, "client", "python")],
-                       check=True, timeout=300, cwd=tempfile.gettempdir())
+        # The README's two lines as written, run by the shell with the
+        # caller's PATH (where another python3 may come first), from a copy
+        # of the folders they name.
+        with open(os.path.join(SOURCE, "README.md")) as f:
+            readme = f.read()
+        lines = re.search(r"```sh\n(\S*python3 -m venv[^\n]*\n[^\n]*pip "
+                          r"install[^\n]*)\n```", readme).group(1)
+        work = tempfile.mkdtemp()
+        for part in ("client", "proto"):
+            shutil.copytree(os.path.join(SOURCE, part), os.path.join(work, part),
+                            ignore=shutil.ignore_patterns("build", "*.egg-info"))
+        shutil.copy(os.path.join(SOURCE, "VERSION"), work)
+        p = subprocess.run(["bash", "-ec", lines + " -q"], cwd=work,
+                           capture_output=True, text=True, timeout=300)
+        self.assertEqual(p.returncode, 0, p.stdout + p.stderr)
+        venv = os.path.join(work, ".venv")
         env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
         python = os.path.join(venv, "bin", "python")
         where = subprocess.run(
