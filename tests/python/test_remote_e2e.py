@@ -131,13 +131,17 @@ class RemoteEndToEnd(unittest.TestCase):
 
     def test_3b_slsqp_ks_constraint_on_z_up_plate_converges(self):
         out = open(os.path.join(self.tmp, "plate.log"), "w")
-        result, g, sdf_min = thicken_plate.optimise(self.client, out=out)
+        result, g, sdf_min, target = thicken_plate.optimise(self.client,
+                                                            out=out)
         out.close()
-        print(open(os.path.join(self.tmp, "plate.log")).read()[-300:])
+        with open(os.path.join(self.tmp, "plate.log")) as log:
+            print(log.read()[-300:])
         self.assertTrue(result.success, result.message)
         self.assertLessEqual(g, 1e-6)
-        # From 0.08 (SDF 0.081) to within the KS slack of t_min = 0.15.
-        self.assertGreater(sdf_min, 0.13)
+        # From 0.08 (SDF 0.081) to t_min = 0.15 itself (within 1 %): the
+        # target had to grow past t_min, where the KS slack left ~10 % below.
+        self.assertGreaterEqual(sdf_min, 0.99 * 0.15)
+        self.assertGreater(target, 0.15)
 
     def test_3c_ks_form_and_missing_values(self):
         v, f = octahedron()

@@ -15,9 +15,13 @@ with G = (1/rho) ln(mean over the surface of exp(rho (1 - t/t_min))) the KS
 soft maximum of 1 - t/t_min, and its exact gradient from the server
 (ComputePenalty, form "ks"). Every evaluation moves the vertices on the server
 (UpdatePositions: a BVH refit). Being an area mean, G <= 0 still allows spots
-slightly thinner than t_min (here the minimum ends about 10 % below,
-where the groove meets the walls); a larger rho or a negative bound
-tightens it.
+thinner than t_min (with rho = 50 the minimum ends about 10 % below, where
+the groove meets the walls), and raising rho only makes the problem stiff
+(tried: x4 per round stalls 2-3 % below). So the example adds a margin: the
+constraint asks for t_target >= t_min, and while the true minimum SDF is
+more than 1 % below t_min, t_target grows by the ratio still missing
+(t_min / min SDF) and SLSQP runs again from where it stopped (at most
+--rounds times). It says it reached t_min only when the minimum SDF did.
 
     PYTHONPATH=build/python \\
         python3 client/python/examples/thicken_plate.py --server 127.0.0.1:50051
@@ -63,21 +67,28 @@ def grooved_plate(n=10, height=0.3, groove=0.08, band=(0.35, 0.65)):
     return v, np.array(faces), np.arange(m), z_top.ravel().copy()
 
 
-def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout):
-    """Runs SLSQP; returns (scipy result, final G, final minimum SDF)."""
+def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout, rounds=4,
+             tolerance=0.01):
+    """Runs SLSQP, raising the constraint's target by the ratio still
+    missing (at most `rounds` runs) until the minimum SDF is within
+    `tolerance` of t_min; returns (last scipy result, final G, final
+    minimum SDF, final target)."""
     v0, faces, top, z0 = grooved_plate(n)
     session = client.session(v0, faces)
-    state = {"z": None, "g": None, "grad": None, "sdf_min": None}
+    state = {"z": None, "target": None, "g": None, "grad": None,
+             "sdf_min": None}
+    target = t_min
 
     def evaluate(z):
-        if state["z"] is not None and np.array_equal(z, state["z"]):
+        if (state["z"] is not None and state["target"] == target
+                and np.array_equal(z, state["z"])):
             return
         v = v0.copy()
         v[top, 2] = z
         session.update(v)
-        g = session.constraint(t_min, rho=rho)
-        state.update(z=z.copy(), g=g.value, grad=g.gradient[top, 2],
-                     sdf_min=g.sdf_min)
+        g = session.constraint(target, rho=rho)
+        state.update(z=z.copy(), target=target, g=g.value,
+                     grad=g.gradient[top, 2], sdf_min=g.sdf_min)
 
     def constraint(z):  # SLSQP wants fun(z) >= 0
         evaluate(z)
@@ -92,21 +103,29 @@ def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout):
     def report(z):
         iteration[0] += 1
         evaluate(z)
-        print(f"iteration {iteration[0]:3d}  G {state['g']:+.5f}  "
+        print(f"iteration {iteration[0]:3d}  target {target:.4f}  G {state['g']:+.5f}  "
               f"min SDF {state['sdf_min']:.4f}  change {np.linalg.norm(z - z0):.4f}",
               file=out)
 
     evaluate(z0)
     print(f"start          G {state['g']:+.5f}  min SDF {state['sdf_min']:.4f}",
           file=out)
-    result = minimize(
-        lambda z: 0.5 * np.sum((z - z0) ** 2), z0, jac=lambda z: z - z0,
-        method="SLSQP", bounds=[(0.02, None)] * len(z0),
-        constraints=[{"type": "ineq", "fun": constraint, "jac": constraint_jac}],
-        callback=report, options={"maxiter": 100, "ftol": 1e-10})
-    evaluate(result.x)
+    z = z0
+    for round_ in range(rounds):
+        if round_ > 0:
+            target *= t_min / state["sdf_min"]
+        result = minimize(
+            lambda z: 0.5 * np.sum((z - z0) ** 2), z, jac=lambda z: z - z0,
+            method="SLSQP", bounds=[(0.02, None)] * len(z0),
+            constraints=[{"type": "ineq", "fun": constraint,
+                          "jac": constraint_jac}],
+            callback=report, options={"maxiter": 100, "ftol": 1e-7})
+        z = result.x
+        evaluate(z)
+        if state["sdf_min"] >= (1 - tolerance) * t_min:
+            break
     session.close()
-    return result, state["g"], state["sdf_min"]
+    return result, state["g"], state["sdf_min"], target
 
 
 def main(argv=None):
@@ -114,12 +133,16 @@ def main(argv=None):
     ap.add_argument("--server", default="127.0.0.1:50051")
     ap.add_argument("--t-min", type=float, default=0.15)
     ap.add_argument("--rho", type=float, default=50.0)
+    ap.add_argument("--rounds", type=int, default=4)
     args = ap.parse_args(argv)
     with MeshGaugeClient(args.server) as client:
-        result, g, sdf_min = optimise(client, args.t_min, args.rho)
-    print(f"SLSQP: {result.message} after {result.nit} iterations; "
-          f"G = {g:+.2e}, min SDF {sdf_min:.4f} (t_min {args.t_min})")
-    return 0 if result.success and g <= 1e-6 else 1
+        result, g, sdf_min, target = optimise(client, args.t_min, args.rho,
+                                              rounds=args.rounds)
+    reached = result.success and sdf_min >= 0.99 * args.t_min
+    print(f"SLSQP: {result.message} (target {target:.4f}); G = {g:+.2e}, min SDF "
+          f"{sdf_min:.4f}: " + (f"t_min {args.t_min} reached" if reached else
+                                f"t_min {args.t_min} NOT reached"))
+    return 0 if reached else 1
 
 
 if __name__ == "__main__":
