@@ -305,6 +305,30 @@ class RemoteEndToEnd(unittest.TestCase):
             self.client.session(types.SimpleNamespace(points=v, cells=[
                 types.SimpleNamespace(type="tetra", data=[[0, 1, 2, 3]])]))
 
+    def test_8c_sdf_options_typed_frozen_and_checked(self):
+        import dataclasses
+        from meshgauge_client import SdfOptions
+        v, f = octahedron()
+        sid = self.client.upload(v, f).session_id
+        opts = SdfOptions(rays=40, cone_angle_degrees=45.0)
+        with self.assertRaises(dataclasses.FrozenInstanceError):
+            opts.rays = 3  # type: ignore[misc]
+        by_options = self.client.sdf(sid, options=opts).values
+        by_keywords = self.client.sdf(sid, rays=40, cone_angle=45.0).values
+        np.testing.assert_array_equal(by_options, by_keywords)
+        with self.assertRaises(TypeError) as e:
+            self.client.sdf(sid, ray=40)
+        self.assertIn("unknown SDF option 'ray'; options are", str(e.exception))
+        with self.assertRaises(TypeError):
+            self.client.sdf(sid, options=opts, rays=40)
+        with self.assertRaises(ValueError):
+            SdfOptions(cone_angle_degrees=180)
+        with self.assertRaises(ValueError):
+            SdfOptions(method="cones")
+        s = self.client.session(v, f)
+        self.assertEqual(s.vjp(np.ones(6), options=opts).shape, (6, 3))
+        s.close()
+
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.proc.send_signal(signal.SIGTERM)
         self.assertEqual(self.proc.wait(timeout=20), 0)

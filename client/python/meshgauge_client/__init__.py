@@ -24,6 +24,7 @@ from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
                                       SdfSummary, ServerInfo, SessionInfo,
                                       ThinRegion,
                                       ThinSurface, VertexStatus)
+from meshgauge_client.options import SdfOptions
 from meshgauge_client.session import Session
 
 from meshgauge_client._version import __version__  # noqa: E402
@@ -35,7 +36,8 @@ __all__ = [
     "MeshGaugeError", "MissingValuesWarning", "NotFoundError",
     "OutOfRangeError", "PenaltyResult",
     "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
-    "SdfResult", "SdfSummary", "ServerInfo", "Session", "SessionInfo",
+    "SdfOptions", "SdfResult", "SdfSummary", "ServerInfo", "Session",
+    "SessionInfo",
     "ThinRegion",
     "ThinSurface",
     "UnauthenticatedError", "UnavailableError", "UnimplementedError",

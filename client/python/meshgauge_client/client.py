@@ -25,6 +25,7 @@ from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
 from meshgauge_client.errors import (MeshGaugeError, MissingValuesWarning,
                                      from_rpc_error)
+from meshgauge_client.options import SdfOptions
 from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
                                       SdfResult, ServerInfo, SessionInfo)
 
@@ -161,9 +162,10 @@ class MeshGaugeClient:
         return self._server_info
 
     def _params(self, params: "dict[str, Any]") -> Any:
-        """SdfParameters from the keyword arguments, checked here and
-        against the server's ray limit before any call."""
-        p = _wire.sdf_params(**params)
+        """SdfParameters from `options=SdfOptions(...)` or the keyword
+        options, checked here and against the server's ray limit before any
+        call."""
+        p = SdfOptions.of(params.pop("options", None), params).to_wire()
         limit = self.server_info().max_rays
         if p.rays > limit:
             raise ValueError(f"rays must be at most {limit} on this server "
@@ -278,9 +280,10 @@ class MeshGaugeClient:
 
     def sdf(self, session_id: str, *, expected_generation: Optional[int] = None,
             jacobian: bool = False, **params: Any) -> SdfResult:
-        """Per-vertex SDF (SdfResult). params: method, cone_angle, rays,
-        kappa, max_distance, normals (the CLI's flags). jacobian=True adds
-        the sparse Jacobian (N, N*d)."""
+        """Per-vertex SDF (SdfResult). params: options=SdfOptions(...), or
+        its fields as keywords (method, cone_angle_degrees, rays, kappa,
+        max_distance, normals; the CLI's flags). jacobian=True adds the
+        sparse Jacobian (N, N*d)."""
         req = pb.ComputeSdfRequest(session_id=session_id,
                                    params=self._params(params),
                                    include_jacobian=jacobian)
