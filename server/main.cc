@@ -9,9 +9,9 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
-#include "absl/flags/usage_config.h"
 #include "absl/flags/reflection.h"
 #include "absl/flags/usage.h"
+#include "absl/flags/usage_config.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "server/server.h"
@@ -80,8 +80,7 @@ bool NumericFlagsParse(int argc, char** argv) {
       continue;
     }
     const size_t eq = arg.find('=');
-    absl::CommandLineFlag* flag =
-        absl::FindCommandLineFlag(arg.substr(0, eq));
+    absl::CommandLineFlag* flag = absl::FindCommandLineFlag(arg.substr(0, eq));
     if (flag == nullptr ||
         !(flag->IsOfType<int>() || flag->IsOfType<int64_t>() ||
           flag->IsOfType<double>())) {

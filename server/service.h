@@ -95,10 +95,11 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                             Body body);
   // The CreateSession stream after its upload slot was taken; *received
   // counts the bytes of its messages.
-  absl::Status ReceiveUpload(
-      grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
-      const std::string& tenant, int64_t upload,
-      v1::CreateSessionResponse* response, int64_t* received);
+  absl::Status ReceiveUpload(grpc::ServerContext* ctx,
+                             grpc::ServerReader<UploadMessage>* reader,
+                             const std::string& tenant, int64_t upload,
+                             v1::CreateSessionResponse* response,
+                             int64_t* received);
   // RESOURCE_EXHAUSTED when a reply of `values` doubles would exceed
   // --max_message_bytes (checked before computing).
   absl::Status CheckReplySize(int64_t values) const;

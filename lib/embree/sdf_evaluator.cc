@@ -266,8 +266,8 @@ absl::Status SdfEvaluator::CommitPositions(std::vector<Vec3> old_positions) {
   }
   if (absl::Status s = scene_->UpdatePositions(mesh_); !s.ok()) {
     mesh_.positions = std::move(old_positions);
-    return absl::Status(s.code(),
-                        absl::StrCat("position update rejected: ", s.message()));
+    return absl::Status(
+        s.code(), absl::StrCat("position update rejected: ", s.message()));
   }
   RefreshDerivedGeometry();
   ++generation_;

@@ -17,7 +17,7 @@ struct MeshFile {
   // fallback triangulation, and the file face id of the first.
   int64_t polygons_fallback = 0;
   int64_t first_fallback_polygon = -1;
-  int64_t welded_corners = 0;         // STL: facet corners merged by position.
+  int64_t welded_corners = 0;  // STL: facet corners merged by position.
 };
 
 }  // namespace meshgauge::io

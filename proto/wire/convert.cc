@@ -115,9 +115,8 @@ absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(
   t.params.min_region_area = r.min_region_area();
   if (!(t.params.min_region_area >= 0) ||
       !std::isfinite(t.params.min_region_area)) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_region_area must be >= 0 and finite, got ",
-                     r.min_region_area()));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_region_area must be >= 0 and finite, got ", r.min_region_area()));
   }
   if (r.max_thin_regions() < 0 || r.max_thin_regions() > 100000) {
     return absl::InvalidArgumentError(absl::StrCat(
