@@ -408,9 +408,11 @@ grpc::Status MeshGaugeService::ComputeSdf(
         wire::ToWireSummary(r, IntegrateNodal(ev.mesh(), r.values).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
-        for (std::string& w :
-             MissingValueWarnings(ev.mesh(), r.values, r.status)) {
-          last.mutable_summary()->add_warnings(std::move(w));
+        if (r.missing.vertices > 0) {  // the diagnosis costs a topology pass.
+          for (std::string& w :
+               MissingValueWarnings(ev.mesh(), r.values, r.status)) {
+            last.mutable_summary()->add_warnings(std::move(w));
+          }
         }
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
@@ -476,13 +478,16 @@ grpc::Status MeshGaugeService::ComputePenalty(
                             request->expected_generation());
         if (!prep.ok()) return prep.status();
         const SdfEvaluator& ev = *prep->reader.evaluator;
-        if (request->with_gradient()) {
-          if (absl::Status s = CheckReplySize(ev.mesh().num_vertices() *
-                                              ev.mesh().dimension);
-              !s.ok()) {
-            return s;
-          }
-        }
+        // A thin region is about 18 doubles on the wire (four points, five
+        // scalars and their tags).
+        constexpr int64_t kThinRegionDoubles = 18;
+        const int64_t reply_values =
+            (request->with_gradient()
+                 ? ev.mesh().num_vertices() * ev.mesh().dimension
+                 : 0) +
+            (*thin_request ? (*thin_request)->max_regions * kThinRegionDoubles
+                           : 0);
+        if (absl::Status s = CheckReplySize(reply_values); !s.ok()) return s;
         auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
         if (!pass.ok()) return pass.status();
         metrics_->RecordHitCache(pass->reused);

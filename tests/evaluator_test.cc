@@ -110,7 +110,7 @@ TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
   auto refused = SdfEvaluator::Create(huge);
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(refused.status().message()),
-              HasSubstr("rescale the mesh"));
+              HasSubstr("rescale"));
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);
   ASSERT_TRUE(ev.ok());
@@ -122,6 +122,18 @@ TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
   for (Vec3& p : huge.positions) p *= 1e-5;
   EXPECT_EQ(SdfEvaluator::Create(huge).status().code(),
             absl::StatusCode::kInvalidArgument);
+  // An unused vertex far away moves the centroid the BVH is built on.
+  Mesh stray = MakeIcosphere(1, 2);
+  stray.positions.push_back({1e30, 0, 0});
+  ASSERT_TRUE(ValidateMesh(stray).ok());
+  EXPECT_EQ(SdfEvaluator::Create(stray).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  // An update moving the whole (small) mesh far from where it was built.
+  std::vector<Vec3> moved = sphere.positions;
+  for (Vec3& p : moved) p += Vec3{1e19, 0, 0};
+  EXPECT_EQ((*ev)->UpdatePositions(moved).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ((*ev)->mesh().positions, sphere.positions);
   // Radius 2e12 computes every value.
   Mesh large = MakeIcosphere(1, 2);
   for (Vec3& p : large.positions) p *= 2e12;

@@ -226,8 +226,9 @@ TEST(MeshReaderTest, NonSimplePolygonsAreTriangulatedByTheFallback) {
   EXPECT_EQ(bowtie->first_fallback_polygon, 0);
   ASSERT_EQ(bowtie->mesh.num_faces(), 3);
   EXPECT_TRUE(ValidateMesh(bowtie->mesh).ok());
-  // A non-planar hexagon folded like a saddle (seen edge-on in its best-fit
-  // plane), after a simple triangle: face 1 is the fallback's.
+  // A non-planar hexagon folded like a saddle, after a simple triangle: it
+  // is simple in its best-fit plane, so ear clipping splits it, every
+  // triangle facing the polygon's way.
   auto saddle = ParseMeshContents(
       "v 0 0 0\nv 1 0 0\nv 0 1 0\n"
       "v 1 0 1\nv 0.5 0.87 -1\nv -0.5 0.87 1\nv -1 0 -1\nv -0.5 -0.87 1\n"
@@ -235,7 +236,14 @@ TEST(MeshReaderTest, NonSimplePolygonsAreTriangulatedByTheFallback) {
       ".obj", "saddle.obj");
   ASSERT_TRUE(saddle.ok()) << saddle.status();
   EXPECT_EQ(saddle->mesh.num_faces(), 1 + 4);
+  EXPECT_EQ(saddle->polygons_fallback, 0);
   EXPECT_TRUE(ValidateMesh(saddle->mesh).ok());
+  // Its Newell normal is +z.
+  for (int f = 1; f < 5; ++f) {
+    const auto& p = saddle->mesh.positions;
+    const Face& t = saddle->mesh.faces[f];
+    EXPECT_GT(Cross(p[t.v[1]] - p[t.v[0]], p[t.v[2]] - p[t.v[0]]).z, 0) << f;
+  }
   // Collinear corners have no triangulation without a zero-area triangle:
   // an error naming the face.
   EXPECT_THAT(

@@ -75,6 +75,18 @@ TEST(ThicknessAreaHistogramTest, EqualBinsOfALinearFieldHoldEqualArea) {
   EXPECT_NEAR(h->area[1], 0.5, 1e-12);
 }
 
+TEST(ThicknessAreaHistogramTest, ValuesFarOutsideTheRangeFallInTheEndBins) {
+  const Mesh m = Grid(4);
+  std::vector<double> v(m.positions.size(), 1e30);  // x bins overflows int.
+  v[0] = -1e30;
+  auto h = ThicknessAreaHistogram(m, v, 0, 1e-9, 10);
+  ASSERT_TRUE(h.ok());
+  double sum = 0;
+  for (double a : h->area) sum += a;
+  EXPECT_NEAR(sum, 1, 1e-12);
+  EXPECT_GT(h->area[9], 0.9);
+}
+
 TEST(ThicknessAreaHistogramTest, RejectsAnEmptyRangeAndBadBins) {
   const Mesh m = Grid(2);
   const std::vector<double> v(m.positions.size(), 1.0);

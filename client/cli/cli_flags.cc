@@ -306,8 +306,8 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
     if (r.non_orientable_components > 0) {
       loaded.warnings.push_back(absl::StrCat(
           r.non_orientable_components,
-          " components cannot be oriented consistently (non-orientable, or "
-          "faces meeting at edges of more than two faces)"));
+          " components cannot be oriented consistently (non-orientable, "
+          "like a Moebius band)"));
     }
     if (r.components_turned_outward > 0) {
       loaded.warnings.push_back(absl::StrCat(

@@ -7,6 +7,7 @@
 #include <map>
 
 #include "absl/strings/str_format.h"
+#include "client/cli/thin_summary.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -122,7 +123,15 @@ Image ComposeViews(const std::vector<RenderedView>& views,
   const int rows = (static_cast<int>(views.size()) + cols - 1) / cols;
   const int vw = views.empty() ? 0 : views[0].image.width;
   const int vh = views.empty() ? 0 : views[0].image.height;
-  constexpr int kBar = 210, kGap = 8, kTitle = 24;
+  constexpr int kGap = 8, kTitle = 24;
+  // Room right of the bar for its longest label (tick values or t_min's).
+  int labels = TextWidth("NO VALUE", 2);
+  for (int k = 0; k <= 4; ++k) {
+    labels = std::max(labels,
+                      TextWidth(Number(Lerp(scale.lo, scale.hi, k / 4.0)), 2));
+  }
+  labels = std::max(labels, TextWidth("T_MIN " + Number(t_min), 2));
+  const int kBar = std::max(210, 16 + 28 + 10 + labels + 8);
   const int cell_w = vw + kGap, cell_h = vh + kTitle + kGap;
   Image sheet(cols * cell_w + kBar, std::max(rows * cell_h, 320));
   for (size_t i = 0; i < views.size(); ++i) {
@@ -221,8 +230,8 @@ Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
     FillRect(image, tx - 1, kTop - 6, tx + 2, kTop + ph, kThinOutline);
   }
   DrawText(image, 12, 12,
-           absl::StrFormat("%s PER THICKNESS BIN: %.3g %% BELOW T_MIN %s",
-                           curve ? "LENGTH" : "AREA", 100 * thin_share,
+           absl::StrFormat("%s PER THICKNESS BIN: %s %% BELOW T_MIN %s",
+                           curve ? "LENGTH" : "AREA", Percent(thin_share),
                            Number(t_min)),
            kInk, 2);
   DrawText(image, kLeft + pw / 2 - TextWidth("THICKNESS", 2) / 2, kH - 22,

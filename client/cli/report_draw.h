@@ -27,8 +27,8 @@ Image ComposeViews(const std::vector<RenderedView>& views,
                    const ColorScale& scale, double t_min);
 
 // Bars of the area per bin coloured by the map, the t_min line and a title
-// with the share of the measured surface below t_min. `curve`: the measure
-// is a length (2D).
+// with the share of the whole surface below t_min (thin area / total area).
+// `curve`: the measure is a length (2D).
 Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
                     double t_min, double thin_share, bool curve);
 

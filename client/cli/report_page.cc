@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
+#include "client/cli/thin_summary.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -50,14 +51,14 @@ std::string RegionTable(const nlohmann::json& thin, bool curve) {
     const double area = r["area"].get<double>();
     absl::StrAppendFormat(
         &rows,
-        "<tr%s><td>%d</td><td>%.6g</td><td>%.3g %%</td><td>%.6g</td>"
+        "<tr%s><td>%d</td><td>%.6g</td><td>%s %%</td><td>%.6g</td>"
         "<td>%s</td><td>%s</td><td>%s &ndash; %s</td><td>%d</td><td>%s</td>"
         "</tr>\n",
         r["speck"].get<bool>() ? " class=\"speck\"" : "", ++rank, area,
-        total > 0 ? 100 * area / total : 0.0, r["min_thickness"].get<double>(),
-        Point(r["min_point"]), Point(r["centroid"]), Point(r["box_min"]),
-        Point(r["box_max"]), r["faces"].get<int64_t>(),
-        r["speck"].get<bool>() ? "speck" : "");
+        Percent(total > 0 ? area / total : 0.0),
+        r["min_thickness"].get<double>(), Point(r["min_point"]),
+        Point(r["centroid"]), Point(r["box_min"]), Point(r["box_max"]),
+        r["faces"].get<int64_t>(), r["speck"].get<bool>() ? "speck" : "");
   }
   if (rank == 0) rows = "<tr><td colspan=\"9\">no thin region</td></tr>\n";
   return absl::StrCat(

@@ -9,18 +9,16 @@ nlohmann::json Point(const Vec3& p) { return {p.x, p.y, p.z}; }
 
 double Share(double part, double whole) { return whole > 0 ? part / whole : 0; }
 
-// 100 * share with 3 significant digits, more when those would round a
-// share below 1 up to "100".
+}  // namespace
+
 std::string Percent(double share) {
   std::string text;
-  for (int digits = 3; digits <= 12; ++digits) {
+  for (int digits = 3; digits <= 17; ++digits) {
     text = absl::StrFormat("%.*g", digits, 100 * share);
     if (share >= 1 || text != "100") break;
   }
   return text;
 }
-
-}  // namespace
 
 std::string ThinSentence(const ThinSurface& thin, bool curve) {
   const char* surface = curve ? "curve" : "surface";

@@ -9,6 +9,10 @@
 
 namespace meshgauge::cli {
 
+// 100 * share with 3 significant digits, more where those would round a
+// share below 1 up to "100".
+std::string Percent(double share);
+
 // "12.4 % of the surface (area 3.1 of 25) is thinner than 1; thinnest 0.42
 // at (x, y, z)", plus the share without a value when there is one; `curve`
 // says length instead of area.

@@ -56,9 +56,9 @@ struct Reorientation {
   // Closed components then reversed because their signed volume was
   // negative (faces pointing into the solid).
   int64_t components_turned_outward = 0;
-  // Components that no choice of orientations makes consistent (a Moebius
-  // band, or faces meeting at an edge used by more than two faces in a way
-  // that conflicts); left with the fewest disagreeing edges found.
+  // Components that no choice of orientations makes consistent across
+  // their edges of exactly two faces (a Moebius band), left with a few
+  // disagreeing edges. Edges of more than two faces join nothing here.
   int64_t non_orientable_components = 0;
 };
 

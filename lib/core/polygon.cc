@@ -40,20 +40,28 @@ bool InTriangle(const P2& p, const P2& a, const P2& b, const P2& c,
          Cross2(c, a, p) >= -eps;
 }
 
+// Twice the polygon's vector area (Newell's formula).
+Vec3 NewellNormal(absl::Span<const Vec3> corners) {
+  const size_t n = corners.size();
+  Vec3 normal;
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3& a = corners[i];
+    const Vec3& b = corners[(i + 1) % n];
+    normal += Vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x),
+                   (a.x - b.x) * (a.y + b.y));
+  }
+  return normal;
+}
+
 // Ear clipping in the best-fit plane; errors when the polygon is not simple
 // there.
 absl::StatusOr<std::vector<std::array<int32_t, 3>>> EarClip(
     absl::Span<const Vec3> corners) {
   const int n = static_cast<int>(corners.size());
   // Newell normal and an orthonormal basis of its plane.
-  Vec3 normal, centre;
-  for (int i = 0; i < n; ++i) {
-    const Vec3& a = corners[i];
-    const Vec3& b = corners[(i + 1) % n];
-    normal += Vec3((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x),
-                   (a.x - b.x) * (a.y + b.y));
-    centre += a;
-  }
+  const Vec3 normal = NewellNormal(corners);
+  Vec3 centre;
+  for (const Vec3& c : corners) centre += c;
   centre = centre / n;
   double size = 0;
   for (const Vec3& c : corners) size = std::max(size, Norm(c - centre));
@@ -117,27 +125,32 @@ absl::StatusOr<std::vector<std::array<int32_t, 3>>> EarClip(
 }
 
 // Of all triangulations of the corners in their order (diagonals i-j), the
-// one whose smallest triangle (in 3D) is largest, by dynamic programming
-// over the index intervals (O(n^3)); empty when every triangulation has a
-// triangle of no area. Triangles (i, k, j), i < k < j, keep the polygon's
-// cyclic order.
+// one whose smallest triangle is largest, by dynamic programming over the
+// index intervals (O(n^3)). A triangle's size is its doubled area along
+// `normal` (signed: a triangle facing against the polygon counts as
+// negative), or its unsigned doubled area when `normal` is zero. Empty when
+// every triangulation has a triangle of no area (or, signed, one facing
+// backwards). Triangles (i, k, j), i < k < j, keep the polygon's cyclic
+// order.
 std::vector<std::array<int32_t, 3>> MaxMinTriangulation(
-    absl::Span<const Vec3> corners) {
+    absl::Span<const Vec3> corners, const Vec3& normal) {
   const int n = static_cast<int>(corners.size());
   double size = 0;
   for (const Vec3& c : corners) size = std::max(size, Norm(c - corners[0]));
+  const bool signed_area = Norm(normal) > 0;
   auto twice_area = [&](int i, int k, int j) {
-    return Norm(Cross(corners[k] - corners[i], corners[j] - corners[i]));
+    const Vec3 c = Cross(corners[k] - corners[i], corners[j] - corners[i]);
+    return signed_area ? Dot(c, normal) : Norm(c);
   };
   constexpr double kInf = std::numeric_limits<double>::infinity();
   // best[i][j]: the largest smallest doubled area over triangulations of
   // the sub-polygon i..j (kInf for an edge); split[i][j]: its apex.
-  std::vector<double> best(n * n, kInf);
-  std::vector<int32_t> split(n * n, -1);
+  std::vector<double> best(static_cast<size_t>(n) * n, kInf);
+  std::vector<int32_t> split(static_cast<size_t>(n) * n, -1);
   for (int len = 2; len < n; ++len) {
     for (int i = 0; i + len < n; ++i) {
       const int j = i + len;
-      double b = -1;
+      double b = -kInf;
       for (int k = i + 1; k < j; ++k) {
         const double v =
             std::min({best[i * n + k], best[k * n + j], twice_area(i, k, j)});
@@ -177,7 +190,12 @@ absl::StatusOr<std::vector<std::array<int32_t, 3>>> TriangulatePolygon(
   }
   auto clipped = EarClip(corners);
   if (clipped.ok()) return clipped;
-  auto fallback = MaxMinTriangulation(corners);
+  // Prefer triangles that all face along the Newell normal; a polygon
+  // folded so that none does (or with no net normal) takes unsigned areas.
+  Vec3 normal = NewellNormal(corners);
+  if (Norm(normal) > 0) normal = normal / Norm(normal);
+  auto fallback = MaxMinTriangulation(corners, normal);
+  if (fallback.empty()) fallback = MaxMinTriangulation(corners, Vec3());
   if (fallback.empty()) {
     return absl::InvalidArgumentError(absl::StrCat(
         clipped.status().message(),

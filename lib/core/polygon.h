@@ -1,6 +1,6 @@
 // Triangulation of the polygons that OBJ and OFF files may hold (SPEC v2.1
-// §1): ear clipping in the polygon's best-fit plane, a fan for polygons that
-// are not simple there (the max-min triangulation).
+// §1): ear clipping in the polygon's best-fit plane, and for polygons that
+// are not simple there the max-min triangulation of their corners.
 #pragma once
 
 #include <array>
@@ -22,7 +22,9 @@ inline constexpr int kMaxPolygonCorners = 256;
 // A polygon that is not simple in that plane (two edges cross or touch, a
 // corner repeats, a non-planar face seen edge-on) or has no area there is
 // triangulated instead by the triangulation of its corners in order whose
-// smallest triangle (in 3D) is largest (O(n^3)); `fallback_used`
+// smallest triangle is largest (O(n^3)): measured along the Newell normal,
+// so the triangles face the polygon's way, or by unsigned area when no
+// such triangulation has every triangle facing that way; `fallback_used`
 // (optional) tells which. Errors: InvalidArgument when n < 3 or
 // n > kMaxPolygonCorners, or when every triangulation has a triangle of no
 // area (the zero-area test of ValidateMesh): the face is degenerate.

@@ -308,8 +308,10 @@ absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
   if (absl::Status s = CheckValues(mesh, values); !s.ok()) return s;
   AreaHistogram h{lo, hi, std::vector<double>(bins, 0.0)};
   auto bin_of = [&](double t) {
-    const double x = (t - lo) / (hi - lo) * bins;
-    return x <= 0 ? 0 : std::min(bins - 1, static_cast<int>(x));
+    // Clamped in double: far outside [lo, hi] the product overflows int.
+    const double x = std::clamp((t - lo) / (hi - lo) * bins, 0.0,
+                                static_cast<double>(bins - 1));
+    return static_cast<int>(x);
   };
   // The bins' inner edges; the outer ones are open (clamping).
   auto edge = [&](int k) {

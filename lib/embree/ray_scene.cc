@@ -40,19 +40,32 @@ namespace {
 // it overflows and every ray misses (measured: an icosphere of radius 1e13
 // and 42 vertices gets no hit, one of 642 vertices gets all), and beyond
 // about 1.8e18 Embree asserts, aborting the process. Such meshes are
-// refused.
+// refused, and so is a face's vertex farther than kMaxSpan from `origin`
+// (the coordinates Embree sees are relative to it; an unused vertex far
+// away, or a whole mesh moved far by an update, would put them there).
 constexpr double kMaxSpanTimesEdgeSquared = 1e38;
 constexpr double kMaxSpan = 1e17;
 
-absl::Status CheckSpan(const Mesh& mesh) {
+absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin) {
   const double span = BoundingBoxDiagonal(mesh);
-  double edge2 = 0;
+  double edge2 = 0, reach = 0;
   for (const Face& f : mesh.faces) {
     for (int k = 0; k < f.size; ++k) {
-      const Vec3 e =
-          mesh.positions[f.v[(k + 1) % f.size]] - mesh.positions[f.v[k]];
+      const Vec3& p = mesh.positions[f.v[k]];
+      const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
       edge2 = std::max(edge2, Dot(e, e));
+      reach = std::max({reach, std::abs(p.x - origin.x),
+                        std::abs(p.y - origin.y), std::abs(p.z - origin.z)});
     }
+  }
+  if (reach > kMaxSpan) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "a face's vertex lies ", reach,
+        " from the centroid of the vertices the ray tracer was built on "
+        "(at most ",
+        kMaxSpan,
+        " in single precision; an unused vertex far away moves that "
+        "centroid): rescale or recentre the mesh"));
   }
   // 2D segments become quads extruded over twice the diagonal.
   if (mesh.dimension == 2) edge2 = std::max(edge2, 4 * (span + 1) * (span + 1));
@@ -71,13 +84,13 @@ absl::Status CheckSpan(const Mesh& mesh) {
 
 absl::Status RayScene::Init(const Mesh& mesh) {
   dimension_ = mesh.dimension;
-  if (absl::Status s = CheckSpan(mesh); !s.ok()) return s;
   // The BVH is single precision: storing coordinates relative to the
   // vertices' centroid keeps their relative precision whatever the part's
   // offset from the origin (CAD coordinates), so hits do not depend on a
   // translation of the mesh.
   for (const Vec3& p : mesh.positions) origin_ += p;
   if (!mesh.positions.empty()) origin_ = origin_ / std::ssize(mesh.positions);
+  if (absl::Status s = CheckSpan(mesh, origin_); !s.ok()) return s;
   device_ = SharedDevice();
   if (!device_) return absl::InternalError("rtcNewDevice failed");
   scene_ = rtcNewScene(device_);
@@ -166,7 +179,7 @@ absl::Status RayScene::Commit() {
 }
 
 absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
-  if (absl::Status s = CheckSpan(mesh); !s.ok()) return s;
+  if (absl::Status s = CheckSpan(mesh, origin_); !s.ok()) return s;
   FillVertices(mesh);
   rtcUpdateGeometryBuffer(geometry_, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(geometry_);

@@ -35,7 +35,8 @@ class RayScene {
  public:
   // Builds the BVH. `topo` must outlive the scene. Errors: InvalidArgument
   // for a mesh too large for Embree's single precision (bounding-box
-  // diagonal x (longest edge)^2 over 1e38, or a diagonal over 1e17);
+  // diagonal x (longest edge)^2 over 1e38, a diagonal over 1e17, or a
+  // face's vertex over 1e17 from the centroid of all vertices);
   // Internal on Embree failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
       const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);

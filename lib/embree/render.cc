@@ -44,9 +44,10 @@ double Interpolate(double a, double b, double c, double u, double w) {
   return (1 - u - w) * a + u * b + w * c;
 }
 
-// Outlines marked regions from outside: a pixel that is not marked (or
-// marked otherwise) within 2 pixels of a marked one turns kThinOutline, so
-// the marked pixels keep their colours.
+// Outlines marked regions from outside: an unmarked pixel (a face without
+// a mark, or the background) within 2 pixels of a marked one turns
+// kThinOutline, so the marked pixels keep their colours (two marked regions
+// that touch in the picture are not separated).
 void DrawOutlines(const std::vector<int32_t>& outline, RenderedView& view) {
   const int w = view.image.width, h = view.image.height;
   std::vector<int32_t> mark(static_cast<size_t>(w) * h, -1);

@@ -270,6 +270,7 @@ class RemoteEndToEnd(unittest.TestCase):
 
     def test_8_server_info_and_its_limits_checked_before_calls(self):
         info = self.client.server_info()
+        assert info is not None
         with open(os.path.join(HERE, "..", "..", "VERSION")) as f:
             self.assertEqual(info.version, f.read().strip())
         self.assertEqual(info.api, "meshgauge.v1")
@@ -282,6 +283,22 @@ class RemoteEndToEnd(unittest.TestCase):
             self.client.sdf("limits", rays=2000)
         self.assertIn("at most 1024 on this server", str(e.exception))
         self.assertEqual(self.client.sdf("limits", rays=1024).summary.ok, 6)
+        # A server older than GetServerInfo: no limits known, calls work.
+
+        class Unimplemented(grpc.RpcError):
+            def code(self):
+                return grpc.StatusCode.UNIMPLEMENTED
+
+            def details(self):
+                return "Method not found"
+
+        def old_server(*args, **kwargs):
+            raise Unimplemented()
+
+        with MeshGaugeClient(self.target) as old:
+            old._stub.GetServerInfo = old_server
+            self.assertIsNone(old.server_info())
+            self.assertEqual(old.sdf("limits", rays=20).summary.ok, 6)
 
     def test_8b_sessions_from_mesh_objects(self):
         import types

@@ -122,6 +122,8 @@ def optimise(client, t_min=0.15, rho=50.0, n=10, out=sys.stdout, rounds=4,
             callback=report, options={"maxiter": 100, "ftol": 1e-7})
         z = result.x
         evaluate(z)
+        if not np.isfinite(state["sdf_min"]) or state["sdf_min"] <= 0:
+            break  # no values to aim at: the caller sees min SDF.
         if state["sdf_min"] >= (1 - tolerance) * t_min:
             break
     session.close()

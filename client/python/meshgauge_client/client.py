@@ -105,6 +105,7 @@ class MeshGaugeClient:
         self._retry_seconds = retry_seconds
         self._dims: "dict[str, int]" = {}
         self._server_info: Optional[ServerInfo] = None
+        self._asked_server_info = False
 
     def close(self) -> None:
         self._channel.close()
@@ -151,14 +152,24 @@ class MeshGaugeClient:
 
     # Sessions ---------------------------------------------------------------
 
-    def server_info(self) -> ServerInfo:
-        """The server's version and limits (asked once, then cached)."""
-        if self._server_info is None:
-            r = self._call(self._stub.GetServerInfo, pb.GetServerInfoRequest())
-            self._server_info = ServerInfo(
-                r.version, r.api, r.max_rays, r.max_vertices, r.max_faces,
-                r.max_message_bytes, r.max_upload_message_bytes,
-                r.max_sessions, r.memory_budget_bytes)
+    def server_info(self) -> Optional[ServerInfo]:
+        """The server's version and limits (asked once, then cached); None
+        for a server older than GetServerInfo (0.2), which has no limits to
+        check against here."""
+        if not self._asked_server_info:
+            try:
+                r = self._call(self._stub.GetServerInfo,
+                               pb.GetServerInfoRequest())
+            except MeshGaugeError as e:
+                if e.code != grpc.StatusCode.UNIMPLEMENTED:
+                    raise
+                r = None
+            if r is not None:
+                self._server_info = ServerInfo(
+                    r.version, r.api, r.max_rays, r.max_vertices, r.max_faces,
+                    r.max_message_bytes, r.max_upload_message_bytes,
+                    r.max_sessions, r.memory_budget_bytes)
+            self._asked_server_info = True
         return self._server_info
 
     def _params(self, params: "dict[str, Any]") -> Any:
@@ -166,7 +177,8 @@ class MeshGaugeClient:
         options, checked here and against the server's ray limit before any
         call."""
         p = SdfOptions.of(params.pop("options", None), params).to_wire()
-        limit = self.server_info().max_rays
+        info = self.server_info()
+        limit = info.max_rays if info is not None else 4096
         if p.rays > limit:
             raise ValueError(f"rays must be at most {limit} on this server "
                              f"(--max_rays), got {p.rays}")
