@@ -6,14 +6,10 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "lib/core/disjoint_sets.h"
 
 namespace meshgauge {
 namespace {
-
-int32_t Find(std::vector<int32_t>& parent, int32_t v) {
-  while (parent[v] != v) v = parent[v] = parent[parent[v]];
-  return v;
-}
 
 // Components with closedness and signed volume, and the count of edges (2D:
 // vertices) used once, from one sort of the edge uses. Every face of an
@@ -31,14 +27,14 @@ Topology AnalyzeTopology(const Mesh& mesh) {
   std::iota(parent.begin(), parent.end(), 0);
   for (const Face& f : mesh.faces) {
     for (int k = 1; k < f.size; ++k) {
-      parent[Find(parent, f.v[k])] = Find(parent, f.v[0]);
+      parent[FindRoot(parent, f.v[k])] = FindRoot(parent, f.v[0]);
     }
   }
   // Component index by root, in the order of each component's first face.
   std::vector<int32_t> index(nv, -1);
   Topology t;
   for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
-    int32_t& c = index[Find(parent, mesh.faces[id].v[0])];
+    int32_t& c = index[FindRoot(parent, mesh.faces[id].v[0])];
     if (c < 0) {
       c = static_cast<int32_t>(t.components.size());
       t.components.emplace_back().closed = true;
@@ -52,7 +48,7 @@ Topology AnalyzeTopology(const Mesh& mesh) {
     t.closed = false;
     t.boundary_edges += j - i == 1;
     const int32_t v = EdgeKeyVertex(keys[i], mesh.dimension);
-    t.components[index[Find(parent, v)]].closed = false;
+    t.components[index[FindRoot(parent, v)]].closed = false;
   }
   for (Component& c : t.components) {
     c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
@@ -122,10 +118,7 @@ std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
     }
     for (int k = 0; k < f.size; ++k) {
       const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
-      const uint64_t key =
-          (uint64_t{static_cast<uint32_t>(std::min(a, b))} << 32) |
-          static_cast<uint32_t>(std::max(a, b));
-      uses.push_back({key, id, a < b});
+      uses.push_back({EdgeKey(a, b), id, a < b});
     }
   }
   std::sort(uses.begin(), uses.end());

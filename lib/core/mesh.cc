@@ -113,7 +113,8 @@ absl::Status MoveVertices(absl::Span<const int32_t> indices,
           absl::StrCat("vertex index ", v, " is repeated in the update"));
     }
   }
-  for (size_t i = 0; i < indices.size(); ++i) (*positions)[indices[i]] = moved[i];
+  for (size_t i = 0; i < indices.size(); ++i)
+    (*positions)[indices[i]] = moved[i];
   return absl::OkStatus();
 }
 
@@ -265,10 +266,7 @@ std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh) {
       continue;
     }
     for (int k = 0; k < f.size; ++k) {
-      uint64_t a = static_cast<uint32_t>(f.v[k]);
-      uint64_t b = static_cast<uint32_t>(f.v[(k + 1) % f.size]);
-      if (a > b) std::swap(a, b);
-      keys.push_back((a << 32) | b);
+      keys.push_back(EdgeKey(f.v[k], f.v[(k + 1) % f.size]));
     }
   }
   std::sort(keys.begin(), keys.end());

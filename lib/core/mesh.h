@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "absl/status/status.h"
@@ -109,6 +110,12 @@ bool IsClosed(const Mesh& mesh);
 // vertex), sorted, so that a run of equal keys counts an edge's uses.
 // O(F log F) time on one flat array. Precondition: indices in range.
 std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh);
+// The key of the edge a-b in either direction: the smaller vertex id in the
+// high 32 bits, the larger in the low ones.
+inline uint64_t EdgeKey(int32_t a, int32_t b) {
+  if (a > b) std::swap(a, b);
+  return (uint64_t{static_cast<uint32_t>(a)} << 32) | static_cast<uint32_t>(b);
+}
 // The (smaller) vertex of a SortedEdgeUses key.
 inline int32_t EdgeKeyVertex(uint64_t key, int dimension) {
   return static_cast<int32_t>(dimension == 2 ? key : key >> 32);

@@ -8,6 +8,8 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/disjoint_sets.h"
+#include "lib/core/integrals.h"
 
 namespace meshgauge {
 namespace {
@@ -61,30 +63,20 @@ std::pair<double, Vec3> MeasureAndCentroid(const Piece& piece) {
   return {area, area > 0 ? moment / area : piece.p[0]};
 }
 
-// Calls f(points, values, count) for each simplex of `face`: the segment,
-// the triangle, or a quad's two triangles.
-template <typename F>
-void ForEachSimplex(const Mesh& mesh, const Face& face,
-                    const std::vector<double>& values, F&& f) {
+// The corner positions and values of an integration element.
+struct Corners {
   std::array<Vec3, 3> p;
   std::array<double, 3> v;
-  if (face.size == 2) {
-    for (int k = 0; k < 2; ++k) {
-      p[k] = mesh.positions[face.v[k]];
-      v[k] = values[face.v[k]];
-    }
-    f(p.data(), v.data(), 2);
-    return;
+};
+
+Corners CornersOf(const Mesh& mesh, const std::vector<double>& values,
+                  const Element& e) {
+  Corners c;
+  for (int k = 0; k < e.n; ++k) {
+    c.p[k] = mesh.positions[e.v[k]];
+    c.v[k] = values[e.v[k]];
   }
-  for (int t = 0; t + 2 < face.size; ++t) {
-    const std::array<int32_t, 3> ids = {face.v[0], face.v[t + 1],
-                                        face.v[t + 2]};
-    for (int k = 0; k < 3; ++k) {
-      p[k] = mesh.positions[ids[k]];
-      v[k] = values[ids[k]];
-    }
-    f(p.data(), v.data(), 3);
-  }
+  return c;
 }
 
 bool HasValues(const Face& face, const std::vector<double>& values) {
@@ -94,32 +86,13 @@ bool HasValues(const Face& face, const std::vector<double>& values) {
   return true;
 }
 
-double SimplexMeasure(const Vec3* p, int n) {
-  return n == 2 ? Norm(p[1] - p[0])
-                : 0.5 * Norm(Cross(p[1] - p[0], p[2] - p[0]));
-}
-
-double SimplexMeasureBelow(const Vec3* p, const double* v, int n, double s) {
-  const double measure = SimplexMeasure(p, n);
+// The measure of an element (of `measure`, values v) below s.
+double MeasureBelow(double measure, const double* v, int n, double s) {
   if (n == 3) return TriangleAreaBelow(measure, v[0], v[1], v[2], s);
   const double lo = std::min(v[0], v[1]), hi = std::max(v[0], v[1]);
   if (s <= lo) return 0;
   if (s >= hi) return measure;
   return measure * (s - lo) / (hi - lo);
-}
-
-int32_t Find(std::vector<int32_t>& parent, int32_t x) {
-  while (parent[x] != x) {
-    parent[x] = parent[parent[x]];
-    x = parent[x];
-  }
-  return x;
-}
-
-void Unite(std::vector<int32_t>& parent, int32_t a, int32_t b) {
-  a = Find(parent, a);
-  b = Find(parent, b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
 }
 
 // Joins thin faces that share an edge (3D) or a vertex (2D) whose own
@@ -140,9 +113,7 @@ void JoinThinFaces(const Mesh& mesh, const std::vector<double>& values,
     for (int k = 0; k < face.size; ++k) {
       const int32_t a = face.v[k], b = face.v[(k + 1) % face.size];
       if (std::min(values[a], values[b]) >= t_min) continue;
-      const uint64_t key =
-          (uint64_t(uint32_t(std::min(a, b))) << 32) | uint32_t(std::max(a, b));
-      uses.push_back({key, f});
+      uses.push_back({EdgeKey(a, b), f});
     }
   }
   std::sort(uses.begin(), uses.end());
@@ -194,21 +165,19 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   out.t_min = t_min;
   out.min_thickness = kNaN;
   out.face_region.assign(nf, -1);
-  std::vector<char> thin(nf, 0);
+  std::vector<char> valued(nf, 0), thin(nf, 0);
   for (int32_t f = 0; f < nf; ++f) {
     const Face& face = mesh.faces[f];
-    const bool valued = HasValues(face, values);
-    ForEachSimplex(mesh, face, values,
-                   [&](const Vec3* p, const double*, int n) {
-                     const double m = SimplexMeasure(p, n);
-                     out.total_area += m;
-                     if (!valued) out.missing_area += m;
-                   });
-    if (!valued) continue;
+    valued[f] = HasValues(face, values);
+    if (!valued[f]) continue;
     for (int k = 0; k < face.size; ++k) {
       if (values[face.v[k]] < t_min) thin[f] = 1;
     }
   }
+  ForEachElement(mesh, [&](int64_t f, const Element& e) {
+    out.total_area += e.measure;
+    if (!valued[f]) out.missing_area += e.measure;
+  });
   for (int32_t v = 0; v < static_cast<int32_t>(values.size()); ++v) {
     if (!std::isnan(values[v]) &&
         (out.min_vertex < 0 || values[v] < out.min_thickness)) {
@@ -229,7 +198,7 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   std::vector<Vec3> moment;
   for (int32_t f = 0; f < nf; ++f) {
     if (!thin[f]) continue;
-    const int32_t root = Find(parent, f);
+    const int32_t root = FindRoot(parent, f);
     if (root_region[root] < 0) {
       root_region[root] = static_cast<int32_t>(regions.size());
       ThinRegion r;
@@ -253,21 +222,25 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
         r.min_vertex = v;
       }
     }
-    ForEachSimplex(
-        mesh, face, values, [&](const Vec3* p, const double* v, int n) {
-          const Piece piece = ClipBelow(p, v, n, t_min);
-          if (piece.n == 0) return;
-          const auto [m, c] = MeasureAndCentroid(piece);
-          r.area += m;
-          moment[id] += c * m;
-          for (int k = 0; k < piece.n; ++k) {
-            for (int axis = 0; axis < 3; ++axis) {
-              r.box_min[axis] = std::min(r.box_min[axis], piece.p[k][axis]);
-              r.box_max[axis] = std::max(r.box_max[axis], piece.p[k][axis]);
-            }
-          }
-        });
   }
+  // The parts below t_min, element by element in face order.
+  ForEachElement(mesh, [&](int64_t f, const Element& e) {
+    const int32_t id = out.face_region[f];
+    if (id < 0) return;
+    const Corners c = CornersOf(mesh, values, e);
+    const Piece piece = ClipBelow(c.p.data(), c.v.data(), e.n, t_min);
+    if (piece.n == 0) return;
+    const auto [m, centre] = MeasureAndCentroid(piece);
+    ThinRegion& r = regions[id];
+    r.area += m;
+    moment[id] += centre * m;
+    for (int k = 0; k < piece.n; ++k) {
+      for (int axis = 0; axis < 3; ++axis) {
+        r.box_min[axis] = std::min(r.box_min[axis], piece.p[k][axis]);
+        r.box_max[axis] = std::max(r.box_max[axis], piece.p[k][axis]);
+      }
+    }
+  });
   for (size_t i = 0; i < regions.size(); ++i) {
     ThinRegion& r = regions[i];
     r.min_point = mesh.positions[r.min_vertex];
@@ -319,27 +292,20 @@ absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
     if (k >= bins) return kInf;
     return lo + (hi - lo) * k / bins;
   };
-  for (const Face& face : mesh.faces) {
-    if (!HasValues(face, values)) continue;
-    ForEachSimplex(
-        mesh, face, values, [&](const Vec3* p, const double* v, int n) {
-          const double vmin = *std::min_element(v, v + n);
-          const double vmax = *std::max_element(v, v + n);
-          const int k0 = bin_of(vmin), k1 = bin_of(vmax);
-          if (k0 == k1) {
-            h.area[k0] += SimplexMeasure(p, n);
-            return;
-          }
-          double below = 0;
-          for (int k = k0; k <= k1; ++k) {
-            const double next = k == k1
-                                    ? SimplexMeasure(p, n)
-                                    : SimplexMeasureBelow(p, v, n, edge(k + 1));
-            h.area[k] += next - below;
-            below = next;
-          }
-        });
-  }
+  ForEachElement(mesh, [&](int64_t f, const Element& e) {
+    if (!HasValues(mesh.faces[f], values)) return;
+    const Corners c = CornersOf(mesh, values, e);
+    const double* v = c.v.data();
+    const int k0 = bin_of(*std::min_element(v, v + e.n));
+    const int k1 = bin_of(*std::max_element(v, v + e.n));
+    double below = 0;
+    for (int k = k0; k <= k1; ++k) {
+      const double next =
+          k == k1 ? e.measure : MeasureBelow(e.measure, v, e.n, edge(k + 1));
+      h.area[k] += next - below;
+      below = next;
+    }
+  });
   return h;
 }
 
