@@ -148,7 +148,8 @@ absl::Status SessionStore::ClaimLocally(UploadReservation* r) {
 }
 
 void SessionStore::Release(UploadReservation* r) {
-  if (records_ && !r->token_.empty()) records_->Unreserve(r->tenant_, r->token_);
+  if (records_ && !r->token_.empty())
+    records_->Unreserve(r->tenant_, r->token_);
   std::lock_guard<std::mutex> lock(mu_);
   ReleaseLocked(r);
   PublishLocked();
@@ -359,6 +360,15 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
     if (!reader.ok()) return reader.status();
     Mesh moved = reader->evaluator->mesh();
     if (indices.empty()) {
+      // Checked here, against this incarnation's mesh: the caller's count
+      // check may have seen another incarnation (deleted and re-created in
+      // between), and extra points would pass validation as unused
+      // vertices, then corrupt the record.
+      if (positions.size() != moved.positions.size()) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            "positions holds ", positions.size(), " points, expected ",
+            moved.positions.size(), " (one per vertex of the session)"));
+      }
       moved.positions = positions;
     } else if (absl::Status v =
                    MoveVertices(indices, positions, &moved.positions);

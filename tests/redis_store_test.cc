@@ -267,6 +267,27 @@ TEST_F(RedisStoreTest, CommitToAnotherIncarnationIsAborted) {
   EXPECT_EQ(*fresh, 1);
 }
 
+// The race of DeleteAndReCreateRacesNeverMixIncarnations, played
+// deterministically at the store: an update checked by the service against
+// another incarnation (here: more points than this session's vertices)
+// reaches the store, which must refuse it; extra points passed validation
+// as unused vertices and corrupted the record (DATA_LOSS on every read).
+TEST_F(RedisStoreTest, AnUpdateSizedForAnotherIncarnationIsRefusedAtTheStore) {
+  const Mesh knight = Knight();
+  const Mesh sphere = MakeIcosphere(1.0, 8);
+  ASSERT_GT(sphere.num_vertices(), knight.num_vertices());
+  ASSERT_TRUE(a_->client->Upload(knight, "sized").ok());
+  auto update =
+      a_->server->store().UpdatePositions("", "sized", 0, {}, sphere.positions);
+  EXPECT_EQ(Code(update), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(std::string(update.status().message()),
+              HasSubstr("expected 502 (one per vertex of the session)"));
+  auto read =
+      b_->client->ComputeSdf("sized", SdfParams{}, {.expected_generation = 0});
+  ASSERT_TRUE(read.ok()) << read.status();
+  EXPECT_EQ(std::ssize(read->result.values), knight.num_vertices());
+}
+
 // Delete and re-create races under load: one client keeps deleting s1 and
 // creating it again as a knight or a sphere through one replica while two
 // others read and update it through two other replicas. Every reply is
@@ -293,8 +314,8 @@ TEST_F(RedisStoreTest, DeleteAndReCreateRacesNeverMixIncarnations) {
   });
   auto reader = [&](Replica& r) {
     while (!done) {
-      auto got = r.client->ComputeSdf("s1", SdfParams{},
-                                      {.expected_generation = 0});
+      auto got =
+          r.client->ComputeSdf("s1", SdfParams{}, {.expected_generation = 0});
       if (got.ok()) {
         const auto& v = got->result.values;
         const int m = std::ssize(v) == meshes[0].num_vertices() ? 0 : 1;
@@ -333,8 +354,8 @@ TEST_F(RedisStoreTest, DeleteAndReCreateRacesNeverMixIncarnations) {
   w.join();
   EXPECT_EQ(bad, 0);
   EXPECT_GT(checked, 0);
-  std::printf("races: %d replies checked, %d updates applied\n",
-              checked.load(), updated.load());
+  std::printf("races: %d replies checked, %d updates applied\n", checked.load(),
+              updated.load());
   // Whatever the last incarnation is, every replica reads it intact.
   for (Replica* r : {a_.get(), b_.get(), &c}) {
     auto info = r->client->Get("s1");
@@ -373,8 +394,7 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
   v1::CreateSessionResponse resp;
   auto w = b_->client->stub().CreateSession(&ctx, &resp);
   ASSERT_TRUE(w->Write(UploadHeader(3, 1)));
-  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() == 0;
-       ++i) {
+  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() == 0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   ASSERT_EQ(b_->server->store().reserved_uploads(), 1);
@@ -384,8 +404,7 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
               HasSubstr("uploads in flight"));
   ctx.TryCancel();
   w->Finish();
-  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() > 0;
-       ++i) {
+  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() > 0; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   EXPECT_TRUE(a_->client->Upload(mesh, "x2").ok());
