@@ -19,7 +19,7 @@ read -r -a ABSL <<<"$(pkg-config --libs absl_strings absl_status absl_statusor \
 SOURCES=(lib/io/mesh_builder.cc lib/io/mesh_io.cc lib/io/obj_reader.cc
          lib/io/off_reader.cc lib/io/ply_reader.cc lib/io/scan.cc
          lib/io/stl_reader.cc lib/core/polygon.cc lib/core/mesh.cc
-         lib/core/components.cc)
+         lib/core/components.cc lib/core/mesh_repair.cc)
 OBJECTS=()
 for src in "${SOURCES[@]}"; do
   obj="$OUT/obj/$(echo "$src" | tr / _).o"

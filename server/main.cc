@@ -49,6 +49,9 @@ ABSL_FLAG(int64_t, max_message_bytes, 256ll << 20,
 ABSL_FLAG(int64_t, max_upload_message_bytes, 16ll << 20,
           "largest CreateSession message, checked before it is parsed "
           "(--max_message_bytes applies first)");
+ABSL_FLAG(int64_t, max_upload_file_bytes, 256ll << 20,
+          "largest mesh file a CreateSession may send for the server's "
+          "readers");
 ABSL_FLAG(int64_t, max_sessions, 64, "sessions held at once");
 ABSL_FLAG(int64_t, max_vertices, 5'000'000, "vertices per session");
 ABSL_FLAG(int64_t, max_faces, 10'000'000, "faces per session");
@@ -124,6 +127,7 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
       absl::GetFlag(FLAGS_upload_min_bytes_per_second);
   o.max_message_bytes = absl::GetFlag(FLAGS_max_message_bytes);
   o.max_upload_message_bytes = absl::GetFlag(FLAGS_max_upload_message_bytes);
+  o.max_upload_file_bytes = absl::GetFlag(FLAGS_max_upload_file_bytes);
   o.max_sessions = absl::GetFlag(FLAGS_max_sessions);
   o.max_vertices = absl::GetFlag(FLAGS_max_vertices);
   o.max_faces = absl::GetFlag(FLAGS_max_faces);
@@ -153,6 +157,7 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       o.session_store.empty() ? "in memory" : "in " + o.session_store,
       "; max_message_bytes=", o.max_message_bytes,
       " max_upload_message_bytes=", o.max_upload_message_bytes,
+      " max_upload_file_bytes=", o.max_upload_file_bytes,
       " max_sessions=", o.max_sessions, " max_vertices=", o.max_vertices,
       " max_faces=", o.max_faces, " max_rays=", o.max_rays,
       " memory_budget_bytes=", o.memory_budget_bytes,

@@ -7,9 +7,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "lib/core/polygon.h"
+#include "lib/io/mesh_builder.h"
+#include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
+#include "server/session.h"
 
 namespace meshgauge::server {
 namespace {
@@ -27,7 +32,8 @@ absl::Status MeshAssembler::Add(const v1::CreateSessionRequest& request) {
       return Header(request.header());
     case v1::CreateSessionRequest::kChunk:
       if (!have_header_) return Invalid("the first message must be a header");
-      return Chunk(request.chunk());
+      return file_format_.empty() ? Chunk(request.chunk())
+                                  : FileChunk(request.chunk());
     case v1::CreateSessionRequest::kFooter:
       if (!have_header_) return Invalid("the first message must be a header");
       return Footer(request.footer());
@@ -40,6 +46,21 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
   if (have_header_) return Invalid("a second header");
   have_header_ = true;
   session_id_ = h.session_id();
+  repairs_ = {.drop_degenerate_faces = h.drop_degenerate_faces(),
+              .reorient = h.reorient()};
+  for (const auto& rd : h.region_directions()) {
+    if (region_directions_.count(rd.region())) {
+      return Invalid(absl::StrCat("region ", rd.region(),
+                                  " is listed twice in region_directions"));
+    }
+    auto direction = wire::FromWire(rd.direction());
+    if (!direction.ok()) {
+      return Invalid(absl::StrCat("region ", rd.region(), ": ",
+                                  direction.status().message()));
+    }
+    region_directions_[rd.region()] = *direction;
+  }
+  if (!h.file_format().empty() || h.file_bytes() != 0) return FileHeader(h);
   if (h.dimension() != 2 && h.dimension() != 3) {
     return Invalid(
         absl::StrCat("header.dimension must be 2 or 3, got ", h.dimension()));
@@ -59,53 +80,101 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
         "CreateSession: ", h.num_faces(), " faces exceed the limit of ",
         options_.max_faces, " per session (--max_faces)"));
   }
-  mesh_.dimension = h.dimension();
+  const int64_t min_corners = h.dimension() == 2 ? 2 : 3;
+  const int64_t max_corners = h.dimension() == 2 ? 2 : kMaxPolygonCorners;
+  if (h.num_face_indices() != 0 &&
+      (h.num_face_indices() < min_corners * h.num_faces() ||
+       h.num_face_indices() > max_corners * h.num_faces())) {
+    return Invalid(absl::StrCat("header.num_face_indices is ",
+                                h.num_face_indices(), " for ", h.num_faces(),
+                                " faces (each face has ", min_corners, " to ",
+                                max_corners, " corners; 0: at most 4)"));
+  }
+  dimension_ = h.dimension();
   declared_vertices_ = h.num_vertices();
   declared_faces_ = h.num_faces();
-  for (const auto& rd : h.region_directions()) {
-    if (mesh_.region_directions.count(rd.region())) {
-      return Invalid(absl::StrCat("region ", rd.region(),
-                                  " is listed twice in region_directions"));
-    }
-    auto direction = wire::FromWire(rd.direction());
-    if (!direction.ok()) {
-      return Invalid(absl::StrCat("region ", rd.region(), ": ",
-                                  direction.status().message()));
-    }
-    mesh_.region_directions[rd.region()] = *direction;
-  }
+  declared_indices_ = h.num_face_indices();
   return absl::OkStatus();
+}
+
+absl::Status MeshAssembler::FileHeader(
+    const v1::CreateSessionRequest::Header& h) {
+  static constexpr const char* kFormats[] = {"obj", "off", "ply", "stl"};
+  if (std::find(std::begin(kFormats), std::end(kFormats), h.file_format()) ==
+      std::end(kFormats)) {
+    return Invalid(
+        absl::StrCat("header.file_format must be obj, off, ply or "
+                     "stl, got '",
+                     absl::CEscape(h.file_format().substr(0, 16)), "'"));
+  }
+  if (h.dimension() != 0 || h.num_vertices() != 0 || h.num_faces() != 0 ||
+      h.num_face_indices() != 0) {
+    return Invalid(
+        "a file upload's header has dimension, num_vertices, num_faces and "
+        "num_face_indices 0 (the file holds them)");
+  }
+  if (h.file_bytes() <= 0) {
+    return Invalid(absl::StrCat("header.file_bytes must be positive, got ",
+                                h.file_bytes()));
+  }
+  if (h.file_bytes() > options_.max_upload_file_bytes) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "CreateSession: a file of ", h.file_bytes(),
+        " bytes exceeds the limit of ", options_.max_upload_file_bytes,
+        " bytes (--max_upload_file_bytes)"));
+  }
+  file_format_ = absl::StrCat(".", h.file_format());
+  declared_file_bytes_ = h.file_bytes();
+  return absl::OkStatus();
+}
+
+int64_t MeshAssembler::EstimatedBytes() const {
+  if (!file_format_.empty()) {
+    // The file's bytes and what a reader holds while it reads them (flat
+    // face arrays and the mesh: at most about five times the text of an
+    // OBJ of short lines).
+    return declared_file_bytes_ * kFileReadFactor;
+  }
+  const int64_t primitives =
+      declared_indices_ == 0
+          ? declared_faces_
+          : std::max(declared_faces_, declared_indices_ - 2 * declared_faces_);
+  return Session::EstimateBytes(declared_vertices_, declared_faces_,
+                                primitives);
 }
 
 absl::Status MeshAssembler::CheckRoom(
     const v1::CreateSessionRequest::Chunk& c) const {
-  const int dim = mesh_.dimension;
-  const int64_t coords =
-      declared_vertices_ * dim - mesh_.num_vertices() * dim - std::ssize(coords_);
+  if (!c.file_data().empty()) {
+    return Invalid("file_data in an upload of arrays (no header.file_format)");
+  }
+  const int64_t coords = declared_vertices_ * dimension_ - std::ssize(coords_);
   if (c.positions_size() > coords) {
     return Invalid(absl::StrCat("a chunk of ", c.positions_size(),
                                 " coordinates: more than the declared ",
                                 declared_vertices_, " vertices (", coords,
                                 " coordinates still to come)"));
   }
-  const int64_t sizes =
-      declared_faces_ - mesh_.num_faces() - std::ssize(pending_sizes_);
+  const int64_t sizes = declared_faces_ - std::ssize(sizes_);
   if (c.face_sizes_size() > sizes) {
     return Invalid(absl::StrCat("a chunk of ", c.face_sizes_size(),
                                 " face sizes: more than the declared ",
                                 declared_faces_, " faces (", sizes,
                                 " still to come)"));
   }
-  // At most 4 indices for each face still to come.
-  const int64_t indices = 4 * (declared_faces_ - mesh_.num_faces()) -
-                          std::ssize(pending_indices_);
+  const int64_t indices =
+      (declared_indices_ != 0 ? declared_indices_ : 4 * declared_faces_) -
+      std::ssize(indices_);
   if (c.face_indices_size() > indices) {
-    return Invalid(
-        absl::StrCat("more face indices than the declared ", declared_faces_,
-                     " faces can hold (", mesh_.num_faces(), " complete, ",
-                     pending_indices_.size(), " indices pending)"));
+    return Invalid(absl::StrCat(
+        "a chunk of ", c.face_indices_size(),
+        " face indices: more face indices than the declared ",
+        declared_indices_ != 0
+            ? absl::StrCat(declared_indices_, " (num_face_indices)")
+            : absl::StrCat(declared_faces_, " faces can hold (4 each)"),
+        "; ", indices, " still to come"));
   }
-  const int64_t regions = declared_faces_ - std::ssize(mesh_.face_regions);
+  const int64_t regions = declared_faces_ - std::ssize(regions_);
   if (c.face_regions_size() > regions) {
     return Invalid(absl::StrCat("more than the declared ", declared_faces_,
                                 " face regions"));
@@ -114,86 +183,75 @@ absl::Status MeshAssembler::CheckRoom(
 }
 
 int64_t MeshAssembler::bytes_held() const {
+  // The buffers, and the mesh Finish makes of them while they are held.
+  const int64_t vertices =
+      dimension_ > 0 ? std::ssize(coords_) / dimension_ : 0;
   return static_cast<int64_t>(
-      mesh_.positions.capacity() * sizeof(Vec3) +
-      mesh_.faces.capacity() * sizeof(Face) +
-      (mesh_.face_regions.capacity() + pending_sizes_.capacity() +
-       pending_indices_.capacity()) *
+      coords_.capacity() * sizeof(double) + vertices * sizeof(Vec3) +
+      (sizes_.capacity() + indices_.capacity() + regions_.capacity()) *
           sizeof(int32_t) +
-      coords_.capacity() * sizeof(double));
+      sizes_.size() * sizeof(Face) + file_.capacity());
 }
 
+namespace {
+
+// Appends a packed field to `to` and its bytes to the running checksum.
+template <typename T>
+void Append(const google::protobuf::RepeatedField<T>& from, std::vector<T>* to,
+            uLong* crc, int64_t* crc_len) {
+  if (from.empty()) return;
+  *crc = crc32(*crc, reinterpret_cast<const Bytef*>(from.data()),
+               from.size() * sizeof(T));
+  *crc_len += from.size() * sizeof(T);
+  to->insert(to->end(), from.begin(), from.end());
+}
+
+}  // namespace
+
 absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
-  const int dim = mesh_.dimension;
+  const int max_size =
+      dimension_ == 2 ? 2 : (declared_indices_ != 0 ? kMaxPolygonCorners : 4);
+  const int min_size = dimension_ == 2 ? 2 : 3;
+  for (int i = 0; i < c.face_sizes_size(); ++i) {
+    const int32_t s = c.face_sizes(i);
+    if (s < min_size || s > max_size) {
+      return Invalid(
+          absl::StrCat("face ", std::ssize(sizes_) + i, " has size ", s,
+                       dimension_ == 2 ? " (2D faces are segments: 2)"
+                       : declared_indices_ != 0
+                           ? absl::StrCat(" (3D faces have 3 to ",
+                                          kMaxPolygonCorners, " corners)")
+                           : " (3D faces are triangles or quads; declare "
+                             "header.num_face_indices to send polygons)"));
+    }
+  }
   // Nothing is stored from a chunk that would exceed the header's counts.
   if (absl::Status s = CheckRoom(c); !s.ok()) return s;
-  // Positions.
-  if (c.positions_size() > 0) {
-    crc_[0] =
-        crc32(crc_[0], reinterpret_cast<const Bytef*>(c.positions().data()),
-              c.positions_size() * sizeof(double));
-    crc_len_[0] += c.positions_size() * sizeof(double);
-    for (double x : c.positions()) {
-      coords_.push_back(x);
-      if (std::ssize(coords_) == dim) {
-        mesh_.positions.push_back(
-            {coords_[0], coords_[1], dim == 3 ? coords_[2] : 0.0});
-        coords_.clear();
-      }
-    }
+  Append(c.positions(), &coords_, &crc_[0], &crc_len_[0]);
+  Append(c.face_sizes(), &sizes_, &crc_[1], &crc_len_[1]);
+  Append(c.face_indices(), &indices_, &crc_[2], &crc_len_[2]);
+  Append(c.face_regions(), &regions_, &crc_[3], &crc_len_[3]);
+  return absl::OkStatus();
+}
+
+absl::Status MeshAssembler::FileChunk(
+    const v1::CreateSessionRequest::Chunk& c) {
+  if (c.positions_size() > 0 || c.face_sizes_size() > 0 ||
+      c.face_indices_size() > 0 || c.face_regions_size() > 0) {
+    return Invalid("a file upload's chunks carry file_data only");
   }
-  // Faces: sizes and indices may arrive in different chunks.
-  if (c.face_sizes_size() > 0) {
-    crc_[1] =
-        crc32(crc_[1], reinterpret_cast<const Bytef*>(c.face_sizes().data()),
-              c.face_sizes_size() * sizeof(int32_t));
-    crc_len_[1] += c.face_sizes_size() * sizeof(int32_t);
-    for (int32_t s : c.face_sizes()) {
-      const bool ok = dim == 2 ? s == 2 : (s == 3 || s == 4);
-      if (!ok) {
-        return Invalid(absl::StrCat(
-            "face ", mesh_.num_faces() + std::ssize(pending_sizes_),
-            " has size ", s,
-            dim == 2 ? " (2D faces are segments: 2)"
-                     : " (3D faces are triangles or quads)"));
-      }
-      pending_sizes_.push_back(s);
-    }
+  const int64_t room = declared_file_bytes_ - std::ssize(file_);
+  if (std::ssize(c.file_data()) > room) {
+    return Invalid(absl::StrCat("a chunk of ", c.file_data().size(),
+                                " file bytes: more than the declared ",
+                                declared_file_bytes_, " (", room,
+                                " still to come)"));
   }
-  if (c.face_indices_size() > 0) {
-    crc_[2] =
-        crc32(crc_[2], reinterpret_cast<const Bytef*>(c.face_indices().data()),
-              c.face_indices_size() * sizeof(int32_t));
-    crc_len_[2] += c.face_indices_size() * sizeof(int32_t);
-    pending_indices_.insert(pending_indices_.end(), c.face_indices().begin(),
-                            c.face_indices().end());
-  }
-  size_t used = 0, consumed_sizes = 0;
-  for (int32_t s : pending_sizes_) {
-    if (used + s > pending_indices_.size()) break;
-    Face f;
-    f.size = s;
-    for (int k = 0; k < s; ++k) f.v[k] = pending_indices_[used + k];
-    mesh_.faces.push_back(f);
-    used += s;
-    ++consumed_sizes;
-  }
-  pending_sizes_.erase(pending_sizes_.begin(),
-                       pending_sizes_.begin() + consumed_sizes);
-  pending_indices_.erase(pending_indices_.begin(),
-                         pending_indices_.begin() + used);
-  if (!pending_indices_.empty() && pending_sizes_.empty() &&
-      mesh_.num_faces() == declared_faces_) {
-    return Invalid("more face indices than the face sizes account for");
-  }
-  if (c.face_regions_size() > 0) {
-    crc_[3] =
-        crc32(crc_[3], reinterpret_cast<const Bytef*>(c.face_regions().data()),
-              c.face_regions_size() * sizeof(int32_t));
-    crc_len_[3] += c.face_regions_size() * sizeof(int32_t);
-    mesh_.face_regions.insert(mesh_.face_regions.end(),
-                              c.face_regions().begin(), c.face_regions().end());
-  }
+  if (file_.empty()) file_.reserve(declared_file_bytes_);
+  crc_[0] = crc32(crc_[0], reinterpret_cast<const Bytef*>(c.file_data().data()),
+                  c.file_data().size());
+  crc_len_[0] += std::ssize(c.file_data());
+  file_ += c.file_data();
   return absl::OkStatus();
 }
 
@@ -210,42 +268,120 @@ absl::Status MeshAssembler::Footer(const v1::CreateSessionRequest::Footer& f) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<Mesh> MeshAssembler::Finish() {
-  if (!have_header_) return Invalid("empty stream (no header)");
-  if (!have_footer_) {
-    return Invalid(
-        absl::StrCat("truncated stream: no footer after ", mesh_.num_vertices(),
-                     " of ", declared_vertices_, " vertices and ",
-                     mesh_.num_faces(), " of ", declared_faces_, " faces"));
-  }
-  if (!coords_.empty() || mesh_.num_vertices() != declared_vertices_) {
-    return Invalid(absl::StrCat(
-        "received ", mesh_.num_vertices(), " complete vertices (",
-        coords_.size(), " stray coordinates), declared ", declared_vertices_));
-  }
-  if (!pending_sizes_.empty() || !pending_indices_.empty() ||
-      mesh_.num_faces() != declared_faces_) {
-    return Invalid(absl::StrCat("received ", mesh_.num_faces(),
-                                " complete faces, declared ", declared_faces_));
-  }
-  if (!mesh_.face_regions.empty() &&
-      mesh_.num_faces() != std::ssize(mesh_.face_regions)) {
-    return Invalid(absl::StrCat("received ", mesh_.face_regions.size(),
-                                " face regions for ", mesh_.num_faces(),
-                                " faces (send one per face or none)"));
-  }
+uint32_t MeshAssembler::Crc() const {
   uLong crc = crc_[0];
   for (int i = 1; i < 4; ++i) crc = crc32_combine(crc, crc_[i], crc_len_[i]);
-  if (static_cast<uint32_t>(crc) != footer_crc_) {
+  return static_cast<uint32_t>(crc);
+}
+
+absl::StatusOr<io::MeshFile> MeshAssembler::Finish() {
+  if (!have_header_) return Invalid("empty stream (no header)");
+  if (!have_footer_) {
+    return Invalid(absl::StrCat(
+        "truncated stream: no footer after ",
+        file_format_.empty()
+            ? absl::StrCat(std::ssize(coords_) / dimension_, " of ",
+                           declared_vertices_, " vertices and ", sizes_.size(),
+                           " of ", declared_faces_, " faces")
+            : absl::StrCat(file_.size(), " of ", declared_file_bytes_,
+                           " file bytes")));
+  }
+  auto file = file_format_.empty() ? FinishArrays() : FinishFile();
+  if (!file.ok()) return file.status();
+  for (const auto& [region, direction] : region_directions_) {
+    file->mesh.region_directions[region] = direction;
+  }
+  return file;
+}
+
+absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays() {
+  const int64_t vertices = std::ssize(coords_) / dimension_;
+  if (std::ssize(coords_) != declared_vertices_ * dimension_) {
+    return Invalid(absl::StrCat("received ", vertices, " complete vertices (",
+                                std::ssize(coords_) % dimension_,
+                                " stray coordinates), declared ",
+                                declared_vertices_));
+  }
+  int64_t used = 0;
+  for (int32_t s : sizes_) used += s;
+  if (std::ssize(sizes_) != declared_faces_ || used != std::ssize(indices_)) {
+    return Invalid(absl::StrCat("received ", sizes_.size(),
+                                " face sizes (declared ", declared_faces_,
+                                ") and ", indices_.size(),
+                                " face indices (the sizes need ", used, ")"));
+  }
+  if (declared_indices_ != 0 && used != declared_indices_) {
+    return Invalid(absl::StrCat("received ", used,
+                                " face indices, header.num_face_indices "
+                                "declared ",
+                                declared_indices_));
+  }
+  if (!regions_.empty() && std::ssize(regions_) != declared_faces_) {
+    return Invalid(absl::StrCat("received ", regions_.size(),
+                                " face regions for ", declared_faces_,
+                                " faces (send one per face or none)"));
+  }
+  if (Crc() != footer_crc_) {
     return Invalid(
-        absl::StrFormat("checksum mismatch: footer says %08x, data "
-                        "has %08x",
-                        footer_crc_, static_cast<uint32_t>(crc)));
+        absl::StrFormat("checksum mismatch: footer says %08x, data has %08x",
+                        footer_crc_, Crc()));
   }
-  if (absl::Status s = ValidateMesh(mesh_); !s.ok()) {
-    return Invalid(std::string(s.message()));
+  io::MeshBuilder builder("CreateSession", dimension_);
+  builder.ReservePositions(vertices);
+  for (int64_t v = 0; v < vertices; ++v) {
+    const double* x = coords_.data() + v * dimension_;
+    builder.AddVertex({x[0], x[1], dimension_ == 3 ? x[2] : 0.0});
   }
-  return std::move(mesh_);
+  std::vector<double>().swap(coords_);
+  std::vector<int64_t> corners;
+  int64_t offset = 0;
+  for (int64_t f = 0; f < std::ssize(sizes_); ++f) {
+    corners.assign(indices_.begin() + offset,
+                   indices_.begin() + offset + sizes_[f]);
+    offset += sizes_[f];
+    if (absl::Status s = builder.AddFace(
+            corners, regions_.empty() ? 0 : regions_[f], "face_indices");
+        !s.ok()) {
+      return s;
+    }
+  }
+  std::vector<int32_t>().swap(indices_);
+  auto file = builder.Finish("arrays");
+  if (!file.ok()) return file.status();
+  if (!regions_.empty() && file->mesh.face_regions.empty()) {
+    file->mesh.face_regions.assign(file->mesh.faces.size(), 0);
+  }
+  return file;
+}
+
+absl::StatusOr<io::MeshFile> MeshAssembler::FinishFile() {
+  if (std::ssize(file_) != declared_file_bytes_) {
+    return Invalid(absl::StrCat("received ", file_.size(),
+                                " file bytes, declared ",
+                                declared_file_bytes_));
+  }
+  if (Crc() != footer_crc_) {
+    return Invalid(
+        absl::StrFormat("checksum mismatch: footer says %08x, file has %08x",
+                        footer_crc_, Crc()));
+  }
+  auto file = ParseMeshContents(
+      file_, file_format_, absl::StrCat("uploaded", file_format_, " file"));
+  std::string().swap(file_);
+  if (!file.ok()) return file.status();
+  if (file->mesh.num_vertices() > options_.max_vertices) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("CreateSession: the file holds ",
+                     file->mesh.num_vertices(), " vertices, over the limit of ",
+                     options_.max_vertices, " per session (--max_vertices)"));
+  }
+  if (file->mesh.num_faces() > options_.max_faces) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "CreateSession: the file holds ", file->mesh.num_faces(),
+        " faces (after triangulating polygons), over the limit of ",
+        options_.max_faces, " per session (--max_faces)"));
+  }
+  return file;
 }
 
 }  // namespace meshgauge::server
@@ -291,8 +427,8 @@ int64_t LargestField(grpc::ByteBuffer* buffer, uint32_t field) {
 }  // namespace
 }  // namespace meshgauge::server
 
-grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
-                                       void>::Deserialize(
+grpc::Status
+grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Deserialize(
     grpc::ByteBuffer* buffer, meshgauge::server::UploadMessage* msg) {
   using meshgauge::server::kMaxUploadHeaderBytes;
   msg->request.Clear();
@@ -304,8 +440,7 @@ grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
         " bytes exceeds the upload limit of ", msg->limit,
         " bytes per message (--max_upload_message_bytes); send smaller "
         "chunks");
-  } else if (const int64_t header =
-                 meshgauge::server::LargestField(buffer, 1);
+  } else if (const int64_t header = meshgauge::server::LargestField(buffer, 1);
              header > kMaxUploadHeaderBytes) {
     msg->refused = absl::StrCat(
         "CreateSession: a header of ", header, " bytes exceeds the limit of ",
@@ -320,8 +455,8 @@ grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
       buffer, &msg->request);
 }
 
-grpc::Status grpc::SerializationTraits<meshgauge::server::UploadMessage,
-                                       void>::Serialize(
+grpc::Status
+grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Serialize(
     const meshgauge::server::UploadMessage&, grpc::ByteBuffer*, bool*) {
   return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
                       "UploadMessage is only read");

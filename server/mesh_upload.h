@@ -1,20 +1,24 @@
-// Assembles a CreateSession stream (header, chunks, footer) into a Mesh,
+// Assembles a CreateSession stream (header, chunks, footer) into a mesh,
 // checking it as it arrives: declared counts (a chunk is refused whole,
-// before anything of it is stored, when its arrays exceed them) and server
-// limits, face sizes
-// against indices, the final counts and CRC-32, then SPEC §1 validation.
+// before anything of it is stored, when its arrays or file bytes exceed
+// them) and server limits, then the final counts and CRC-32. Arrays are
+// made into faces, and files read, by lib/io's builder and readers.
 #pragma once
 
+#include <grpcpp/impl/codegen/serialization_traits.h>
 #include <grpcpp/support/byte_buffer.h>
 #include <grpcpp/support/config.h>
-#include <grpcpp/impl/codegen/serialization_traits.h>
 #include <grpcpp/support/status.h>
 #include <zlib.h>
 
+#include <map>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "lib/core/mesh.h"
+#include "lib/core/mesh_repair.h"
+#include "lib/io/mesh_file.h"
 #include "meshgauge/v1/meshgauge.pb.h"
 #include "server/server_options.h"
 
@@ -35,6 +39,10 @@ struct UploadMessage {
   v1::CreateSessionRequest request;
 };
 
+// Bytes an upload of a mesh file may hold per file byte while it arrives
+// and is read (see MeshAssembler::EstimatedBytes).
+inline constexpr int64_t kFileReadFactor = 8;
+
 // Largest header of an upload: 1 MiB, some 130,000 region directions.
 inline constexpr int64_t kMaxUploadHeaderBytes = int64_t{1} << 20;
 
@@ -45,35 +53,50 @@ class MeshAssembler {
   // Every error is INVALID_ARGUMENT (or RESOURCE_EXHAUSTED for a limit) with
   // a message naming the field.
   absl::Status Add(const v1::CreateSessionRequest& request);
-  // The stream ended: returns the validated mesh, or the defect (a stream
-  // without footer is "truncated").
-  absl::StatusOr<Mesh> Finish();
+  // The stream ended: returns the mesh as the readers return a file's (not
+  // validated: polygons triangulated, region directions set), or the defect
+  // (a stream without footer is "truncated"). A file upload's mesh is
+  // checked against max_vertices and max_faces (RESOURCE_EXHAUSTED).
+  absl::StatusOr<io::MeshFile> Finish();
   const std::string& session_id() const { return session_id_; }
-  // After the header: its declared counts.
-  int dimension() const { return mesh_.dimension; }
-  int64_t declared_vertices() const { return declared_vertices_; }
-  int64_t declared_faces() const { return declared_faces_; }
+  // The repairs the header asks for.
+  RepairOptions repairs() const { return repairs_; }
+  // After the header: the bytes the upload will hold at most while it
+  // arrives and is read (a file upload's mesh is measured after Finish).
+  int64_t EstimatedBytes() const;
   // Bytes buffered so far (the arrays' capacities).
   int64_t bytes_held() const;
 
  private:
   absl::Status Header(const v1::CreateSessionRequest::Header& h);
+  absl::Status FileHeader(const v1::CreateSessionRequest::Header& h);
   absl::Status Chunk(const v1::CreateSessionRequest::Chunk& c);
+  absl::Status FileChunk(const v1::CreateSessionRequest::Chunk& c);
   // INVALID_ARGUMENT when a chunk's arrays hold more than the header's
   // counts leave room for (checked before anything is stored).
   absl::Status CheckRoom(const v1::CreateSessionRequest::Chunk& c) const;
   absl::Status Footer(const v1::CreateSessionRequest::Footer& f);
+  absl::StatusOr<io::MeshFile> FinishArrays();
+  absl::StatusOr<io::MeshFile> FinishFile();
+  // The checksum over what arrived, in the footer's order.
+  uint32_t Crc() const;
 
   const ServerOptions& options_;
   bool have_header_ = false, have_footer_ = false;
   std::string session_id_;
-  Mesh mesh_;
-  int64_t declared_vertices_ = 0, declared_faces_ = 0;
-  std::vector<double> coords_;          // pending coordinates (partial vertex).
-  std::vector<int32_t> pending_sizes_;  // faces waiting for indices.
-  std::vector<int32_t> pending_indices_;
+  int dimension_ = 0;
+  std::map<int32_t, ConeDirection> region_directions_;
+  RepairOptions repairs_;
+  int64_t declared_vertices_ = 0, declared_faces_ = 0, declared_indices_ = 0;
+  std::vector<double> coords_;
+  std::vector<int32_t> sizes_, indices_, regions_;
+  // A file upload: its format (".obj", ...), declared size and bytes.
+  std::string file_format_;
+  int64_t declared_file_bytes_ = 0;
+  std::string file_;
   // CRC over positions, sizes, indices, regions (in that order): the four
-  // streams are checksummed separately and combined at the end.
+  // streams are checksummed separately and combined at the end. A file
+  // upload uses the first.
   uLong crc_[4] = {0, 0, 0, 0};
   int64_t crc_len_[4] = {0, 0, 0, 0};
   uint32_t footer_crc_ = 0;

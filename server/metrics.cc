@@ -102,7 +102,7 @@ Metrics::Metrics()
   for (const char* method :
        {"CreateSession", "GetSession", "ListSessions", "DeleteSession",
         "UpdatePositions", "ComputeSdf", "ComputeVjp", "ComputePenalty",
-        "Calibrate", "GetServerInfo"}) {
+        "Calibrate", "GetServerInfo", "GetMesh"}) {
     retried_attempts_.Add({{"method", method}});
   }
 }

@@ -55,8 +55,10 @@ absl::Status ValidateServerOptions(const ServerOptions& o) {
   constexpr int64_t kInt32 = 2147483647;
   const absl::Status checks[] = {
       InRange<int64_t>("max_message_bytes", o.max_message_bytes, 4096, kInt32),
-      InRange<int64_t>("max_upload_message_bytes",
-                       o.max_upload_message_bytes, 4096, kInt32),
+      InRange<int64_t>("max_upload_message_bytes", o.max_upload_message_bytes,
+                       4096, kInt32),
+      InRange<int64_t>("max_upload_file_bytes", o.max_upload_file_bytes, 1,
+                       int64_t{4} << 30),
       InRange<int64_t>("max_sessions", o.max_sessions, 1, 1'000'000),
       InRange<int64_t>("max_vertices", o.max_vertices, 1, kInt32),
       InRange<int64_t>("max_faces", o.max_faces, 1, kInt32 / 2),

@@ -25,6 +25,8 @@ struct ServerOptions {
   // Per CreateSession message, checked before it is parsed (gRPC refuses
   // anything over max_message_bytes before that).
   int64_t max_upload_message_bytes = 16ll << 20;
+  // A mesh file sent for the server's readers (CreateSession file_format).
+  int64_t max_upload_file_bytes = 256ll << 20;
   int64_t max_sessions = 64;                // sessions and uploads in flight.
   int64_t max_vertices = 5'000'000;         // per session.
   int64_t max_faces = 10'000'000;           // per session.
@@ -34,7 +36,7 @@ struct ServerOptions {
   int64_t max_sessions_per_tenant = 0;
   int64_t memory_budget_bytes_per_tenant = 0;
   int64_t max_concurrent_uploads = 16;
-  double upload_idle_seconds = 30;    // an upload silent this long is aborted.
+  double upload_idle_seconds = 30;  // an upload silent this long is aborted.
   // An upload is aborted when it has run this long in all, or when, after
   // its first upload_idle_seconds, it averages fewer bytes per second than
   // upload_min_bytes_per_second (0: no minimum).

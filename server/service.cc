@@ -8,11 +8,13 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/integrals.h"
+#include "lib/core/mesh_repair.h"
 #include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/thin_regions.h"
 #include "lib/embree/calibration.h"
+#include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
 #include "server/session_store.h"
 
@@ -233,20 +235,34 @@ absl::Status MeshGaugeService::ReceiveUpload(
       }
     } else {
       // The header's declared size is claimed before any data is buffered.
-      auto r = store_->Reserve(
-          tenant, Session::EstimateBytes(assembler.declared_vertices(),
-                                         assembler.declared_faces(),
-                                         assembler.declared_faces()));
+      auto r = store_->Reserve(tenant, assembler.EstimatedBytes());
       if (!r.ok()) return r.status();
       ticket = std::move(*r);
       reserved = true;
     }
   }
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
-  auto mesh = assembler.Finish();
-  if (!mesh.ok()) return mesh.status();
+  auto file = assembler.Finish();
+  if (!file.ok()) return file.status();
+  std::vector<std::string> read_warnings = ReaderWarnings(*file);
+  auto repaired = RepairAndDiagnose(std::move(file->mesh), assembler.repairs());
+  if (!repaired.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("CreateSession: ", repaired.status().message()));
+  }
+  // What the mesh measures now that it is read (a file's size, or polygons,
+  // can differ from the estimate of the header).
+  if (absl::Status s =
+          ticket.GrowTo(Session::EstimateBaseBytes(repaired->mesh));
+      !s.ok()) {
+    return s;
+  }
+  read_warnings.insert(read_warnings.end(),
+                       repaired->diagnostics.warnings.begin(),
+                       repaired->diagnostics.warnings.end());
+  repaired->diagnostics.warnings = std::move(read_warnings);
   auto session = store_->Create(tenant, assembler.session_id(),
-                                std::move(*mesh), std::move(ticket));
+                                std::move(*repaired), std::move(ticket));
   if (!session.ok()) return session.status();
   wire::ToWire(ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
                response->mutable_session());
@@ -551,8 +567,31 @@ grpc::Status MeshGaugeService::GetServerInfo(
         response->set_max_message_bytes(options_.max_message_bytes);
         response->set_max_upload_message_bytes(
             options_.max_upload_message_bytes);
+        response->set_max_upload_file_bytes(options_.max_upload_file_bytes);
         response->set_max_sessions(options_.SessionsPerTenant());
         response->set_memory_budget_bytes(options_.BudgetPerTenant());
+        return absl::OkStatus();
+      });
+}
+
+grpc::Status MeshGaugeService::GetMesh(grpc::ServerContext* ctx,
+                                       const v1::GetMeshRequest* request,
+                                       v1::GetMeshResponse* response) {
+  return Instrumented(
+      "GetMesh", ctx, [&](const std::string& tenant) -> absl::Status {
+        auto session = store_->Get(tenant, request->session_id());
+        if (!session.ok()) return session.status();
+        auto reader = (*session)->Read();
+        if (!reader.ok()) return reader.status();
+        const Mesh& mesh = reader->evaluator->mesh();
+        // Coordinates as doubles; sizes, indices and regions as int32s.
+        if (absl::Status s = CheckReplySize(
+                mesh.num_vertices() * mesh.dimension +
+                (mesh.num_faces() * 6 + std::ssize(mesh.face_regions)) / 2);
+            !s.ok()) {
+          return s;
+        }
+        wire::ToWire(mesh, reader->generation(), response);
         return absl::OkStatus();
       });
 }

@@ -61,6 +61,9 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   grpc::Status GetServerInfo(grpc::ServerContext* ctx,
                              const v1::GetServerInfoRequest* request,
                              v1::GetServerInfoResponse* response) override;
+  grpc::Status GetMesh(grpc::ServerContext* ctx,
+                       const v1::GetMeshRequest* request,
+                       v1::GetMeshResponse* response) override;
 
   // From now on every new call fails UNAVAILABLE ("draining"); returns when
   // the calls in flight have finished or at `deadline`.

@@ -27,7 +27,8 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 std::string NewIncarnation() {
   static thread_local std::random_device device;
   std::string out;
-  for (int i = 0; i < 4; ++i) absl::StrAppend(&out, absl::Hex(device(), absl::kZeroPad8));
+  for (int i = 0; i < 4; ++i)
+    absl::StrAppend(&out, absl::Hex(device(), absl::kZeroPad8));
   return out;
 }
 
@@ -57,19 +58,19 @@ int64_t Session::EstimateBaseBytes(const Mesh& mesh) {
   return EstimateBytes(mesh.num_vertices(), mesh.num_faces(), prims);
 }
 
-Session::Session(std::string id, Mesh mesh, const ServerOptions& options,
-                 Metrics* metrics, double now)
+Session::Session(std::string id, RepairedMesh mesh,
+                 const ServerOptions& options, Metrics* metrics, double now)
     : id_(std::move(id)),
       incarnation_(NewIncarnation()),
       options_(options),
       metrics_(metrics),
-      dimension_(mesh.dimension),
-      num_vertices_(mesh.num_vertices()),
-      num_faces_(mesh.num_faces()),
-      signed_volume_(SignedVolume(mesh)),
-      diagnostics_(DiagnoseMesh(mesh)),
-      base_bytes_(EstimateBaseBytes(mesh)),
-      pending_mesh_(std::move(mesh)),
+      dimension_(mesh.mesh.dimension),
+      num_vertices_(mesh.mesh.num_vertices()),
+      num_faces_(mesh.mesh.num_faces()),
+      signed_volume_(mesh.signed_volume),
+      diagnostics_(std::move(mesh.diagnostics)),
+      base_bytes_(EstimateBaseBytes(mesh.mesh)),
+      pending_mesh_(std::move(mesh.mesh)),
       last_used_(now) {}
 
 Session::Session(SessionRecord record, const ServerOptions& options,

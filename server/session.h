@@ -17,6 +17,7 @@
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/core/components.h"
+#include "lib/core/mesh_repair.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "proto/wire/types.h"
 #include "server/metrics.h"
@@ -36,8 +37,8 @@ struct CachedPass {
 
 struct SessionSnapshot {
   // info.memory_bytes includes the cached ray pass; the BVH counts are this
-  // replica's; warnings are DiagnoseMesh's at upload; idle_seconds is
-  // filled by ToSessionInfo.
+  // replica's; warnings are those of the upload (RepairAndDiagnose's);
+  // idle_seconds is filled by ToSessionInfo.
   wire::SessionInfo info;
   double last_used = 0;
 };
@@ -50,8 +51,9 @@ struct UpdateOutcome {
 
 class Session {
  public:
-  // `mesh` must be valid (ValidateMesh); metrics must outlive the session.
-  Session(std::string id, Mesh mesh, const ServerOptions& options,
+  // A new session of a repaired, validated and diagnosed mesh (its
+  // warnings are the session's); metrics must outlive the session.
+  Session(std::string id, RepairedMesh mesh, const ServerOptions& options,
           Metrics* metrics, double now);
   // A session restored from its record (another replica may have created
   // and updated it): the BVH is built at the record's base positions and

@@ -48,6 +48,10 @@ absl::Status UploadReservation::Arrived(int64_t bytes) {
   return store_ ? store_->Arrive(this, bytes) : absl::OkStatus();
 }
 
+absl::Status UploadReservation::GrowTo(int64_t bytes) {
+  return store_ ? store_->Grow(this, bytes) : absl::OkStatus();
+}
+
 SessionStore::SessionStore(const ServerOptions& options, Metrics* metrics,
                            const Clock* clock, SessionRecords* records)
     : options_(options), metrics_(metrics), clock_(clock), records_(records) {}
@@ -77,16 +81,20 @@ RecordLimits SessionStore::Limits() const {
           options_.BudgetPerTenant()};
 }
 
+absl::Status SessionStore::CheckBudgets(int64_t bytes) const {
+  if (bytes <= options_.memory_budget_bytes &&
+      bytes <= options_.BudgetPerTenant()) {
+    return absl::OkStatus();
+  }
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "the mesh needs about ", bytes, " bytes, more than the memory budget of ",
+      std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
+      " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
+}
+
 absl::StatusOr<UploadReservation> SessionStore::Reserve(
     const std::string& tenant, int64_t bytes) {
-  if (bytes > options_.memory_budget_bytes ||
-      bytes > options_.BudgetPerTenant()) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "the mesh needs about ", bytes, " bytes, more than the memory budget ",
-        "of ",
-        std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
-        " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
-  }
+  if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
   UploadReservation r;
   r.tenant_ = tenant;
   r.bytes_ = bytes;
@@ -113,27 +121,55 @@ double SessionStore::ClaimSeconds() const {
                   2 * options_.upload_idle_seconds);
 }
 
+absl::Status SessionStore::CheckBytesLocked(const std::string& tenant,
+                                            int64_t bytes) const {
+  auto mine = reserved_.find(tenant);
+  const int64_t held = mine == reserved_.end() ? 0 : mine->second.bytes;
+  if (!records_ && options_.memory_budget_bytes_per_tenant > 0 &&
+      TenantBytesLocked(tenant) + held + bytes > options_.BudgetPerTenant()) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this tenant's sessions and uploads would exceed its memory budget "
+        "of ",
+        options_.BudgetPerTenant(),
+        " bytes (--memory_budget_bytes_per_tenant); delete a session first"));
+  }
+  if (reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
+    return absl::ResourceExhaustedError(
+        "uploads in flight hold the server's memory budget; retry later");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SessionStore::Grow(UploadReservation* r, int64_t bytes) {
+  if (bytes <= r->bytes_) return absl::OkStatus();
+  if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
+  if (records_ && !r->token_.empty()) {
+    // The claim is made again with its new size (its own old size is not
+    // counted against the limits).
+    if (absl::Status s = records_->Reserve(r->tenant_, r->token_, bytes,
+                                           Limits(), ClaimSeconds());
+        !s.ok()) {
+      return s;
+    }
+    r->renewed_at_ = clock_->NowSeconds();
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  const int64_t delta = bytes - r->bytes_;
+  if (absl::Status s = CheckBytesLocked(r->tenant_, delta); !s.ok()) return s;
+  reserved_[r->tenant_].bytes += delta;
+  reserved_total_.bytes += delta;
+  r->bytes_ = bytes;
+  PublishLocked();
+  return absl::OkStatus();
+}
+
 absl::Status SessionStore::ClaimLocally(UploadReservation* r) {
   const std::string& tenant = r->tenant_;
   const int64_t bytes = r->bytes_;
   std::lock_guard<std::mutex> lock(mu_);
   Reserved& mine = reserved_[tenant];
   absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
-  if (refused.ok() && !records_ &&
-      options_.memory_budget_bytes_per_tenant > 0 &&
-      TenantBytesLocked(tenant) + mine.bytes + bytes >
-          options_.BudgetPerTenant()) {
-    refused = absl::ResourceExhaustedError(absl::StrCat(
-        "this tenant's sessions and uploads would exceed its memory budget "
-        "of ",
-        options_.BudgetPerTenant(),
-        " bytes (--memory_budget_bytes_per_tenant); delete a session first"));
-  }
-  if (refused.ok() &&
-      reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
-    refused = absl::ResourceExhaustedError(
-        "uploads in flight hold the server's memory budget; retry later");
-  }
+  if (refused.ok()) refused = CheckBytesLocked(tenant, bytes);
   if (!refused.ok()) {
     if (mine.uploads == 0) reserved_.erase(tenant);
     return refused;
@@ -193,7 +229,7 @@ absl::Status SessionStore::Arrive(UploadReservation* r, int64_t bytes) {
 }
 
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
-    const std::string& tenant, std::string id, Mesh mesh,
+    const std::string& tenant, std::string id, RepairedMesh mesh,
     UploadReservation ticket) {
   const bool chosen = id.empty();
   if (!chosen && !ValidSessionId(id)) {
@@ -208,7 +244,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Create(
     // replicas at once.
     if (chosen) id = random_id();
     SessionRecord record;
-    record.mesh = mesh;
+    record.mesh = mesh.mesh;
     // The BVH is built on first use, after the record was accepted.
     auto session = std::make_shared<Session>(id, std::move(mesh), options_,
                                              metrics_, clock_->NowSeconds());

@@ -56,12 +56,16 @@ class UploadReservation {
   // make room for them. RESOURCE_EXHAUSTED when the budget cannot hold
   // them (other uploads' data fill it).
   absl::Status Arrived(int64_t bytes);  // also renews the claim.
+  // Claims `bytes` in all (when more than now), under the same limits as
+  // SessionStore::Reserve; RESOURCE_EXHAUSTED (nothing changed) when they
+  // do not fit. For an upload whose size is known only once it is parsed.
+  absl::Status GrowTo(int64_t bytes);
 
  private:
   friend class SessionStore;
   SessionStore* store_ = nullptr;
   std::string tenant_;
-  std::string token_;  // the claim in the records, if any.
+  std::string token_;      // the claim in the records, if any.
   double renewed_at_ = 0;  // when the claim was last made or renewed.
   int64_t bytes_ = 0;
   int64_t arrived_ = 0;
@@ -82,11 +86,13 @@ class SessionStore {
   absl::StatusOr<UploadReservation> Reserve(const std::string& tenant,
                                             int64_t bytes);
 
-  // Adds a session for a validated mesh under `tenant`, consuming the
-  // upload's reservation. Empty id: a random one is chosen. Errors:
-  // INVALID_ARGUMENT (bad id), ALREADY_EXISTS (in this tenant's namespace).
+  // Adds a session for a repaired and validated mesh under `tenant`,
+  // consuming the upload's reservation. Empty id: a random one is chosen.
+  // Errors: INVALID_ARGUMENT (bad id), ALREADY_EXISTS (in this tenant's
+  // namespace).
   absl::StatusOr<std::shared_ptr<Session>> Create(const std::string& tenant,
-                                                  std::string id, Mesh mesh,
+                                                  std::string id,
+                                                  RepairedMesh mesh,
                                                   UploadReservation ticket);
 
   // NOT_FOUND names the id (and says it may have been evicted); the same
@@ -128,6 +134,12 @@ class SessionStore {
   void Release(UploadReservation* r);
   void ReleaseLocked(UploadReservation* r);
   absl::Status Arrive(UploadReservation* r, int64_t bytes);
+  absl::Status Grow(UploadReservation* r, int64_t bytes);
+  // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
+  absl::Status CheckBudgets(int64_t bytes) const;
+  // RESOURCE_EXHAUSTED when `bytes` more for uploads of `tenant` would
+  // exceed its budget or the server's (held reservations counted).
+  absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const;
   // Evicts while sessions plus arrived bytes exceed the budget; false when
   // nothing may be evicted. For an upload of `for_tenant` (not null), only
   // the tenant holding the most bytes gives up sessions: an upload never

@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "lib/core/mesh_repair.h"
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
@@ -266,61 +267,30 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   loaded.format = read->format;
   loaded.polygons_triangulated = read->polygons_triangulated;
   loaded.polygons_fallback = read->polygons_fallback;
-  if (read->polygons_fallback > 0) {
-    loaded.warnings.push_back(absl::StrCat(
-        read->polygons_fallback,
-        " polygons are not simple in their best-fit plane (non-planar or "
-        "self-touching; first: file face ",
-        read->first_fallback_polygon,
-        "): triangulated by the fallback (largest smallest triangle)"));
-  }
+  loaded.warnings = ReaderWarnings(*read);
   if (absl::Status s =
           ApplyRegionDirections(loaded.mesh, flags.region_directions);
       !s.ok()) {
     return s;
   }
-  if (flags.drop_degenerate_faces) {
-    loaded.dropped_faces = DropDegenerateFaces(loaded.mesh);
-    if (loaded.dropped_faces > 0) {
-      loaded.warnings.push_back(
-          absl::StrCat(loaded.dropped_faces,
-                       " zero-area faces dropped (--drop-degenerate-faces)"));
-    }
-  }
-  if (absl::Status s = ValidateMesh(loaded.mesh); !s.ok()) {
+  auto repaired =
+      RepairAndDiagnose(std::move(loaded.mesh),
+                        {.drop_degenerate_faces = flags.drop_degenerate_faces,
+                         .reorient = flags.reorient});
+  if (!repaired.ok()) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path, ": ", s.message(),
-                     absl::StrContains(s.message(), "zero area")
-                         ? " (--drop-degenerate-faces removes them)"
-                         : ""));
+        absl::StrCat(path, ": ", repaired.status().message()));
   }
-  if (flags.reorient) {
-    const Reorientation r = ReorientComponents(loaded.mesh);
-    loaded.reoriented = r.components_turned_outward;
-    loaded.faces_made_consistent = r.faces_made_consistent;
-    if (r.faces_made_consistent > 0) {
-      loaded.warnings.push_back(absl::StrCat(
-          r.faces_made_consistent, " faces in ", r.components_made_consistent,
-          " components reversed to agree with their neighbours (--reorient)"));
-    }
-    if (r.non_orientable_components > 0) {
-      loaded.warnings.push_back(absl::StrCat(
-          r.non_orientable_components,
-          " components cannot be oriented consistently (non-orientable, "
-          "like a Moebius band)"));
-    }
-    if (r.components_turned_outward > 0) {
-      loaded.warnings.push_back(absl::StrCat(
-          r.components_turned_outward,
-          " inward-oriented closed components reversed (--reorient)"));
-    }
-  }
-  loaded.diagnostics = DiagnoseMesh(loaded.mesh);
+  loaded.mesh = std::move(repaired->mesh);
+  loaded.dropped_faces = repaired->dropped_faces;
+  loaded.reoriented = repaired->reorientation.components_turned_outward;
+  loaded.faces_made_consistent = repaired->reorientation.faces_made_consistent;
+  loaded.diagnostics = std::move(repaired->diagnostics);
   for (const std::string& w : loaded.diagnostics.warnings) {
     loaded.warnings.push_back(w);
   }
+  loaded.signed_volume = repaired->signed_volume;
   loaded.closed = loaded.diagnostics.closed;
-  loaded.signed_volume = SignedVolume(loaded.mesh);
   return loaded;
 }
 

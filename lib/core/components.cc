@@ -174,7 +174,7 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
         "into the solid, so INWARD cones look outside): components ",
         absl::StrJoin(d.inward_components, ", "), " with ",
         absl::StrJoin(d.inward_component_faces, ", "),
-        " faces; --reorient flips exactly those"));
+        " faces; reorienting (--reorient, reorient=True) flips exactly those"));
   }
   if (d.inconsistent_edges > 0) {
     d.warnings.push_back(absl::StrCat(
@@ -183,7 +183,8 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
         " faces of disagreeing orientation (used twice in the same "
         "direction) in components ",
         absl::StrJoin(d.inconsistent_components, ", "),
-        ": normals there are wrong or cancel; --reorient makes each "
+        ": normals there are wrong or cancel; reorienting (--reorient, "
+        "reorient=True) makes each "
         "component consistent"));
   }
   if (d.double_sided_faces > 0) {

@@ -76,6 +76,19 @@ absl::StatusOr<Mesh> ReadMesh(const std::string& path) {
   return std::move(file->mesh);
 }
 
+std::vector<std::string> ReaderWarnings(const io::MeshFile& file) {
+  std::vector<std::string> out;
+  if (file.polygons_fallback > 0) {
+    out.push_back(absl::StrCat(
+        file.polygons_fallback,
+        " polygons are not simple in their best-fit plane (non-planar or "
+        "self-touching; first: face ",
+        file.first_fallback_polygon,
+        "): triangulated by the fallback (largest smallest triangle)"));
+  }
+  return out;
+}
+
 absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
   std::ofstream out(path);
   if (!out)

@@ -40,6 +40,10 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
                                                absl::string_view extension,
                                                const std::string& name);
 
+// One sentence per thing the reader did that a user should know of
+// (polygons triangulated by the fallback), for summaries and SessionInfo.
+std::vector<std::string> ReaderWarnings(const io::MeshFile& file);
+
 // Writes OBJ: `v` lines with 17 significant digits (they read back
 // exactly), `f` faces (3D) or `l` segments (2D), `g ID` before each run of
 // faces of region ID. Errors: Internal when the file cannot be written.

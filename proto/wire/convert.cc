@@ -382,6 +382,19 @@ void AppendFlattened(absl::Span<const Vec3> v, int dimension,
   }
 }
 
+void ToWire(const Mesh& mesh, int64_t generation, v1::GetMeshResponse* out) {
+  out->set_dimension(mesh.dimension);
+  out->set_generation(generation);
+  AppendFlattened(mesh.positions, mesh.dimension, out->mutable_positions());
+  out->mutable_face_sizes()->Reserve(static_cast<int>(mesh.faces.size()));
+  for (const Face& f : mesh.faces) {
+    out->add_face_sizes(f.size);
+    for (int k = 0; k < f.size; ++k) out->add_face_indices(f.v[k]);
+  }
+  out->mutable_face_regions()->Add(mesh.face_regions.begin(),
+                                   mesh.face_regions.end());
+}
+
 absl::StatusOr<std::vector<Vec3>> ToPoints(
     const google::protobuf::RepeatedField<double>& flat, int dimension,
     const char* field) {

@@ -84,6 +84,9 @@ absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply);
 absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                          SdfReply* reply);
 
+// The mesh and its generation as GetMesh returns them.
+void ToWire(const Mesh& mesh, int64_t generation, v1::GetMeshResponse* out);
+
 // CRC-32 of the mesh in the Footer's canonical order (positions as float64,
 // then face sizes, indices, regions as int32, little-endian).
 uint32_t MeshCrc32(const Mesh& mesh);

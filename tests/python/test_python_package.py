@@ -20,12 +20,14 @@ import numpy as np
 import scipy.sparse
 
 import meshgauge_client
-from meshgauge_client import (FailedPreconditionError, MeshGaugeClient,
-                              NotFoundError, PenaltyResult, SdfResult,
-                              VertexStatus)
+from meshgauge_client import (FailedPreconditionError, InvalidArgumentError,
+                              MeshGaugeClient, NotFoundError, PenaltyResult,
+                              SdfResult, VertexStatus)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE = os.path.abspath(os.path.join(HERE, "..", ".."))
+SHARED = os.environ.get("MESHGAUGE_SHARED_DIR",
+                        os.path.join(SOURCE, "..", "shared"))
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
 
@@ -157,6 +159,72 @@ class PackageTest(unittest.TestCase):
             self.assertTrue(sid.startswith("py-"))
             self.assertIn(sid, [i.session_id for i in self.client.list()])
         self.assertNotIn(sid, [i.session_id for i in self.client.list()])
+
+    def test_a_file_session_reads_as_the_cli_and_survives_loss(self):
+        path = os.path.join(SHARED, "meshes", "fandisk.obj")
+        with self.client.session_from_file(path, reorient=True) as s:
+            info = s.info()
+            self.assertEqual(s.positions.shape, (info.num_vertices, 3))
+            self.assertEqual(len(s.faces), info.num_faces)
+            first = s.sdf().values
+            # The CLI reads the same file to the same values, bit for bit.
+            with tempfile.TemporaryDirectory() as tmp:
+                csv = os.path.join(tmp, "v.csv")
+                subprocess.run([os.environ["MESHGAUGE_CLI"], "sdf", path,
+                                "--reorient", "--csv", csv], check=True,
+                               capture_output=True)
+                cli = np.genfromtxt(csv, delimiter=",", skip_header=1,
+                                    usecols=4)
+            np.testing.assert_array_equal(first, cli)
+            # Lost by the server: the file is sent again, same values.
+            self.client.delete(s.session_id)
+            np.testing.assert_array_equal(s.sdf().values, first)
+            self.assertEqual(s.recreated, 1)
+        with tempfile.NamedTemporaryFile(suffix=".obj") as bad:
+            bad.write(b"v 0 0 0\nf 1 2 3\n")
+            bad.flush()
+            with self.assertRaises(InvalidArgumentError) as e:
+                self.client.session_from_file(bad.name)
+            self.assertIn("line 2", e.exception.details)
+        with self.assertRaises(ValueError):
+            self.client.session_from_file(path.replace(".obj", ".3ds"))
+
+    def test_mesh_objects_with_polygons_and_the_repairs(self):
+        hexagon = [(np.cos(k * np.pi / 3), np.sin(k * np.pi / 3))
+                   for k in range(6)]
+        vertices = np.array([(x, y, z) for z in (0.0, 1.0)
+                             for x, y in hexagon])
+        faces = [[5, 4, 3, 2, 1, 0], [6, 7, 8, 9, 10, 11]] + [
+            [k, (k + 1) % 6, (k + 1) % 6 + 6, k + 6] for k in range(6)]
+
+        class Prism:  # trimesh-like: .vertices and ragged .faces
+            pass
+
+        prism = Prism()
+        prism.vertices = vertices
+        prism.faces = faces
+        with self.client.session(prism) as s:
+            self.assertEqual(s.info().num_faces, 14)
+            self.assertTrue(all(len(f) in (3, 4) for f in s.faces))
+            self.assertAlmostEqual(s.info().signed_volume,
+                                   1.5 * np.sqrt(3), places=12)
+            self.assertTrue(np.isfinite(s.sdf().values).all())
+        # Inward faces: reorient=True turns them outward and says so.
+        inward = [list(reversed(f)) for f in faces]
+        with self.client.session(vertices, inward, reorient=True) as s:
+            self.assertGreater(s.info().signed_volume, 0)
+            self.assertTrue(any("inward-oriented closed components reversed"
+                                in w for w in s.warnings))
+        # A zero-area face (collinear corners): refused, or dropped when
+        # asked.
+        centre = np.vstack([vertices, [[0.0, 0.0, 0.0]]])
+        flat = faces + [[0, 12, 3]]
+        with self.assertRaises(InvalidArgumentError) as e:
+            self.client.session(centre, flat)
+        self.assertIn("drop_degenerate_faces=True", e.exception.details)
+        with self.client.session(centre, flat,
+                                 drop_degenerate_faces=True) as s:
+            self.assertEqual(s.info().num_faces, 14)
 
     def test_mypy_strict_is_clean(self):
         mypy = shutil.which("mypy", path="/usr/bin")

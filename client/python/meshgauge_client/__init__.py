@@ -20,7 +20,8 @@ from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
                                      ResourceExhaustedError,
                                      UnauthenticatedError, UnavailableError,
                                      UnimplementedError, UnknownError)
-from meshgauge_client.results import (Calibration, PenaltyResult, SdfResult,
+from meshgauge_client.results import (Calibration, MeshData, PenaltyResult,
+                                      SdfResult,
                                       SdfSummary, ServerInfo, SessionInfo,
                                       ThinRegion,
                                       ThinSurface, VertexStatus)
@@ -33,7 +34,7 @@ __all__ = [
     "AbortedError", "AlreadyExistsError", "Calibration", "CancelledError",
     "DataLossError", "DeadlineExceededError", "FailedPreconditionError",
     "InternalError", "InvalidArgumentError", "MeshGaugeClient",
-    "MeshGaugeError", "MissingValuesWarning", "NotFoundError",
+    "MeshData", "MeshGaugeError", "MissingValuesWarning", "NotFoundError",
     "OutOfRangeError", "PenaltyResult",
     "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
     "SdfOptions", "SdfResult", "SdfSummary", "ServerInfo", "Session",

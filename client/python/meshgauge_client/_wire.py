@@ -9,7 +9,8 @@ import numpy.typing as npt
 
 from meshgauge_client._stubs import pb
 from meshgauge_client.errors import DataLossError
-from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
+from meshgauge_client.results import (Calibration, FloatArray, MeshData,
+                                      PenaltyResult,
                                       SdfSummary, SessionInfo, ThinRegion,
                                       ThinSurface)
 
@@ -72,31 +73,42 @@ def points(array: Any, name: str, rows: Optional[int] = None) -> FloatArray:
     return a
 
 
+MAX_POLYGON_CORNERS = 256
+
+
 def faces_list(faces: Any, dimension: int) -> "list[npt.NDArray[np.int64]]":
-    """Faces as int64 index arrays: 2 per segment (2D), 3 or 4 (3D)."""
+    """Faces as int64 index arrays: 2 per segment (2D); 3 to 256 corners in
+    3D (polygons of more than 4 are triangulated by the server)."""
     out = [np.asarray(f, dtype=np.int64).ravel() for f in faces]
-    allowed = (2,) if dimension == 2 else (3, 4)
+    low, high = (2, 2) if dimension == 2 else (3, MAX_POLYGON_CORNERS)
     for i, f in enumerate(out):
-        if len(f) not in allowed:
-            raise ValueError(f"face {i} has {len(f)} corners; {dimension}D "
-                             f"faces have {' or '.join(map(str, allowed))}")
+        if not low <= len(f) <= high:
+            raise ValueError(
+                f"face {i} has {len(f)} corners; {dimension}D faces have "
+                + ("2 (segments)" if dimension == 2
+                   else f"3 to {MAX_POLYGON_CORNERS}"))
     if not out:
         raise ValueError("faces must not be empty")
     return out
 
 
+_MESHIO_SURFACE_CELLS = ("triangle", "quad", "line", "polygon")
+
+
 def mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
     """(vertices, faces) of a mesh object: trimesh-like (.vertices, .faces),
     Open3D-like (.vertices, .triangles) or meshio-like (.points and .cells
-    blocks of type triangle, quad or line)."""
+    blocks of type triangle, quad, polygon or line). Faces may be an (M, k)
+    array or a list of index sequences of any length (polygons)."""
     if hasattr(mesh, "points") and hasattr(mesh, "cells"):
         faces: "list[Any]" = []
         for block in mesh.cells:
-            kind = getattr(block, "type", None)
-            if kind not in ("triangle", "quad", "line"):
+            kind = str(getattr(block, "type", None))
+            if not kind.startswith(_MESHIO_SURFACE_CELLS):
                 raise ValueError(f"meshio cell block of type {kind!r}: only "
-                                 "triangle, quad and line cells are surfaces")
-            faces.extend(np.asarray(block.data, dtype=np.int64))
+                                 "triangle, quad, polygon and line cells are "
+                                 "surfaces")
+            faces.extend(np.asarray(f, dtype=np.int64) for f in block.data)
         return np.asarray(mesh.points, dtype=np.float64), faces
     vertices = getattr(mesh, "vertices", None)
     faces_attr = getattr(mesh, "faces", None)
@@ -107,11 +119,24 @@ def mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
             f"{type(mesh).__name__} is not a mesh: pass (vertices, faces), or "
             "an object with .vertices and .faces (trimesh), .vertices and "
             ".triangles (Open3D), or .points and .cells (meshio)")
-    return np.asarray(vertices, dtype=np.float64), np.asarray(faces_attr)
+    if isinstance(faces_attr, np.ndarray) and faces_attr.dtype != object:
+        return np.asarray(vertices, dtype=np.float64), faces_attr
+    return np.asarray(vertices, dtype=np.float64), list(faces_attr)
 
 
 def flat(values: Sequence[float], dimension: int) -> FloatArray:
     return np.asarray(values, dtype=np.float64).reshape(-1, dimension)
+
+
+def mesh_data(r: Any) -> MeshData:
+    sizes = np.asarray(r.face_sizes, dtype=np.int64)
+    indices = np.asarray(r.face_indices, dtype=np.int64)
+    ends = np.cumsum(sizes)
+    faces = [indices[e - n:e] for n, e in zip(sizes, ends)]
+    regions = (np.asarray(r.face_regions, dtype=np.int32)
+               if len(r.face_regions) else None)
+    return MeshData(flat(r.positions, r.dimension), faces, regions,
+                    r.generation)
 
 
 def session_info(s: Any) -> SessionInfo:

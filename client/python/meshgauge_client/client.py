@@ -26,8 +26,9 @@ from meshgauge_client._stubs import pb_grpc
 from meshgauge_client.errors import (MeshGaugeError, MissingValuesWarning,
                                      from_rpc_error)
 from meshgauge_client.options import SdfOptions
-from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
-                                      SdfResult, ServerInfo, SessionInfo)
+from meshgauge_client.results import (Calibration, FloatArray, MeshData,
+                                      PenaltyResult, SdfResult, ServerInfo,
+                                      SessionInfo)
 
 if TYPE_CHECKING:
     from meshgauge_client.session import Session
@@ -60,6 +61,7 @@ def mesh_crc32(vertices: Any, faces: Any, regions: Optional[Any] = None) -> int:
 
 
 def _read(path: str) -> bytes:
+    """The file's bytes (OSError as open() raises it)."""
     with open(path, "rb") as f:
         return f.read()
 
@@ -168,7 +170,8 @@ class MeshGaugeClient:
                 self._server_info = ServerInfo(
                     r.version, r.api, r.max_rays, r.max_vertices, r.max_faces,
                     r.max_message_bytes, r.max_upload_message_bytes,
-                    r.max_sessions, r.memory_budget_bytes)
+                    r.max_sessions, r.memory_budget_bytes,
+                    r.max_upload_file_bytes)
             self._asked_server_info = True
         return self._server_info
 
@@ -186,29 +189,31 @@ class MeshGaugeClient:
 
     def upload(self, vertices: Any, faces: Any, session_id: Optional[str] = None,
                regions: Optional[Sequence[int]] = None,
-               outward_regions: Sequence[int] = ()) -> SessionInfo:
+               outward_regions: Sequence[int] = (), *,
+               reorient: bool = False,
+               drop_degenerate_faces: bool = False) -> SessionInfo:
         """Creates a session from vertices (N, d) and faces; returns its
         SessionInfo. session_id: [A-Za-z0-9._-]{1,64}; None generates a
         UUID-based one (every call then carries its routing key). regions:
         one region id per face; outward_regions: regions whose cone opens
-        along +n (SPEC §1)."""
+        along +n (SPEC §1). Polygons (5 to 256 corners) are triangulated
+        by the server. reorient: make each component's faces agree, then
+        turn closed components outward; drop_degenerate_faces: remove
+        zero-area faces (as the CLI's flags; SessionInfo.warnings says what
+        changed)."""
         v = _wire.points(vertices, "vertices")
         dim = v.shape[1]
         face_list = _wire.faces_list(faces, dim)
         if regions is not None and len(regions) != len(face_list):
             raise ValueError(f"regions must have one entry per face "
                              f"({len(face_list)}), got {len(regions)}")
-        sid = session_id if session_id is not None else f"py-{uuid.uuid4().hex}"
-        header = pb.CreateSessionRequest.Header(
-            session_id=sid, dimension=dim, num_vertices=len(v),
-            num_faces=len(face_list),
-            region_directions=[pb.RegionDirection(
-                region=r, direction=pb.CONE_DIRECTION_OUTWARD)
-                for r in outward_regions])
+        header = self._header(
+            session_id, outward_regions, reorient, drop_degenerate_faces,
+            dimension=dim, num_vertices=len(v), num_faces=len(face_list),
+            num_face_indices=sum(len(f) for f in face_list))
         crc = mesh_crc32(v, face_list, regions)
 
-        def requests() -> Iterator[Any]:
-            yield pb.CreateSessionRequest(header=header)
+        def chunks() -> Iterator[Any]:
             n = max(len(v), len(face_list))
             for b in range(0, n, self._chunk):
                 fs = face_list[b:b + self._chunk]
@@ -218,36 +223,132 @@ class MeshGaugeClient:
                     face_indices=(np.concatenate(fs) if fs else []))
                 if regions is not None:
                     chunk.face_regions.extend(regions[b:b + self._chunk])
-                yield pb.CreateSessionRequest(chunk=chunk)
-            yield pb.CreateSessionRequest(footer=pb.CreateSessionRequest.Footer(
-                num_vertices=len(v), num_faces=len(face_list), crc32=crc))
+                yield chunk
 
-        metadata = self._metadata(sid)
+        footer = pb.CreateSessionRequest.Footer(
+            num_vertices=len(v), num_faces=len(face_list), crc32=crc)
+        return self._create(header, chunks, footer)
+
+    def upload_file(self, path: "str | os.PathLike[str]",
+                    session_id: Optional[str] = None,
+                    outward_regions: Sequence[int] = (), *,
+                    reorient: bool = False,
+                    drop_degenerate_faces: bool = False) -> SessionInfo:
+        """Creates a session from a mesh file (.obj .off .ply .stl), read by
+        the server's readers exactly as the CLI reads it (BOM, polygons,
+        regions from OBJ groups); returns its SessionInfo, whose warnings
+        name what the reader and the repairs did. The file may be at most
+        the server's max_upload_file_bytes (ServerInfo)."""
+        path = os.fspath(path)
+        fmt = os.path.splitext(path)[1].lower().lstrip(".")
+        if fmt not in ("obj", "off", "ply", "stl"):
+            raise ValueError(f"{path}: the extension must be .obj, .off, .ply "
+                             "or .stl")
+        data = _read(path)
+        if not data:
+            raise ValueError(f"{path}: the file is empty")
+        info = self.server_info()
+        if info is not None and len(data) > info.max_upload_file_bytes > 0:
+            raise ValueError(
+                f"{path}: {len(data)} bytes exceed this server's limit of "
+                f"{info.max_upload_file_bytes} (--max_upload_file_bytes)")
+        header = self._header(session_id, outward_regions, reorient,
+                              drop_degenerate_faces, file_format=fmt,
+                              file_bytes=len(data))
+        step = max(self._chunk * 8, 1 << 16)
+
+        def chunks() -> Iterator[Any]:
+            for b in range(0, len(data), step):
+                yield pb.CreateSessionRequest.Chunk(file_data=data[b:b + step])
+
+        footer = pb.CreateSessionRequest.Footer(
+            crc32=zlib.crc32(data) & 0xFFFFFFFF)
+        return self._create(header, chunks, footer)
+
+    def _header(self, session_id: Optional[str],
+                outward_regions: Sequence[int], reorient: bool,
+                drop_degenerate_faces: bool, **fields: Any) -> Any:
+        sid = session_id if session_id is not None else f"py-{uuid.uuid4().hex}"
+        return pb.CreateSessionRequest.Header(
+            session_id=sid, reorient=reorient,
+            drop_degenerate_faces=drop_degenerate_faces,
+            region_directions=[pb.RegionDirection(
+                region=r, direction=pb.CONE_DIRECTION_OUTWARD)
+                for r in outward_regions], **fields)
+
+    def _create(self, header: Any, chunks: Callable[[], Iterator[Any]],
+                footer: Any) -> SessionInfo:
+        """Streams header, chunks and footer (again on each retry)."""
+        def requests() -> Iterator[Any]:
+            yield pb.CreateSessionRequest(header=header)
+            for chunk in chunks():
+                yield pb.CreateSessionRequest(chunk=chunk)
+            yield pb.CreateSessionRequest(footer=footer)
+
+        metadata = self._metadata(header.session_id)
 
         def create() -> Any:
             return self._stub.CreateSession(requests(), timeout=self._deadline,
                                             metadata=metadata,
                                             wait_for_ready=True)
 
-        resp = self._retrying(create)
-        info = _wire.session_info(resp.session)
-        self._dims[info.session_id] = dim
+        info = _wire.session_info(self._retrying(create).session)
+        self._dims[info.session_id] = info.dimension
         return info
 
     def session(self, vertices: Any, faces: Any = None,
                 session_id: Optional[str] = None,
                 regions: Optional[Sequence[int]] = None,
-                outward_regions: Sequence[int] = ()) -> "Session":
+                outward_regions: Sequence[int] = (), *,
+                reorient: bool = False,
+                drop_degenerate_faces: bool = False) -> "Session":
         """Uploads the mesh and returns a Session (a context manager that
         deletes it on exit and re-creates it if the server lost it).
         vertices and faces are arrays, or `vertices` is a mesh object and
         faces is omitted: trimesh (.vertices, .faces), Open3D (.vertices,
-        .triangles) or meshio (.points, .cells)."""
+        .triangles) or meshio (.points, .cells); polygons included. The
+        keyword options are upload()'s."""
         from meshgauge_client.session import Session
         if faces is None:
             vertices, faces = _wire.mesh_arrays(vertices)
-        return Session(self, vertices, faces, session_id, regions,
-                       outward_regions)
+        v = _wire.points(vertices, "vertices")
+        face_list = _wire.faces_list(faces, v.shape[1])
+        region_list = None if regions is None else list(regions)
+
+        def create(sid: Optional[str]) -> SessionInfo:
+            return self.upload(v, face_list, sid, region_list, outward_regions,
+                               reorient=reorient,
+                               drop_degenerate_faces=drop_degenerate_faces)
+
+        # The server's mesh differs from the arrays when polygons were
+        # triangulated or a repair changed faces: it is fetched then.
+        changed = reorient or drop_degenerate_faces or any(
+            len(f) > 4 for f in face_list)
+        return Session(self, create, session_id,
+                       None if changed else (v, face_list))
+
+    def session_from_file(self, path: "str | os.PathLike[str]",
+                          session_id: Optional[str] = None,
+                          outward_regions: Sequence[int] = (), *,
+                          reorient: bool = False,
+                          drop_degenerate_faces: bool = False) -> "Session":
+        """upload_file() as a Session; its positions and faces are the
+        server's reading of the file (fetched once with mesh())."""
+        from meshgauge_client.session import Session
+
+        def create(sid: Optional[str]) -> SessionInfo:
+            return self.upload_file(path, sid, outward_regions,
+                                    reorient=reorient,
+                                    drop_degenerate_faces=drop_degenerate_faces)
+
+        return Session(self, create, session_id)
+
+    def mesh(self, session_id: str) -> MeshData:
+        """The session's mesh as the server holds it, at its current
+        generation (GetMesh)."""
+        r = self._call(self._stub.GetMesh,
+                       pb.GetMeshRequest(session_id=session_id), session_id)
+        return _wire.mesh_data(r)
 
     def info(self, session_id: str) -> SessionInfo:
         """The session's SessionInfo (does not reset its idle clock)."""

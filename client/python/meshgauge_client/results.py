@@ -160,6 +160,17 @@ class ServerInfo:
     max_upload_message_bytes: int
     max_sessions: int
     memory_budget_bytes: int
+    max_upload_file_bytes: int = 0  # 0: the server predates file uploads.
+
+
+@dataclass(frozen=True)
+class MeshData:
+    """A session's mesh as the server holds it (GetMesh)."""
+
+    vertices: FloatArray  # (N, d) at `generation`.
+    faces: "list[npt.NDArray[np.int64]]"  # 2, 3 or 4 indices each.
+    regions: Optional["npt.NDArray[np.int32]"]  # per face, or None.
+    generation: int
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ UNAVAILABLE is retried with backoff by the client. The session is deleted on
 exit.
 """
 
-from typing import Any, Callable, Optional, Sequence, TypeVar
+from typing import Any, Callable, Optional, Tuple, TypeVar
 
 import scipy.sparse
 
@@ -27,24 +27,32 @@ T = TypeVar("T")
 
 
 class Session:
-    """A server-side session (see the module docstring)."""
+    """A server-side session (see the module docstring). Made by
+    MeshGaugeClient.session() or session_from_file(): `create(session_id)`
+    uploads the mesh (again when the server lost it); `mesh` is its
+    (vertices, faces) as the server holds them, or None to ask the server
+    (GetMesh) once it is created."""
 
-    def __init__(self, client: MeshGaugeClient, vertices: Any, faces: Any,
+    def __init__(self, client: MeshGaugeClient,
+                 create: Callable[[Optional[str]], SessionInfo],
                  session_id: Optional[str] = None,
-                 regions: Optional[Sequence[int]] = None,
-                 outward_regions: Sequence[int] = ()) -> None:
+                 mesh: Optional[Tuple[FloatArray, "list[Any]"]] = None
+                 ) -> None:
         self._client = client
-        self._original = _wire.points(vertices, "vertices").copy()
-        self._faces = _wire.faces_list(faces, self._original.shape[1])
-        self._regions = None if regions is None else list(regions)
-        self._outward = tuple(outward_regions)
-        self._positions = self._original.copy()
-        self._moved = False
-        info = client.upload(self._original, self._faces, session_id,
-                             self._regions, self._outward)
+        self._create = create
+        info = create(session_id)
         self.session_id = info.session_id
         self.generation = info.generation
+        # What the reader, the repairs and the diagnostics said at upload.
+        self.warnings: Tuple[str, ...] = info.warnings
         self.recreated = 0  # how often the server lost it and it came back.
+        if mesh is None:
+            data = client.mesh(self.session_id)
+            mesh = (data.vertices, data.faces)
+        self._original = mesh[0].copy()
+        self._faces = list(mesh[1])
+        self._positions = self._original.copy()
+        self._moved = False
 
     def __enter__(self) -> "Session":
         return self
@@ -61,13 +69,18 @@ class Session:
 
     @property
     def positions(self) -> FloatArray:
-        """The latest positions (N, d) sent with update()."""
+        """The latest positions (N, d): at upload, then as sent with
+        update()."""
         return self._positions.copy()
 
+    @property
+    def faces(self) -> "list[Any]":
+        """The faces as the server holds them (polygons triangulated, repairs
+        made), as index arrays."""
+        return list(self._faces)
+
     def _recreate(self) -> None:
-        info = self._client.upload(self._original, self._faces,
-                                   self.session_id, self._regions,
-                                   self._outward)
+        info = self._create(self.session_id)
         self.generation = info.generation
         if self._moved:
             self.generation = self._client.update_positions(
