@@ -160,6 +160,41 @@ TEST(OrientationTest, ReorientMakesEachComponentConsistentThenOutward) {
   }
 }
 
+// The shared-analysis ReorientAndDiagnose gives what the two calls give,
+// on meshes where every one of its updates matters: faces made consistent
+// (pair directions), a component turned outward (volumes), a double-sided
+// pair, a reversed segment of a curve.
+TEST(OrientationTest, ReorientAndDiagnoseEqualsTheTwoCalls) {
+  int flipped = 0;
+  Mesh sphere = SphereWithFlippedFaces(&flipped);
+  Mesh boxes = TwoBoxes(/*second_inward=*/true);
+  ReverseFace(boxes.faces.back());
+  Mesh sided = MakeIcosphere(1, 2);
+  Face back = sided.faces[0];
+  ReverseFace(back);
+  sided.faces.push_back(back);
+  Mesh curve = MakeCircle(1, 16);
+  ReverseFace(curve.faces[3]);
+  for (const Mesh& m : {sphere, boxes, sided, curve}) {
+    Mesh a = m, b = m;
+    const Reorientation ra = ReorientComponents(a);
+    const MeshDiagnostics da = DiagnoseMesh(a);
+    Reorientation rb;
+    const MeshDiagnostics db = ReorientAndDiagnose(b, &rb);
+    EXPECT_EQ(ra.faces_made_consistent, rb.faces_made_consistent);
+    EXPECT_EQ(ra.components_made_consistent, rb.components_made_consistent);
+    EXPECT_EQ(ra.components_turned_outward, rb.components_turned_outward);
+    EXPECT_EQ(ra.non_orientable_components, rb.non_orientable_components);
+    EXPECT_EQ(da.warnings, db.warnings);
+    EXPECT_EQ(da.inconsistent_edges, db.inconsistent_edges);
+    EXPECT_EQ(da.inward_components, db.inward_components);
+    EXPECT_EQ(da.double_sided_faces, db.double_sided_faces);
+    for (size_t f = 0; f < a.faces.size(); ++f) {
+      EXPECT_EQ(a.faces[f].v, b.faces[f].v) << f;
+    }
+  }
+}
+
 TEST(OrientationTest, AMoebiusBandIsNamedNonOrientable) {
   // A band of 8 quads whose ends join with a half twist.
   Mesh m;

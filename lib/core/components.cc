@@ -104,11 +104,11 @@ std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
     uint64_t key;
     int32_t face;
     bool forward;
-    bool operator<(const Use& o) const {
-      return key != o.key ? key < o.key : face < o.face;
-    }
   };
   std::vector<Use> uses;
+  int64_t corners = 0;
+  for (const Face& f : mesh.faces) corners += f.size;
+  uses.reserve(corners);
   for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
     const Face& f = mesh.faces[id];
     if (f.size == 2) {
@@ -121,7 +121,10 @@ std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
       uses.push_back({EdgeKey(a, b), id, a < b});
     }
   }
-  std::sort(uses.begin(), uses.end());
+  // By edge only: the order of a pair's two faces changes nothing (each
+  // face's neighbours are listed in edge order either way).
+  std::sort(uses.begin(), uses.end(),
+            [](const Use& a, const Use& b) { return a.key < b.key; });
   std::vector<FacePair> pairs;
   for (size_t i = 0, j = 0; i < uses.size(); i = j) {
     while (j < uses.size() && uses[j].key == uses[i].key) ++j;
@@ -138,9 +141,12 @@ std::vector<Component> ConnectedComponents(const Mesh& mesh) {
   return AnalyzeTopology(mesh).components;
 }
 
-MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
+namespace {
+
+// DiagnoseMesh from the mesh's topology and manifold neighbours.
+MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
+                         const std::vector<FacePair>& pairs) {
   MeshDiagnostics d;
-  const Topology t = AnalyzeTopology(mesh);
   d.components = std::ssize(t.components);
   d.closed = t.closed;
   for (size_t i = 0; i < t.components.size(); ++i) {
@@ -158,7 +164,7 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
       component_of[f] = static_cast<int32_t>(i);
   }
   std::vector<char> inconsistent(t.components.size(), 0);
-  for (const FacePair& p : ManifoldNeighbours(mesh)) {
+  for (const FacePair& p : pairs) {
     if (!p.same_direction) continue;
     ++d.inconsistent_edges;
     inconsistent[component_of[p.a]] = 1;
@@ -219,11 +225,12 @@ MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
   return d;
 }
 
-Reorientation ReorientComponents(Mesh& mesh) {
+// ReorientComponents from the mesh's topology and manifold neighbours,
+// which it keeps up to date (signed volumes, pair directions).
+Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
   Reorientation r;
   const int32_t nf = static_cast<int32_t>(mesh.num_faces());
   // Neighbours of each face (CSR) with the parity between them.
-  const std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
   std::vector<int32_t> offsets(nf + 1, 0);
   for (const FacePair& p : pairs) {
     ++offsets[p.a + 1];
@@ -243,7 +250,7 @@ Reorientation ReorientComponents(Mesh& mesh) {
   std::vector<int8_t> parity(nf, -1);
   std::vector<int32_t> patch, queue;
   std::vector<int32_t> component_of(nf);
-  const Topology t = AnalyzeTopology(mesh);
+  std::vector<char> reversed(nf, 0);
   for (size_t i = 0; i < t.components.size(); ++i) {
     for (int32_t f : t.components[i].faces)
       component_of[f] = static_cast<int32_t>(i);
@@ -274,6 +281,7 @@ Reorientation ReorientComponents(Mesh& mesh) {
     for (int32_t f : patch) {
       if (parity[f] != flip) continue;
       ReverseFace(mesh.faces[f]);
+      reversed[f] = 1;
       ++r.faces_made_consistent;
       changed[component_of[f]] = 1;
     }
@@ -282,12 +290,37 @@ Reorientation ReorientComponents(Mesh& mesh) {
     r.components_made_consistent += changed[i];
     r.non_orientable_components += conflict[i];
   }
-  for (const Component& c : ConnectedComponents(mesh)) {
+  // Reversing faces keeps the components; it changes their volumes and the
+  // direction of pairs with one reversed face.
+  for (FacePair& p : pairs) p.same_direction ^= reversed[p.a] != reversed[p.b];
+  for (size_t i = 0; i < changed.size(); ++i) {
+    Component& c = t.components[i];
+    if (changed[i]) c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
     if (!c.closed || !(c.signed_volume < 0)) continue;
     for (int32_t id : c.faces) ReverseFace(mesh.faces[id]);
+    c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
     ++r.components_turned_outward;
   }
   return r;
+}
+
+}  // namespace
+
+MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
+  return Diagnose(mesh, AnalyzeTopology(mesh), ManifoldNeighbours(mesh));
+}
+
+Reorientation ReorientComponents(Mesh& mesh) {
+  Topology t = AnalyzeTopology(mesh);
+  std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
+  return Reorient(mesh, t, pairs);
+}
+
+MeshDiagnostics ReorientAndDiagnose(Mesh& mesh, Reorientation* reorientation) {
+  Topology t = AnalyzeTopology(mesh);
+  std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
+  *reorientation = Reorient(mesh, t, pairs);
+  return Diagnose(mesh, t, pairs);
 }
 
 }  // namespace meshgauge

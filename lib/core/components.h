@@ -69,4 +69,8 @@ struct Reorientation {
 // Precondition: ValidateMesh(mesh) is OK.
 Reorientation ReorientComponents(Mesh& mesh);
 
+// ReorientComponents, then DiagnoseMesh of the result, sharing one analysis
+// of the edges (the same results as the two calls). Precondition as theirs.
+MeshDiagnostics ReorientAndDiagnose(Mesh& mesh, Reorientation* reorientation);
+
 }  // namespace meshgauge

@@ -52,8 +52,8 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
               "removes them)"
             : ""));
   }
-  if (options.reorient) r.reorientation = ReorientComponents(mesh);
-  r.diagnostics = DiagnoseMesh(mesh);
+  r.diagnostics = options.reorient ? ReorientAndDiagnose(mesh, &r.reorientation)
+                                   : DiagnoseMesh(mesh);
   std::vector<std::string> warnings = RepairSentences(r);
   for (std::string& w : r.diagnostics.warnings) {
     warnings.push_back(std::move(w));
