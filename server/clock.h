@@ -1,7 +1,6 @@
 // Time source for sessions (injectable for TTL tests).
 #pragma once
 
-#include <atomic>
 #include <chrono>
 
 namespace meshgauge::server {
@@ -20,16 +19,6 @@ class SteadyClock : public Clock {
                std::chrono::steady_clock::now().time_since_epoch())
         .count();
   }
-};
-
-// A clock the test moves by hand.
-class FakeClock : public Clock {
- public:
-  double NowSeconds() const override { return now_.load(); }
-  void Advance(double seconds) { now_ = now_.load() + seconds; }
-
- private:
-  std::atomic<double> now_{1000.0};
 };
 
 }  // namespace meshgauge::server

@@ -5,7 +5,6 @@
 #include <grpcpp/support/proto_buffer_reader.h>
 
 #include <algorithm>
-#include <cmath>
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
@@ -90,6 +89,14 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
                                 " faces (each face has ", min_corners, " to ",
                                 max_corners, " corners; 0: at most 4)"));
   }
+  // Polygons become n - 2 triangles each.
+  if (const int64_t triangles = h.num_face_indices() - 2 * h.num_faces();
+      triangles > options_.max_faces) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat("CreateSession: the polygons make ", triangles,
+                     " triangles, over the limit of ", options_.max_faces,
+                     " faces per session (--max_faces)"));
+  }
   dimension_ = h.dimension();
   declared_vertices_ = h.num_vertices();
   declared_faces_ = h.num_faces();
@@ -123,16 +130,21 @@ absl::Status MeshAssembler::FileHeader(
         " bytes exceeds the limit of ", options_.max_upload_file_bytes,
         " bytes (--max_upload_file_bytes)"));
   }
+  if (h.file_name().size() > 256) {
+    return Invalid("header.file_name is longer than 256 bytes");
+  }
   file_format_ = absl::StrCat(".", h.file_format());
   declared_file_bytes_ = h.file_bytes();
+  file_name_ = h.file_name().empty()
+                   ? absl::StrCat("uploaded file", file_format_)
+                   : absl::CHexEscape(h.file_name());
   return absl::OkStatus();
 }
 
 int64_t MeshAssembler::EstimatedBytes() const {
   if (!file_format_.empty()) {
-    // The file's bytes and what a reader holds while it reads them (flat
-    // face arrays and the mesh: at most about five times the text of an
-    // OBJ of short lines).
+    // The file's bytes and a start for what a reader holds while it reads
+    // them; the reader reserves more as it needs it (ReadLimits::reserve).
     return declared_file_bytes_ * kFileReadFactor;
   }
   const int64_t primitives =
@@ -190,7 +202,7 @@ int64_t MeshAssembler::bytes_held() const {
       coords_.capacity() * sizeof(double) + vertices * sizeof(Vec3) +
       (sizes_.capacity() + indices_.capacity() + regions_.capacity()) *
           sizeof(int32_t) +
-      sizes_.size() * sizeof(Face) + file_.capacity());
+      sizes_.size() * sizeof(Face) + file_.size());
 }
 
 namespace {
@@ -268,13 +280,20 @@ absl::Status MeshAssembler::Footer(const v1::CreateSessionRequest::Footer& f) {
   return absl::OkStatus();
 }
 
-uint32_t MeshAssembler::Crc() const {
-  uLong crc = crc_[0];
-  for (int i = 1; i < 4; ++i) crc = crc32_combine(crc, crc_[i], crc_len_[i]);
-  return static_cast<uint32_t>(crc);
+absl::Status MeshAssembler::CheckCrc() const {
+  uLong combined = crc_[0];
+  for (int i = 1; i < 4; ++i) {
+    combined = crc32_combine(combined, crc_[i], crc_len_[i]);
+  }
+  const auto crc = static_cast<uint32_t>(combined);
+  if (crc == footer_crc_) return absl::OkStatus();
+  return Invalid(absl::StrFormat(
+      "checksum mismatch: footer says %08x, the data sent has %08x",
+      footer_crc_, crc));
 }
 
-absl::StatusOr<io::MeshFile> MeshAssembler::Finish() {
+absl::StatusOr<io::MeshFile> MeshAssembler::Finish(
+    const io::ReadLimits& limits) {
   if (!have_header_) return Invalid("empty stream (no header)");
   if (!have_footer_) {
     return Invalid(absl::StrCat(
@@ -286,7 +305,7 @@ absl::StatusOr<io::MeshFile> MeshAssembler::Finish() {
             : absl::StrCat(file_.size(), " of ", declared_file_bytes_,
                            " file bytes")));
   }
-  auto file = file_format_.empty() ? FinishArrays() : FinishFile();
+  auto file = file_format_.empty() ? FinishArrays(limits) : FinishFile(limits);
   if (!file.ok()) return file.status();
   for (const auto& [region, direction] : region_directions_) {
     file->mesh.region_directions[region] = direction;
@@ -294,7 +313,8 @@ absl::StatusOr<io::MeshFile> MeshAssembler::Finish() {
   return file;
 }
 
-absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays() {
+absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays(
+    const io::ReadLimits& limits) {
   const int64_t vertices = std::ssize(coords_) / dimension_;
   if (std::ssize(coords_) != declared_vertices_ * dimension_) {
     return Invalid(absl::StrCat("received ", vertices, " complete vertices (",
@@ -321,12 +341,8 @@ absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays() {
                                 " face regions for ", declared_faces_,
                                 " faces (send one per face or none)"));
   }
-  if (Crc() != footer_crc_) {
-    return Invalid(
-        absl::StrFormat("checksum mismatch: footer says %08x, data has %08x",
-                        footer_crc_, Crc()));
-  }
-  io::MeshBuilder builder("CreateSession", dimension_);
+  if (absl::Status s = CheckCrc(); !s.ok()) return s;
+  io::MeshBuilder builder("CreateSession", dimension_, &limits);
   builder.ReservePositions(vertices);
   for (int64_t v = 0; v < vertices; ++v) {
     const double* x = coords_.data() + v * dimension_;
@@ -346,41 +362,26 @@ absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays() {
     }
   }
   std::vector<int32_t>().swap(indices_);
+  std::vector<int32_t>().swap(sizes_);
   auto file = builder.Finish("arrays");
   if (!file.ok()) return file.status();
   if (!regions_.empty() && file->mesh.face_regions.empty()) {
     file->mesh.face_regions.assign(file->mesh.faces.size(), 0);
   }
+  std::vector<int32_t>().swap(regions_);
   return file;
 }
 
-absl::StatusOr<io::MeshFile> MeshAssembler::FinishFile() {
+absl::StatusOr<io::MeshFile> MeshAssembler::FinishFile(
+    const io::ReadLimits& limits) {
   if (std::ssize(file_) != declared_file_bytes_) {
     return Invalid(absl::StrCat("received ", file_.size(),
                                 " file bytes, declared ",
                                 declared_file_bytes_));
   }
-  if (Crc() != footer_crc_) {
-    return Invalid(
-        absl::StrFormat("checksum mismatch: footer says %08x, file has %08x",
-                        footer_crc_, Crc()));
-  }
-  auto file = ParseMeshContents(
-      file_, file_format_, absl::StrCat("uploaded", file_format_, " file"));
+  if (absl::Status s = CheckCrc(); !s.ok()) return s;
+  auto file = ParseMeshContents(file_, file_format_, file_name_, limits);
   std::string().swap(file_);
-  if (!file.ok()) return file.status();
-  if (file->mesh.num_vertices() > options_.max_vertices) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat("CreateSession: the file holds ",
-                     file->mesh.num_vertices(), " vertices, over the limit of ",
-                     options_.max_vertices, " per session (--max_vertices)"));
-  }
-  if (file->mesh.num_faces() > options_.max_faces) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "CreateSession: the file holds ", file->mesh.num_faces(),
-        " faces (after triangulating polygons), over the limit of ",
-        options_.max_faces, " per session (--max_faces)"));
-  }
   return file;
 }
 

@@ -43,6 +43,10 @@ struct UploadMessage {
 // and is read (see MeshAssembler::EstimatedBytes).
 inline constexpr int64_t kFileReadFactor = 8;
 
+// The polygon fallback work (corners³ summed, about 1 ns each) an upload
+// may cost: about 4 s.
+inline constexpr int64_t kMaxUploadFallbackWork = int64_t{1} << 32;
+
 // Largest header of an upload: 1 MiB, some 130,000 region directions.
 inline constexpr int64_t kMaxUploadHeaderBytes = int64_t{1} << 20;
 
@@ -55,17 +59,23 @@ class MeshAssembler {
   absl::Status Add(const v1::CreateSessionRequest& request);
   // The stream ended: returns the mesh as the readers return a file's (not
   // validated: polygons triangulated, region directions set), or the defect
-  // (a stream without footer is "truncated"). A file upload's mesh is
-  // checked against max_vertices and max_faces (RESOURCE_EXHAUSTED).
-  absl::StatusOr<io::MeshFile> Finish();
+  // (a stream without footer is "truncated"). It is built within `limits`
+  // (the server's max_vertices and max_faces, the memory it may reserve).
+  absl::StatusOr<io::MeshFile> Finish(const io::ReadLimits& limits);
   const std::string& session_id() const { return session_id_; }
+  // After the header: true when the upload sends a file.
+  bool file_upload() const { return !file_format_.empty(); }
   // The repairs the header asks for.
   RepairOptions repairs() const { return repairs_; }
   // After the header: the bytes the upload will hold at most while it
   // arrives and is read (a file upload's mesh is measured after Finish).
   int64_t EstimatedBytes() const;
-  // Bytes buffered so far (the arrays' capacities).
+  // Bytes that arrived and are held (the arrays, the file's bytes), with
+  // the mesh the arrays will make.
   int64_t bytes_held() const;
+  // What the file upload's messages name the file (its header's file_name,
+  // or "uploaded file.FORMAT").
+  const std::string& file_name() const { return file_name_; }
 
  private:
   absl::Status Header(const v1::CreateSessionRequest::Header& h);
@@ -76,10 +86,11 @@ class MeshAssembler {
   // counts leave room for (checked before anything is stored).
   absl::Status CheckRoom(const v1::CreateSessionRequest::Chunk& c) const;
   absl::Status Footer(const v1::CreateSessionRequest::Footer& f);
-  absl::StatusOr<io::MeshFile> FinishArrays();
-  absl::StatusOr<io::MeshFile> FinishFile();
-  // The checksum over what arrived, in the footer's order.
-  uint32_t Crc() const;
+  absl::StatusOr<io::MeshFile> FinishArrays(const io::ReadLimits& limits);
+  absl::StatusOr<io::MeshFile> FinishFile(const io::ReadLimits& limits);
+  // INVALID_ARGUMENT unless the checksum over what arrived, in the footer's
+  // order, is the footer's.
+  absl::Status CheckCrc() const;
 
   const ServerOptions& options_;
   bool have_header_ = false, have_footer_ = false;
@@ -91,7 +102,7 @@ class MeshAssembler {
   std::vector<double> coords_;
   std::vector<int32_t> sizes_, indices_, regions_;
   // A file upload: its format (".obj", ...), declared size and bytes.
-  std::string file_format_;
+  std::string file_format_, file_name_;
   int64_t declared_file_bytes_ = 0;
   std::string file_;
   // CRC over positions, sizes, indices, regions (in that order): the four

@@ -374,13 +374,8 @@ absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Eval(
   return Command(argv);
 }
 
-absl::Status RedisRecords::Ping() {
-  auto r = Command({"PING"});
-  return r.ok() ? absl::OkStatus() : r.status();
-}
-
-std::vector<std::string> RedisRecords::LimitKeys(
-    const std::string& tenant, const std::string& id) const {
+std::vector<std::string> RedisRecords::LimitKeys(const std::string& tenant,
+                                                 const std::string& id) const {
   const std::string prefix = TenantPrefix(tenant);
   return {SessionKey(tenant, id),
           absl::StrCat(prefix, "ids"),
@@ -468,22 +463,15 @@ absl::Status RedisRecords::Create(const std::string& tenant,
   const wire::SessionInfo& info = record.info;
   std::vector<std::string> args =
       LimitArgs(tenant, limits, info.memory_bytes, token, TtlMillis());
-  const std::string fields[] = {"info",
-                                EncodeInfo(info),
-                                "topo",
-                                EncodeTopology(record.mesh),
-                                "pos",
-                                EncodePositions(record.mesh.positions),
-                                "base",
-                                "",
-                                "gen",
-                                "0",
-                                "base_gen",
-                                "0",
-                                "inc",
-                                record.incarnation,
-                                "bytes",
-                                absl::StrCat(info.memory_bytes)};
+  const std::string fields[] = {
+      "info",     EncodeInfo(info),
+      "topo",     EncodeTopology(record.mesh),
+      "pos",      EncodePositions(record.mesh.positions),
+      "base",     "",
+      "gen",      "0",
+      "base_gen", "0",
+      "inc",      record.incarnation,
+      "bytes",    absl::StrCat(info.memory_bytes)};
   args.insert(args.end(), std::begin(fields), std::end(fields));
   auto r = Eval(absl::StrCat(kLimits, kCreateBody),
                 LimitKeys(tenant, info.session_id), args);
@@ -537,10 +525,10 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
     const std::string& tenant, const std::string& id,
     const RecordVersion& expected, const std::vector<Vec3>& positions,
     bool rebase) {
-  auto r = Eval(kCommit, {SessionKey(tenant, id)},
-                {absl::StrCat(expected.generation), EncodePositions(positions),
-                 rebase ? "1" : "0", absl::StrCat(TtlMillis()),
-                 expected.incarnation});
+  auto r = Eval(
+      kCommit, {SessionKey(tenant, id)},
+      {absl::StrCat(expected.generation), EncodePositions(positions),
+       rebase ? "1" : "0", absl::StrCat(TtlMillis()), expected.incarnation});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t code = Int(At(v, 0)), gen = Int(At(v, 1));
@@ -552,9 +540,9 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
         "read it again and retry"));
   }
   if (code == 0) {
-    return absl::AbortedError(absl::StrCat(
-        "session '", id, "' is at generation ", gen,
-        ", the update expected generation ", expected.generation));
+    return absl::AbortedError(
+        absl::StrCat("session '", id, "' is at generation ", gen,
+                     ", the update expected generation ", expected.generation));
   }
   return gen;
 }

@@ -60,12 +60,10 @@ class RedisRecords : public SessionRecords {
                                           bool rebase) override;
   absl::Status Delete(const std::string& tenant,
                       const std::string& id) override;
-  absl::StatusOr<std::vector<RecordSummary>> List(
-      const std::string& tenant, const std::string& after, int limit,
-      std::string* next) override;
-
-  // PING; UNAVAILABLE with the cause when Redis cannot be reached.
-  absl::Status Ping();
+  absl::StatusOr<std::vector<RecordSummary>> List(const std::string& tenant,
+                                                  const std::string& after,
+                                                  int limit,
+                                                  std::string* next) override;
 
   struct Reply;  // an owned redisReply.
 

@@ -242,21 +242,35 @@ absl::Status MeshGaugeService::ReceiveUpload(
     }
   }
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
-  auto file = assembler.Finish();
+  // The mesh is built within the server's limits, stopping when the caller
+  // is gone. A file's reader reserves what it holds beyond the header's
+  // estimate as it grows (a file's size says little about its mesh);
+  // arrays were reserved by their declared counts.
+  const int64_t buffered = assembler.bytes_held();
+  io::ReadLimits limits{.max_vertices = options_.max_vertices,
+                        .max_faces = options_.max_faces,
+                        .max_fallback_work = kMaxUploadFallbackWork,
+                        .cancelled = [ctx] { return ctx->IsCancelled(); }};
+  if (assembler.file_upload()) {
+    limits.reserve = [&](int64_t bytes) {
+      return ticket.GrowTo(buffered + bytes);
+    };
+  }
+  auto file = assembler.Finish(limits);
   if (!file.ok()) return file.status();
+  // The session's own estimate covers the repairs' transient arrays.
+  if (absl::Status s = ticket.GrowTo(Session::EstimateBaseBytes(file->mesh));
+      !s.ok()) {
+    return s;
+  }
   std::vector<std::string> read_warnings = ReaderWarnings(*file);
   auto repaired = RepairAndDiagnose(std::move(file->mesh), assembler.repairs());
   if (!repaired.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("CreateSession: ", repaired.status().message()));
   }
-  // What the mesh measures now that it is read (a file's size, or polygons,
-  // can differ from the estimate of the header).
-  if (absl::Status s =
-          ticket.GrowTo(Session::EstimateBaseBytes(repaired->mesh));
-      !s.ok()) {
-    return s;
-  }
+  // A caller that gave up (deadline, cancel) gets no orphan session.
+  if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
   read_warnings.insert(read_warnings.end(),
                        repaired->diagnostics.warnings.begin(),
                        repaired->diagnostics.warnings.end());
@@ -567,7 +581,9 @@ grpc::Status MeshGaugeService::GetServerInfo(
         response->set_max_message_bytes(options_.max_message_bytes);
         response->set_max_upload_message_bytes(
             options_.max_upload_message_bytes);
-        response->set_max_upload_file_bytes(options_.max_upload_file_bytes);
+        response->set_max_upload_file_bytes(
+            std::min(options_.max_upload_file_bytes,
+                     options_.BudgetPerTenant() / kFileReadFactor));
         response->set_max_sessions(options_.SessionsPerTenant());
         response->set_memory_budget_bytes(options_.BudgetPerTenant());
         return absl::OkStatus();
@@ -584,10 +600,13 @@ grpc::Status MeshGaugeService::GetMesh(grpc::ServerContext* ctx,
         auto reader = (*session)->Read();
         if (!reader.ok()) return reader.status();
         const Mesh& mesh = reader->evaluator->mesh();
-        // Coordinates as doubles; sizes, indices and regions as int32s.
-        if (absl::Status s = CheckReplySize(
-                mesh.num_vertices() * mesh.dimension +
-                (mesh.num_faces() * 6 + std::ssize(mesh.face_regions)) / 2);
+        // Coordinates as doubles (8 bytes); varints of at most 1 byte per
+        // size, 5 per index and 10 per (possibly negative) region.
+        if (absl::Status s =
+                CheckReplySize(mesh.num_vertices() * mesh.dimension +
+                               (mesh.num_faces() * (1 + 4 * 5) +
+                                std::ssize(mesh.face_regions) * 10) /
+                                   8);
             !s.ok()) {
           return s;
         }

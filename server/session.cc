@@ -32,18 +32,6 @@ std::string NewIncarnation() {
   return out;
 }
 
-bool IsBvhBase(int64_t generation, const ServerOptions& options) {
-  return generation % options.rebuild_every_updates == 0;
-}
-
-bool SameSdfParams(const SdfParams& a, const SdfParams& b) {
-  return a.method == b.method && a.cone_angle_degrees == b.cone_angle_degrees &&
-         a.rays == b.rays && a.min_weight_angle == b.min_weight_angle &&
-         a.kappa == b.kappa && a.self_hit_epsilon == b.self_hit_epsilon &&
-         a.max_distance == b.max_distance &&
-         a.normal_weighting == b.normal_weighting;
-}
-
 int64_t Session::EstimateBytes(int64_t vertices, int64_t faces,
                                int64_t primitives) {
   // Mesh (positions, faces, regions), topology (primitives, incidences,
@@ -116,19 +104,23 @@ absl::Status Session::EnsureEvaluator() {
   auto ev = SdfEvaluator::Create(
       std::move(pending_mesh_),
       {.bvh_policy = BvhUpdatePolicy::kRefit,
+       .rebuild_every_updates = options_.rebuild_every_updates,
        .generation = refit ? generation_ - 1 : generation_.load()});
   if (!ev.ok()) return ev.status();
-  ++builds_;
   metrics_->RecordBvhBuild(SecondsSince(start));
   if (refit) {
-    // Base positions are a past generation: refit to the current ones.
+    // Base positions are a past generation: refit to the current ones (the
+    // current generation is not a base, or they would be the base).
+    const auto refit_start = std::chrono::steady_clock::now();
     if (absl::Status s = (*ev)->UpdatePositions(pending_positions_); !s.ok()) {
       return s;
     }
     pending_positions_ = {};
-    ++refits_;
+    metrics_->RecordBvhRefit(SecondsSince(refit_start));
   }
   evaluator_ = std::move(*ev);
+  builds_ = evaluator_->builds();
+  refits_ = evaluator_->refits();
   return absl::OkStatus();
 }
 
@@ -156,22 +148,21 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
         ", the update expected generation ", expected_generation));
   }
   const auto start = std::chrono::steady_clock::now();
+  const int64_t builds = evaluator_->builds();
   absl::Status s = indices.empty()
                        ? evaluator_->UpdatePositions(positions)
                        : evaluator_->UpdatePositions(indices, positions);
   if (!s.ok()) return s;
   UpdateOutcome out;
-  if (IsBvhBase(expected_generation + 1, options_)) {
-    if (absl::Status r = evaluator_->RebuildBvh(); !r.ok()) return r;
-    ++builds_;
-    out.bvh_seconds = SecondsSince(start);
-    metrics_->RecordBvhBuild(out.bvh_seconds);
-  } else {
-    out.refit = true;
-    ++refits_;
-    out.bvh_seconds = SecondsSince(start);
+  out.refit = evaluator_->builds() == builds;
+  out.bvh_seconds = SecondsSince(start);
+  if (out.refit) {
     metrics_->RecordBvhRefit(out.bvh_seconds);
+  } else {
+    metrics_->RecordBvhBuild(out.bvh_seconds);
   }
+  builds_ = evaluator_->builds();
+  refits_ = evaluator_->refits();
   out.generation = evaluator_->generation();
   generation_ = out.generation;
   {
@@ -185,8 +176,7 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
 std::shared_ptr<const CachedPass> Session::FindPass(const SdfParams& params,
                                                     int64_t generation) const {
   std::lock_guard<std::mutex> lock(cache_mu_);
-  if (cache_ && cache_->generation == generation &&
-      SameSdfParams(cache_->params, params)) {
+  if (cache_ && cache_->generation == generation && cache_->params == params) {
     return cache_;
   }
   return nullptr;

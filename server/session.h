@@ -125,6 +125,7 @@ class Session {
   std::vector<Vec3> pending_positions_;
   std::unique_ptr<SdfEvaluator> evaluator_;
   std::mutex update_mu_;
+  // Mirror the evaluator's counts (Snapshot never takes mu_).
   std::atomic<int64_t> builds_{0}, refits_{0};
   // Mirrors the evaluator's generation so Snapshot never takes mu_ (a
   // reader must not lock it twice).
@@ -135,19 +136,11 @@ class Session {
   std::atomic<double> last_used_;
 };
 
-// True when the BVH of `generation` is built from scratch (at that
-// generation's positions) rather than refitted: every
-// options.rebuild_every_updates generations, on every replica alike.
-bool IsBvhBase(int64_t generation, const ServerOptions& options);
-
 // Every SessionInfo field of a snapshot taken at `now` (clock seconds).
 wire::SessionInfo ToSessionInfo(const SessionSnapshot& s, double now);
 
 // 32 random hex digits (128 bits from the system's random source): a
 // session's incarnation, an upload's claim.
 std::string NewIncarnation();
-
-// True when two parameter sets give the same values (threads excluded).
-bool SameSdfParams(const SdfParams& a, const SdfParams& b);
 
 }  // namespace meshgauge::server

@@ -143,23 +143,32 @@ absl::Status SessionStore::CheckBytesLocked(const std::string& tenant,
 absl::Status SessionStore::Grow(UploadReservation* r, int64_t bytes) {
   if (bytes <= r->bytes_) return absl::OkStatus();
   if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
+  const int64_t delta = bytes - r->bytes_;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (absl::Status s = CheckBytesLocked(r->tenant_, delta); !s.ok()) {
+      return s;
+    }
+    reserved_[r->tenant_].bytes += delta;
+    reserved_total_.bytes += delta;
+    r->bytes_ = bytes;
+    PublishLocked();
+  }
   if (records_ && !r->token_.empty()) {
     // The claim is made again with its new size (its own old size is not
-    // counted against the limits).
-    if (absl::Status s = records_->Reserve(r->tenant_, r->token_, bytes,
-                                           Limits(), ClaimSeconds());
-        !s.ok()) {
+    // counted against the limits); refused, the local claim shrinks back.
+    absl::Status s = records_->Reserve(r->tenant_, r->token_, bytes, Limits(),
+                                       ClaimSeconds());
+    if (!s.ok()) {
+      std::lock_guard<std::mutex> lock(mu_);
+      reserved_[r->tenant_].bytes -= delta;
+      reserved_total_.bytes -= delta;
+      r->bytes_ -= delta;
+      PublishLocked();
       return s;
     }
     r->renewed_at_ = clock_->NowSeconds();
   }
-  std::lock_guard<std::mutex> lock(mu_);
-  const int64_t delta = bytes - r->bytes_;
-  if (absl::Status s = CheckBytesLocked(r->tenant_, delta); !s.ok()) return s;
-  reserved_[r->tenant_].bytes += delta;
-  reserved_total_.bytes += delta;
-  r->bytes_ = bytes;
-  PublishLocked();
   return absl::OkStatus();
 }
 
@@ -421,11 +430,12 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
   // takes them only if it is still that incarnation.
   auto committed = records_->CommitPositions(
       tenant, id, {expected_generation, s.incarnation()}, all,
-      IsBvhBase(expected_generation + 1, options_));
+      IsBvhBase(expected_generation + 1, options_.rebuild_every_updates));
   if (!committed.ok()) return committed.status();
   if (maybe_retry) {
-    return UpdateOutcome{.generation = *committed,
-                         .refit = !IsBvhBase(*committed, options_)};
+    return UpdateOutcome{
+        .generation = *committed,
+        .refit = !IsBvhBase(*committed, options_.rebuild_every_updates)};
   }
   auto outcome = s.UpdatePositions(expected_generation, {}, all);
   if (!outcome.ok()) {

@@ -57,12 +57,52 @@ TEST(EvaluatorTest, UpdatePositionsMatchesAFreshComputation) {
     ASSERT_TRUE(updated.ok() && fresh.ok());
     EXPECT_TRUE(BitIdentical(*updated, *fresh));
     if (policy == BvhUpdatePolicy::kRefit) {
-      EXPECT_EQ((*ev)->scene().refits(), 1);
-      EXPECT_EQ((*ev)->scene().builds(), 1);
+      EXPECT_EQ((*ev)->refits(), 1);
+      EXPECT_EQ((*ev)->builds(), 1);
     } else {
-      EXPECT_EQ((*ev)->scene().builds(), 2);
+      EXPECT_EQ((*ev)->builds(), 2);
+      EXPECT_EQ((*ev)->refits(), 0);
     }
   }
+}
+
+// rebuild_every_updates = 3: generations 3 and 6 are built from scratch at
+// their positions, the others refitted; each update counts once. An
+// evaluator created at generation 4 from generation 3's positions (as a
+// replica restores a session) then gives the same values at generation 5
+// as the one that made every update.
+TEST(EvaluatorTest, TheRebuildCadenceIsAnOptionCountedFromGenerationZero) {
+  const Mesh torus = MakeTorus(2, 0.5, 48, 16);
+  auto ev = SdfEvaluator::Create(torus, {.rebuild_every_updates = 3});
+  ASSERT_TRUE(ev.ok());
+  std::vector<std::vector<Vec3>> positions = {torus.positions};
+  for (int g = 1; g <= 6; ++g) {
+    std::vector<Vec3> p = positions.back();
+    for (Vec3& x : p) x = Vec3(x.x * 1.05, x.y, x.z * (1 + 0.02 * g));
+    positions.push_back(p);
+    ASSERT_TRUE((*ev)->UpdatePositions(p).ok());
+    EXPECT_EQ((*ev)->builds(), 1 + g / 3) << g;
+    EXPECT_EQ((*ev)->refits(), g - g / 3) << g;
+    EXPECT_EQ(IsBvhBase(g, 3), g % 3 == 0);
+    if (g == 5) {
+      Mesh base = torus;
+      base.positions = positions[3];
+      auto restored = SdfEvaluator::Create(
+          base, {.rebuild_every_updates = 3, .generation = 4});
+      ASSERT_TRUE(restored.ok());
+      ASSERT_TRUE((*restored)->UpdatePositions(p).ok());
+      EXPECT_EQ((*restored)->generation(), 5);
+      EXPECT_EQ((*restored)->refits(), 1);
+      auto a = (*ev)->Compute({}), b = (*restored)->Compute({});
+      ASSERT_TRUE(a.ok() && b.ok());
+      EXPECT_TRUE(BitIdentical(*a, *b));
+    }
+  }
+  EXPECT_FALSE(IsBvhBase(3, 0));
+  EXPECT_EQ(SdfEvaluator::Create(torus, {.rebuild_every_updates = -1})
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 TEST(EvaluatorTest, SubsetUpdateMovesOnlyThoseVertices) {
@@ -109,8 +149,7 @@ TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
   ASSERT_TRUE(ValidateMesh(huge).ok());
   auto refused = SdfEvaluator::Create(huge);
   EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_THAT(std::string(refused.status().message()),
-              HasSubstr("rescale"));
+  EXPECT_THAT(std::string(refused.status().message()), HasSubstr("rescale"));
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);
   ASSERT_TRUE(ev.ok());

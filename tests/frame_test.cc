@@ -83,13 +83,21 @@ TEST(FrameTest, NeedleTipFallsBackToTheWorldFrameAndIsCounted) {
   EXPECT_EQ((*box)->Compute({})->world_frame_vertices, 0);
 }
 
-// A random rotation (uniform quaternion), uniform scale and translation.
+// A random rotation (uniform quaternion, row-major), uniform scale and
+// translation.
 struct Pose {
-  Mat3 rotation;
+  struct {
+    double m[3][3];
+  } rotation;
   double scale;
   Vec3 shift;
-  Vec3 Apply(const Vec3& p) const { return rotation * p * scale + shift; }
-  Vec3 Rotate(const Vec3& v) const { return rotation * v; }
+  Vec3 Apply(const Vec3& p) const { return Rotate(p) * scale + shift; }
+  Vec3 Rotate(const Vec3& v) const {
+    const auto& m = rotation.m;
+    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
+            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+  }
 };
 
 Pose RandomPose(uint64_t seed) {

@@ -334,3 +334,55 @@ INSTANTIATE_TEST_SUITE_P(
 
 }  // namespace
 }  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// An OBJ of `n` bow-tie pentagons (not simple in their plane: fallback).
+std::string BowTies(int n) {
+  std::string obj = "v 0 0 0\nv 1 1 0\nv 1 0 0\nv 0 1 0\nv 0.5 2 0\n";
+  for (int i = 0; i < n; ++i) obj += "f 1 2 3 4 5\n";
+  return obj;
+}
+
+TEST(ReadLimitsTest, EachLimitStopsTheReaderWithItsCause) {
+  auto read = [](const std::string& text, const io::ReadLimits& limits) {
+    return ParseMeshContents(text, ".obj", "t.obj", limits).status();
+  };
+  io::ReadLimits vertices{.max_vertices = 4};
+  EXPECT_EQ(read(BowTies(1), vertices).code(),
+            absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(read(BowTies(1), vertices).message()),
+              HasSubstr("4 vertices (max_vertices)"));
+  // 3 pentagons are 9 triangles.
+  EXPECT_TRUE(read(BowTies(3), {.max_faces = 9}).ok());
+  EXPECT_THAT(std::string(read(BowTies(3), {.max_faces = 8}).message()),
+              HasSubstr("8 faces (max_faces"));
+  // Each fallback pentagon costs 125 units.
+  EXPECT_TRUE(read(BowTies(4), {.max_fallback_work = 500}).ok());
+  EXPECT_THAT(
+      std::string(read(BowTies(5), {.max_fallback_work = 500}).message()),
+      HasSubstr("triangulate them before sending"));
+  EXPECT_EQ(read(BowTies(1), {.cancelled = [] { return true; }}).code(),
+            absl::StatusCode::kCancelled);
+  // The reader reports what it will hold, growing, before it holds it.
+  std::vector<int64_t> reported;
+  io::ReadLimits reserve{.reserve = [&](int64_t bytes) {
+    reported.push_back(bytes);
+    return absl::OkStatus();
+  }};
+  std::string many = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+  for (int i = 0; i < 200'000; ++i) many += "f 1 2 3\n";
+  ASSERT_TRUE(read(many, reserve).ok());
+  ASSERT_GE(reported.size(), 2u);
+  EXPECT_TRUE(std::is_sorted(reported.begin(), reported.end()));
+  // 200,000 faces: flat arrays, then the Face array of the mesh.
+  EXPECT_GT(reported.back(), 200'000 * int64_t{sizeof(Face) + 16});
+  io::ReadLimits refuse{.reserve = [](int64_t) {
+    return absl::ResourceExhaustedError("no room");
+  }};
+  EXPECT_EQ(read(many, refuse).message(), "no room");
+}
+
+}  // namespace
+}  // namespace meshgauge

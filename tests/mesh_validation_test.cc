@@ -3,7 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <limits>
+#include <vector>
 
 #include "lib/core/mesh.h"
 #include "lib/core/shapes.h"
@@ -175,6 +177,40 @@ TEST(ParamsValidationTest, RejectsOutOfRangeParameters) {
   p = {};
   p.max_distance = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THAT(code(p).message(), HasSubstr("max distance"));
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// The server reuses a cached pass when SdfParams compare equal (a defaulted
+// operator==). The binding has one name per field, so a new field does not
+// compile here until it is listed below, where changing it must make the
+// parameters differ (a parameter the cache ignored would serve stale
+// values).
+TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
+  [[maybe_unused]] const auto& [method, cone_angle, rays, min_weight, kappa,
+                                epsilon, max_distance, threads, weighting] =
+      SdfParams{};
+  const std::vector<std::function<void(SdfParams&)>> changes = {
+      [](SdfParams& p) { p.method = SdfMethod::kNormalRay; },
+      [](SdfParams& p) { p.cone_angle_degrees = 31; },
+      [](SdfParams& p) { p.rays = 7; },
+      [](SdfParams& p) { p.min_weight_angle = 0.01; },
+      [](SdfParams& p) { p.kappa = 2; },
+      [](SdfParams& p) { p.self_hit_epsilon = 1e-5; },
+      [](SdfParams& p) { p.max_distance = 3; },
+      [](SdfParams& p) { p.threads = 1; },
+      [](SdfParams& p) { p.normal_weighting = NormalWeighting::kAngle; },
+  };
+  for (size_t i = 0; i < changes.size(); ++i) {
+    SdfParams p;
+    EXPECT_TRUE(p == SdfParams{});
+    changes[i](p);
+    EXPECT_FALSE(p == SdfParams{}) << "field " << i;
+  }
 }
 
 }  // namespace

@@ -7,8 +7,8 @@
 
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <thread>
 
 #include "absl/strings/str_replace.h"
@@ -88,10 +88,10 @@ TEST_F(SecurityTest, TwoAuthorizationEntriesAreUnauthenticated) {
   ASSERT_TRUE(alice_->Upload(MakeIcosphere(1, 1), "mine").ok());
   for (bool valid_first : {true, false}) {
     grpc::ClientContext ctx;
-    ctx.AddMetadata("authorization", valid_first ? "Bearer alice-secret"
-                                                 : "Bearer wrong");
-    ctx.AddMetadata("authorization", valid_first ? "Bearer wrong"
-                                                 : "Bearer alice-secret");
+    ctx.AddMetadata("authorization",
+                    valid_first ? "Bearer alice-secret" : "Bearer wrong");
+    ctx.AddMetadata("authorization",
+                    valid_first ? "Bearer wrong" : "Bearer alice-secret");
     v1::GetSessionRequest req;
     req.set_session_id("mine");
     v1::GetSessionResponse resp;
@@ -190,8 +190,8 @@ TEST_F(SecurityTest, AnUploadInFlightNeverEvictsASmallerTenant) {
   alice_ = Client("alice-secret");
   bob_ = Client("bob-secret");
   for (int i = 0; i < 5; ++i) {
-    ASSERT_TRUE(alice_->Upload(MakeIcosphere(1, 4), "a" + std::to_string(i))
-                    .ok());
+    ASSERT_TRUE(
+        alice_->Upload(MakeIcosphere(1, 4), "a" + std::to_string(i)).ok());
     clock_.Advance(1);
   }
   ASSERT_TRUE(bob_->Upload(MakeIcosphere(1, 7), "b").ok());
@@ -392,18 +392,17 @@ TEST_F(UploadAttackTest, AChunkOverTheDeclaredCountsIsRefusedWhole) {
     const char* field;
     std::function<void(v1::CreateSessionRequest::Chunk*)> fill;
   };
-  const Case cases[] = {
-      {"face sizes",
-       [](auto* c) {
-         for (int i = 0; i < 5; ++i) c->add_face_sizes(3);
-       }},
-      {"coordinates",
-       [](auto* c) {
-         for (int i = 0; i < 13; ++i) c->add_positions(1);
-       }},
-      {"face regions", [](auto* c) {
-         for (int i = 0; i < 5; ++i) c->add_face_regions(1);
-       }}};
+  const Case cases[] = {{"face sizes",
+                         [](auto* c) {
+                           for (int i = 0; i < 5; ++i) c->add_face_sizes(3);
+                         }},
+                        {"coordinates",
+                         [](auto* c) {
+                           for (int i = 0; i < 13; ++i) c->add_positions(1);
+                         }},
+                        {"face regions", [](auto* c) {
+                           for (int i = 0; i < 5; ++i) c->add_face_regions(1);
+                         }}};
   for (const Case& k : cases) {
     grpc::ClientContext ctx;
     v1::CreateSessionResponse resp;
@@ -443,8 +442,9 @@ TEST_F(UploadAttackTest, AHeaderAloneEvictsNothing) {
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(), HasSubstr("uploads in flight"));
   EXPECT_TRUE(client_->Get("victim").ok());
-  EXPECT_THAT(metrics_.Text(),
-              Not(HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1")));
+  EXPECT_THAT(
+      metrics_.Text(),
+      Not(HasSubstr("meshgauge_session_evictions_total{reason=\"memory\"} 1")));
   c1.TryCancel();
   w1->Finish();
   EXPECT_TRUE(client_->Get("victim").ok());
@@ -558,7 +558,7 @@ TEST_F(LimitsTest, AMeshTooLargeForDoublesIsNamedAsOverflow) {
 
 TEST(StartupTest, ATakenPortFailsCleanlyWithoutReusePort) {
   server::Metrics metrics;
-  server::FakeClock clock;
+  testing::FakeClock clock;
   server::ServerOptions a;
   a.address = "127.0.0.1:0";
   a.metrics_address = "";
@@ -625,7 +625,7 @@ class TlsTest : public ::testing::Test {
   testing::TestPki pki_;
   server::ServerOptions options_;
   server::Metrics metrics_;
-  server::FakeClock clock_;
+  testing::FakeClock clock_;
   std::unique_ptr<server::MeshGaugeServer> server_;
   std::string target_;
 };

@@ -8,6 +8,7 @@
 
 #include "client/remote/remote_client.h"
 #include "server/server.h"
+#include "tests/fake_clock.h"
 
 namespace meshgauge::testing {
 
@@ -38,7 +39,7 @@ class ServerFixture : public ::testing::Test {
 
   server::ServerOptions options_;
   server::Metrics metrics_;
-  server::FakeClock clock_;
+  FakeClock clock_;
   std::unique_ptr<server::MeshGaugeServer> server_;
   std::string target_;
   std::unique_ptr<client::RemoteClient> client_;

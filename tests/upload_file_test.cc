@@ -15,6 +15,8 @@
 #include "lib/core/shapes.h"
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
+#include "server/mesh_upload.h"
+#include "server/session.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
 
@@ -198,7 +200,49 @@ TEST_F(UploadFileTest, AFileOverTheVertexLimitIsRefusedAfterReading) {
   auto r = Upload(
       FileUpload("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\n", "obj"));
   EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted);
-  EXPECT_THAT(std::string(r.status().message()), HasSubstr("--max_vertices"));
+  EXPECT_THAT(std::string(r.status().message()), HasSubstr("max_vertices"));
+}
+
+// Polygons count their triangles against --max_faces, from the header.
+TEST_F(UploadFileTest, PolygonsOverTheFaceLimitAreRefusedAtTheHeader) {
+  server::ServerOptions o;
+  o.max_faces = 100;
+  RestartServer(o);
+  std::vector<v1::CreateSessionRequest> m(1);
+  auto* h = m[0].mutable_header();
+  h->set_dimension(3);
+  h->set_num_vertices(256);
+  h->set_num_faces(1);
+  h->set_num_face_indices(256);  // one 256-gon: 254 triangles.
+  auto r = Upload(m);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(r.status().message()),
+              HasSubstr("make 254 triangles"));
+}
+
+// Eviction makes room only for file bytes that arrived: the first bytes
+// of a large declared file do not push out a session the budget holds.
+TEST_F(UploadFileTest, TheFirstBytesOfAFileEvictNothing) {
+  const Mesh torus = MakeTorus(2, 0.5, 64, 26);
+  server::ServerOptions o;
+  o.memory_budget_bytes = 1 << 20;
+  const int64_t declared = 100'000;
+  const int64_t session = server::Session::EstimateBaseBytes(torus);
+  // The session fits, the declared file on top of it would not.
+  ASSERT_LT(session, o.memory_budget_bytes);
+  ASSERT_GT(session + declared, o.memory_budget_bytes);
+  ASSERT_LE(declared * server::kFileReadFactor, o.memory_budget_bytes);
+  RestartServer(o);
+  auto t = client_->Upload(torus, "t");
+  ASSERT_TRUE(t.ok()) << t.status();
+  auto msgs = FileUpload(std::string(declared, ' '), "obj");
+  msgs.resize(2);
+  msgs[1].mutable_chunk()->set_file_data("v 0 0 0\n");
+  // A second header ends the stream after the chunk was taken in.
+  msgs.push_back(msgs[0]);
+  EXPECT_THAT(std::string(Upload(msgs).status().message()),
+              HasSubstr("a second header"));
+  EXPECT_TRUE(client_->Get("t").ok());
 }
 
 // A file of short face lines parses to far more than its own size: the

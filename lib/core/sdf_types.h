@@ -38,6 +38,10 @@ struct SdfParams {
   // on it (bit for bit).
   int threads = 0;
   NormalWeighting normal_weighting = NormalWeighting::kArea;
+
+  // Every field: a cached pass is reused only for equal parameters (threads
+  // included, although results do not depend on them).
+  bool operator==(const SdfParams&) const = default;
 };
 
 // Checks ranges; returns InvalidArgument naming the bad parameter.

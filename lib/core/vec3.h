@@ -62,38 +62,4 @@ inline bool IsFinite(const Vec3& a) {
 // perp(e) = (e.y, -e.x).
 constexpr Vec3 Perp(const Vec3& e) { return {e.y, -e.x, 0.0}; }
 
-// Row-major 3x3 matrix, used for small Jacobians.
-struct Mat3 {
-  double m[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
-
-  static constexpr Mat3 Identity() {
-    Mat3 r;
-    r.m[0][0] = r.m[1][1] = r.m[2][2] = 1;
-    return r;
-  }
-  // Transposed product: returns v^T * M (a row vector), i.e. M^T v.
-  constexpr Vec3 LeftMultiply(const Vec3& v) const {
-    return {v.x * m[0][0] + v.y * m[1][0] + v.z * m[2][0],
-            v.x * m[0][1] + v.y * m[1][1] + v.z * m[2][1],
-            v.x * m[0][2] + v.y * m[1][2] + v.z * m[2][2]};
-  }
-  constexpr Vec3 operator*(const Vec3& v) const {
-    return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
-            m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
-            m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
-  }
-};
-
-// Skew matrix [a]x such that [a]x b = a x b.
-constexpr Mat3 Skew(const Vec3& a) {
-  Mat3 r;
-  r.m[0][1] = -a.z;
-  r.m[0][2] = a.y;
-  r.m[1][0] = a.z;
-  r.m[1][2] = -a.x;
-  r.m[2][0] = -a.y;
-  r.m[2][1] = a.x;
-  return r;
-}
-
 }  // namespace meshgauge

@@ -174,7 +174,6 @@ void RayScene::FillVertices(const Mesh& mesh) {
 
 absl::Status RayScene::Commit() {
   rtcCommitScene(scene_);
-  ++builds_;
   return DeviceStatus(device_, "rtcCommitScene");
 }
 
@@ -184,11 +183,6 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   rtcUpdateGeometryBuffer(geometry_, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(geometry_);
   rtcCommitScene(scene_);
-  if (policy_ == BvhUpdatePolicy::kRefit) {
-    ++refits_;
-  } else {
-    ++builds_;
-  }
   return DeviceStatus(device_, "rtcCommitScene (update)");
 }
 

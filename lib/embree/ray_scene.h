@@ -62,10 +62,6 @@ class RayScene {
   Hit Intersect(const Vec3& origin, const Vec3& dir, float t_near,
                 float t_far) const;
 
-  BvhUpdatePolicy policy() const { return policy_; }
-  int64_t builds() const { return builds_; }
-  int64_t refits() const { return refits_; }
-
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy)
       : topo_(topo), policy_(policy) {}
@@ -82,8 +78,6 @@ class RayScene {
   RTCSceneTy* scene_ = nullptr;
   RTCGeometryTy* geometry_ = nullptr;
   float* vertex_buffer_ = nullptr;  // owned by geometry_.
-  int64_t builds_ = 0;
-  int64_t refits_ = 0;
 };
 
 }  // namespace meshgauge

@@ -88,17 +88,28 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
     Mesh mesh, const EvaluatorOptions& options) {
   std::unique_ptr<SdfEvaluator> ev(new SdfEvaluator());
   if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
+  if (options.rebuild_every_updates < 0) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("rebuild_every_updates must be >= 0, got ",
+                     options.rebuild_every_updates));
+  }
   ev->policy_ = options.bvh_policy;
+  ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;
   ev->order_ = MortonOrder(ev->mesh_.positions);
   if (absl::Status s = ev->RebuildBvh(); !s.ok()) return s;
   return ev;
 }
 
+bool IsBvhBase(int64_t generation, int rebuild_every_updates) {
+  return rebuild_every_updates > 0 && generation % rebuild_every_updates == 0;
+}
+
 absl::Status SdfEvaluator::RebuildBvh() {
   auto scene = RayScene::Create(mesh_, topo_, policy_);
   if (!scene.ok()) return scene.status();
   scene_ = std::move(*scene);
+  ++builds_;
   return absl::OkStatus();
 }
 
@@ -264,10 +275,20 @@ absl::Status SdfEvaluator::CommitPositions(std::vector<Vec3> old_positions) {
     return absl::InvalidArgumentError(
         absl::StrCat("position update rejected: ", s.message()));
   }
-  if (absl::Status s = scene_->UpdatePositions(mesh_); !s.ok()) {
+  const bool rebuild = policy_ == BvhUpdatePolicy::kRebuild ||
+                       IsBvhBase(generation_ + 1, rebuild_every_updates_);
+  absl::Status s = policy_ == BvhUpdatePolicy::kRefit && rebuild
+                       ? RebuildBvh()
+                       : scene_->UpdatePositions(mesh_);
+  if (!s.ok()) {
     mesh_.positions = std::move(old_positions);
     return absl::Status(
         s.code(), absl::StrCat("position update rejected: ", s.message()));
+  }
+  if (policy_ == BvhUpdatePolicy::kRebuild) {
+    ++builds_;
+  } else if (!rebuild) {
+    ++refits_;
   }
   RefreshDerivedGeometry();
   ++generation_;

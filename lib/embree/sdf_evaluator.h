@@ -22,10 +22,21 @@ namespace meshgauge {
 
 struct EvaluatorOptions {
   BvhUpdatePolicy bvh_policy = BvhUpdatePolicy::kRefit;
+  // With kRefit: an update whose new generation is a BVH base
+  // (IsBvhBase) builds the BVH from scratch at the new positions instead
+  // of refitting it (a refitted BVH stays correct, but its quality degrades
+  // as vertices move far). 0: never; >= 0.
+  int rebuild_every_updates = 0;
   // generation() right after creation (>= 0): a session restored at a later
   // generation keeps counting from there.
   int64_t generation = 0;
 };
+
+// True when the BVH of `generation` is built from scratch rather than
+// refitted: every `rebuild_every_updates` generations (0: never), counted
+// from generation 0 whatever the evaluator's history, so that evaluators
+// restored at any generation agree.
+bool IsBvhBase(int64_t generation, int rebuild_every_updates);
 
 class SdfEvaluator : public MeshGeometry {
  public:
@@ -54,17 +65,21 @@ class SdfEvaluator : public MeshGeometry {
   absl::Status UpdatePositions(absl::Span<const int32_t> indices,
                                absl::Span<const Vec3> positions);
 
-  // Rebuilds the BVH from scratch at the current positions (a refitted BVH
-  // stays correct but its quality degrades as vertices move far).
-  absl::Status RebuildBvh();
-
   const RayScene& scene() const { return *scene_; }
+  // BVH builds (creation, kRebuild updates, base generations) and refits
+  // (other kRefit updates): each update counts once.
+  int64_t builds() const { return builds_; }
+  int64_t refits() const { return refits_; }
 
  private:
   SdfEvaluator() = default;
   absl::Status CommitPositions(std::vector<Vec3> old_positions);
+  // Builds the BVH from scratch at the current positions.
+  absl::Status RebuildBvh();
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
+  int rebuild_every_updates_ = 0;
+  int64_t builds_ = 0, refits_ = 0;
   std::unique_ptr<RayScene> scene_;
   // The ray pass visits vertices in this Morton order of the positions at
   // creation (kept across updates; results stay in vertex order and do not

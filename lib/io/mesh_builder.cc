@@ -6,6 +6,41 @@
 #include "lib/core/polygon.h"
 
 namespace meshgauge::io {
+namespace {
+
+constexpr int64_t kReserveStep = int64_t{1} << 20;
+
+}  // namespace
+
+int64_t MeshBuilder::BytesHeld() const {
+  return static_cast<int64_t>(
+      file_.mesh.positions.capacity() * sizeof(Vec3) +
+      (sizes_.capacity() + corners_.capacity() + regions_.capacity()) *
+          sizeof(int32_t) +
+      file_.mesh.faces.capacity() * sizeof(Face) +
+      file_.mesh.face_regions.capacity() * sizeof(int32_t));
+}
+
+absl::Status MeshBuilder::CheckLimits(int64_t faces, int64_t extra) {
+  if (limits_ == nullptr) return absl::OkStatus();
+  if (num_vertices() > limits_->max_vertices) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path_, ": more than the limit of ", limits_->max_vertices,
+                     " vertices (max_vertices)"));
+  }
+  if (faces > limits_->max_faces) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path_, ": more than the limit of ", limits_->max_faces,
+                     " faces (max_faces; polygons count their triangles)"));
+  }
+  // Room for the arrays to double before the next report.
+  const int64_t bytes = 2 * BytesHeld() + extra;
+  if (limits_->reserve && bytes > reported_bytes_) {
+    reported_bytes_ = bytes + kReserveStep;
+    return limits_->reserve(reported_bytes_);
+  }
+  return absl::OkStatus();
+}
 
 absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
                                   int32_t region, const std::string& where) {
@@ -38,6 +73,7 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
     }
     polygon_places_.emplace_back(num_faces(), where);
   }
+  if (absl::Status s = CheckLimits(num_faces() + 1, 0); !s.ok()) return s;
   sizes_.push_back(static_cast<int32_t>(n));
   for (int64_t c : corners) corners_.push_back(static_cast<int32_t>(c));
   regions_.push_back(region);
@@ -49,7 +85,17 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
   Mesh& mesh = file_.mesh;
   file_.format = std::move(format);
   file_.file_faces = num_faces();
-  mesh.faces.reserve(sizes_.size());
+  int64_t triangles = 0;
+  for (int32_t n : sizes_) triangles += n > 4 ? n - 2 : 1;
+  if (absl::Status s = CheckLimits(
+          triangles,
+          triangles * static_cast<int64_t>(
+                          sizeof(Face) + (any_region_ ? sizeof(int32_t) : 0)));
+      !s.ok()) {
+    return s;
+  }
+  mesh.faces.reserve(triangles);
+  int64_t fallback_work = 0;
   size_t offset = 0, polygon = 0;
   std::vector<Vec3> ring;
   for (size_t f = 0; f < sizes_.size(); ++f) {
@@ -64,6 +110,9 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
     } else if (n == 4) {
       mesh.faces.push_back(Face::Quad(c[0], c[1], c[2], c[3]));
     } else {
+      if (limits_ && limits_->cancelled && limits_->cancelled()) {
+        return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
+      }
       ring.clear();
       for (int32_t k = 0; k < n; ++k) ring.push_back(mesh.positions[c[k]]);
       bool fallback = false;
@@ -80,6 +129,16 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
       ++polygon;
       ++file_.polygons_triangulated;
       if (fallback) {
+        fallback_work += int64_t{n} * n * n;
+        if (limits_ && fallback_work > limits_->max_fallback_work) {
+          return absl::ResourceExhaustedError(absl::StrCat(
+              path_,
+              ": the polygons that are not simple in their plane need "
+              "more than ",
+              limits_->max_fallback_work,
+              " units (corners³ summed) to triangulate; triangulate them "
+              "before sending"));
+        }
         if (file_.polygons_fallback == 0) {
           file_.first_fallback_polygon = polygon_places_[polygon - 1].first;
         }

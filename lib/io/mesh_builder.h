@@ -16,7 +16,10 @@ namespace meshgauge::io {
 
 class MeshBuilder {
  public:
-  MeshBuilder(std::string path, int dimension) : path_(std::move(path)) {
+  // `limits` (not owned, may be null) must outlive the builder.
+  MeshBuilder(std::string path, int dimension,
+              const ReadLimits* limits = nullptr)
+      : path_(std::move(path)), limits_(limits) {
     file_.mesh.dimension = dimension;
   }
   void ReservePositions(int64_t n) { file_.mesh.positions.reserve(n); }
@@ -25,16 +28,23 @@ class MeshBuilder {
   // `where` names the face's place in the file ("line 12", "byte 4096") for
   // errors. Corner indices are 0-based. Errors: InvalidArgument for fewer
   // than 2 (segments) or 3 corners, an index out of range [0, #V) or, in a
-  // polygon with more than four corners, a repeated index.
+  // polygon with more than four corners, a repeated index; the limits'.
   absl::Status AddFace(absl::Span<const int64_t> corners, int32_t region,
                        const std::string& where);
   int64_t num_faces() const { return std::ssize(sizes_); }
   // Triangulates the polygons and returns the mesh (not validated).
-  // Errors: InvalidArgument naming the polygon's face id and place.
+  // Errors: InvalidArgument naming the polygon's face id and place; the
+  // limits'.
   absl::StatusOr<MeshFile> Finish(std::string format);
 
  private:
+  // The limits' checks of what is held (and will be: `extra` bytes).
+  absl::Status CheckLimits(int64_t faces, int64_t extra);
+  int64_t BytesHeld() const;
+
   std::string path_;
+  const ReadLimits* limits_;
+  int64_t reported_bytes_ = 0;  // last told to limits_->reserve.
   MeshFile file_;
   std::vector<int32_t> sizes_;
   std::vector<int32_t> corners_;

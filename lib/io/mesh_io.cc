@@ -13,7 +13,8 @@ namespace meshgauge {
 namespace {
 
 using Parser = absl::StatusOr<io::MeshFile> (*)(absl::string_view,
-                                                const std::string&);
+                                                const std::string&,
+                                                const io::ReadLimits&);
 
 // The parser of a file extension, or null.
 Parser ParserFor(absl::string_view extension) {
@@ -35,7 +36,8 @@ absl::Status Unsupported(absl::string_view ext, const std::string& name) {
 
 absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
                                                absl::string_view extension,
-                                               const std::string& name) {
+                                               const std::string& name,
+                                               const io::ReadLimits& limits) {
   const Parser parse = ParserFor(extension);
   if (!parse) return Unsupported(extension, name);
   // A byte-order mark would hide the first statement of a text format (an
@@ -44,7 +46,7 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
   // as it is.
   const std::string ext = absl::AsciiStrToLower(extension);
   if (ext != ".stl") absl::ConsumePrefix(&contents, io::kUtf8Bom);
-  return parse(contents, name);
+  return parse(contents, name, limits);
 }
 
 absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path) {

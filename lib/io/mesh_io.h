@@ -35,10 +35,11 @@ absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path);
 absl::StatusOr<Mesh> ReadMesh(const std::string& path);
 
 // Parses file contents of the format named by `extension` (".obj", ...);
-// `name` names them in messages. ReadMeshFile without the file.
-absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
-                                               absl::string_view extension,
-                                               const std::string& name);
+// `name` names them in messages. ReadMeshFile without the file, within
+// `limits` (ResourceExhausted, or the callbacks' errors).
+absl::StatusOr<io::MeshFile> ParseMeshContents(
+    absl::string_view contents, absl::string_view extension,
+    const std::string& name, const io::ReadLimits& limits = {});
 
 // One sentence per thing the reader did that a user should know of
 // (polygons triangulated by the fallback), for summaries and SessionInfo.

@@ -34,7 +34,8 @@ bool ParseObjIndex(absl::string_view token, int64_t defined, int64_t* out) {
 }  // namespace
 
 absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
-                                  const std::string& path) {
+                                  const std::string& path,
+                                  const ReadLimits& limits) {
   // Two passes: the first decides 2D (only `l`) or 3D (`f`), so that faces
   // are built for the right dimension.
   bool has_f = false, has_l = false;
@@ -54,7 +55,7 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
                      "faces or a 2D curve"));
   }
   const int dimension = has_l ? 2 : 3;
-  MeshBuilder builder(path, dimension);
+  MeshBuilder builder(path, dimension, &limits);
   TokenScanner scan(text, '#', /*continuation=*/true);
   absl::string_view tok;
   std::vector<int64_t> corners;

@@ -22,7 +22,8 @@ bool ReadCount(TokenScanner& scan, int64_t* out) {
 }  // namespace
 
 absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
-                                  const std::string& path) {
+                                  const std::string& path,
+                                  const ReadLimits& limits) {
   TokenScanner scan(text, '#');
   absl::string_view tok;
   if (!scan.Next(&tok) ||
@@ -55,7 +56,7 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
   if (absl::Status s = CheckDeclaredCount(path, "faces", nf, 8, left - 6 * nv);
       !s.ok())
     return s;
-  MeshBuilder builder(path, 3);
+  MeshBuilder builder(path, 3, &limits);
   builder.ReservePositions(nv);
   for (int64_t v = 0; v < nv; ++v) {
     double xyz[3];

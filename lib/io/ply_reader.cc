@@ -174,7 +174,8 @@ int64_t MinBytes(const Element& e, Format format) {
 }  // namespace
 
 absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
-                                  const std::string& path) {
+                                  const std::string& path,
+                                  const ReadLimits& limits) {
   // Header: lines up to end_header.
   size_t pos = 0;
   int64_t line_no = 0;
@@ -276,7 +277,7 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       return s;
     left -= e.count * min;
   }
-  MeshBuilder builder(path, 3);
+  MeshBuilder builder(path, 3, &limits);
   ValueSource in(data, body, format);
   in.set_header_lines(line_no + 1);
   const std::string fmt_name =

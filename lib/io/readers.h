@@ -19,12 +19,16 @@ namespace meshgauge::io {
 inline constexpr int64_t kMaxCornersPerRecord = 4096;
 
 absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
-                                  const std::string& path);
+                                  const std::string& path,
+                                  const ReadLimits& limits = {});
 absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
-                                  const std::string& path);
+                                  const std::string& path,
+                                  const ReadLimits& limits = {});
 absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
-                                  const std::string& path);
+                                  const std::string& path,
+                                  const ReadLimits& limits = {});
 absl::StatusOr<MeshFile> ParseStl(absl::string_view data,
-                                  const std::string& path);
+                                  const std::string& path,
+                                  const ReadLimits& limits = {});
 
 }  // namespace meshgauge::io

@@ -45,9 +45,9 @@ class Welder {
 };
 
 absl::StatusOr<MeshFile> ParseBinaryStl(absl::string_view data,
-                                        const std::string& path,
-                                        uint32_t count) {
-  MeshBuilder builder(path, 3);
+                                        const std::string& path, uint32_t count,
+                                        const ReadLimits& limits) {
+  MeshBuilder builder(path, 3, &limits);
   Welder welder(&builder);
   ByteReader in(data, 84, /*big_endian=*/false);
   for (uint32_t f = 0; f < count; ++f) {
@@ -78,8 +78,9 @@ absl::StatusOr<MeshFile> ParseBinaryStl(absl::string_view data,
 }
 
 absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
-                                       const std::string& path) {
-  MeshBuilder builder(path, 3);
+                                       const std::string& path,
+                                       const ReadLimits& limits) {
+  MeshBuilder builder(path, 3, &limits);
   Welder welder(&builder);
   TokenScanner scan(text);
   absl::string_view tok;
@@ -153,7 +154,8 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
 }  // namespace
 
 absl::StatusOr<MeshFile> ParseStl(absl::string_view data,
-                                  const std::string& path) {
+                                  const std::string& path,
+                                  const ReadLimits& limits) {
   if (data.size() >= 84) {
     uint32_t count;
     std::memcpy(&count, data.data() + 80, 4);
@@ -161,10 +163,10 @@ absl::StatusOr<MeshFile> ParseStl(absl::string_view data,
       if (count == 0) {
         return absl::InvalidArgumentError(absl::StrCat(path, ": no facets"));
       }
-      return ParseBinaryStl(data, path, count);
+      return ParseBinaryStl(data, path, count, limits);
     }
   }
-  if (data.substr(0, 5) == "solid") return ParseAsciiStl(data, path);
+  if (data.substr(0, 5) == "solid") return ParseAsciiStl(data, path, limits);
   uint32_t count = 0;
   if (data.size() >= 84) std::memcpy(&count, data.data() + 80, 4);
   return absl::InvalidArgumentError(absl::StrCat(

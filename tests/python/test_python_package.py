@@ -185,9 +185,31 @@ class PackageTest(unittest.TestCase):
             bad.flush()
             with self.assertRaises(InvalidArgumentError) as e:
                 self.client.session_from_file(bad.name)
-            self.assertIn("line 2", e.exception.details)
+            # Named by the user's file name, with its line.
+            self.assertIn(os.path.basename(bad.name) + ": line 2",
+                          e.exception.details)
         with self.assertRaises(ValueError):
             self.client.session_from_file(path.replace(".obj", ".3ds"))
+        with tempfile.TemporaryDirectory() as tmp:
+            fifo = os.path.join(tmp, "pipe.obj")
+            os.mkfifo(fifo)  # would block a reader forever
+            with self.assertRaises(ValueError):
+                self.client.session_from_file(fifo)
+
+    def test_a_file_session_is_re_created_from_the_bytes_it_sent(self):
+        tetra = (b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+                 b"f 1 3 2\nf 1 2 4\nf 2 3 4\nf 1 4 3\n")
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "tetra.obj")
+            with open(path, "wb") as f:
+                f.write(tetra)
+            with self.client.session_from_file(path) as s:
+                first = s.sdf().values
+                with open(path, "wb") as f:  # the file changes...
+                    f.write(tetra.replace(b"v 0 0 1", b"v 0 0 3"))
+                self.client.delete(s.session_id)  # ...and the server lost it
+                np.testing.assert_array_equal(s.sdf().values, first)
+                self.assertEqual(s.recreated, 1)
 
     def test_mesh_objects_with_polygons_and_the_repairs(self):
         hexagon = [(np.cos(k * np.pi / 3), np.sin(k * np.pi / 3))
@@ -215,6 +237,22 @@ class PackageTest(unittest.TestCase):
             self.assertGreater(s.info().signed_volume, 0)
             self.assertTrue(any("inward-oriented closed components reversed"
                                 in w for w in s.warnings))
+        # Indices are integers in int32 range, never truncated.
+        with self.assertRaises(ValueError):
+            self.client.session(vertices, [[0.9, 2.9, 1.9]] + faces[1:])
+        with self.assertRaises(ValueError):
+            self.client.session(vertices, [[0, 1, 2**31]] + faces[1:])
+
+        class Block:
+            def __init__(self, kind, data):
+                self.type, self.data = kind, data
+
+        class SecondOrder:  # meshio-like, with a quadratic triangle block
+            points = vertices
+            cells = [Block("triangle6", [[0, 1, 2, 6, 7, 8]])]
+
+        with self.assertRaises(ValueError):
+            self.client.session(SecondOrder())
         # A zero-area face (collinear corners): refused, or dropped when
         # asked.
         centre = np.vstack([vertices, [[0.0, 0.0, 0.0]]])

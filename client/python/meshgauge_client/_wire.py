@@ -76,10 +76,29 @@ def points(array: Any, name: str, rows: Optional[int] = None) -> FloatArray:
 MAX_POLYGON_CORNERS = 256
 
 
+def _indices(a: Any, what: str) -> "npt.NDArray[np.int64]":
+    """`a` as int64 vertex indices: integers (or floats holding integers)
+    in [0, 2**31 - 1]; anything else is a ValueError (never truncated)."""
+    if a.dtype.kind == "f":
+        if not np.all(np.isfinite(a)) or np.any(a != np.floor(a)):
+            raise ValueError(f"{what} holds indices that are not integers")
+    elif a.dtype.kind not in "iu":
+        raise ValueError(f"{what} must hold integer indices, got {a.dtype}")
+    if a.size and (a.min() < 0 or a.max() > 2**31 - 1):
+        raise ValueError(f"{what} holds indices outside [0, 2**31 - 1]")
+    out: "npt.NDArray[np.int64]" = a.astype(np.int64)
+    return out
+
+
 def faces_list(faces: Any, dimension: int) -> "list[npt.NDArray[np.int64]]":
     """Faces as int64 index arrays: 2 per segment (2D); 3 to 256 corners in
     3D (polygons of more than 4 are triangulated by the server)."""
-    out = [np.asarray(f, dtype=np.int64).ravel() for f in faces]
+    if isinstance(faces, np.ndarray) and faces.ndim == 2 and \
+            faces.dtype != object:
+        out = list(_indices(faces, "faces"))
+    else:
+        out = [_indices(np.asarray(f).ravel(), f"face {i}")
+               for i, f in enumerate(faces)]
     low, high = (2, 2) if dimension == 2 else (3, MAX_POLYGON_CORNERS)
     for i, f in enumerate(out):
         if not low <= len(f) <= high:
@@ -92,6 +111,8 @@ def faces_list(faces: Any, dimension: int) -> "list[npt.NDArray[np.int64]]":
     return out
 
 
+# meshio's linear surface cells (second-order ones such as triangle6 hold
+# edge midpoints, not corners).
 _MESHIO_SURFACE_CELLS = ("triangle", "quad", "line", "polygon")
 
 
@@ -104,7 +125,7 @@ def mesh_arrays(mesh: Any) -> Tuple[Any, Any]:
         faces: "list[Any]" = []
         for block in mesh.cells:
             kind = str(getattr(block, "type", None))
-            if not kind.startswith(_MESHIO_SURFACE_CELLS):
+            if kind not in _MESHIO_SURFACE_CELLS:
                 raise ValueError(f"meshio cell block of type {kind!r}: only "
                                  "triangle, quad, polygon and line cells are "
                                  "surfaces")

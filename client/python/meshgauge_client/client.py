@@ -1,7 +1,8 @@
 """MeshGaugeClient: one meshgauge server, numpy in, numpy out.
 
 Arrays: vertices (N, d) floats (d = 2 or 3); faces an (M, k) int array or a
-list of index sequences (k = 2 segments, 3 triangles, 4 quads). Every call
+list of index sequences (2 per segment in 2D; 3 to 256 corners in 3D,
+polygons triangulated by the server). Mesh files are read by the server. Every call
 of a session sends ``x-meshgauge-session`` (the balancer's routing key) and,
 with a token, ``authorization: Bearer <token>``. The channel retries
 UNAVAILABLE with exponential backoff and waits for the server to be ready.
@@ -9,6 +10,7 @@ UNAVAILABLE with exponential backoff and waits for the server to be ready.
 
 import json
 import os
+import stat
 import warnings
 import time
 import uuid
@@ -58,6 +60,15 @@ def mesh_crc32(vertices: Any, faces: Any, regions: Optional[Any] = None) -> int:
     if regions is not None:
         crc = zlib.crc32(np.asarray(regions, dtype="<i4").tobytes(), crc)
     return crc & 0xFFFFFFFF
+
+
+def _format_of(path: str) -> str:
+    """The mesh format of a file name ("obj", ...); ValueError otherwise."""
+    fmt = os.path.splitext(path)[1].lower().lstrip(".")
+    if fmt not in ("obj", "off", "ply", "stl"):
+        raise ValueError(f"{path}: the extension must be .obj, .off, .ply or "
+                         ".stl")
+    return fmt
 
 
 def _read(path: str) -> bytes:
@@ -214,16 +225,26 @@ class MeshGaugeClient:
         crc = mesh_crc32(v, face_list, regions)
 
         def chunks() -> Iterator[Any]:
-            n = max(len(v), len(face_list))
-            for b in range(0, n, self._chunk):
-                fs = face_list[b:b + self._chunk]
+            # Vertices `chunk` at a time; faces up to 4 * `chunk` indices at
+            # a time (polygons would otherwise make large messages).
+            for b in range(0, len(v), self._chunk):
+                yield pb.CreateSessionRequest.Chunk(
+                    positions=v[b:b + self._chunk].ravel())
+            b = 0
+            while b < len(face_list):
+                e, indices = b, 0
+                while e < len(face_list) and (
+                        e == b or indices + len(face_list[e]) <= 4 * self._chunk):
+                    indices += len(face_list[e])
+                    e += 1
+                fs = face_list[b:e]
                 chunk = pb.CreateSessionRequest.Chunk(
-                    positions=v[b:b + self._chunk].ravel(),
                     face_sizes=[len(f) for f in fs],
-                    face_indices=(np.concatenate(fs) if fs else []))
+                    face_indices=np.concatenate(fs))
                 if regions is not None:
-                    chunk.face_regions.extend(regions[b:b + self._chunk])
+                    chunk.face_regions.extend(regions[b:e])
                 yield chunk
+                b = e
 
         footer = pb.CreateSessionRequest.Footer(
             num_vertices=len(v), num_faces=len(face_list), crc32=crc)
@@ -238,23 +259,44 @@ class MeshGaugeClient:
         the server's readers exactly as the CLI reads it (BOM, polygons,
         regions from OBJ groups); returns its SessionInfo, whose warnings
         name what the reader and the repairs did. The file may be at most
-        the server's max_upload_file_bytes (ServerInfo)."""
+        the server's max_upload_file_bytes (ServerInfo); it is checked, as a
+        regular file, before it is read."""
+        name, data = self._read_mesh_file(path)
+        return self.upload_file_bytes(
+            name, data, session_id, outward_regions, reorient=reorient,
+            drop_degenerate_faces=drop_degenerate_faces)
+
+    def _read_mesh_file(self, path: "str | os.PathLike[str]"
+                        ) -> Tuple[str, bytes]:
+        """(the file's name, its bytes), checked before reading."""
         path = os.fspath(path)
-        fmt = os.path.splitext(path)[1].lower().lstrip(".")
-        if fmt not in ("obj", "off", "ply", "stl"):
-            raise ValueError(f"{path}: the extension must be .obj, .off, .ply "
-                             "or .stl")
-        data = _read(path)
-        if not data:
+        _format_of(path)
+        st = os.stat(path)
+        if not stat.S_ISREG(st.st_mode):
+            raise ValueError(f"{path}: not a regular file")
+        if st.st_size == 0:
             raise ValueError(f"{path}: the file is empty")
         info = self.server_info()
-        if info is not None and len(data) > info.max_upload_file_bytes > 0:
+        if info is not None and st.st_size > info.max_upload_file_bytes > 0:
             raise ValueError(
-                f"{path}: {len(data)} bytes exceed this server's limit of "
-                f"{info.max_upload_file_bytes} (--max_upload_file_bytes)")
+                f"{path}: {st.st_size} bytes exceed this server's limit of "
+                f"{info.max_upload_file_bytes} bytes for a file "
+                "(--max_upload_file_bytes, or 1/8 of its memory budget)")
+        return os.path.basename(path), _read(path)
+
+    def upload_file_bytes(self, name: str, data: bytes,
+                          session_id: Optional[str] = None,
+                          outward_regions: Sequence[int] = (), *,
+                          reorient: bool = False,
+                          drop_degenerate_faces: bool = False) -> SessionInfo:
+        """upload_file() of a file's bytes; `name` gives the format by its
+        extension and names the file in the server's messages."""
+        fmt = _format_of(name)
+        if not data:
+            raise ValueError(f"{name}: the file is empty")
         header = self._header(session_id, outward_regions, reorient,
                               drop_degenerate_faces, file_format=fmt,
-                              file_bytes=len(data))
+                              file_bytes=len(data), file_name=name[-256:])
         step = max(self._chunk * 8, 1 << 16)
 
         def chunks() -> Iterator[Any]:
@@ -333,13 +375,16 @@ class MeshGaugeClient:
                           reorient: bool = False,
                           drop_degenerate_faces: bool = False) -> "Session":
         """upload_file() as a Session; its positions and faces are the
-        server's reading of the file (fetched once with mesh())."""
+        server's reading of the file (fetched once with mesh()). The file's
+        bytes are kept: a session the server lost is re-created from them,
+        whatever happened to the file since."""
         from meshgauge_client.session import Session
+        name, data = self._read_mesh_file(path)
 
         def create(sid: Optional[str]) -> SessionInfo:
-            return self.upload_file(path, sid, outward_regions,
-                                    reorient=reorient,
-                                    drop_degenerate_faces=drop_degenerate_faces)
+            return self.upload_file_bytes(
+                name, data, sid, outward_regions, reorient=reorient,
+                drop_degenerate_faces=drop_degenerate_faces)
 
         return Session(self, create, session_id)
 

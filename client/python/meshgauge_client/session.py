@@ -47,7 +47,11 @@ class Session:
         self.warnings: Tuple[str, ...] = info.warnings
         self.recreated = 0  # how often the server lost it and it came back.
         if mesh is None:
-            data = client.mesh(self.session_id)
+            try:
+                data = client.mesh(self.session_id)
+            except BaseException:
+                self.close()
+                raise
             mesh = (data.vertices, data.faces)
         self._original = mesh[0].copy()
         self._faces = list(mesh[1])
