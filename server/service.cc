@@ -352,9 +352,10 @@ grpc::Status MeshGaugeService::UpdatePositions(
         }
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());
-        auto outcome = store_->UpdatePositions(tenant, request->session_id(),
-                                               request->expected_generation(),
-                                               indices, *points);
+        auto outcome =
+            store_->UpdatePositions(tenant, *session,
+                                    request->expected_generation(), indices,
+                                    *points);
         if (!outcome.ok()) return outcome.status();
         response->set_generation(outcome->generation);
         response->set_refit(outcome->refit);

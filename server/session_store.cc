@@ -380,12 +380,11 @@ absl::Status SessionStore::Delete(const std::string& tenant,
 }
 
 absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
-    const std::string& tenant, const std::string& id,
+    const std::string& tenant, const std::shared_ptr<Session>& session,
     int64_t expected_generation, const std::vector<int32_t>& indices,
     const std::vector<Vec3>& positions) {
-  auto session = Get(tenant, id);
-  if (!session.ok()) return session.status();
-  Session& s = **session;
+  Session& s = *session;
+  const std::string& id = s.id();
   if (!records_) {
     return s.UpdatePositions(expected_generation, indices, positions);
   }

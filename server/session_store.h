@@ -103,11 +103,13 @@ class SessionStore {
                                                bool touch = true);
   absl::Status Delete(const std::string& tenant, const std::string& id);
 
-  // Moves the session's vertices (all when indices is empty); with records,
-  // the generation compare-and-set happens in the record first. Errors:
-  // ABORTED (generation), INVALID_ARGUMENT (positions, indices), NOT_FOUND.
+  // Moves the vertices (all when indices is empty) of `session`, which Get
+  // returned for `tenant` (one lookup per call); with records, the
+  // generation and incarnation compare-and-set happens in the record first.
+  // Errors: ABORTED (generation, incarnation), INVALID_ARGUMENT (positions,
+  // indices), NOT_FOUND.
   absl::StatusOr<UpdateOutcome> UpdatePositions(
-      const std::string& tenant, const std::string& id,
+      const std::string& tenant, const std::shared_ptr<Session>& session,
       int64_t expected_generation, const std::vector<int32_t>& indices,
       const std::vector<Vec3>& positions);
 

@@ -277,8 +277,10 @@ TEST_F(RedisStoreTest, AnUpdateSizedForAnotherIncarnationIsRefusedAtTheStore) {
   const Mesh sphere = MakeIcosphere(1.0, 8);
   ASSERT_GT(sphere.num_vertices(), knight.num_vertices());
   ASSERT_TRUE(a_->client->Upload(knight, "sized").ok());
-  auto update =
-      a_->server->store().UpdatePositions("", "sized", 0, {}, sphere.positions);
+  auto session = a_->server->store().Get("", "sized");
+  ASSERT_TRUE(session.ok()) << session.status();
+  auto update = a_->server->store().UpdatePositions("", *session, 0, {},
+                                                    sphere.positions);
   EXPECT_EQ(Code(update), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(update.status().message()),
               HasSubstr("expected 502 (one per vertex of the session)"));
@@ -286,6 +288,18 @@ TEST_F(RedisStoreTest, AnUpdateSizedForAnotherIncarnationIsRefusedAtTheStore) {
       b_->client->ComputeSdf("sized", SdfParams{}, {.expected_generation = 0});
   ASSERT_TRUE(read.ok()) << read.status();
   EXPECT_EQ(std::ssize(read->result.values), knight.num_vertices());
+}
+
+// An update costs one lookup and one compare-and-set in Redis: the
+// service passes the session it found to the store (it looked it up twice).
+TEST_F(RedisStoreTest, AnUpdateIsOneLookupAndOneCommit) {
+  const Mesh knight = Knight();
+  ASSERT_TRUE(a_->client->Upload(knight, "one").ok());
+  ASSERT_TRUE(a_->client->Get("one").ok());  // cached on a.
+  const int64_t before = redis_.ScriptCalls();
+  auto update = a_->client->UpdatePositions("one", 0, 3, knight.positions);
+  ASSERT_TRUE(update.ok()) << update.status();
+  EXPECT_EQ(redis_.ScriptCalls() - before, 2);
 }
 
 // Delete and re-create races under load: one client keeps deleting s1 and

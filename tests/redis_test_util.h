@@ -83,6 +83,28 @@ class RedisProcess {
     if (c) redisFree(c);
     return ok;
   }
+  // Calls of EVAL and EVALSHA so far (INFO commandstats): the store's round
+  // trips, each a script.
+  int64_t ScriptCalls() const {
+    timeval tv{1, 0};
+    redisContext* c = redisConnectWithTimeout("127.0.0.1", port_, tv);
+    int64_t n = 0;
+    if (c && !c->err) {
+      auto* r = static_cast<redisReply*>(redisCommand(c, "INFO commandstats"));
+      if (r && r->type == REDIS_REPLY_STRING) {
+        const std::string info(r->str, r->len);
+        for (const std::string key : {"cmdstat_eval:calls=",
+                                      "cmdstat_evalsha:calls="}) {
+          if (auto at = info.find(key); at != std::string::npos) {
+            n += std::stoll(info.substr(at + key.size()));
+          }
+        }
+      }
+      if (r) freeReplyObject(r);
+    }
+    if (c) redisFree(c);
+    return n;
+  }
 
  private:
   int port_;
