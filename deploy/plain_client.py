@@ -30,12 +30,14 @@ import zlib
 import grpc
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-RETRY = json.dumps({"methodConfig": [{
-    "name": [{"service": "meshgauge.v1.MeshGauge"}],
-    "waitForReady": True,
-    "retryPolicy": {"maxAttempts": 5, "initialBackoff": "0.2s",
-                    "maxBackoff": "3s", "backoffMultiplier": 2.5,
-                    "retryableStatusCodes": ["UNAVAILABLE"]}}]})
+# The retry policy every client uses, from the proto's directory; this
+# client also waits for the channel to be ready.
+with open(os.path.join(ROOT, "proto", "meshgauge", "v1",
+                       "service_config.json")) as _f:
+    _CONFIG = json.load(_f)
+for _method in _CONFIG["methodConfig"]:
+    _method["waitForReady"] = True
+RETRY = json.dumps(_CONFIG)
 
 
 def stubs():

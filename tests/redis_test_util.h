@@ -52,9 +52,9 @@ class RedisProcess {
     pid_ = fork();
     if (pid_ == 0) {
       const std::string port = std::to_string(port_);
-      execlp("redis-server", "redis-server", "--port", port.c_str(),
-             "--bind", "127.0.0.1", "--dir", dir_.c_str(), "--appendonly",
-             "yes", "--appendfsync", "always", "--save", "", "--logfile",
+      execlp("redis-server", "redis-server", "--port", port.c_str(), "--bind",
+             "127.0.0.1", "--dir", dir_.c_str(), "--appendonly", "yes",
+             "--appendfsync", "always", "--save", "", "--logfile",
              (dir_ + "/redis.log").c_str(), static_cast<char*>(nullptr));
       _exit(127);
     }
@@ -93,8 +93,8 @@ class RedisProcess {
       auto* r = static_cast<redisReply*>(redisCommand(c, "INFO commandstats"));
       if (r && r->type == REDIS_REPLY_STRING) {
         const std::string info(r->str, r->len);
-        for (const std::string key : {"cmdstat_eval:calls=",
-                                      "cmdstat_evalsha:calls="}) {
+        for (const std::string key :
+             {"cmdstat_eval:calls=", "cmdstat_evalsha:calls="}) {
           if (auto at = info.find(key); at != std::string::npos) {
             n += std::stoll(info.substr(at + key.size()));
           }

@@ -6,8 +6,11 @@
 
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <limits>
+#include <sstream>
 
+#include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
 #include "tests/test_util.h"
 
@@ -287,6 +290,24 @@ TEST(WireTest, ThinRequestRejectsANegativeSpeckAreaAndTooManyRegions) {
   r.set_max_thin_regions(-1);
   EXPECT_EQ(wire::ThinFromWire(r).status().code(),
             absl::StatusCode::kInvalidArgument);
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// The C++ client compiles in the one service config file the Python client
+// ships: the same bytes.
+TEST(ServiceConfigTest, TheCompiledConfigIsTheFileNextToTheProto) {
+  std::ifstream in(std::string(MESHGAUGE_SOURCE_DIR) +
+                   "/proto/meshgauge/v1/service_config.json");
+  std::stringstream file;
+  file << in.rdbuf();
+  ASSERT_FALSE(file.str().empty());
+  EXPECT_EQ(std::string(v1::kServiceConfigJson), file.str());
+  EXPECT_NE(file.str().find("\"retryPolicy\""), std::string::npos);
 }
 
 }  // namespace

@@ -1,8 +1,10 @@
 """Generates the meshgauge.v1 Python stubs from proto/ into a package folder
 (meshgauge_client/_proto), with Debian's protoc and grpc_python_plugin, and
 makes their imports relative so that no top-level ``meshgauge`` package is
-created or needed; writes meshgauge_client/_version.py from the source
-tree's VERSION (the one release version of every part).
+created or needed; copies the clients' service config (retries,
+proto/meshgauge/v1/service_config.json) beside them; writes
+meshgauge_client/_version.py from the source tree's VERSION (the one
+release version of every part).
 
     python3 gen_stubs.py OUT_DIR [PROTO_DIR]
 """
@@ -15,6 +17,7 @@ import sys
 HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_PROTO = os.path.join(HERE, "..", "..", "proto")
 PROTO = "meshgauge/v1/meshgauge.proto"
+SERVICE_CONFIG = "meshgauge/v1/service_config.json"
 
 
 def generate(out_dir: str, proto_dir: str = DEFAULT_PROTO) -> None:
@@ -41,6 +44,8 @@ def generate(out_dir: str, proto_dir: str = DEFAULT_PROTO) -> None:
         f.write(text)
     for package in (out_dir, os.path.join(out_dir, "meshgauge"), v1):
         open(os.path.join(package, "__init__.py"), "a").close()
+    shutil.copyfile(os.path.join(proto_dir, SERVICE_CONFIG),
+                    os.path.join(out_dir, "service_config.json"))
     with open(os.path.join(os.path.dirname(os.path.abspath(out_dir)),
                            "_version.py"), "w") as f:
         f.write('"""Generated from VERSION by gen_stubs.py."""\n\n'

@@ -12,6 +12,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "lib/io/text_file.h"
+#include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
 
 namespace meshgauge::client {
@@ -51,24 +52,11 @@ std::string NewSessionId() {
       0x8000 | ((lo >> 48) & 0x3fff), lo & 0xffffffffffffull);
 }
 
-const char kRetryServiceConfig[] = R"json({
-  "methodConfig": [{
-    "name": [{"service": "meshgauge.v1.MeshGauge"}],
-    "retryPolicy": {
-      "maxAttempts": 5,
-      "initialBackoff": "0.2s",
-      "maxBackoff": "3s",
-      "backoffMultiplier": 2.5,
-      "retryableStatusCodes": ["UNAVAILABLE"]
-    }
-  }]
-})json";
-
 RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
     : options_(options) {
   grpc::ChannelArguments args;
   if (options.retry) {
-    args.SetServiceConfigJSON(kRetryServiceConfig);
+    args.SetServiceConfigJSON(v1::kServiceConfigJson);
     args.SetInt(GRPC_ARG_ENABLE_RETRIES, 1);
   }
   const int max_bytes =

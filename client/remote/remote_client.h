@@ -36,7 +36,8 @@ struct ClientOptions {
   // by this CA (PEM text, not a path); with tls_cert_pem and tls_key_pem the
   // client presents its own (mutual TLS).
   std::string tls_ca_pem, tls_cert_pem, tls_key_pem;
-  // The channel's service config (kRetryServiceConfig): UNAVAILABLE (a
+  // The channel's service config (proto/meshgauge/v1/service_config.json,
+  // shared with the Python client): UNAVAILABLE (a
   // replica down, draining or restarting, Redis restarting) is retried up
   // to 5 attempts with exponential backoff (0.2 s to 3 s). UpdatePositions
   // is safe to retry: the server recognises an update it already applied
@@ -49,9 +50,6 @@ struct ClientOptions {
   // deadline, as gRPC's own waitForReady would on a dead server.
   double connect_timeout_seconds = 20;
 };
-
-// The retry policy of ClientOptions::retry (gRPC service config JSON).
-extern const char kRetryServiceConfig[];
 
 // A random (version 4) UUID: the id a client gives a session when the
 // caller names none, so that every call, the upload included, carries its

@@ -5,6 +5,7 @@ survives a server restart in the middle of an optimisation with the same
 result as an undisturbed run."""
 
 import dataclasses
+import json
 import os
 import re
 import shutil
@@ -263,6 +264,13 @@ class PackageTest(unittest.TestCase):
         with self.client.session(centre, flat,
                                  drop_degenerate_faces=True) as s:
             self.assertEqual(s.info().num_faces, 14)
+
+    def test_the_retry_policy_is_the_file_next_to_the_proto(self):
+        from meshgauge_client import client as client_module
+        with open(os.path.join(SOURCE, "proto", "meshgauge", "v1",
+                               "service_config.json")) as f:
+            self.assertEqual(json.loads(client_module._SERVICE_CONFIG),
+                             json.load(f))
 
     def test_mypy_strict_is_clean(self):
         mypy = shutil.which("mypy", path="/usr/bin")

@@ -38,13 +38,13 @@ if TYPE_CHECKING:
 SESSION_KEY = "x-meshgauge-session"
 T = TypeVar("T")
 
-# Transparent retries of UNAVAILABLE (a restarting or draining server).
-_SERVICE_CONFIG = json.dumps({"methodConfig": [{
-    "name": [{"service": "meshgauge.v1.MeshGauge"}],
-    "waitForReady": True,
-    "retryPolicy": {"maxAttempts": 5, "initialBackoff": "0.1s",
-                    "maxBackoff": "2s", "backoffMultiplier": 2,
-                    "retryableStatusCodes": ["UNAVAILABLE"]}}]})
+# Transparent retries of UNAVAILABLE (a restarting or draining server): the
+# service config the C++ client uses too (proto/meshgauge/v1/
+# service_config.json, shipped beside the stubs). Calls also wait for the
+# channel to be ready (wait_for_ready=True on each).
+with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "_proto",
+                       "service_config.json")) as _f:
+    _SERVICE_CONFIG = json.dumps(json.load(_f))
 
 
 def mesh_crc32(vertices: Any, faces: Any, regions: Optional[Any] = None) -> int:
