@@ -19,6 +19,7 @@ namespace meshgauge {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::RawUpload;
 using testing::SameBits;
 
 Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
@@ -281,19 +282,6 @@ TEST_F(ServerTest, MessageSizeLimitIsEnforced) {
   auto r = c.Upload(MakeIcosphere(1, 10), "x");
   EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted)
       << r.status();
-}
-
-// Sends raw CreateSession messages.
-absl::StatusOr<v1::SessionInfo> RawUpload(
-    client::RemoteClient& c,
-    const std::vector<v1::CreateSessionRequest>& msgs) {
-  auto ctx = c.Context("raw");
-  v1::CreateSessionResponse response;
-  auto w = c.stub().CreateSession(ctx.get(), &response);
-  for (const auto& m : msgs) w->Write(m);
-  w->WritesDone();
-  if (absl::Status s = wire::FromGrpc(w->Finish()); !s.ok()) return s;
-  return response.session();
 }
 
 std::vector<v1::CreateSessionRequest> TriangleUpload(uint32_t crc) {

@@ -5,8 +5,10 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "client/remote/remote_client.h"
+#include "proto/wire/convert.h"
 #include "server/server.h"
 #include "tests/fake_clock.h"
 
@@ -44,5 +46,19 @@ class ServerFixture : public ::testing::Test {
   std::string target_;
   std::unique_ptr<client::RemoteClient> client_;
 };
+
+// Streams raw CreateSession messages (headers, chunks and footers as a
+// test writes them) and returns the server's reply.
+inline absl::StatusOr<v1::SessionInfo> RawUpload(
+    client::RemoteClient& c,
+    const std::vector<v1::CreateSessionRequest>& msgs) {
+  auto ctx = c.Context("raw");
+  v1::CreateSessionResponse response;
+  auto w = c.stub().CreateSession(ctx.get(), &response);
+  for (const auto& m : msgs) w->Write(m);
+  w->WritesDone();
+  if (absl::Status s = wire::FromGrpc(w->Finish()); !s.ok()) return s;
+  return response.session();
+}
 
 }  // namespace meshgauge::testing

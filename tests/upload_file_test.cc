@@ -32,13 +32,7 @@ class UploadFileTest : public testing::ServerFixture {
   // Streams `msgs` as one CreateSession.
   absl::StatusOr<v1::SessionInfo> Upload(
       const std::vector<v1::CreateSessionRequest>& msgs) {
-    auto ctx = client_->Context("up");
-    v1::CreateSessionResponse response;
-    auto w = client_->stub().CreateSession(ctx.get(), &response);
-    for (const auto& m : msgs) w->Write(m);
-    w->WritesDone();
-    if (absl::Status s = wire::FromGrpc(w->Finish()); !s.ok()) return s;
-    return response.session();
+    return testing::RawUpload(*client_, msgs);
   }
   absl::StatusOr<v1::GetMeshResponse> GetMesh(const std::string& id) {
     auto ctx = client_->Context(id);
