@@ -272,6 +272,18 @@ class PackageTest(unittest.TestCase):
             self.assertEqual(json.loads(client_module._SERVICE_CONFIG),
                              json.load(f))
 
+    def test_the_readme_file_example_runs(self):
+        with open(os.path.join(SOURCE, "README.md")) as f:
+            snippet = re.search(r"```python\n(.*?session_from_file.*?)```",
+                                f.read(), re.S).group(1)
+        snippet = snippet.replace("127.0.0.1:50051", self.server.target)
+        snippet = snippet.replace(
+            '"part.obj"', repr(os.path.join(SHARED, "meshes", "fandisk.obj")))
+        p = subprocess.run([sys.executable, "-c", snippet],
+                           capture_output=True, text=True, timeout=120)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        self.assertRegex(p.stdout, r"\) [0-9.e+-]+\n$")
+
     def test_mypy_strict_is_clean(self):
         mypy = shutil.which("mypy", path="/usr/bin")
         self.assertIsNotNone(mypy, "Debian's mypy is needed (install_deps)")
