@@ -1,7 +1,8 @@
-"""A plain gRPC client of the stack, written from the proto alone.
+"""A plain gRPC client of the stack, written from the proto directory alone.
 
 Stubs are generated from proto/meshgauge/v1/meshgauge.proto into a temporary
-directory (protoc, grpc_python_plugin); no meshgauge package is used. Its only fault
+directory (protoc, grpc_python_plugin), and the retry policy is the service
+config beside it; no meshgauge package is used. Its only fault
 handling is gRPC's retry policy for UNAVAILABLE. It keeps one session per
 --sessions, named by itself (so every call carries x-meshgauge-session),
 and loops UpdatePositions -> ComputeSdf until SIGTERM, then prints its

@@ -89,13 +89,16 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
                                 " faces (each face has ", min_corners, " to ",
                                 max_corners, " corners; 0: at most 4)"));
   }
-  // Polygons become n - 2 triangles each.
-  if (const int64_t triangles = h.num_face_indices() - 2 * h.num_faces();
-      triangles > options_.max_faces) {
+  // Polygons become n - 2 triangles each, triangles and quads stay: the
+  // fewest faces these indices make.
+  if (const int64_t faces =
+          h.num_faces() +
+          std::max<int64_t>(0, h.num_face_indices() - 4 * h.num_faces());
+      faces > options_.max_faces) {
     return absl::ResourceExhaustedError(
-        absl::StrCat("CreateSession: the polygons make ", triangles,
-                     " triangles, over the limit of ", options_.max_faces,
-                     " faces per session (--max_faces)"));
+        absl::StrCat("CreateSession: the polygons make at least ", faces,
+                     " faces once triangulated, over the limit of ",
+                     options_.max_faces, " faces per session (--max_faces)"));
   }
   dimension_ = h.dimension();
   declared_vertices_ = h.num_vertices();
@@ -124,11 +127,12 @@ absl::Status MeshAssembler::FileHeader(
     return Invalid(absl::StrCat("header.file_bytes must be positive, got ",
                                 h.file_bytes()));
   }
-  if (h.file_bytes() > options_.max_upload_file_bytes) {
+  if (const int64_t limit = MaxUploadFileBytes(options_);
+      h.file_bytes() > limit) {
     return absl::ResourceExhaustedError(absl::StrCat(
         "CreateSession: a file of ", h.file_bytes(),
-        " bytes exceeds the limit of ", options_.max_upload_file_bytes,
-        " bytes (--max_upload_file_bytes)"));
+        " bytes exceeds the limit of ", limit,
+        " bytes (--max_upload_file_bytes, and 1/8 of the memory budget)"));
   }
   if (h.file_name().size() > 256) {
     return Invalid("header.file_name is longer than 256 bytes");
@@ -343,10 +347,14 @@ absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays(
   }
   if (absl::Status s = CheckCrc(); !s.ok()) return s;
   io::MeshBuilder builder("CreateSession", dimension_, &limits);
-  builder.ReservePositions(vertices);
+  if (absl::Status s = builder.ReservePositions(vertices); !s.ok()) return s;
   for (int64_t v = 0; v < vertices; ++v) {
     const double* x = coords_.data() + v * dimension_;
-    builder.AddVertex({x[0], x[1], dimension_ == 3 ? x[2] : 0.0});
+    if (absl::Status s =
+            builder.AddVertex({x[0], x[1], dimension_ == 3 ? x[2] : 0.0});
+        !s.ok()) {
+      return s;
+    }
   }
   std::vector<double>().swap(coords_);
   std::vector<int64_t> corners;

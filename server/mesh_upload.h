@@ -11,6 +11,7 @@
 #include <grpcpp/support/status.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <map>
 #include <string>
 #include <vector>
@@ -39,9 +40,16 @@ struct UploadMessage {
   v1::CreateSessionRequest request;
 };
 
-// Bytes an upload of a mesh file may hold per file byte while it arrives
-// and is read (see MeshAssembler::EstimatedBytes).
+// Bytes reserved per declared file byte before a file upload's data: the
+// file and a start for the reader, which reserves more as it needs it.
 inline constexpr int64_t kFileReadFactor = 8;
+
+// The largest file upload: --max_upload_file_bytes, and what the tenant's
+// budget can reserve (GetServerInfo reports it).
+inline int64_t MaxUploadFileBytes(const ServerOptions& options) {
+  return std::min(options.max_upload_file_bytes,
+                  options.BudgetPerTenant() / kFileReadFactor);
+}
 
 // The polygon fallback work (corners³ summed, about 1 ns each) an upload
 // may cost: about 4 s.
@@ -67,15 +75,12 @@ class MeshAssembler {
   bool file_upload() const { return !file_format_.empty(); }
   // The repairs the header asks for.
   RepairOptions repairs() const { return repairs_; }
-  // After the header: the bytes the upload will hold at most while it
-  // arrives and is read (a file upload's mesh is measured after Finish).
+  // After the header: the bytes to reserve before the data (arrays: the
+  // session they make; a file: kFileReadFactor per byte).
   int64_t EstimatedBytes() const;
   // Bytes that arrived and are held (the arrays, the file's bytes), with
   // the mesh the arrays will make.
   int64_t bytes_held() const;
-  // What the file upload's messages name the file (its header's file_name,
-  // or "uploaded file.FORMAT").
-  const std::string& file_name() const { return file_name_; }
 
  private:
   absl::Status Header(const v1::CreateSessionRequest::Header& h);

@@ -242,10 +242,11 @@ absl::Status MeshGaugeService::ReceiveUpload(
     }
   }
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
-  // The mesh is built within the server's limits, stopping when the caller
-  // is gone. A file's reader reserves what it holds beyond the header's
-  // estimate as it grows (a file's size says little about its mesh);
-  // arrays were reserved by their declared counts.
+  // The mesh is built within the server's limits, stopping (between
+  // polygons, and every 65,536 faces) when the caller is gone. A file's reader
+  // reserves what it holds beyond the header's estimate as it grows (a file's
+  // size says little about its mesh); arrays were reserved by their declared
+  // counts.
   const int64_t buffered = assembler.bytes_held();
   io::ReadLimits limits{.max_vertices = options_.max_vertices,
                         .max_faces = options_.max_faces,
@@ -352,10 +353,8 @@ grpc::Status MeshGaugeService::UpdatePositions(
         }
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());
-        auto outcome =
-            store_->UpdatePositions(tenant, *session,
-                                    request->expected_generation(), indices,
-                                    *points);
+        auto outcome = store_->UpdatePositions(
+            tenant, *session, request->expected_generation(), indices, *points);
         if (!outcome.ok()) return outcome.status();
         response->set_generation(outcome->generation);
         response->set_refit(outcome->refit);
@@ -582,9 +581,7 @@ grpc::Status MeshGaugeService::GetServerInfo(
         response->set_max_message_bytes(options_.max_message_bytes);
         response->set_max_upload_message_bytes(
             options_.max_upload_message_bytes);
-        response->set_max_upload_file_bytes(
-            std::min(options_.max_upload_file_bytes,
-                     options_.BudgetPerTenant() / kFileReadFactor));
+        response->set_max_upload_file_bytes(MaxUploadFileBytes(options_));
         response->set_max_sessions(options_.SessionsPerTenant());
         response->set_memory_budget_bytes(options_.BudgetPerTenant());
         return absl::OkStatus();

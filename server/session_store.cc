@@ -438,9 +438,12 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
   }
   auto outcome = s.UpdatePositions(expected_generation, {}, all);
   if (!outcome.ok()) {
-    // The record moved on; this cache entry is stale.
+    // The record moved on; this cache entry (if still this one) is stale.
     std::lock_guard<std::mutex> lock(mu_);
-    sessions_.erase({tenant, id});
+    if (auto it = sessions_.find({tenant, id});
+        it != sessions_.end() && it->second == session) {
+      sessions_.erase(it);
+    }
   }
   return outcome;
 }

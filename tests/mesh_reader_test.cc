@@ -386,3 +386,33 @@ TEST(ReadLimitsTest, EachLimitStopsTheReaderWithItsCause) {
 
 }  // namespace
 }  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// A count a file declares is checked against the limits before the reader
+// reserves room for it.
+TEST(ReadLimitsTest, ADeclaredVertexCountIsCheckedBeforeItIsReserved) {
+  std::vector<int64_t> reported;
+  io::ReadLimits limits{.max_vertices = 3, .reserve = [&](int64_t bytes) {
+                          reported.push_back(bytes);
+                          return absl::OkStatus();
+                        }};
+  auto off = ParseMeshContents(
+      "OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+      "3 0 1 2\n",
+      ".off", "t.off", limits);
+  EXPECT_EQ(off.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(off.status().message()),
+              HasSubstr("3 vertices (max_vertices)"));
+  limits.max_vertices = io::ReadLimits::kNone;
+  ASSERT_TRUE(ParseMeshContents("OFF\n4 1 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                                "3 0 1 2\n",
+                                ".off", "t.off", limits)
+                  .ok());
+  ASSERT_FALSE(reported.empty());
+  EXPECT_GE(reported.front(), 4 * int64_t{sizeof(Vec3)});
+}
+
+}  // namespace
+}  // namespace meshgauge

@@ -74,6 +74,39 @@ std::vector<v1::CreateSessionRequest> FileUpload(const std::string& contents,
   return m;
 }
 
+// Arrays: header, one chunk, footer.
+std::vector<v1::CreateSessionRequest> ArraysUpload(
+    const Mesh& mesh, const std::vector<std::vector<int>>& faces,
+    bool declare_indices, bool reorient = false, bool drop = false) {
+  std::vector<v1::CreateSessionRequest> m(3);
+  auto* h = m[0].mutable_header();
+  h->set_session_id("up");
+  h->set_dimension(3);
+  h->set_num_vertices(mesh.num_vertices());
+  h->set_num_faces(std::ssize(faces));
+  h->set_reorient(reorient);
+  h->set_drop_degenerate_faces(drop);
+  auto* c = m[1].mutable_chunk();
+  wire::AppendFlattened(mesh.positions, 3, c->mutable_positions());
+  int64_t indices = 0;
+  for (const auto& f : faces) {
+    c->add_face_sizes(std::ssize(f));
+    for (int v : f) c->add_face_indices(v);
+    indices += std::ssize(f);
+  }
+  if (declare_indices) h->set_num_face_indices(indices);
+  uLong crc = crc32(0, reinterpret_cast<const Bytef*>(c->positions().data()),
+                    c->positions_size() * 8);
+  crc = crc32(crc, reinterpret_cast<const Bytef*>(c->face_sizes().data()),
+              c->face_sizes_size() * 4);
+  crc = crc32(crc, reinterpret_cast<const Bytef*>(c->face_indices().data()),
+              c->face_indices_size() * 4);
+  m[2].mutable_footer()->set_num_vertices(mesh.num_vertices());
+  m[2].mutable_footer()->set_num_faces(std::ssize(faces));
+  m[2].mutable_footer()->set_crc32(static_cast<uint32_t>(crc));
+  return m;
+}
+
 // The mesh of a GetMesh reply.
 Mesh FromWire(const v1::GetMeshResponse& r) {
   Mesh m;
@@ -211,7 +244,33 @@ TEST_F(UploadFileTest, PolygonsOverTheFaceLimitAreRefusedAtTheHeader) {
   auto r = Upload(m);
   EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(r.status().message()),
-              HasSubstr("make 254 triangles"));
+              HasSubstr("make at least 253 faces"));
+  // Quads stay quads: 100 quads with their indices declared fit 100 faces.
+  std::vector<std::vector<int>> quads;
+  Mesh strip;
+  for (int i = 0; i <= 100; ++i) {
+    strip.positions.push_back({double(i), 0, 0});
+    strip.positions.push_back({double(i), 1, 0});
+  }
+  for (int i = 0; i < 100; ++i) {
+    quads.push_back({2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1});
+  }
+  auto fits = Upload(ArraysUpload(strip, quads, /*declare_indices=*/true));
+  EXPECT_TRUE(fits.ok()) << fits.status();
+}
+
+// The file limit is also what the budget can reserve (8 bytes per byte),
+// refused at the header as GetServerInfo reports it.
+TEST_F(UploadFileTest, AFileOverAnEighthOfTheBudgetIsRefusedAtTheHeader) {
+  server::ServerOptions o;
+  o.memory_budget_bytes = 1 << 20;
+  RestartServer(o);
+  auto msgs = FileUpload(std::string(200'000, ' '), "obj");
+  msgs.resize(1);
+  auto r = Upload(msgs);
+  EXPECT_EQ(r.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(r.status().message()),
+              HasSubstr("exceeds the limit of 131072 bytes"));
 }
 
 // Eviction makes room only for file bytes that arrived: the first bytes
@@ -253,39 +312,6 @@ TEST_F(UploadFileTest, AFileWhoseMeshExceedsTheBudgetIsRefusedAfterReading) {
       << r.status();
   EXPECT_THAT(std::string(r.status().message()), HasSubstr("memory budget"));
   EXPECT_EQ(client_->List()->size(), 0u);
-}
-
-// Arrays: header, one chunk, footer.
-std::vector<v1::CreateSessionRequest> ArraysUpload(
-    const Mesh& mesh, const std::vector<std::vector<int>>& faces,
-    bool declare_indices, bool reorient = false, bool drop = false) {
-  std::vector<v1::CreateSessionRequest> m(3);
-  auto* h = m[0].mutable_header();
-  h->set_session_id("up");
-  h->set_dimension(3);
-  h->set_num_vertices(mesh.num_vertices());
-  h->set_num_faces(std::ssize(faces));
-  h->set_reorient(reorient);
-  h->set_drop_degenerate_faces(drop);
-  auto* c = m[1].mutable_chunk();
-  wire::AppendFlattened(mesh.positions, 3, c->mutable_positions());
-  int64_t indices = 0;
-  for (const auto& f : faces) {
-    c->add_face_sizes(std::ssize(f));
-    for (int v : f) c->add_face_indices(v);
-    indices += std::ssize(f);
-  }
-  if (declare_indices) h->set_num_face_indices(indices);
-  uLong crc = crc32(0, reinterpret_cast<const Bytef*>(c->positions().data()),
-                    c->positions_size() * 8);
-  crc = crc32(crc, reinterpret_cast<const Bytef*>(c->face_sizes().data()),
-              c->face_sizes_size() * 4);
-  crc = crc32(crc, reinterpret_cast<const Bytef*>(c->face_indices().data()),
-              c->face_indices_size() * 4);
-  m[2].mutable_footer()->set_num_vertices(mesh.num_vertices());
-  m[2].mutable_footer()->set_num_faces(std::ssize(faces));
-  m[2].mutable_footer()->set_crc32(static_cast<uint32_t>(crc));
-  return m;
 }
 
 // A hexagonal prism: two hexagons and six quads, outward.

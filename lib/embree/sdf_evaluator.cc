@@ -86,13 +86,13 @@ int32_t SkipOneRing(const RayScene& scene,
 
 absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
     Mesh mesh, const EvaluatorOptions& options) {
-  std::unique_ptr<SdfEvaluator> ev(new SdfEvaluator());
-  if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   if (options.rebuild_every_updates < 0) {
     return absl::InvalidArgumentError(
         absl::StrCat("rebuild_every_updates must be >= 0, got ",
                      options.rebuild_every_updates));
   }
+  std::unique_ptr<SdfEvaluator> ev(new SdfEvaluator());
+  if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   ev->policy_ = options.bvh_policy;
   ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;

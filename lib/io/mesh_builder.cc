@@ -17,13 +17,15 @@ int64_t MeshBuilder::BytesHeld() const {
       file_.mesh.positions.capacity() * sizeof(Vec3) +
       (sizes_.capacity() + corners_.capacity() + regions_.capacity()) *
           sizeof(int32_t) +
+      polygon_places_.capacity() * sizeof(polygon_places_[0]) +
       file_.mesh.faces.capacity() * sizeof(Face) +
       file_.mesh.face_regions.capacity() * sizeof(int32_t));
 }
 
-absl::Status MeshBuilder::CheckLimits(int64_t faces, int64_t extra) {
+absl::Status MeshBuilder::CheckLimits(int64_t vertices, int64_t faces,
+                                      int64_t extra) {
   if (limits_ == nullptr) return absl::OkStatus();
-  if (num_vertices() > limits_->max_vertices) {
+  if (vertices > limits_->max_vertices) {
     return absl::ResourceExhaustedError(
         absl::StrCat(path_, ": more than the limit of ", limits_->max_vertices,
                      " vertices (max_vertices)"));
@@ -33,12 +35,25 @@ absl::Status MeshBuilder::CheckLimits(int64_t faces, int64_t extra) {
         absl::StrCat(path_, ": more than the limit of ", limits_->max_faces,
                      " faces (max_faces; polygons count their triangles)"));
   }
+  if (limits_->cancelled && limits_->cancelled()) {
+    return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
+  }
   // Room for the arrays to double before the next report.
-  const int64_t bytes = 2 * BytesHeld() + extra;
+  const int64_t bytes = 2 * BytesHeld() + extra_bytes_ + extra;
   if (limits_->reserve && bytes > reported_bytes_) {
     reported_bytes_ = bytes + kReserveStep;
     return limits_->reserve(reported_bytes_);
   }
+  return absl::OkStatus();
+}
+
+absl::Status MeshBuilder::ReservePositions(int64_t n) {
+  if (absl::Status s =
+          CheckLimits(n, triangles_, n * static_cast<int64_t>(sizeof(Vec3)));
+      !s.ok()) {
+    return s;
+  }
+  file_.mesh.positions.reserve(n);
   return absl::OkStatus();
 }
 
@@ -73,7 +88,17 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
     }
     polygon_places_.emplace_back(num_faces(), where);
   }
-  if (absl::Status s = CheckLimits(num_faces() + 1, 0); !s.ok()) return s;
+  triangles_ += n > 4 ? n - 2 : 1;
+  // Checked when an array is about to grow, and every 65,536 faces.
+  if (limits_ != nullptr &&
+      (sizes_.size() == sizes_.capacity() ||
+       corners_.size() + n > corners_.capacity() ||
+       polygon_places_.size() == polygon_places_.capacity() ||
+       sizes_.size() % 65536 == 0)) {
+    if (absl::Status s = CheckLimits(num_vertices(), triangles_, 0); !s.ok()) {
+      return s;
+    }
+  }
   sizes_.push_back(static_cast<int32_t>(n));
   for (int64_t c : corners) corners_.push_back(static_cast<int32_t>(c));
   regions_.push_back(region);
@@ -85,16 +110,16 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
   Mesh& mesh = file_.mesh;
   file_.format = std::move(format);
   file_.file_faces = num_faces();
-  int64_t triangles = 0;
-  for (int32_t n : sizes_) triangles += n > 4 ? n - 2 : 1;
-  if (absl::Status s = CheckLimits(
-          triangles,
-          triangles * static_cast<int64_t>(
-                          sizeof(Face) + (any_region_ ? sizeof(int32_t) : 0)));
+  const int64_t regions = any_region_ ? triangles_ : 0;
+  if (absl::Status s =
+          CheckLimits(num_vertices(), triangles_,
+                      triangles_ * static_cast<int64_t>(sizeof(Face)) +
+                          regions * static_cast<int64_t>(sizeof(int32_t)));
       !s.ok()) {
     return s;
   }
-  mesh.faces.reserve(triangles);
+  mesh.faces.reserve(triangles_);
+  mesh.face_regions.reserve(regions);
   int64_t fallback_work = 0;
   size_t offset = 0, polygon = 0;
   std::vector<Vec3> ring;

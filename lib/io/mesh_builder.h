@@ -22,8 +22,26 @@ class MeshBuilder {
       : path_(std::move(path)), limits_(limits) {
     file_.mesh.dimension = dimension;
   }
-  void ReservePositions(int64_t n) { file_.mesh.positions.reserve(n); }
-  void AddVertex(const Vec3& p) { file_.mesh.positions.push_back(p); }
+  // Room for `n` vertices (a count a file declares). Errors: the limits'.
+  absl::Status ReservePositions(int64_t n);
+  // Errors: the limits' (checked when the positions grow).
+  absl::Status AddVertex(const Vec3& p) {
+    if (limits_ != nullptr &&
+        file_.mesh.positions.size() == file_.mesh.positions.capacity()) {
+      if (absl::Status s = CheckLimits(num_vertices() + 1, triangles_, 0);
+          !s.ok()) {
+        return s;
+      }
+    }
+    file_.mesh.positions.push_back(p);
+    return absl::OkStatus();
+  }
+  // Bytes a reader holds beside the builder (e.g. a welding map), counted
+  // with the builder's own. Errors: the limits'.
+  absl::Status SetExtraBytes(int64_t bytes) {
+    extra_bytes_ = bytes;
+    return CheckLimits(num_vertices(), triangles_, 0);
+  }
   int64_t num_vertices() const { return file_.mesh.num_vertices(); }
   // `where` names the face's place in the file ("line 12", "byte 4096") for
   // errors. Corner indices are 0-based. Errors: InvalidArgument for fewer
@@ -38,13 +56,16 @@ class MeshBuilder {
   absl::StatusOr<MeshFile> Finish(std::string format);
 
  private:
-  // The limits' checks of what is held (and will be: `extra` bytes).
-  absl::Status CheckLimits(int64_t faces, int64_t extra);
+  // The limits' checks of `vertices` and `faces` (after triangulation) and
+  // of the bytes held and about to be (`extra`); polls cancellation.
+  absl::Status CheckLimits(int64_t vertices, int64_t faces, int64_t extra);
   int64_t BytesHeld() const;
 
   std::string path_;
   const ReadLimits* limits_;
   int64_t reported_bytes_ = 0;  // last told to limits_->reserve.
+  int64_t extra_bytes_ = 0;     // SetExtraBytes.
+  int64_t triangles_ = 0;       // faces after triangulation, so far.
   MeshFile file_;
   std::vector<int32_t> sizes_;
   std::vector<int32_t> corners_;

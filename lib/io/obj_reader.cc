@@ -83,7 +83,10 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
                          " numbers (3 coordinates, optionally w "
                          "or a colour)"));
       }
-      builder.AddVertex({xyz[0], xyz[1], xyz[2]});
+      if (absl::Status s = builder.AddVertex({xyz[0], xyz[1], xyz[2]});
+          !s.ok()) {
+        return s;
+      }
     } else if (tok == "f" || tok == "l") {
       const bool polyline = tok == "l";
       corners.clear();

@@ -57,7 +57,7 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
       !s.ok())
     return s;
   MeshBuilder builder(path, 3, &limits);
-  builder.ReservePositions(nv);
+  if (absl::Status s = builder.ReservePositions(nv); !s.ok()) return s;
   for (int64_t v = 0; v < nv; ++v) {
     double xyz[3];
     for (int c = 0; c < 3; ++c) {
@@ -80,7 +80,9 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
             absl::StrCat("vertex ", v, ": unexpected ", Quote(tok)));
       }
     }
-    builder.AddVertex({xyz[0], xyz[1], xyz[2]});
+    if (absl::Status s = builder.AddVertex({xyz[0], xyz[1], xyz[2]}); !s.ok()) {
+      return s;
+    }
   }
   std::vector<int64_t> corners;
   for (int64_t f = 0; f < nf; ++f) {

@@ -315,7 +315,9 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
             absl::StrCat(path, ": element vertex lacks property x, y or z"));
       }
       have_vertices = true;
-      builder.ReservePositions(e.count);
+      if (absl::Status s = builder.ReservePositions(e.count); !s.ok()) {
+        return s;
+      }
     }
     if (is_face && indices < 0) {
       return absl::InvalidArgumentError(absl::StrCat(
@@ -363,7 +365,11 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
         }
       }
       if (is_vertex) {
-        builder.AddVertex({row[xyz[0]], row[xyz[1]], row[xyz[2]]});
+        if (absl::Status s =
+                builder.AddVertex({row[xyz[0]], row[xyz[1]], row[xyz[2]]});
+            !s.ok()) {
+          return s;
+        }
       } else if (is_face) {
         if (absl::Status s = builder.AddFace(corners, 0, in.Where()); !s.ok())
           return s;

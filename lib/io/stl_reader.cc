@@ -28,19 +28,35 @@ struct Key {
 class Welder {
  public:
   explicit Welder(MeshBuilder* b) : builder_(b) {}
-  int64_t Index(const Vec3& p) {
+  absl::StatusOr<int64_t> Index(const Vec3& p) {
     // +0.0 and -0.0 are one position.
     const Key key{p.x + 0.0, p.y + 0.0, p.z + 0.0};
+    if (map_.size() >= reported_) {
+      // The map's nodes and buckets count as the reader's memory: reported
+      // ahead, for twice as many positions.
+      reported_ = std::max<size_t>(2 * map_.size(), 1024);
+      if (absl::Status s = builder_->SetExtraBytes(
+              static_cast<int64_t>(reported_) * kBytesPerPosition);
+          !s.ok()) {
+        return s;
+      }
+    }
     auto [it, inserted] = map_.try_emplace(key, builder_->num_vertices());
-    if (inserted) builder_->AddVertex(p);
+    if (inserted) {
+      if (absl::Status s = builder_->AddVertex(p); !s.ok()) return s;
+    }
     ++corners_;
     return it->second;
   }
   int64_t welded() const { return corners_ - builder_->num_vertices(); }
 
  private:
+  // A node (key, index, link, cached hash, allocator overhead) and about
+  // a bucket pointer per position.
+  static constexpr int64_t kBytesPerPosition = 72;
   MeshBuilder* builder_;
   std::unordered_map<Key, int64_t, absl::Hash<Key>> map_;
+  size_t reported_ = 0;
   int64_t corners_ = 0;
 };
 
@@ -63,7 +79,9 @@ absl::StatusOr<MeshFile> ParseBinaryStl(absl::string_view data,
             path, 84 + 50 * static_cast<size_t>(f) + 12 + 12 * c,
             absl::StrCat("facet ", f, ": corner ", c, " is not finite"));
       }
-      corners[c] = welder.Index(p);
+      auto index = welder.Index(p);
+      if (!index.ok()) return index.status();
+      corners[c] = *index;
     }
     if (absl::Status s = builder.AddFace(
             corners, 0,
@@ -132,7 +150,9 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
         for (double& x : xyz) {
           if (absl::Status s = number(&x); !s.ok()) return s;
         }
-        corners[c] = welder.Index({xyz[0], xyz[1], xyz[2]});
+        auto index = welder.Index({xyz[0], xyz[1], xyz[2]});
+        if (!index.ok()) return index.status();
+        corners[c] = *index;
       }
       if (absl::Status s = expect("endloop"); !s.ok()) return s;
       if (absl::Status s = expect("endfacet"); !s.ok()) return s;

@@ -71,6 +71,11 @@ def _format_of(path: str) -> str:
     return fmt
 
 
+def _last_bytes(text: str, n: int) -> str:
+    """The end of `text` that fits in n bytes of UTF-8."""
+    return text.encode("utf-8", "replace")[-n:].decode("utf-8", "ignore")
+
+
 def _read(path: str) -> bytes:
     """The file's bytes (OSError as open() raises it)."""
     with open(path, "rb") as f:
@@ -296,7 +301,7 @@ class MeshGaugeClient:
             raise ValueError(f"{name}: the file is empty")
         header = self._header(session_id, outward_regions, reorient,
                               drop_degenerate_faces, file_format=fmt,
-                              file_bytes=len(data), file_name=name[-256:])
+                              file_bytes=len(data), file_name=_last_bytes(name, 256))
         step = max(self._chunk * 8, 1 << 16)
 
         def chunks() -> Iterator[Any]:

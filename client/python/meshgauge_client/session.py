@@ -13,6 +13,7 @@ UNAVAILABLE is retried with backoff by the client. The session is deleted on
 exit.
 """
 
+import contextlib
 from typing import Any, Callable, Optional, Tuple, TypeVar
 
 import scipy.sparse
@@ -49,8 +50,9 @@ class Session:
         if mesh is None:
             try:
                 data = client.mesh(self.session_id)
-            except BaseException:
-                self.close()
+            except Exception:
+                with contextlib.suppress(Exception):
+                    self.close()
                 raise
             mesh = (data.vertices, data.faces)
         self._original = mesh[0].copy()
