@@ -8,7 +8,6 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/integrals.h"
-#include "lib/core/mesh_repair.h"
 #include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
@@ -211,6 +210,38 @@ grpc::Status MeshGaugeService::BoundedCreateSession(
       });
 }
 
+absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(
+    grpc::ServerContext* ctx, MeshAssembler& assembler,
+    UploadReservation& ticket) const {
+  // Within the server's limits, stopping (between polygons, and every
+  // 65,536 faces) when the caller is gone. A file's reader reserves what it
+  // holds beyond the header's estimate as it grows (a file's size says
+  // little about its mesh); arrays were reserved by their declared counts.
+  const int64_t buffered = assembler.bytes_held();
+  io::ReadLimits limits{.max_vertices = options_.max_vertices,
+                        .max_faces = options_.max_faces,
+                        .max_fallback_work = kMaxUploadFallbackWork,
+                        .cancelled = [ctx] { return ctx->IsCancelled(); }};
+  if (assembler.file_upload()) {
+    limits.reserve = [&](int64_t bytes) {
+      return ticket.GrowTo(buffered + bytes);
+    };
+  }
+  auto file = assembler.Finish(limits);
+  if (!file.ok()) return file.status();
+  // The session's own estimate covers the repairs' transient arrays.
+  if (absl::Status s = ticket.GrowTo(Session::EstimateBaseBytes(file->mesh));
+      !s.ok()) {
+    return s;
+  }
+  auto repaired = RepairFileMesh(std::move(*file), assembler.repairs());
+  if (!repaired.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("CreateSession: ", repaired.status().message()));
+  }
+  return repaired;
+}
+
 absl::Status MeshGaugeService::ReceiveUpload(
     grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     const std::string& tenant, int64_t upload,
@@ -242,42 +273,12 @@ absl::Status MeshGaugeService::ReceiveUpload(
     }
   }
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
-  // The mesh is built within the server's limits, stopping (between
-  // polygons, and every 65,536 faces) when the caller is gone. A file's reader
-  // reserves what it holds beyond the header's estimate as it grows (a file's
-  // size says little about its mesh); arrays were reserved by their declared
-  // counts.
-  const int64_t buffered = assembler.bytes_held();
-  io::ReadLimits limits{.max_vertices = options_.max_vertices,
-                        .max_faces = options_.max_faces,
-                        .max_fallback_work = kMaxUploadFallbackWork,
-                        .cancelled = [ctx] { return ctx->IsCancelled(); }};
-  if (assembler.file_upload()) {
-    limits.reserve = [&](int64_t bytes) {
-      return ticket.GrowTo(buffered + bytes);
-    };
-  }
-  auto file = assembler.Finish(limits);
-  if (!file.ok()) return file.status();
-  // The session's own estimate covers the repairs' transient arrays.
-  if (absl::Status s = ticket.GrowTo(Session::EstimateBaseBytes(file->mesh));
-      !s.ok()) {
-    return s;
-  }
-  std::vector<std::string> read_warnings = ReaderWarnings(*file);
-  auto repaired = RepairAndDiagnose(std::move(file->mesh), assembler.repairs());
-  if (!repaired.ok()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("CreateSession: ", repaired.status().message()));
-  }
+  auto mesh = BuildUploadedMesh(ctx, assembler, ticket);
+  if (!mesh.ok()) return mesh.status();
   // A caller that gave up (deadline, cancel) gets no orphan session.
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
-  read_warnings.insert(read_warnings.end(),
-                       repaired->diagnostics.warnings.begin(),
-                       repaired->diagnostics.warnings.end());
-  repaired->diagnostics.warnings = std::move(read_warnings);
   auto session = store_->Create(tenant, assembler.session_id(),
-                                std::move(*repaired), std::move(ticket));
+                                std::move(*mesh), std::move(ticket));
   if (!session.ok()) return session.status();
   wire::ToWire(ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
                response->mutable_session());

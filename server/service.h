@@ -103,6 +103,11 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                              const std::string& tenant, int64_t upload,
                              v1::CreateSessionResponse* response,
                              int64_t* received);
+  // The mesh of a received upload (its footer arrived): read or built
+  // within the server's limits and `ticket`, repaired and diagnosed.
+  absl::StatusOr<RepairedMesh> BuildUploadedMesh(
+      grpc::ServerContext* ctx, MeshAssembler& assembler,
+      UploadReservation& ticket) const;
   // RESOURCE_EXHAUSTED when a reply of `values` doubles would exceed
   // --max_message_bytes (checked before computing).
   absl::Status CheckReplySize(int64_t values) const;

@@ -9,7 +9,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "lib/core/mesh_repair.h"
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
@@ -263,19 +262,16 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   auto read = ReadMeshFile(path);
   if (!read.ok()) return read.status();
   LoadedMesh loaded;
-  loaded.mesh = std::move(read->mesh);
   loaded.format = read->format;
   loaded.polygons_triangulated = read->polygons_triangulated;
   loaded.polygons_fallback = read->polygons_fallback;
-  loaded.warnings = ReaderWarnings(*read);
   if (absl::Status s =
-          ApplyRegionDirections(loaded.mesh, flags.region_directions);
+          ApplyRegionDirections(read->mesh, flags.region_directions);
       !s.ok()) {
     return s;
   }
-  auto repaired =
-      RepairAndDiagnose(std::move(loaded.mesh),
-                        {.drop_degenerate_faces = flags.drop_degenerate_faces,
+  auto repaired = RepairFileMesh(
+      std::move(*read), {.drop_degenerate_faces = flags.drop_degenerate_faces,
                          .reorient = flags.reorient});
   if (!repaired.ok()) {
     return absl::InvalidArgumentError(
@@ -286,9 +282,7 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   loaded.reoriented = repaired->reorientation.components_turned_outward;
   loaded.faces_made_consistent = repaired->reorientation.faces_made_consistent;
   loaded.diagnostics = std::move(repaired->diagnostics);
-  for (const std::string& w : loaded.diagnostics.warnings) {
-    loaded.warnings.push_back(w);
-  }
+  loaded.warnings = loaded.diagnostics.warnings;
   loaded.signed_volume = repaired->signed_volume;
   loaded.closed = loaded.diagnostics.closed;
   return loaded;

@@ -91,6 +91,18 @@ std::vector<std::string> ReaderWarnings(const io::MeshFile& file) {
   return out;
 }
 
+absl::StatusOr<RepairedMesh> RepairFileMesh(io::MeshFile file,
+                                            const RepairOptions& options) {
+  std::vector<std::string> warnings = ReaderWarnings(file);
+  auto repaired = RepairAndDiagnose(std::move(file.mesh), options);
+  if (!repaired.ok()) return repaired.status();
+  for (std::string& w : repaired->diagnostics.warnings) {
+    warnings.push_back(std::move(w));
+  }
+  repaired->diagnostics.warnings = std::move(warnings);
+  return repaired;
+}
+
 absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
   std::ofstream out(path);
   if (!out)

@@ -20,6 +20,7 @@
 #include "absl/strings/string_view.h"
 #include "lib/core/image.h"
 #include "lib/core/mesh.h"
+#include "lib/core/mesh_repair.h"
 #include "lib/io/mesh_file.h"
 
 namespace meshgauge {
@@ -44,6 +45,12 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(
 // One sentence per thing the reader did that a user should know of
 // (polygons triangulated by the fallback), for summaries and SessionInfo.
 std::vector<std::string> ReaderWarnings(const io::MeshFile& file);
+
+// The file's mesh repaired, validated and diagnosed (RepairAndDiagnose),
+// with the reader's warnings first: how the CLI and the server's uploads
+// prepare what they read. Errors: RepairAndDiagnose's.
+absl::StatusOr<RepairedMesh> RepairFileMesh(io::MeshFile file,
+                                            const RepairOptions& options);
 
 // Writes OBJ: `v` lines with 17 significant digits (they read back
 // exactly), `f` faces (3D) or `l` segments (2D), `g ID` before each run of
