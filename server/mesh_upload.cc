@@ -6,6 +6,7 @@
 
 #include <algorithm>
 
+#include "absl/strings/ascii.h"
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
@@ -109,9 +110,9 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
 
 absl::Status MeshAssembler::FileHeader(
     const v1::CreateSessionRequest::Header& h) {
-  static constexpr const char* kFormats[] = {"obj", "off", "ply", "stl"};
-  if (std::find(std::begin(kFormats), std::end(kFormats), h.file_format()) ==
-      std::end(kFormats)) {
+  // A format the readers take, named in lower case.
+  if (!IsMeshExtension(absl::StrCat(".", h.file_format())) ||
+      h.file_format() != absl::AsciiStrToLower(h.file_format())) {
     return Invalid(
         absl::StrCat("header.file_format must be obj, off, ply or "
                      "stl, got '",

@@ -22,6 +22,13 @@ int64_t MeshBuilder::BytesHeld() const {
       file_.mesh.face_regions.capacity() * sizeof(int32_t));
 }
 
+absl::Status MeshBuilder::CheckCancelled() const {
+  if (limits_ == nullptr || !limits_->cancelled || !limits_->cancelled()) {
+    return absl::OkStatus();
+  }
+  return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
+}
+
 absl::Status MeshBuilder::CheckLimits(int64_t vertices, int64_t faces,
                                       int64_t extra) {
   if (limits_ == nullptr) return absl::OkStatus();
@@ -35,9 +42,7 @@ absl::Status MeshBuilder::CheckLimits(int64_t vertices, int64_t faces,
         absl::StrCat(path_, ": more than the limit of ", limits_->max_faces,
                      " faces (max_faces; polygons count their triangles)"));
   }
-  if (limits_->cancelled && limits_->cancelled()) {
-    return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
-  }
+  if (absl::Status s = CheckCancelled(); !s.ok()) return s;
   // Room for the arrays to double before the next report.
   const int64_t bytes = 2 * BytesHeld() + extra_bytes_ + extra;
   if (limits_->reserve && bytes > reported_bytes_) {
@@ -135,9 +140,7 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
     } else if (n == 4) {
       mesh.faces.push_back(Face::Quad(c[0], c[1], c[2], c[3]));
     } else {
-      if (limits_ && limits_->cancelled && limits_->cancelled()) {
-        return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
-      }
+      if (absl::Status s = CheckCancelled(); !s.ok()) return s;
       ring.clear();
       for (int32_t k = 0; k < n; ++k) ring.push_back(mesh.positions[c[k]]);
       bool fallback = false;

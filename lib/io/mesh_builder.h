@@ -60,6 +60,8 @@ class MeshBuilder {
   // of the bytes held and about to be (`extra`); polls cancellation.
   absl::Status CheckLimits(int64_t vertices, int64_t faces, int64_t extra);
   int64_t BytesHeld() const;
+  // Cancelled when the limits' cancelled() says so.
+  absl::Status CheckCancelled() const;
 
   std::string path_;
   const ReadLimits* limits_;

@@ -34,6 +34,10 @@ absl::Status Unsupported(absl::string_view ext, const std::string& name) {
 
 }  // namespace
 
+bool IsMeshExtension(absl::string_view extension) {
+  return ParserFor(extension) != nullptr;
+}
+
 absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
                                                absl::string_view extension,
                                                const std::string& name,

@@ -35,6 +35,9 @@ inline constexpr int64_t kMaxMeshFileBytes = int64_t{4} << 30;
 absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path);
 absl::StatusOr<Mesh> ReadMesh(const std::string& path);
 
+// True for the extensions ReadMeshFile reads (".obj" ..., any case).
+bool IsMeshExtension(absl::string_view extension);
+
 // Parses file contents of the format named by `extension` (".obj", ...);
 // `name` names them in messages. ReadMeshFile without the file, within
 // `limits` (ResourceExhausted, or the callbacks' errors).
