@@ -6,18 +6,146 @@
 #include <tbb/task_arena.h>
 
 #include <atomic>
-#include <chrono>
 #include <limits>
 
+#include "absl/strings/str_cat.h"
 #include "lib/core/normals.h"
+#include "lib/core/stopwatch.h"
 #include "lib/core/topology.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_hit.h"
 
 namespace meshgauge::bench {
+namespace {
+
+// Embree's packet types and calls by packet width.
+template <int N>
+struct Packet;
+template <>
+struct Packet<4> {
+  using Type = RTCRayHit4;
+  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
+                        Type* rh) {
+    rtcIntersect4(valid, s, c, rh);
+  }
+};
+template <>
+struct Packet<8> {
+  using Type = RTCRayHit8;
+  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
+                        Type* rh) {
+    rtcIntersect8(valid, s, c, rh);
+  }
+};
+template <>
+struct Packet<16> {
+  using Type = RTCRayHit16;
+  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
+                        Type* rh) {
+    rtcIntersect16(valid, s, c, rh);
+  }
+};
+
+// Traces rays from `x` along `dirs` in packets of N; returns the hits.
+template <int N>
+int64_t TracePackets(RTCScene scene, RTCIntersectContext* ctx, const Vec3& x,
+                     const std::vector<Vec3>& dirs, float t_near, float t_far) {
+  int64_t hits = 0;
+  alignas(64) typename Packet<N>::Type rh;
+  alignas(64) int valid[N];
+  for (size_t first = 0; first < dirs.size(); first += N) {
+    for (int j = 0; j < N; ++j) {
+      const size_t k = first + j;
+      valid[j] = k < dirs.size() ? -1 : 0;
+      const Vec3& d = dirs[k < dirs.size() ? k : first];
+      rh.ray.org_x[j] = static_cast<float>(x.x);
+      rh.ray.org_y[j] = static_cast<float>(x.y);
+      rh.ray.org_z[j] = static_cast<float>(x.z);
+      rh.ray.dir_x[j] = static_cast<float>(d.x);
+      rh.ray.dir_y[j] = static_cast<float>(d.y);
+      rh.ray.dir_z[j] = static_cast<float>(d.z);
+      rh.ray.tnear[j] = t_near;
+      rh.ray.tfar[j] = t_far;
+      rh.ray.time[j] = 0;
+      rh.ray.mask[j] = std::numeric_limits<unsigned>::max();
+      rh.ray.id[j] = 0;
+      rh.ray.flags[j] = 0;
+      rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+    }
+    Packet<N>::Intersect(valid, scene, ctx, &rh);
+    for (int j = 0; j < N; ++j) {
+      hits += valid[j] != 0 && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
+    }
+  }
+  return hits;
+}
+
+int64_t TraceVertex(RawTrace trace, RTCScene scene, const Vec3& x,
+                    const std::vector<Vec3>& dirs, float t_near, float t_far,
+                    std::vector<RTCRayHit>& stream) {
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  int64_t hits = 0;
+  switch (trace) {
+    case RawTrace::kSingle:
+      for (const Vec3& d : dirs) {
+        RTCRayHit rh = MakeRayHit(x, d, t_near, t_far);
+        rtcIntersect1(scene, &ctx, &rh);
+        hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+      }
+      return hits;
+    case RawTrace::kPacket4:
+      return TracePackets<4>(scene, &ctx, x, dirs, t_near, t_far);
+    case RawTrace::kPacket8:
+      return TracePackets<8>(scene, &ctx, x, dirs, t_near, t_far);
+    case RawTrace::kPacket16:
+      return TracePackets<16>(scene, &ctx, x, dirs, t_near, t_far);
+    case RawTrace::kStream:
+      ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+      stream.resize(dirs.size());
+      for (size_t k = 0; k < dirs.size(); ++k) {
+        stream[k] = MakeRayHit(x, dirs[k], t_near, t_far);
+      }
+      rtcIntersect1M(scene, &ctx, stream.data(),
+                     static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));
+      for (const RTCRayHit& rh : stream) {
+        hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+      }
+      return hits;
+  }
+  return hits;
+}
+
+}  // namespace
+
+std::string RawConfig::Name() const {
+  static const char* const kTrace[] = {"rtcIntersect1", "rtcIntersect4",
+                                       "rtcIntersect8", "rtcIntersect16",
+                                       "rtcIntersect1M"};
+  return absl::StrCat(high_quality ? "HIGH" : "MEDIUM",
+                      robust ? " ROBUST " : " plain ",
+                      kTrace[static_cast<int>(trace)]);
+}
+
+std::vector<RawConfig> RawConfigs() {
+  std::vector<RawConfig> configs;
+  for (bool robust : {true, false}) {
+    for (RawTrace t :
+         {RawTrace::kSingle, RawTrace::kPacket4, RawTrace::kPacket8,
+          RawTrace::kPacket16, RawTrace::kStream}) {
+      configs.push_back({.robust = robust, .trace = t});
+    }
+    for (RawTrace t : {RawTrace::kSingle, RawTrace::kPacket16}) {
+      configs.push_back({.robust = robust, .high_quality = true, .trace = t});
+    }
+  }
+  return configs;
+}
 
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params) {
+                                         const SdfParams& params,
+                                         const RawConfig& config) {
   if (mesh.dimension != 3) {
     return absl::InvalidArgumentError("the raw pass is for 3D meshes");
   }
@@ -34,8 +162,11 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
 
   RTCDevice device = rtcNewDevice(nullptr);
   RTCScene scene = rtcNewScene(device);
-  rtcSetSceneFlags(scene, RTC_SCENE_FLAG_ROBUST);  // as meshgauge's scene.
-  rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_MEDIUM);
+  rtcSetSceneFlags(scene,
+                   config.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+  rtcSetSceneBuildQuality(scene, config.high_quality
+                                     ? RTC_BUILD_QUALITY_HIGH
+                                     : RTC_BUILD_QUALITY_MEDIUM);
   RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
       geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 4 * sizeof(float),
@@ -55,45 +186,43 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
   rtcCommitGeometry(geom);
   rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
-  rtcCommitScene(scene);
+  const int threads =
+      params.threads > 0 ? params.threads : tbb::info::default_concurrency();
+  tbb::task_arena arena(threads);
+  RawPassResult result;
+  const Stopwatch build;
+  arena.execute([&] { rtcCommitScene(scene); });
+  result.build_seconds = build.Seconds();
 
   const float t_near =
       static_cast<float>(params.self_hit_epsilon * MeanEdgeLength(mesh));
   const float t_far = static_cast<float>(BoundingBoxDiagonal(mesh));
   std::atomic<int64_t> rays{0}, hits{0};
-  const int threads =
-      params.threads > 0 ? params.threads : tbb::info::default_concurrency();
-  tbb::task_arena arena(threads);
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch pass;
   arena.execute([&] {
     tbb::parallel_for(
         tbb::blocked_range<int64_t>(0, mesh.num_vertices(), 64),
         [&](const tbb::blocked_range<int64_t>& r) {
           int64_t local_rays = 0, local_hits = 0;
-          RTCIntersectContext ctx;
-          rtcInitIntersectContext(&ctx);
+          std::vector<Vec3> dirs(cone->size());
+          std::vector<RTCRayHit> stream;
           for (int64_t p = r.begin(); p < r.end(); ++p) {
             if (topo.vertex_faces.Of(p).empty()) continue;
             const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
             if (!vc.valid) continue;
-            const Vec3& x = mesh.positions[p];
-            for (const ConeRay& ray : *cone) {
-              const Vec3 d = RayDirection(vc.frame, ray);
-              RTCRayHit rh = MakeRayHit(x, d, t_near, t_far);
-              rtcIntersect1(scene, &ctx, &rh);
-              ++local_rays;
-              local_hits += rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+            for (size_t k = 0; k < dirs.size(); ++k) {
+              dirs[k] = RayDirection(vc.frame, (*cone)[k]);
             }
+            local_hits += TraceVertex(config.trace, scene, mesh.positions[p],
+                                      dirs, t_near, t_far, stream);
+            local_rays += std::ssize(dirs);
           }
           rays += local_rays;
           hits += local_hits;
         },
         tbb::simple_partitioner());
   });
-  RawPassResult result;
-  result.seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
+  result.seconds = pass.Seconds();
   result.rays = rays;
   result.hits = hits;
   rtcReleaseScene(scene);

@@ -1,10 +1,12 @@
-// The baseline of the benchmarks: a plain Embree rtcIntersect1 pass over
-// exactly the rays meshgauge traces (same origins, same cone directions),
-// with no filter callback, no double-precision recomputation and no
-// estimator.
+// The baseline of the benchmarks: plain Embree passes over exactly the rays
+// meshgauge traces (same origins, same cone directions), with no one-ring
+// skip, no double-precision recomputation and no estimator, in several
+// Embree configurations (scene flags, build quality, single rays, packets,
+// streams), so meshgauge's ray pass is compared with the fastest of them.
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -13,18 +15,43 @@
 
 namespace meshgauge::bench {
 
+// How the raw pass hands a vertex's rays to Embree.
+enum class RawTrace {
+  kSingle,    // rtcIntersect1, one ray at a time
+  kPacket4,   // rtcIntersect4 over consecutive rays of one vertex
+  kPacket8,   // rtcIntersect8
+  kPacket16,  // rtcIntersect16
+  kStream,    // rtcIntersect1M over all rays of one vertex, COHERENT context
+};
+
+struct RawConfig {
+  bool robust = true;  // RTC_SCENE_FLAG_ROBUST (watertight), as meshgauge
+  bool high_quality = false;  // RTC_BUILD_QUALITY_HIGH instead of MEDIUM
+  RawTrace trace = RawTrace::kSingle;
+
+  // e.g. "MEDIUM ROBUST rtcIntersect8".
+  std::string Name() const;
+};
+
+// The configurations the benchmark tries, with and without ROBUST: MEDIUM
+// quality with single rays, packets of 4, 8 and 16 and streams; HIGH
+// quality with single rays and packets of 16.
+std::vector<RawConfig> RawConfigs();
+
 struct RawPassResult {
   int64_t rays = 0;
   int64_t hits = 0;
-  double seconds = 0;
+  double seconds = 0;        // the ray pass alone
+  double build_seconds = 0;  // the scene's BVH build
 };
 
-// Builds a MEDIUM-quality, ROBUST (watertight, as meshgauge's) Embree scene of
-// the mesh's triangles (3D only) and traces, for every vertex with faces, the
+// Builds an Embree scene of the mesh's triangles (3D only) as `config` says
+// and traces, for every vertex with faces in the mesh's vertex order, the
 // resolved cone of `params` with tnear = eps * h and tfar = bounding-box
 // diagonal, over vertices in a oneTBB parallel_for with `params.threads`
-// threads. Only the ray pass is timed.
+// threads. The ray pass and the build are timed separately.
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params);
+                                         const SdfParams& params,
+                                         const RawConfig& config = {});
 
 }  // namespace meshgauge::bench

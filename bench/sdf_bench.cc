@@ -1,16 +1,23 @@
-// meshgauge_bench: ray-pass throughput of meshgauge vs raw Embree.
+// meshgauge_bench: meshgauge's ray pass and whole run vs raw Embree.
 //
-//   meshgauge_bench [--repeat N] [--threads T] MESH...
+//   meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S]
+//                   [--generated_vertices N] [--cli PATH] MESH...
 //
-// For each mesh (closed meshes with negative volume are reversed first),
-// runs in one process, alternating their order, N times each:
-//  * the raw Embree pass (bench/raw_embree_pass.h) and meshgauge's full SDF
-//    pass (CONE, defaults): best rate of each and their ratio;
+// For each mesh (closed meshes with negative volume are reversed first; with
+// --permute_seed also with its vertices permuted; with --generated_vertices
+// also a generated bumpy torus of about N vertices), N rounds of:
+//  * every raw Embree configuration (bench/raw_embree_pass.h): best rate of
+//    each, and the fastest;
+//  * meshgauge's values pass (CONE, defaults): best rate, ratio to the
+//    fastest raw configuration;
 //  * a values-only pass vs a values pass keeping the hit table followed by
-//    the VJP (all-ones g): best times and their ratio (goal <= 1.3).
-#include <algorithm>
-#include <chrono>
+//    the VJP (all-ones g): best times and their ratio;
+//  * with --cli, the whole `meshgauge sdf FILE --json` run (read, checks,
+//    BVH, rays, estimator, summary): best wall time, its ratio to the
+//    fastest raw pass over the same rays, its stages, and its peak RSS
+//    against the bytes of mesh + BVH + hit table it reports.
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
 #include <string>
@@ -18,18 +25,29 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/strings/str_cat.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/core/sensitivity.h"
+#include "lib/core/shapes.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/render.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
 
-ABSL_FLAG(int, repeat, 4, "runs of each pass; the best is reported");
+ABSL_FLAG(int, repeat, 2, "rounds of every pass; the best of each is kept");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
+ABSL_FLAG(int, rays, 0, "rays per vertex (0: the default, 100)");
 ABSL_FLAG(uint64_t, permute_seed, 0,
           "also run each mesh with its vertices randomly permuted (faces "
           "relabelled) by this seed, as a remesher or optimiser leaves them; "
           "0: only the file order");
+ABSL_FLAG(int64_t, generated_vertices, 0,
+          "also run a generated bumpy torus of about this many vertices "
+          "(0: none)");
+ABSL_FLAG(std::string, cli, "",
+          "the meshgauge CLI: also time `CLI sdf FILE --json` (empty: skip)");
+ABSL_FLAG(std::string, mesh_dir, "/tmp",
+          "where the permuted and generated meshes are written for the CLI");
 
 namespace meshgauge::bench {
 namespace {
@@ -49,70 +67,147 @@ Mesh Permuted(const Mesh& mesh, uint64_t seed) {
   return out;
 }
 
-int BenchMesh(const std::string& path, uint64_t permute_seed) {
-  auto mesh = ReadMesh(path);
-  if (!mesh.ok()) {
-    std::fprintf(stderr, "%s\n", std::string(mesh.status().message()).c_str());
-    return 1;
+// A torus (major radius 1) whose tube radius varies around both circles
+// (0.2 to 0.4), so thickness varies as on a part; about `vertices` vertices
+// in a grid of 2:1 aspect.
+Mesh BumpyTorus(int64_t vertices) {
+  const int nv = static_cast<int>(std::sqrt(vertices / 2.0));
+  const int nu = static_cast<int>(vertices / nv);
+  Mesh mesh = MakeTorus(1.0, 0.3, nu, nv);
+  for (Vec3& p : mesh.positions) {
+    const double u = std::atan2(p.y, p.x);
+    const Vec3 centre(std::cos(u), std::sin(u), 0);
+    const Vec3 r = p - centre;
+    const double v = std::atan2(r.z, Dot(r, centre));
+    p = centre + r * (1 + 0.33 * std::sin(5 * u) * std::cos(3 * v));
   }
-  if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
-  std::string name = path.substr(path.find_last_of('/') + 1);
-  if (permute_seed != 0) {
-    *mesh = Permuted(*mesh, permute_seed);
-    name += " (permuted)";
+  return mesh;
+}
+
+// Best rates of every raw configuration, one round (each configuration
+// once) per call, so that drifts of the machine's speed spread over all.
+struct RawBest {
+  std::vector<RawConfig> configs = RawConfigs();
+  std::vector<double> rate = std::vector<double>(configs.size(), 0);
+  std::vector<double> build = std::vector<double>(configs.size(), 1e300);
+  std::vector<double> hit_fraction = std::vector<double>(configs.size(), 0);
+
+  bool Round(const Mesh& mesh, const SdfParams& params) {
+    for (size_t c = 0; c < configs.size(); ++c) {
+      auto raw = RunRawPass(mesh, params, configs[c]);
+      if (!raw.ok()) return false;
+      rate[c] = std::max(rate[c], raw->rays / raw->seconds);
+      build[c] = std::min(build[c], raw->build_seconds);
+      hit_fraction[c] = static_cast<double>(raw->hits) / raw->rays;
+    }
+    return true;
   }
+  size_t Fastest() const {
+    return std::max_element(rate.begin(), rate.end()) - rate.begin();
+  }
+  void Print(const std::string& name) const {
+    for (size_t c = 0; c < configs.size(); ++c) {
+      std::printf("%-28s raw %-32s %.3e rays/s  build %.3f s  hits %.6f\n",
+                  name.c_str(), configs[c].Name().c_str(), rate[c], build[c],
+                  hit_fraction[c]);
+    }
+    std::printf("%-28s fastest raw: %s, %.3e rays/s\n", name.c_str(),
+                configs[Fastest()].Name().c_str(), rate[Fastest()]);
+  }
+};
+
+// `CLI sdf FILE --json` (with --reorient, as the benchmark's mesh), best
+// wall time of --repeat runs, against the fastest raw pass over its rays.
+void BenchCli(const std::string& name, const std::string& file,
+              const SdfParams& params, double raw_rate) {
+  const std::string command = absl::StrCat(
+      absl::GetFlag(FLAGS_cli), " sdf '", file, "' --json --reorient",
+      " --threads ", params.threads,
+      params.rays > 0 ? absl::StrCat(" --rays ", params.rays) : "");
+  double best = 1e300;
+  nlohmann::json summary;
+  for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
+    const Stopwatch watch;
+    FILE* pipe = popen(command.c_str(), "r");
+    if (pipe == nullptr) return;
+    std::string out;
+    char buf[4096];
+    for (size_t n; (n = fread(buf, 1, sizeof(buf), pipe)) > 0;) {
+      out.append(buf, n);
+    }
+    if (pclose(pipe) != 0) {
+      std::fprintf(stderr, "%s failed\n", command.c_str());
+      return;
+    }
+    const double wall = watch.Seconds();
+    if (wall < best) {
+      best = wall;
+      summary = nlohmann::json::parse(out);
+    }
+  }
+  const double raw_seconds = summary["rays"].get<double>() / raw_rate;
+  const nlohmann::json& t = summary["stage_seconds"];
+  std::printf(
+      "%-28s CLI wall %.3f s = %.3f x the fastest raw pass (%.3f s); read "
+      "%.3f s, checks %.3f s, setup %.3f s, ray pass %.3f s\n",
+      name.c_str(), best, best / raw_seconds, raw_seconds,
+      t["read"].get<double>(), t["checks"].get<double>(),
+      t["setup"].get<double>(), t["rays"].get<double>());
+  const nlohmann::json& m = summary["memory_bytes"];
+  auto mb = [&m](const char* key) { return m[key].get<double>() / 1e6; };
+  const double counted = mb("mesh") + mb("bvh") + mb("hit_table");
+  std::printf(
+      "%-28s CLI memory: mesh %.1f MB, derived %.1f MB, BVH %.1f MB, hit "
+      "table %.1f MB; peak RSS %.1f MB = %.2f x (mesh + BVH + hit table)\n",
+      "", mb("mesh"), mb("derived"), mb("bvh"), mb("hit_table"), mb("peak_rss"),
+      mb("peak_rss") / counted);
+}
+
+int BenchMesh(const std::string& name, const Mesh& mesh,
+              const std::string& file) {
   SdfParams params;
   params.threads = absl::GetFlag(FLAGS_threads);
+  params.rays = absl::GetFlag(FLAGS_rays);
+  RawBest raw;
   auto evaluator =
-      SdfEvaluator::Create(*mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild});
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild});
   if (!evaluator.ok()) {
     std::fprintf(stderr, "%s\n",
                  std::string(evaluator.status().message()).c_str());
     return 1;
   }
   auto refit_evaluator =
-      SdfEvaluator::Create(*mesh, {.bvh_policy = BvhUpdatePolicy::kRefit});
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRefit});
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
-  double best_raw = 0, best_sdf = 0, best_values = 1e300;
+  double best_sdf = 0, best_values = 1e300;
   double best_with_vjp = 1e300, best_vjp = 1e300;
   int64_t rays = 0;
   for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
-    // Alternate the order so neither pass always runs on a warmer machine.
-    absl::StatusOr<SdfResult> sdf;
-    double values_wall = 0;
-    auto values_only = [&] {
-      const auto start = std::chrono::steady_clock::now();
-      sdf = (*evaluator)->Compute(params);
-      values_wall = std::chrono::duration<double>(
-                        std::chrono::steady_clock::now() - start)
-                        .count();
-    };
-    if (i % 2 == 1) values_only();
-    auto raw = RunRawPass(*mesh, params);
-    if (i % 2 == 0) values_only();
-    best_values = std::min(best_values, values_wall);
-    if (!raw.ok() || !sdf.ok()) {
+    if (!raw.Round(mesh, params)) {
+      std::fprintf(stderr, "raw pass failed\n");
+      return 1;
+    }
+    const Stopwatch values_watch;
+    auto sdf = (*evaluator)->Compute(params);
+    best_values = std::min(best_values, values_watch.Seconds());
+    if (!sdf.ok()) {
       std::fprintf(stderr, "pass failed\n");
       return 1;
     }
-    const auto t0 = std::chrono::steady_clock::now();
+    const Stopwatch with_vjp;
     HitTable hits;
     auto kept = (*evaluator)->Compute(params, {}, &hits);
-    const auto t1 = std::chrono::steady_clock::now();
+    const Stopwatch vjp_alone;
     auto vjp = ComputeVjp(**evaluator, hits,
-                          std::vector<double>(mesh->num_vertices(), 1.0), {},
+                          std::vector<double>(mesh.num_vertices(), 1.0), {},
                           params.threads);
-    const auto t2 = std::chrono::steady_clock::now();
     if (!kept.ok() || !vjp.ok()) {
       std::fprintf(stderr, "values+vjp failed\n");
       return 1;
     }
-    best_with_vjp =
-        std::min(best_with_vjp, std::chrono::duration<double>(t2 - t0).count());
-    best_vjp =
-        std::min(best_vjp, std::chrono::duration<double>(t2 - t1).count());
-    best_raw = std::max(best_raw, raw->rays / raw->seconds);
+    best_vjp = std::min(best_vjp, vjp_alone.Seconds());
+    best_with_vjp = std::min(best_with_vjp, with_vjp.Seconds());
     auto refit_pass = (*refit_evaluator)->Compute(params);
     best_refit = std::max(best_refit,
                           refit_pass->rays_traced / refit_pass->trace_seconds);
@@ -123,47 +218,80 @@ int BenchMesh(const std::string& path, uint64_t permute_seed) {
   // One 1000 x 800 view, as `meshgauge report --view-size 1000 800` draws
   // each of its four (BVH build included).
   for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
-    const auto start = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     auto view =
-        RenderViews(*mesh, values, ColorScale{0, 1}, {}, {StandardViews(2)[3]},
+        RenderViews(mesh, values, ColorScale{0, 1}, {}, {StandardViews(2)[3]},
                     {.width = 1000, .height = 800});
     if (!view.ok()) {
       std::fprintf(stderr, "render failed\n");
       return 1;
     }
-    best_render = std::min(
-        best_render,
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-            .count());
+    best_render = std::min(best_render, watch.Seconds());
   }
+  raw.Print(name);
+  const double best_raw = raw.rate[raw.Fastest()];
   std::printf(
-      "%-28s %8lld V %11lld rays  raw %.3e rays/s  sdf %.3e rays/s  "
+      "%-28s %8lld V %11lld rays  fastest raw %.3e rays/s  sdf %.3e rays/s  "
       "sdf/raw %.3f\n",
-      name.c_str(), static_cast<long long>(mesh->num_vertices()),
+      name.c_str(), static_cast<long long>(mesh.num_vertices()),
       static_cast<long long>(rays), best_raw, best_sdf, best_sdf / best_raw);
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);
-  const double values_only = best_values;
   std::printf(
       "%-28s values %.3f s  values+hits+VJP %.3f s (VJP alone %.3f s)  "
       "ratio %.3f\n",
-      "", values_only, best_with_vjp, best_vjp, best_with_vjp / values_only);
+      "", best_values, best_with_vjp, best_vjp, best_with_vjp / best_values);
   std::printf("%-28s render 1000x800 view %.3f s, %.3f of the values pass\n",
-              "", best_render, best_render / values_only);
+              "", best_render, best_render / best_values);
+  if (!absl::GetFlag(FLAGS_cli).empty()) {
+    BenchCli(name, file, params, best_raw);
+  }
+  std::fflush(stdout);
   return 0;
+}
+
+// `mesh` written as a binary PLY under --mesh_dir for the CLI.
+std::string Written(const Mesh& mesh, const std::string& name) {
+  const std::string path = absl::StrCat(absl::GetFlag(FLAGS_mesh_dir),
+                                        "/meshgauge_bench_", name, ".ply");
+  if (absl::Status s = WriteQualityPly(
+          path, mesh, std::vector<double>(mesh.num_vertices(), 0.0));
+      !s.ok()) {
+    std::fprintf(stderr, "%s\n", std::string(s.message()).c_str());
+  }
+  return path;
 }
 
 }  // namespace
 }  // namespace meshgauge::bench
 
 int main(int argc, char** argv) {
+  using namespace meshgauge;
+  using namespace meshgauge::bench;
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {
-    rc |= meshgauge::bench::BenchMesh(args[i], 0);
-    if (const uint64_t seed = absl::GetFlag(FLAGS_permute_seed); seed != 0) {
-      rc |= meshgauge::bench::BenchMesh(args[i], seed);
+    const std::string path = args[i];
+    auto mesh = ReadMesh(path);
+    if (!mesh.ok()) {
+      std::fprintf(stderr, "%s\n",
+                   std::string(mesh.status().message()).c_str());
+      rc = 1;
+      continue;
     }
+    if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
+    const std::string name = path.substr(path.find_last_of('/') + 1);
+    rc |= BenchMesh(name, *mesh, path);
+    if (const uint64_t seed = absl::GetFlag(FLAGS_permute_seed); seed != 0) {
+      const Mesh permuted = Permuted(*mesh, seed);
+      rc |= BenchMesh(name + " (permuted)", permuted,
+                      Written(permuted, "permuted"));
+    }
+  }
+  if (const int64_t n = absl::GetFlag(FLAGS_generated_vertices); n > 0) {
+    const Mesh torus = BumpyTorus(n);
+    rc |= BenchMesh(absl::StrCat("bumpy torus ", torus.num_vertices(), " V"),
+                    torus, Written(torus, "torus"));
   }
   return rc;
 }

@@ -1,13 +1,21 @@
 #!/usr/bin/env bash
-# Benchmarks (not part of the test run): meshgauge's ray pass vs a raw Embree
-# rtcIntersect1 pass over the same rays (in the file's vertex order), on the
-# shared meshes and on igea with its vertices permuted.
+# Benchmarks (not part of the test run), in one run on the same rays: every
+# raw Embree configuration (bench/raw_embree_pass.h), meshgauge's ray pass and
+# the whole `meshgauge sdf` run (wall time, stages, memory and peak RSS) with
+# their ratios to the fastest raw pass, on the shared meshes, on igea with its
+# vertices permuted and on a generated mesh of a million vertices (25 rays).
+# About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 scripts/build.sh
-build/bench/meshgauge_bench "$@" ../shared/meshes/igea-triangles.ply ../shared/meshes/horse.ply \
+CLI="$PWD/build/client/meshgauge"
+# igea in file order and with its vertices randomly permuted (fixed seed):
+# the ray pass visits vertices in Morton order, so a scrambled order costs
+# little.
+build/bench/meshgauge_bench --cli "$CLI" --permute_seed 7 "$@" \
+  ../shared/meshes/igea-triangles.ply
+build/bench/meshgauge_bench --cli "$CLI" "$@" ../shared/meshes/horse.ply \
   ../shared/meshes/stanford-bunny.obj ../shared/meshes/rocker-arm.obj
-# igea again, and with its vertices randomly permuted (fixed seed): the ray
-# pass visits vertices in Morton order, so a scrambled order costs little.
-build/bench/meshgauge_bench "$@" --permute_seed 7 ../shared/meshes/igea-triangles.ply
+build/bench/meshgauge_bench --cli "$CLI" --rays 25 --repeat 1 \
+  --generated_vertices 1000000 "$@"

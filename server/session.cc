@@ -1,10 +1,10 @@
 #include "server/session.h"
 
 #include <algorithm>
-#include <chrono>
 #include <random>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/stopwatch.h"
 
 namespace meshgauge::server {
 namespace {
@@ -15,11 +15,6 @@ MeshDiagnostics RecordedDiagnostics(const wire::SessionInfo& info) {
   d.closed = info.closed;
   d.warnings = info.warnings;
   return d;
-}
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
 }
 
 }  // namespace
@@ -99,7 +94,7 @@ wire::SessionInfo Session::Info() const {
 absl::Status Session::EnsureEvaluator() {
   // Caller holds mu_ exclusively.
   if (evaluator_) return absl::OkStatus();
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const bool refit = !pending_positions_.empty();
   auto ev = SdfEvaluator::Create(
       std::move(pending_mesh_),
@@ -107,16 +102,16 @@ absl::Status Session::EnsureEvaluator() {
        .rebuild_every_updates = options_.rebuild_every_updates,
        .generation = refit ? generation_ - 1 : generation_.load()});
   if (!ev.ok()) return ev.status();
-  metrics_->RecordBvhBuild(SecondsSince(start));
+  metrics_->RecordBvhBuild(watch.Seconds());
   if (refit) {
     // Base positions are a past generation: refit to the current ones (the
     // current generation is not a base, or they would be the base).
-    const auto refit_start = std::chrono::steady_clock::now();
+    const Stopwatch refit_watch;
     if (absl::Status s = (*ev)->UpdatePositions(pending_positions_); !s.ok()) {
       return s;
     }
     pending_positions_ = {};
-    metrics_->RecordBvhRefit(SecondsSince(refit_start));
+    metrics_->RecordBvhRefit(refit_watch.Seconds());
   }
   evaluator_ = std::move(*ev);
   builds_ = evaluator_->builds();
@@ -147,7 +142,7 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
         "session '", id_, "' is at generation ", evaluator_->generation(),
         ", the update expected generation ", expected_generation));
   }
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   const int64_t builds = evaluator_->builds();
   absl::Status s = indices.empty()
                        ? evaluator_->UpdatePositions(positions)
@@ -155,7 +150,7 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
   if (!s.ok()) return s;
   UpdateOutcome out;
   out.refit = evaluator_->builds() == builds;
-  out.bvh_seconds = SecondsSince(start);
+  out.bvh_seconds = watch.Seconds();
   if (out.refit) {
     metrics_->RecordBvhRefit(out.bvh_seconds);
   } else {

@@ -34,18 +34,30 @@ std::string Slurp(const std::string& path) {
   return s.str();
 }
 
-// stdout without what measures time: the JSON keys seconds and
-// rays_per_second, the text summary's "rays: N in T s (R rays/s)" line.
+// A summary without what measures time or this process's memory: the keys
+// seconds, rays_per_second, stage_seconds and memory_bytes.
+void EraseTimes(nlohmann::json& summary) {
+  summary.erase("seconds");
+  summary.erase("rays_per_second");
+  summary.erase("stage_seconds");
+  summary.erase("memory_bytes");
+}
+
+// stdout without what measures time or memory: EraseTimes, the text
+// summary's "rays: N in T s (R rays/s)", "time: ..." and "memory: ..." lines.
 std::string Untimed(const std::string& out) {
   if (!out.empty() && out[0] == '{') {
     nlohmann::json j = nlohmann::json::parse(out);
-    j.erase("seconds");
-    j.erase("rays_per_second");
+    EraseTimes(j);
     return j.dump();
   }
   std::vector<std::string> lines;
   for (absl::string_view line : absl::StrSplit(out, '\n')) {
-    if (!absl::StartsWith(line, "rays: ")) lines.emplace_back(line);
+    if (!absl::StartsWith(line, "rays: ") &&
+        !absl::StartsWith(line, "time: ") &&
+        !absl::StartsWith(line, "memory: ")) {
+      lines.emplace_back(line);
+    }
   }
   return absl::StrJoin(lines, "\n");
 }
@@ -152,8 +164,7 @@ TEST_F(CliRemoteTest, ReportIsTheLocalOne) {
   auto untimed = [](const std::string& dir) {
     auto j = nlohmann::json::parse(Slurp(Tmp(dir + "/report.json")));
     j.erase("timing");
-    j["summary"].erase("seconds");
-    j["summary"].erase("rays_per_second");
+    EraseTimes(j["summary"]);
     return j;
   };
   EXPECT_EQ(untimed("local_report").dump(), untimed("remote_report").dump());

@@ -41,6 +41,22 @@ TEST(CliTest, JsonSummaryHasAllKeys) {
   EXPECT_EQ(j["ok"], 502);
   EXPECT_EQ(j["rays"], 502 * 20);
   EXPECT_GT(j["integral"].get<double>(), 0);
+  for (const char* stage : {"read", "checks", "setup", "rays"}) {
+    EXPECT_GE(j["stage_seconds"][stage].get<double>(), 0) << stage;
+  }
+}
+
+TEST(CliTest, ValuesAloneKeepNoHitTableAndMemoryIsReported) {
+  const CliRun r =
+      RunCli("sdf " + SharedMesh("decimated-knight.off") + " --json --rays 20");
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto m = nlohmann::json::parse(r.out)["memory_bytes"];
+  // 502 positions and 1000 faces at least; a BVH; no table of 10,040 rays.
+  EXPECT_GE(m["mesh"].get<int64_t>(), 502 * 24 + 1000 * 20);
+  EXPECT_GT(m["derived"].get<int64_t>(), 0);
+  EXPECT_GT(m["bvh"].get<int64_t>(), 1000 * 16);
+  EXPECT_EQ(m["hit_table"].get<int64_t>(), 0);
+  EXPECT_GT(m["peak_rss"].get<int64_t>(), m["mesh"].get<int64_t>());
 }
 
 TEST(CliTest, WritesCsvAndPly) {

@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <limits>
 #include <numeric>
+#include <random>
 
 #include "absl/strings/str_join.h"
 #include "lib/core/mesh_repair.h"
@@ -319,6 +320,38 @@ namespace {
 // diagnosed in time linear in the file (this took 15 s of CPU for 80,000
 // when diagnostics compared face pairs; the test's 300 s timeout catches a
 // quadratic step). The times are printed, not asserted.
+// SortedEdgeUses against a plain stable sort of every use by key, on faces
+// in a scrambled order with a vertex of 120 incident faces (longer lists are
+// sorted differently from short ones) and a quad.
+TEST(LinearDiagnosticsTest, EdgeUsesAreSortedWithEachEdgesUsesInFaceOrder) {
+  Mesh mesh = MakeIcosphere(1.0, 6);
+  const int32_t pole = static_cast<int32_t>(mesh.positions.size());
+  mesh.positions.push_back(Vec3(0, 0, 3));
+  for (int32_t k = 0; k < 120; ++k) {
+    mesh.faces.push_back(Face::Triangle(pole, k, k + 1));
+  }
+  mesh.faces.push_back(Face::Quad(0, 5, 9, 2));
+  std::shuffle(mesh.faces.begin(), mesh.faces.end(), std::mt19937(1));
+  std::vector<EdgeUse> want;
+  for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
+    const Face& f = mesh.faces[id];
+    for (int k = 0; k < f.size; ++k) {
+      const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
+      want.push_back({EdgeKey(a, b), id, a < b});
+    }
+  }
+  std::stable_sort(
+      want.begin(), want.end(),
+      [](const EdgeUse& a, const EdgeUse& b) { return a.key < b.key; });
+  const std::vector<EdgeUse> got = SortedEdgeUses(mesh);
+  ASSERT_EQ(got.size(), want.size());
+  for (size_t i = 0; i < got.size(); ++i) {
+    ASSERT_EQ(got[i].key, want[i].key) << i;
+    ASSERT_EQ(got[i].face, want[i].face) << i;
+    ASSERT_EQ(got[i].forward, want[i].forward) << i;
+  }
+}
+
 TEST(LinearDiagnosticsTest, AMillionDuplicateFacesAreDiagnosed) {
   std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
   for (int i = 0; i < 500'000; ++i) obj += "f 1 2 3\nf 1 3 2\n";

@@ -414,5 +414,31 @@ TEST(ReadLimitsTest, ADeclaredVertexCountIsCheckedBeforeItIsReserved) {
   EXPECT_GE(reported.front(), 4 * int64_t{sizeof(Vec3)});
 }
 
+// The face arrays are reserved from the header's count, so the count is
+// checked there: a file declaring more faces than allowed is refused before
+// its faces are read (here it holds one of the two it declares).
+TEST(ReadLimitsTest, ADeclaredFaceCountIsCheckedBeforeItIsReserved) {
+  io::ReadLimits limits{.max_faces = 1};
+  const std::string off = "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 1 2\n" +
+                          std::string(16, ' ');
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 2\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" +
+      std::string(16, ' ');
+  for (const auto& [text, ext] : {std::pair{off, ".off"}, {ply, ".ply"}}) {
+    auto read = ParseMeshContents(text, ext, "t", limits);
+    EXPECT_EQ(read.status().code(), absl::StatusCode::kResourceExhausted)
+        << ext << ": " << read.status();
+    EXPECT_THAT(std::string(read.status().message()),
+                HasSubstr("1 faces (max_faces"));
+    // Without the limit the missing face is what is wrong.
+    auto unlimited = ParseMeshContents(text, ext, "t", {});
+    EXPECT_EQ(unlimited.status().code(), absl::StatusCode::kInvalidArgument)
+        << ext;
+  }
+}
+
 }  // namespace
 }  // namespace meshgauge

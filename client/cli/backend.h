@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,20 +24,38 @@ class RemoteClient;
 
 namespace meshgauge::cli {
 
+// Which derivatives of a pass will be asked for: a pass without them keeps
+// no hit table (its memory is #V x rays x 5 bytes).
+enum class Derivatives {
+  kNone,      // values (and a penalty without its gradient)
+  kVjp,       // Vjp() and Penalty(..., true)
+  kJacobian,  // those and Jacobian()
+};
+
+// Bytes a local backend holds (a remote one's are the server's).
+struct MemoryBytes {
+  int64_t mesh = 0;       // positions, faces, regions
+  int64_t derived = 0;    // topology and double-precision corners
+  int64_t bvh = 0;        // Embree: BVH and geometry buffers
+  int64_t hit_table = 0;  // kept for derivatives only: 5 bytes per ray
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
-  // The ray pass at the mesh's positions, kept for the calls below;
-  // with_jacobian: Jacobian() will be asked for.
+  // What this process holds for the session; nullopt for a remote one.
+  virtual std::optional<MemoryBytes> Memory() const { return std::nullopt; }
+  // The ray pass at the mesh's positions, kept for the calls below.
   virtual absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
-                                        bool with_jacobian) = 0;
-  // After Sdf(params, true): dSDF/dx of that pass.
+                                        Derivatives derivatives) = 0;
+  // After Sdf(params, kJacobian): dSDF/dx of that pass.
   virtual absl::StatusOr<SparseJacobian> Jacobian() = 0;
-  // After Sdf: g^T J for per-vertex weights (#V).
+  // After Sdf(params, kVjp or kJacobian): g^T J for per-vertex weights (#V).
   virtual absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) = 0;
   // After Sdf: the penalty (or KS constraint) of that pass, its gradient
-  // when asked (PenaltyResult::dp_dt is not filled remotely).
+  // when asked (after kVjp or kJacobian; PenaltyResult::dp_dt is not filled
+  // remotely).
   virtual absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
                                                 bool with_gradient) = 0;
   // Both passes of SPEC §8 (the report's per-vertex arrays may be empty).

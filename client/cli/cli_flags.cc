@@ -9,6 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "lib/core/stopwatch.h"
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
@@ -259,9 +260,11 @@ absl::Status ApplyRegionDirections(Mesh& mesh,
 
 absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
                                     const MeshFlags& flags) {
+  const Stopwatch watch;
   auto read = ReadMeshFile(path);
   if (!read.ok()) return read.status();
   LoadedMesh loaded;
+  loaded.read_seconds = watch.Seconds();
   loaded.format = read->format;
   loaded.polygons_triangulated = read->polygons_triangulated;
   loaded.polygons_fallback = read->polygons_fallback;
@@ -285,6 +288,7 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   loaded.warnings = loaded.diagnostics.warnings;
   loaded.signed_volume = repaired->signed_volume;
   loaded.closed = loaded.diagnostics.closed;
+  loaded.check_seconds = watch.Seconds() - loaded.read_seconds;
   return loaded;
 }
 

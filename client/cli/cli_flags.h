@@ -122,6 +122,8 @@ struct LoadedMesh {
   int64_t faces_made_consistent = 0;  // reversed to agree (--reorient).
   MeshDiagnostics diagnostics;        // after the fixes.
   std::vector<std::string> warnings;
+  double read_seconds = 0;   // parsing the file
+  double check_seconds = 0;  // repairs, validation and diagnostics
 };
 
 // Reads and validates `path`; inward-oriented closed components, double-

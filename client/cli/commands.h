@@ -28,6 +28,7 @@ struct Opened {
   LoadedMesh loaded;
   std::unique_ptr<Backend> backend;
   SdfParams params;
+  double setup_seconds = 0;  // making the backend: topology and BVH, or upload
 };
 absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
                             bool print_warnings);

@@ -21,7 +21,9 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   const int64_t nv = opened->loaded.mesh.num_vertices();
   auto weights = ReadWeights(grad.weights, nv);
   if (!weights.ok()) return weights.status();
-  auto result = backend.Sdf(opened->params, !grad.jacobian.empty());
+  auto result = backend.Sdf(opened->params, grad.jacobian.empty()
+                                                ? Derivatives::kVjp
+                                                : Derivatives::kJacobian);
   if (!result.ok()) return result.status();
   nlohmann::json j;
   j["vertices"] = nv;
@@ -72,9 +74,11 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   auto opened = Open(in, make, /*print_warnings=*/true);
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
-  auto result = backend.Sdf(opened->params, false);
-  if (!result.ok()) return result.status();
   const std::string& grad_path = flags.grad;
+  auto result =
+      backend.Sdf(opened->params,
+                  grad_path.empty() ? Derivatives::kNone : Derivatives::kVjp);
+  if (!result.ok()) return result.status();
   auto pen = backend.Penalty(pp, !grad_path.empty());
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {

@@ -1,6 +1,7 @@
 #include "client/cli/backend.h"
 #include "client/cli/progress_bar.h"
 #include "lib/embree/calibration.h"
+#include "lib/embree/ray_hit.h"
 #include "lib/embree/sdf_evaluator.h"
 
 namespace meshgauge::cli {
@@ -10,14 +11,23 @@ class Local : public Backend {
  public:
   explicit Local(std::unique_ptr<SdfEvaluator> ev) : ev_(std::move(ev)) {}
 
-  absl::StatusOr<SdfResult> Sdf(const SdfParams& params, bool) override {
+  absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
+                                Derivatives derivatives) override {
     ProgressBar bar("tracing");
     ComputeControl control;
     control.progress = [&bar](int64_t d, int64_t t) { bar.Update(d, t); };
-    auto result = ev_->Compute(params, control, &hits_);
+    hits_ = HitTable();
+    auto result = ev_->Compute(
+        params, control, derivatives == Derivatives::kNone ? nullptr : &hits_);
     bar.Finish();
     if (result.ok()) result_ = *result;
     return result;
+  }
+  std::optional<MemoryBytes> Memory() const override {
+    return MemoryBytes{.mesh = ev_->MeshBytes(),
+                       .derived = ev_->DerivedBytes(),
+                       .bvh = RayTracerBytes(),
+                       .hit_table = hits_.Bytes()};
   }
   absl::StatusOr<SparseJacobian> Jacobian() override {
     return ComputeJacobian(*ev_, hits_);

@@ -1,6 +1,8 @@
 // meshgauge: shape diameter function of surface meshes from the command line.
 // Usage errors exit 2, runtime errors 1 (one line "meshgauge: error: ..."),
 // --help and --version 0.
+#include <malloc.h>
+
 #include <CLI/CLI.hpp>
 #include <functional>
 #include <iostream>
@@ -237,4 +239,13 @@ int Main(int argc, char** argv) {
 
 }  // namespace meshgauge::cli
 
-int main(int argc, char** argv) { return meshgauge::cli::Main(argc, argv); }
+int main(int argc, char** argv) {
+  // A run allocates and frees arrays of megabytes stage after stage (file,
+  // diagnostics, topology, normals): kept in the heap instead of unmapped,
+  // each is reused without faulting its pages in again (measured on igea:
+  // the mesh copy, topology and normals stop faulting, about 0.1 s). 32 MiB
+  // is glibc's largest threshold; the process exits after its verb.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
+  return meshgauge::cli::Main(argc, argv);
+}

@@ -15,15 +15,17 @@ class Remote : public Backend {
   }
 
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
-                                bool with_jacobian) override {
+                                Derivatives derivatives) override {
     params_ = params;
-    auto r = c_->ComputeSdf(id_, params, {.include_jacobian = with_jacobian});
+    auto r = c_->ComputeSdf(
+        id_, params,
+        {.include_jacobian = derivatives == Derivatives::kJacobian});
     if (!r.ok()) return r.status();
     jacobian_ = std::move(r->jacobian);
     return std::move(r->result);
   }
   absl::StatusOr<SparseJacobian> Jacobian() override {
-    if (!jacobian_) return absl::InternalError("Sdf(params, true) first");
+    if (!jacobian_) return absl::InternalError("Sdf(params, kJacobian) first");
     return *jacobian_;
   }
   absl::StatusOr<std::vector<Vec3>> Vjp(

@@ -95,7 +95,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
   if (!opened.ok()) return opened.status();
   const Mesh& mesh = opened->loaded.mesh;
-  auto result = opened->backend->Sdf(opened->params, false);
+  auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
   const double sdf_seconds = Since(start);
   const std::vector<double>& values = result->values;
@@ -144,8 +144,8 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   nlohmann::json report;
   report["mesh"] = nlohmann::json::parse(Dump(in.mesh, -1));
   report["sentence"] = sentence;
-  report["summary"] = SummaryJson(opened->loaded, *result, sdf_seconds,
-                                  in.out.warn_missing_fraction);
+  report["summary"] =
+      SummaryJson(*opened, *result, sdf_seconds, in.out.warn_missing_fraction);
   const nlohmann::json& summary = report["summary"];
   report["parameters"] = {
       {"t_min", flags.t_min},

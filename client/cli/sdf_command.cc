@@ -1,9 +1,9 @@
-#include <chrono>
 #include <iostream>
 
 #include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/summary.h"
+#include "lib/core/stopwatch.h"
 #include "lib/io/mesh_io.h"
 
 namespace meshgauge::cli {
@@ -17,20 +17,20 @@ absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
   for (const std::string& w : loaded->warnings) {
     if (print_warnings) std::cerr << "meshgauge: warning: " << w << "\n";
   }
+  const Stopwatch setup;
   auto backend = make(loaded->mesh);
   if (!backend.ok()) return backend.status();
-  return Opened{std::move(*loaded), std::move(*backend), *params};
+  return Opened{std::move(*loaded), std::move(*backend), *params,
+                setup.Seconds()};
 }
 
 absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch watch;
   auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
   if (!opened.ok()) return opened.status();
-  auto result = opened->backend->Sdf(opened->params, false);
+  auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
+  const double seconds = watch.Seconds();
   const Mesh& mesh = opened->loaded.mesh;
   if (const std::string& csv = in.out.csv; !csv.empty()) {
     if (absl::Status s = WriteSdfCsv(csv, mesh, *result); !s.ok()) return s;
@@ -40,8 +40,8 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
       return s;
     }
   }
-  const nlohmann::json summary = SummaryJson(opened->loaded, *result, seconds,
-                                             in.out.warn_missing_fraction);
+  const nlohmann::json summary =
+      SummaryJson(*opened, *result, seconds, in.out.warn_missing_fraction);
   if (in.out.json) {
     std::cout << summary.dump() << "\n";
   } else {

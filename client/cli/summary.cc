@@ -1,5 +1,7 @@
 #include "client/cli/summary.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -13,8 +15,9 @@
 
 namespace meshgauge::cli {
 
-nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
+nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
                            double seconds, double warn_fraction) {
+  const LoadedMesh& loaded = opened.loaded;
   nlohmann::json j;
   j["vertices"] = loaded.mesh.num_vertices();
   j["faces"] = loaded.mesh.num_faces();
@@ -46,6 +49,20 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   j["rays_per_second"] = result.trace_seconds > 0
                              ? result.rays_traced / result.trace_seconds
                              : 0.0;
+  j["stage_seconds"] = {{"read", loaded.read_seconds},
+                        {"checks", loaded.check_seconds},
+                        {"setup", opened.setup_seconds},
+                        {"rays", result.trace_seconds}};
+  nlohmann::json& memory = j["memory_bytes"];
+  if (const auto held = opened.backend->Memory()) {
+    memory = {{"mesh", held->mesh},
+              {"derived", held->derived},
+              {"bvh", held->bvh},
+              {"hit_table", held->hit_table}};
+  }
+  rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  memory["peak_rss"] = int64_t{usage.ru_maxrss} * 1024;
   j["closed"] = loaded.closed;
   j[loaded.mesh.dimension == 3 ? "signed_volume" : "signed_area"] =
       loaded.signed_volume;
@@ -73,6 +90,21 @@ nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
   return j;
 }
 
+namespace {
+
+std::string MemoryLine(const nlohmann::json& m) {
+  auto mb = [&m](const char* key) { return m[key].get<double>() / 1e6; };
+  if (!m.contains("mesh")) {
+    return absl::StrFormat("memory: peak RSS %.1f MB\n", mb("peak_rss"));
+  }
+  return absl::StrFormat(
+      "memory: mesh %.1f MB, derived %.1f MB, BVH %.1f MB, hit table %.1f MB, "
+      "peak RSS %.1f MB\n",
+      mb("mesh"), mb("derived"), mb("bvh"), mb("hit_table"), mb("peak_rss"));
+}
+
+}  // namespace
+
 std::string SummaryText(const nlohmann::json& j) {
   auto num = [](const nlohmann::json& v) {
     return v.is_null() ? std::string("-")
@@ -87,7 +119,9 @@ std::string SummaryText(const nlohmann::json& j) {
       "integral of sdf over the surface: %.8g (%d faces skipped, %.2f%% of "
       "the area)\n"
       "frames: %d vertices fell back to the world frame\n"
-      "rays: %d in %.3f s (%.3g rays/s in the ray pass)\n",
+      "rays: %d in %.3f s (%.3g rays/s in the ray pass)\n"
+      "time: read %.3f s, checks %.3f s, setup %.3f s, ray pass %.3f s\n"
+      "%s",
       j["dimension"].get<int>(), j["vertices"].get<int64_t>(),
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
       j["components"].get<int64_t>(), j["polygons_triangulated"].get<int64_t>(),
@@ -104,7 +138,11 @@ std::string SummaryText(const nlohmann::json& j) {
       j["integral_skipped_faces"].get<int64_t>(),
       100 * j["missing_area_fraction"].get<double>(),
       j["world_frame_vertices"].get<int64_t>(), j["rays"].get<int64_t>(),
-      j["seconds"].get<double>(), j["rays_per_second"].get<double>());
+      j["seconds"].get<double>(), j["rays_per_second"].get<double>(),
+      j["stage_seconds"]["read"].get<double>(),
+      j["stage_seconds"]["checks"].get<double>(),
+      j["stage_seconds"]["setup"].get<double>(),
+      j["stage_seconds"]["rays"].get<double>(), MemoryLine(j["memory_bytes"]));
   for (const auto& w : j["warnings"]) {
     absl::StrAppend(&s, "warning: ", w.get<std::string>(), "\n");
   }

@@ -5,17 +5,19 @@
 #include <string>
 
 #include "absl/status/status.h"
-#include "client/cli/cli_flags.h"
+#include "client/cli/commands.h"
 #include "lib/core/sdf_types.h"
 
 namespace meshgauge::cli {
 
 // The JSON summary of SPEC/README: vertices, faces, dimension, ok, no_hit,
 // no_faces, degenerate_normal, sdf_min/median/max/mean (null when no value),
-// integral, rays, seconds, rays_per_second, plus method, volume and
-// warnings: the mesh's, and a sentence per component whose missing values
-// cover more than warn_fraction of the surface (MissingValueWarnings).
-nlohmann::json SummaryJson(const LoadedMesh& loaded, const SdfResult& result,
+// integral, rays, seconds (`seconds`: the run until the values),
+// rays_per_second, stage_seconds (read, checks, setup, rays), memory_bytes
+// (mesh, derived, bvh, hit_table when local; peak_rss), plus method,
+// volume and warnings: the mesh's, and a sentence per component whose missing
+// values cover more than warn_fraction of the surface (MissingValueWarnings).
+nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
                            double seconds, double warn_fraction);
 
 // Human-readable form of the same summary.

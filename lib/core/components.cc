@@ -21,7 +21,7 @@ struct Topology {
   bool closed = true;
 };
 
-Topology AnalyzeTopology(const Mesh& mesh) {
+Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
   const int32_t nv = static_cast<int32_t>(mesh.num_vertices());
   std::vector<int32_t> parent(nv);
   std::iota(parent.begin(), parent.end(), 0);
@@ -41,13 +41,12 @@ Topology AnalyzeTopology(const Mesh& mesh) {
     }
     t.components[c].faces.push_back(id);
   }
-  const std::vector<uint64_t> keys = SortedEdgeUses(mesh);
-  for (size_t i = 0, j = 0; i < keys.size(); i = j) {
-    while (j < keys.size() && keys[j] == keys[i]) ++j;
+  for (size_t i = 0, j = 0; i < uses.size(); i = j) {
+    while (j < uses.size() && uses[j].key == uses[i].key) ++j;
     if (j - i == 2) continue;
     t.closed = false;
     t.boundary_edges += j - i == 1;
-    const int32_t v = EdgeKeyVertex(keys[i], mesh.dimension);
+    const int32_t v = EdgeKeyVertex(uses[i].key, mesh.dimension);
     t.components[index[FindRoot(parent, v)]].closed = false;
   }
   for (Component& c : t.components) {
@@ -99,32 +98,7 @@ struct FacePair {
   bool same_direction;
 };
 
-std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
-  struct Use {
-    uint64_t key;
-    int32_t face;
-    bool forward;
-  };
-  std::vector<Use> uses;
-  int64_t corners = 0;
-  for (const Face& f : mesh.faces) corners += f.size;
-  uses.reserve(corners);
-  for (int32_t id = 0; id < static_cast<int32_t>(mesh.num_faces()); ++id) {
-    const Face& f = mesh.faces[id];
-    if (f.size == 2) {
-      uses.push_back({static_cast<uint32_t>(f.v[0]), id, true});
-      uses.push_back({static_cast<uint32_t>(f.v[1]), id, false});
-      continue;
-    }
-    for (int k = 0; k < f.size; ++k) {
-      const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
-      uses.push_back({EdgeKey(a, b), id, a < b});
-    }
-  }
-  // By edge only: the order of a pair's two faces changes nothing (each
-  // face's neighbours are listed in edge order either way).
-  std::sort(uses.begin(), uses.end(),
-            [](const Use& a, const Use& b) { return a.key < b.key; });
+std::vector<FacePair> ManifoldNeighbours(const std::vector<EdgeUse>& uses) {
   std::vector<FacePair> pairs;
   for (size_t i = 0, j = 0; i < uses.size(); i = j) {
     while (j < uses.size() && uses[j].key == uses[i].key) ++j;
@@ -138,7 +112,7 @@ std::vector<FacePair> ManifoldNeighbours(const Mesh& mesh) {
 }  // namespace
 
 std::vector<Component> ConnectedComponents(const Mesh& mesh) {
-  return AnalyzeTopology(mesh).components;
+  return AnalyzeTopology(mesh, SortedEdgeUses(mesh)).components;
 }
 
 namespace {
@@ -307,18 +281,21 @@ Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
 }  // namespace
 
 MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
-  return Diagnose(mesh, AnalyzeTopology(mesh), ManifoldNeighbours(mesh));
+  const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
+  return Diagnose(mesh, AnalyzeTopology(mesh, uses), ManifoldNeighbours(uses));
 }
 
 Reorientation ReorientComponents(Mesh& mesh) {
-  Topology t = AnalyzeTopology(mesh);
-  std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
+  const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
+  Topology t = AnalyzeTopology(mesh, uses);
+  std::vector<FacePair> pairs = ManifoldNeighbours(uses);
   return Reorient(mesh, t, pairs);
 }
 
 MeshDiagnostics ReorientAndDiagnose(Mesh& mesh, Reorientation* reorientation) {
-  Topology t = AnalyzeTopology(mesh);
-  std::vector<FacePair> pairs = ManifoldNeighbours(mesh);
+  const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
+  Topology t = AnalyzeTopology(mesh, uses);
+  std::vector<FacePair> pairs = ManifoldNeighbours(uses);
   *reorientation = Reorient(mesh, t, pairs);
   return Diagnose(mesh, t, pairs);
 }

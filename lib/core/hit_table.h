@@ -22,6 +22,11 @@ struct HitTable {
   double t_min = 0;           // self-hit threshold, mesh units.
   double t_max = 0;           // miss distance, mesh units.
   int64_t generation = -1;
+  // Bytes held: 5 per ray (a primitive index and a kept flag).
+  int64_t Bytes() const {
+    return static_cast<int64_t>(primitives.capacity() * sizeof(int32_t) +
+                                kept.capacity());
+  }
   absl::Span<const int32_t> Row(int64_t vertex) const {
     return absl::MakeConstSpan(primitives.data() + vertex * cone.size(),
                                cone.size());

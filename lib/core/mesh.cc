@@ -255,30 +255,58 @@ double SignedVolume(const Mesh& mesh) {
   return SignedVolumeOfFaces(mesh, all);
 }
 
-std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh) {
-  std::vector<uint64_t> keys;
-  keys.reserve(mesh.dimension == 2 ? 2 * mesh.faces.size()
-                                   : 4 * mesh.faces.size());
-  for (const Face& f : mesh.faces) {
-    if (f.size == 2) {
-      keys.push_back(static_cast<uint32_t>(f.v[0]));
-      keys.push_back(static_cast<uint32_t>(f.v[1]));
+std::vector<EdgeUse> SortedEdgeUses(const Mesh& mesh) {
+  const int64_t nv = mesh.num_vertices();
+  // Calls emit(smaller vertex, use) for every use, in face order.
+  auto for_each_use = [&mesh](auto&& emit) {
+    for (int32_t id = 0; id < static_cast<int32_t>(mesh.faces.size()); ++id) {
+      const Face& f = mesh.faces[id];
+      if (f.size == 2) {
+        emit(f.v[0], EdgeUse{static_cast<uint32_t>(f.v[0]), id, true});
+        emit(f.v[1], EdgeUse{static_cast<uint32_t>(f.v[1]), id, false});
+        continue;
+      }
+      for (int k = 0; k < f.size; ++k) {
+        const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
+        emit(std::min(a, b), EdgeUse{EdgeKey(a, b), id, a < b});
+      }
+    }
+  };
+  std::vector<int64_t> start(nv + 1, 0);
+  for_each_use([&](int32_t v, const EdgeUse&) { ++start[v + 1]; });
+  for (int64_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<EdgeUse> uses(start[nv]);
+  {
+    std::vector<int64_t> next(start.begin(), start.end() - 1);
+    for_each_use([&](int32_t v, const EdgeUse& u) { uses[next[v]++] = u; });
+  }
+  // Each vertex's uses by key; stable, so one edge's uses stay in face order.
+  auto by_key = [](const EdgeUse& a, const EdgeUse& b) {
+    return a.key < b.key;
+  };
+  for (int64_t v = 0; v < nv; ++v) {
+    EdgeUse* const first = uses.data() + start[v];
+    EdgeUse* const last = uses.data() + start[v + 1];
+    if (last - first > 32) {
+      std::stable_sort(first, last, by_key);
       continue;
     }
-    for (int k = 0; k < f.size; ++k) {
-      keys.push_back(EdgeKey(f.v[k], f.v[(k + 1) % f.size]));
+    for (EdgeUse* i = first + 1; i < last; ++i) {  // insertion sort
+      const EdgeUse u = *i;
+      EdgeUse* j = i;
+      for (; j > first && u.key < (j - 1)->key; --j) *j = *(j - 1);
+      *j = u;
     }
   }
-  std::sort(keys.begin(), keys.end());
-  return keys;
+  return uses;
 }
 
 bool IsClosed(const Mesh& mesh) {
-  const std::vector<uint64_t> keys = SortedEdgeUses(mesh);
-  for (size_t i = 0; i < keys.size(); i += 2) {
+  const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
+  for (size_t i = 0; i < uses.size(); i += 2) {
     // Every run has length exactly 2.
-    if (i + 1 >= keys.size() || keys[i + 1] != keys[i] ||
-        (i + 2 < keys.size() && keys[i + 2] == keys[i])) {
+    if (i + 1 >= uses.size() || uses[i + 1].key != uses[i].key ||
+        (i + 2 < uses.size() && uses[i + 2].key == uses[i].key)) {
       return false;
     }
   }

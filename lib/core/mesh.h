@@ -105,18 +105,27 @@ double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces);
 // vertex (2D) by exactly two segments: the "closed" of shared/meshes/README.
 bool IsClosed(const Mesh& mesh);
 
-// One key per use of an undirected edge by a face (3D: the two corners,
-// smaller first, packed in 64 bits) or of a vertex by a segment (2D: the
-// vertex), sorted, so that a run of equal keys counts an edge's uses.
-// O(F log F) time on one flat array. Precondition: indices in range.
-std::vector<uint64_t> SortedEdgeUses(const Mesh& mesh);
+// One use of an undirected edge by a face (3D: key = the two corners,
+// smaller first, packed in 64 bits) or of a vertex by a segment (2D: key =
+// the vertex).
+struct EdgeUse {
+  uint64_t key = 0;
+  int32_t face = -1;
+  bool forward = false;  // 3D: the face runs from the smaller corner; 2D: the
+                         // segment starts at the vertex.
+};
+// Every edge use, sorted by key (a run of equal keys is one edge's uses, in
+// face order), in O(V + F) time on flat arrays: a counting sort by the
+// edge's smaller vertex, then a sort of each vertex's few uses.
+// Precondition: indices in range.
+std::vector<EdgeUse> SortedEdgeUses(const Mesh& mesh);
 // The key of the edge a-b in either direction: the smaller vertex id in the
 // high 32 bits, the larger in the low ones.
 inline uint64_t EdgeKey(int32_t a, int32_t b) {
   if (a > b) std::swap(a, b);
   return (uint64_t{static_cast<uint32_t>(a)} << 32) | static_cast<uint32_t>(b);
 }
-// The (smaller) vertex of a SortedEdgeUses key.
+// The (smaller) vertex of an EdgeUse key.
 inline int32_t EdgeKeyVertex(uint64_t key, int dimension) {
   return static_cast<int32_t>(dimension == 2 ? key : key >> 32);
 }

@@ -10,13 +10,33 @@ absl::Status MeshGeometry::Init(Mesh mesh) {
   return absl::OkStatus();
 }
 
+namespace {
+
+template <typename T>
+int64_t Bytes(const std::vector<T>& v) {
+  return static_cast<int64_t>(v.capacity() * sizeof(T));
+}
+
+int64_t Bytes(const Incidence& inc) {
+  return Bytes(inc.offsets) + Bytes(inc.items);
+}
+
+}  // namespace
+
+int64_t MeshGeometry::MeshBytes() const {
+  return Bytes(mesh_.positions) + Bytes(mesh_.faces) +
+         Bytes(mesh_.face_regions);
+}
+
+int64_t MeshGeometry::DerivedBytes() const {
+  return Bytes(topo_.primitives) + Bytes(topo_.vertex_faces) +
+         Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_neighbors) +
+         Bytes(topo_.vertex_direction);
+}
+
 void MeshGeometry::RefreshDerivedGeometry() {
   mean_edge_length_ = MeanEdgeLength(mesh_);
   bbox_diagonal_ = BoundingBoxDiagonal(mesh_);
-  corners_.resize(topo_.primitives.size());
-  for (size_t i = 0; i < corners_.size(); ++i) {
-    corners_[i] = CornersOf(mesh_, topo_.primitives[i]);
-  }
 }
 
 }  // namespace meshgauge

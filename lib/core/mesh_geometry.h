@@ -1,8 +1,8 @@
 // A validated mesh with the derived state that the SDF's values and
-// derivatives read: topology, every ray primitive's corners in double
-// precision, the mean edge length, the bounding-box diagonal and a
-// generation counter. SdfEvaluator (lib/embree) adds the BVH and the ray
-// pass; the sensitivities and penalties (lib/core) need only this.
+// derivatives read: topology, ray primitives' corners in double precision,
+// the mean edge length, the bounding-box diagonal and a generation counter.
+// SdfEvaluator (lib/embree) adds the BVH and the ray pass; the sensitivities
+// and penalties (lib/core) need only this.
 #pragma once
 
 #include <cstdint>
@@ -22,22 +22,41 @@ class MeshGeometry {
   // Increments on every successful position update; starts at 0 (or at
   // EvaluatorOptions::generation).
   int64_t generation() const { return generation_; }
-  // Corners of every primitive at the current positions (double).
-  const std::vector<PrimitiveCorners>& corners() const { return corners_; }
+  // Corners of primitive `prim` at the current positions (double), read
+  // from the positions (an array of corners would hold 80 bytes a
+  // primitive, more than the mesh).
+  PrimitiveCorners Corners(int32_t prim) const {
+    return CornersOf(mesh_, topo_.primitives[prim]);
+  }
+  // Starts loading primitive `prim`'s corner indices (Corners reads them
+  // first).
+  void PrefetchPrimitive(int32_t prim) const {
+    __builtin_prefetch(&topo_.primitives[prim]);
+  }
+  // Starts loading primitive `prim`'s corner positions (best after
+  // PrefetchPrimitive(prim) had time to arrive).
+  void PrefetchCorners(int32_t prim) const {
+    for (int32_t v : topo_.primitives[prim].v) {
+      if (v >= 0) __builtin_prefetch(&mesh_.positions[v]);
+    }
+  }
   double mean_edge_length() const { return mean_edge_length_; }
   double bounding_box_diagonal() const { return bbox_diagonal_; }
+  // Bytes of the mesh's arrays (positions, faces, regions) and of what is
+  // derived from it (topology).
+  int64_t MeshBytes() const;
+  int64_t DerivedBytes() const;
 
  protected:
   MeshGeometry() = default;
   // Validates `mesh` (SPEC §1) and derives the rest. Errors: InvalidArgument
   // from ValidateMesh.
   absl::Status Init(Mesh mesh);
-  // After positions changed: corners, mean edge length, diagonal.
+  // After positions changed: mean edge length, diagonal.
   void RefreshDerivedGeometry();
 
   Mesh mesh_;
   MeshTopology topo_;
-  std::vector<PrimitiveCorners> corners_;
   int64_t generation_ = 0;
   double mean_edge_length_ = 0;
   double bbox_diagonal_ = 0;

@@ -53,7 +53,7 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   for (int k = 0; k < num_rays; ++k) {
     kept[k] = kept_row[k];
     if (!kept[k]) continue;
-    if (!EvaluateHit(ev.corners()[row[k]], x, RayDirection(vc.frame, cone[k]),
+    if (!EvaluateHit(ev.Corners(row[k]), x, RayDirection(vc.frame, cone[k]),
                      &geo[k])) {
       // Cannot happen at the positions of the ray pass; after a move the
       // table's generation no longer matches (MakeContext rejects it).
@@ -100,14 +100,17 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   }
 }
 
-// Starts loading the corners of every primitive vertex p's rays hit, so
-// they are in cache when VertexTerms(p) runs (called one vertex ahead).
-void PrefetchVertex(const Context& ctx, int64_t p) {
+// Starts loading every primitive vertex p's rays hit (two vertices ahead of
+// VertexTerms), or their corners (one vertex ahead), so they are in cache
+// when VertexTerms(p) runs.
+void PrefetchPrimitives(const Context& ctx, int64_t p) {
   for (int32_t prim : ctx.hits.Row(p)) {
-    if (prim < 0) continue;
-    const char* line = reinterpret_cast<const char*>(&ctx.ev.corners()[prim]);
-    __builtin_prefetch(line);
-    __builtin_prefetch(line + sizeof(PrimitiveCorners) - 1);
+    if (prim >= 0) ctx.ev.PrefetchPrimitive(prim);
+  }
+}
+void PrefetchCorners(const Context& ctx, int64_t p) {
+  for (int32_t prim : ctx.hits.Row(p)) {
+    if (prim >= 0) ctx.ev.PrefetchCorners(prim);
   }
 }
 
@@ -153,9 +156,14 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                         [&](const tbb::blocked_range<int64_t>& r) {
                           std::vector<uint8_t> kept(num_rays);
                           std::vector<HitGeometry> geo(num_rays);
-                          PrefetchVertex(ctx, r.begin());
+                          PrefetchPrimitives(ctx, r.begin());
+                          if (r.size() > 1) {
+                            PrefetchPrimitives(ctx, r.begin() + 1);
+                          }
+                          PrefetchCorners(ctx, r.begin());
                           for (int64_t p = r.begin(); p < r.end(); ++p) {
-                            if (p + 1 < r.end()) PrefetchVertex(ctx, p + 1);
+                            if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
+                            if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
                             VertexTerms(ctx, p, rows[p - begin], kept, geo);
                           }
                         });

@@ -16,4 +16,8 @@ RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
 // does not create a device. Null when Embree cannot create one.
 RTCDevice SharedDevice();
 
+// Bytes Embree holds now on the shared device (BVHs, geometry buffers and
+// build memory of every scene of the process), from its memory monitor.
+int64_t RayTracerBytes();
+
 }  // namespace meshgauge

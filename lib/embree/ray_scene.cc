@@ -3,6 +3,7 @@
 #include <embree3/rtcore.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -186,9 +187,28 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   return DeviceStatus(device_, "rtcCommitScene (update)");
 }
 
+namespace {
+
+std::atomic<int64_t> ray_tracer_bytes{0};
+
+bool CountBytes(void*, ssize_t bytes, bool) {
+  ray_tracer_bytes.fetch_add(bytes, std::memory_order_relaxed);
+  return true;
+}
+
+}  // namespace
+
 RTCDevice SharedDevice() {
-  static RTCDevice device = rtcNewDevice(nullptr);
+  static RTCDevice device = [] {
+    RTCDevice d = rtcNewDevice(nullptr);
+    if (d) rtcSetDeviceMemoryMonitorFunction(d, CountBytes, nullptr);
+    return d;
+  }();
   return device;
+}
+
+int64_t RayTracerBytes() {
+  return ray_tracer_bytes.load(std::memory_order_relaxed);
 }
 
 RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
@@ -220,6 +240,46 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   rtcIntersect1(scene_, &ctx, &rh);
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
+}
+
+void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
+                            float t_near, float t_far,
+                            absl::Span<Hit> out) const {
+  constexpr int kWidth = 16;
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  const Vec3 o = origin - origin_;
+  alignas(64) RTCRayHit16 rh;
+  alignas(64) int valid[kWidth];
+  for (size_t first = 0; first < dirs.size(); first += kWidth) {
+    const int n =
+        static_cast<int>(std::min<size_t>(kWidth, dirs.size() - first));
+    for (int j = 0; j < kWidth; ++j) {
+      const Vec3& d = dirs[first + std::min(j, n - 1)];
+      valid[j] = j < n ? -1 : 0;
+      rh.ray.org_x[j] = static_cast<float>(o.x);
+      rh.ray.org_y[j] = static_cast<float>(o.y);
+      rh.ray.org_z[j] = static_cast<float>(o.z);
+      rh.ray.dir_x[j] = static_cast<float>(d.x);
+      rh.ray.dir_y[j] = static_cast<float>(d.y);
+      rh.ray.dir_z[j] = static_cast<float>(d.z);
+      rh.ray.tnear[j] = t_near;
+      rh.ray.tfar[j] = t_far;
+      rh.ray.time[j] = 0;
+      rh.ray.mask[j] = std::numeric_limits<unsigned>::max();
+      rh.ray.id[j] = 0;
+      rh.ray.flags[j] = 0;
+      rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
+      rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+    }
+    rtcIntersect16(valid, scene_, &ctx, &rh);
+    for (int j = 0; j < n; ++j) {
+      out[first + j] =
+          rh.hit.geomID[j] == RTC_INVALID_GEOMETRY_ID
+              ? Hit{}
+              : Hit{static_cast<int32_t>(rh.hit.primID[j]), rh.ray.tfar[j]};
+    }
+  }
 }
 
 }  // namespace meshgauge

@@ -61,6 +61,11 @@ class RayScene {
   };
   Hit Intersect(const Vec3& origin, const Vec3& dir, float t_near,
                 float t_far) const;
+  // out[k] = Intersect(origin, dirs[k], t_near, t_far) for every k, traced
+  // in packets of 16 rays (a cone's rays share their origin and are
+  // coherent). dirs.size() == out.size().
+  void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
+                    float t_near, float t_far, absl::Span<Hit> out) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy)

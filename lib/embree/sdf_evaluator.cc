@@ -67,12 +67,12 @@ constexpr int kMaxOneRingSkips = 64;
 // slowed every ray by about 10%; the two differ only when another primitive
 // lies at exactly the same single-precision distance as the skipped one.
 int32_t SkipOneRing(const RayScene& scene,
-                    const std::vector<PrimitiveCorners>& corners,
+                    const std::vector<Primitive>& primitives,
                     absl::Span<const int32_t> one_ring, const Vec3& x,
                     const Vec3& d, RayScene::Hit hit, float t_max) {
   for (int skips = 0; hit.prim >= 0; ++skips) {
     if (!std::binary_search(one_ring.begin(), one_ring.end(),
-                            corners[hit.prim].face)) {
+                            primitives[hit.prim].face)) {
       return hit.prim;
     }
     if (skips == kMaxOneRingSkips) return -1;
@@ -180,23 +180,23 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       }
       world_frames += vc.world_frame;
       const Vec3& x = mesh_.positions[p];
-      // Trace all rays first, prefetching each hit's corners, then evaluate
-      // the hits in double precision once the memory has arrived.
+      // Trace all rays first (in packets), prefetching each hit primitive,
+      // then evaluate the hits in double precision once it has arrived.
       for (int k = 0; k < num_rays; ++k) {
         dirs[k] = RayDirection(vc.frame, cone[k]);
-        raw[k] = scene_->Intersect(x, dirs[k], t_min_f, t_max_f);
-        if (raw[k].prim >= 0) {
-          const char* line =
-              reinterpret_cast<const char*>(&corners_[raw[k].prim]);
-          __builtin_prefetch(line);
-          __builtin_prefetch(line + sizeof(PrimitiveCorners) - 1);
-        }
+      }
+      scene_->IntersectFan(x, dirs, t_min_f, t_max_f, absl::MakeSpan(raw));
+      for (int k = 0; k < num_rays; ++k) {
+        if (raw[k].prim >= 0) PrefetchPrimitive(raw[k].prim);
       }
       for (int k = 0; k < num_rays; ++k) {
-        prims[k] = SkipOneRing(*scene_, corners_, one_ring, x, dirs[k], raw[k],
-                               t_max_f);
+        if (raw[k].prim >= 0) PrefetchCorners(raw[k].prim);
+      }
+      for (int k = 0; k < num_rays; ++k) {
+        prims[k] = SkipOneRing(*scene_, topo_.primitives, one_ring, x, dirs[k],
+                               raw[k], t_max_f);
         t[k] =
-            prims[k] >= 0 ? HitDistance(corners_[prims[k]], x, dirs[k]) : kNaN;
+            prims[k] >= 0 ? HitDistance(Corners(prims[k]), x, dirs[k]) : kNaN;
         if (!(t[k] <= t_max)) {
           t[k] = kNaN;
           prims[k] = -1;

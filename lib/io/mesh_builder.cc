@@ -62,6 +62,19 @@ absl::Status MeshBuilder::ReservePositions(int64_t n) {
   return absl::OkStatus();
 }
 
+absl::Status MeshBuilder::ReserveFaces(int64_t n, int corners) {
+  const int64_t bytes =
+      n * static_cast<int64_t>((2 + corners) * sizeof(int32_t) + sizeof(Face));
+  if (absl::Status s = CheckLimits(num_vertices(), triangles_ + n, bytes);
+      !s.ok()) {
+    return s;
+  }
+  sizes_.reserve(n);
+  corners_.reserve(n * corners);
+  regions_.reserve(n);
+  return absl::OkStatus();
+}
+
 absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
                                   int32_t region, const std::string& where) {
   const int64_t n = std::ssize(corners);

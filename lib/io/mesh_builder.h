@@ -22,8 +22,13 @@ class MeshBuilder {
       : path_(std::move(path)), limits_(limits) {
     file_.mesh.dimension = dimension;
   }
-  // Room for `n` vertices (a count a file declares). Errors: the limits'.
+  // Room for `n` vertices (a count a file declares, checked against the
+  // file's size). Errors: the limits'.
   absl::Status ReservePositions(int64_t n);
+  // Room for `n` faces of `corners` corners each (a declared count, checked
+  // against the file's size), so the face arrays do not grow by copies.
+  // Errors: the limits'.
+  absl::Status ReserveFaces(int64_t n, int corners);
   // Errors: the limits' (checked when the positions grow).
   absl::Status AddVertex(const Vec3& p) {
     if (limits_ != nullptr &&

@@ -58,6 +58,7 @@ absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
     return s;
   MeshBuilder builder(path, 3, &limits);
   if (absl::Status s = builder.ReservePositions(nv); !s.ok()) return s;
+  if (absl::Status s = builder.ReserveFaces(nf, 3); !s.ok()) return s;
   for (int64_t v = 0; v < nv; ++v) {
     double xyz[3];
     for (int c = 0; c < 3; ++c) {

@@ -327,6 +327,9 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       return absl::InvalidArgumentError(
           absl::StrCat(path, ": element face comes before element vertex"));
     }
+    if (is_face) {
+      if (absl::Status s = builder.ReserveFaces(e.count, 3); !s.ok()) return s;
+    }
     row.assign(e.properties.size(), 0.0);
     for (int64_t k = 0; k < e.count; ++k) {
       corners.clear();
