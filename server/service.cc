@@ -21,6 +21,7 @@ namespace meshgauge::server {
 namespace {
 
 constexpr int kDefaultChunkVertices = 16384;
+constexpr auto kProgressInterval = std::chrono::milliseconds(250);
 // A refused upload that received more than this returns its memory.
 constexpr int64_t kTrimAfterBytes = 1ll << 20;
 constexpr int kMaxChunkVertices = 65536;
@@ -140,6 +141,30 @@ ComputeControl MeshGaugeService::Control(grpc::ServerContext* ctx) const {
   return control;
 }
 
+std::function<void(int64_t, int64_t)> MeshGaugeService::ProgressWriter(
+    const Prepared& prep, grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
+  const SdfEvaluator& ev = *prep.reader.evaluator;
+  const ResolvedParams resolved =
+      ResolveParams(prep.params, ev.mesh().dimension);
+  const int64_t rays_total =
+      ev.mesh().num_vertices() *
+      (prep.params.method == SdfMethod::kNormalRay ? 1 : resolved.rays);
+  // The evaluator serialises progress calls; at most one write every
+  // kProgressInterval, and the last one.
+  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  return [writer, rays_total, last](int64_t done, int64_t total) {
+    const auto now = std::chrono::steady_clock::now();
+    if (done < total && now - *last < kProgressInterval) return;
+    *last = now;
+    v1::ComputeSdfResponse msg;
+    v1::SdfProgress* p = msg.mutable_progress();
+    p->set_vertices_done(done);
+    p->set_vertices_total(total);
+    p->set_rays_total(rays_total);
+    writer->Write(msg);  // a client gone is seen by the cancellation hook.
+  };
+}
+
 absl::Status MeshGaugeService::Interrupted(grpc::ServerContext* ctx,
                                            absl::Status s) const {
   if (s.code() != absl::StatusCode::kCancelled) return s;
@@ -171,13 +196,13 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
 
 absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
     grpc::ServerContext* ctx, Session& session, const Session::Reader& reader,
-    const SdfParams& params) {
+    const SdfParams& params, const ComputeControl& control) {
   const SdfEvaluator& ev = *reader.evaluator;
   if (auto cached = session.FindPass(params, ev.generation())) {
     return Pass{std::move(cached), true};
   }
   auto pass = std::make_shared<CachedPass>();
-  auto result = ev.Compute(params, Control(ctx), &pass->hits);
+  auto result = ev.Compute(params, control, &pass->hits);
   if (!result.ok()) return Interrupted(ctx, result.status());
   metrics_->AddRays(static_cast<double>(result->rays_traced));
   pass->params = params;
@@ -381,7 +406,12 @@ grpc::Status MeshGaugeService::ComputeSdf(
                             request->has_expected_generation(),
                             request->expected_generation());
         if (!prep.ok()) return prep.status();
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        ComputeControl control = Control(ctx);
+        if (request->report_progress()) {
+          control.progress = ProgressWriter(*prep, writer);
+        }
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
+                               control);
         if (!pass.ok()) return pass.status();
         const SdfEvaluator& ev = *prep->reader.evaluator;
         const SdfResult& r = pass->pass->result;
@@ -475,7 +505,8 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
                            "per vertex (",
                            ev.mesh().num_vertices(), ")"));
         }
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
+                               Control(ctx));
         if (!pass.ok()) return pass.status();
         metrics_->RecordHitCache(pass->reused);
         auto vjp =
@@ -519,7 +550,8 @@ grpc::Status MeshGaugeService::ComputePenalty(
             (*thin_request ? (*thin_request)->max_regions * kThinRegionDoubles
                            : 0);
         if (absl::Status s = CheckReplySize(reply_values); !s.ok()) return s;
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params);
+        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
+                               Control(ctx));
         if (!pass.ok()) return pass.status();
         metrics_->RecordHitCache(pass->reused);
         const SdfResult& sdf = pass->pass->result;

@@ -75,10 +75,12 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
     bool reused = false;
   };
   // The session's ray pass for these parameters at the reader's generation:
-  // cached, or traced now (and cached). Honours cancellation/deadlines.
+  // cached, or traced now (and cached) under `control` (cancellation and
+  // deadlines of ctx; progress).
   absl::StatusOr<Pass> EnsurePass(grpc::ServerContext* ctx, Session& session,
                                   const Session::Reader& reader,
-                                  const SdfParams& params);
+                                  const SdfParams& params,
+                                  const ComputeControl& control);
   // Shared front half of the compute calls: session, params, generation.
   struct Prepared {
     std::shared_ptr<Session> session;
@@ -91,6 +93,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                                    bool has_expected_generation,
                                    int64_t expected_generation);
   ComputeControl Control(grpc::ServerContext* ctx) const;
+  // A ComputeControl::progress that streams SdfProgress messages of the
+  // prepared pass to `writer` (report_progress).
+  static std::function<void(int64_t, int64_t)> ProgressWriter(
+      const Prepared& prep, grpc::ServerWriter<v1::ComputeSdfResponse>* writer);
   absl::Status Interrupted(grpc::ServerContext* ctx, absl::Status s) const;
   // Authenticates, runs body(tenant), records the RPC's code and latency.
   template <typename Body>

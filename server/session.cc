@@ -30,9 +30,10 @@ std::string NewIncarnation() {
 int64_t Session::EstimateBytes(int64_t vertices, int64_t faces,
                                int64_t primitives) {
   // Mesh (positions, faces, regions), topology (primitives, incidences,
-  // directions), packed corners, Embree vertex/index buffers and BVH nodes.
+  // directions), Embree vertex/index buffers and BVH nodes (Embree's memory
+  // monitor: 41.0 MB for igea's 268,686 triangles, buffers included).
   return vertices * (24 + 8 + 1 + 32) + faces * (20 + 4 + 12) +
-         primitives * (16 + 12 + 80 + 16 + 96);
+         primitives * (16 + 12 + 16 + 136);
 }
 
 int64_t Session::EstimateBaseBytes(const Mesh& mesh) {

@@ -99,7 +99,7 @@ class Session {
   double last_used() const { return last_used_.load(); }
 
   // Estimated bytes of a mesh's session without a cached pass: mesh,
-  // topology, packed corners and the Embree BVH.
+  // topology and the Embree BVH.
   static int64_t EstimateBaseBytes(const Mesh& mesh);
   // The same from counts (an upload's header: primitives <= 2 x faces).
   static int64_t EstimateBytes(int64_t vertices, int64_t faces,

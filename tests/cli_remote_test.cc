@@ -22,8 +22,10 @@
 namespace meshgauge {
 namespace {
 
+using testing::CliRun;
 using ::testing::HasSubstr;
 using testing::RunCli;
+using testing::RunCliStderr;
 using testing::SharedMesh;
 using testing::Tmp;
 
@@ -95,6 +97,22 @@ class CliRemoteTest : public testing::ServerFixture {
     return local.out;
   }
 };
+
+// The server streams the pass's progress only when asked: the bar names the
+// work and ends at 100 %; without the bar nothing is drawn.
+TEST_F(CliRemoteTest, TheServerStreamsProgressWhenTheBarIsDrawn) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string args = " --rays 30 --server " + target_;
+  const CliRun drawn =
+      RunCliStderr("remote sdf " + knight + args + " --progress always");
+  EXPECT_EQ(drawn.exit_code, 0) << drawn.out;
+  EXPECT_THAT(drawn.out, HasSubstr("tracing 15060 rays on the server ["));
+  EXPECT_THAT(drawn.out, HasSubstr("100%"));
+  const CliRun quiet =
+      RunCliStderr("remote sdf " + knight + args + " --progress never");
+  EXPECT_EQ(quiet.exit_code, 0) << quiet.out;
+  EXPECT_EQ(quiet.out, "");
+}
 
 TEST_F(CliRemoteTest, SdfSummaryJsonCsvAndPlyAreTheLocalOnes) {
   const std::string knight = SharedMesh("decimated-knight.off");

@@ -23,6 +23,7 @@ using testing::CliRun;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using testing::RunCli;
+using testing::RunCliStderr;
 using testing::SharedMesh;
 using testing::Tmp;
 
@@ -44,6 +45,29 @@ TEST(CliTest, JsonSummaryHasAllKeys) {
   for (const char* stage : {"read", "checks", "setup", "rays"}) {
     EXPECT_GE(j["stage_seconds"][stage].get<double>(), 0) << stage;
   }
+}
+
+// --progress always draws on any stderr, naming the work up front; the
+// default draws only on a terminal, so here nothing.
+TEST(CliTest, ProgressBarsNameTheWorkAndEndAtOneHundredPercent) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const CliRun sdf =
+      RunCliStderr("sdf " + knight + " --rays 20 --progress always");
+  EXPECT_EQ(sdf.exit_code, 0) << sdf.out;
+  EXPECT_THAT(sdf.out, HasSubstr("tracing 10040 rays ["));
+  EXPECT_THAT(sdf.out, HasSubstr("100%"));
+  const CliRun grad = RunCliStderr("grad " + knight + " --rays 20 --vjp " +
+                                   Tmp("p.csv") + " --progress always");
+  EXPECT_THAT(grad.out, HasSubstr("derivatives (g^T J) ["));
+  // 1 + 2 x 3 x 2 passes, reported as one bar.
+  const CliRun check = RunCliStderr("gradcheck " + knight +
+                                    " --rays 8 --samples 2 --progress always");
+  EXPECT_THAT(check.out, HasSubstr("gradcheck: 13 passes of 4016 rays ["));
+  EXPECT_THAT(check.out, HasSubstr("100%"));
+  EXPECT_EQ(check.out.find("100%"), check.out.rfind("100%")) << check.out;
+  const CliRun quiet = RunCliStderr("sdf " + knight + " --rays 20");
+  EXPECT_EQ(quiet.out, "");
+  std::remove(Tmp("p.csv").c_str());
 }
 
 TEST(CliTest, ValuesAloneKeepNoHitTableAndMemoryIsReported) {

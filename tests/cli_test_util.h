@@ -15,10 +15,12 @@ struct CliRun {
   std::string out;  // stdout, and stderr unless it was dropped.
 };
 
-// Runs `meshgauge ARGS` through the shell.
-inline CliRun RunCli(const std::string& args, bool with_stderr = true) {
-  const std::string cmd = std::string(MESHGAUGE_CLI) + " " + args +
-                          (with_stderr ? " 2>&1" : " 2>/dev/null");
+// Runs `meshgauge ARGS REDIRECTIONS` through the shell; out is what reaches
+// the shell's stdout.
+inline CliRun RunCliRedirected(const std::string& args,
+                               const std::string& redirections) {
+  const std::string cmd =
+      std::string(MESHGAUGE_CLI) + " " + args + " " + redirections;
   FILE* pipe = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];
@@ -26,6 +28,16 @@ inline CliRun RunCli(const std::string& args, bool with_stderr = true) {
   while ((n = fread(buf, 1, sizeof(buf), pipe)) > 0) out.append(buf, n);
   const int status = pclose(pipe);
   return {WEXITSTATUS(status), out};
+}
+
+// Runs `meshgauge ARGS` through the shell.
+inline CliRun RunCli(const std::string& args, bool with_stderr = true) {
+  return RunCliRedirected(args, with_stderr ? "2>&1" : "2>/dev/null");
+}
+
+// Runs `meshgauge ARGS` through the shell; out is its stderr alone.
+inline CliRun RunCliStderr(const std::string& args) {
+  return RunCliRedirected(args, "2>&1 >/dev/null");
 }
 
 // A path in the temporary directory unique to this process.

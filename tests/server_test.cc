@@ -53,6 +53,54 @@ TEST_F(ServerTest, ComputeSdfMatchesLibraryBitForBit) {
   }
 }
 
+// report_progress: SdfProgress messages before the first chunk, counting up
+// to every vertex; none without it, and none when the pass is reused.
+TEST_F(ServerTest, ProgressIsStreamedOnlyWhenAskedAndOnlyWhileTracing) {
+  ASSERT_TRUE(client_->Upload(Knight(), "p").ok());
+  struct Seen {
+    std::vector<v1::SdfProgress> progress;
+    bool progress_after_chunk = false;
+    std::vector<double> values;
+  };
+  auto call = [&](bool report, int rays) {
+    v1::ComputeSdfRequest req;
+    req.set_session_id("p");
+    req.mutable_params()->set_rays(rays);
+    req.set_report_progress(report);
+    auto ctx = client_->Context("p");
+    auto reader = client_->stub().ComputeSdf(ctx.get(), req);
+    Seen seen;
+    bool chunk = false;
+    v1::ComputeSdfResponse msg;
+    while (reader->Read(&msg)) {
+      if (msg.has_progress()) {
+        seen.progress.push_back(msg.progress());
+        seen.progress_after_chunk |= chunk;
+      } else if (msg.has_chunk()) {
+        chunk = true;
+        seen.values.insert(seen.values.end(), msg.chunk().values().begin(),
+                           msg.chunk().values().end());
+      }
+    }
+    EXPECT_TRUE(reader->Finish().ok());
+    return seen;
+  };
+  const Seen quiet = call(false, 40);
+  EXPECT_TRUE(quiet.progress.empty());
+  const Seen drawn = call(true, 41);  // other parameters: traced again.
+  ASSERT_FALSE(drawn.progress.empty());
+  EXPECT_FALSE(drawn.progress_after_chunk);
+  for (size_t i = 1; i < drawn.progress.size(); ++i) {
+    EXPECT_GE(drawn.progress[i].vertices_done(),
+              drawn.progress[i - 1].vertices_done());
+  }
+  EXPECT_EQ(drawn.progress.back().vertices_done(), 502);
+  EXPECT_EQ(drawn.progress.back().vertices_total(), 502);
+  EXPECT_EQ(drawn.progress.back().rays_total(), 502 * 41);
+  EXPECT_TRUE(call(true, 41).progress.empty());  // the cached pass.
+  EXPECT_TRUE(SameBits(call(true, 40).values, quiet.values));
+}
+
 TEST_F(ServerTest, KsConstraintMatchesLibraryAndReportsMissingValues) {
   const Mesh mesh = Knight();
   ASSERT_TRUE(client_->Upload(mesh, "ks").ok());

@@ -276,7 +276,7 @@ TEST_F(UploadFileTest, AFileOverAnEighthOfTheBudgetIsRefusedAtTheHeader) {
 // Eviction makes room only for file bytes that arrived: the first bytes
 // of a large declared file do not push out a session the budget holds.
 TEST_F(UploadFileTest, TheFirstBytesOfAFileEvictNothing) {
-  const Mesh torus = MakeTorus(2, 0.5, 64, 26);
+  const Mesh torus = MakeTorus(2, 0.5, 76, 26);
   server::ServerOptions o;
   o.memory_budget_bytes = 1 << 20;
   const int64_t declared = 100'000;

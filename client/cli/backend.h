@@ -67,16 +67,18 @@ class Backend {
 using BackendFactory =
     std::function<absl::StatusOr<std::unique_ptr<Backend>>(const Mesh& mesh)>;
 
-// An SdfEvaluator here (with a progress bar on a terminal's stderr).
-BackendFactory LocalBackend();
+// An SdfEvaluator here (with progress bars as `progress` says).
+BackendFactory LocalBackend(ProgressMode progress);
 
 // A session of the server of `remote`: with an empty `session_id` the mesh
 // is uploaded as a new session that is deleted afterwards; otherwise the
 // session of that id is used (and kept) when it exists, its vertex and face
 // counts matching the mesh's, and is created from the mesh when it does not.
 // Errors: the server's, NotFound for an unreadable TLS or token file.
+// The server streams the ray pass's progress when `progress` draws a bar.
 absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
-                                             const std::string& session_id);
+                                             const std::string& session_id,
+                                             ProgressMode progress);
 
 // A client of the server of `remote` (--server, TLS and token files).
 // Errors: NotFound for an unreadable file, InvalidArgument for a client

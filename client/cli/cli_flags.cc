@@ -94,6 +94,11 @@ void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
                     "property");
   }
   app->add_flag("--json", f->json, "print the summary as one JSON object");
+  app->add_option("--progress", f->progress,
+                  "progress bar on stderr: auto (on a terminal, after 0.5 s), "
+                  "always, never")
+      ->check(CLI::IsMember({"auto", "always", "never"}))
+      ->capture_default_str();
   app->add_option("--warn-missing-fraction", f->warn_missing_fraction,
                   "warn, per component and with its likely cause, when "
                   "values are missing on more than this fraction of the "

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "client/cli/progress_bar.h"
 #include "lib/core/components.h"
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
@@ -40,6 +41,12 @@ struct OutputFlags {
   std::string csv, ply;
   bool json = false;
   double warn_missing_fraction = 0.01;
+  std::string progress = "auto";  // auto, always or never
+  ProgressMode Progress() const {
+    return progress == "always"  ? ProgressMode::kAlways
+           : progress == "never" ? ProgressMode::kNever
+                                 : ProgressMode::kAuto;
+  }
 };
 
 // --t-min --form --power --rho --max-missing-fraction --grad.

@@ -3,6 +3,7 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
@@ -61,7 +62,19 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   for (const std::string& w : loaded->warnings) {
     std::cerr << "meshgauge: warning: " << w << "\n";
   }
-  auto rep = RunGradCheck(loaded->mesh, *params, options);
+  const int64_t rays =
+      params->method == SdfMethod::kNormalRay
+          ? 1
+          : ResolveParams(*params, loaded->mesh.dimension).rays;
+  ProgressBar bar(
+      absl::StrCat(
+          "gradcheck: ",
+          1 + 2 * loaded->mesh.dimension *
+                  std::min<int64_t>(check.samples, loaded->mesh.num_vertices()),
+          " passes of ", loaded->mesh.num_vertices() * rays, " rays"),
+      in.out.Progress());
+  auto rep = RunGradCheck(loaded->mesh, *params, options, bar.Control());
+  bar.Finish();
   if (!rep.ok()) return rep.status();
   const int64_t samples = std::ssize(rep->rows);
   const bool passed = rep->Passed();

@@ -1,3 +1,4 @@
+#include "absl/strings/str_cat.h"
 #include "client/cli/backend.h"
 #include "client/cli/progress_bar.h"
 #include "lib/embree/calibration.h"
@@ -9,16 +10,22 @@ namespace {
 
 class Local : public Backend {
  public:
-  explicit Local(std::unique_ptr<SdfEvaluator> ev) : ev_(std::move(ev)) {}
+  Local(std::unique_ptr<SdfEvaluator> ev, ProgressMode progress)
+      : ev_(std::move(ev)), progress_(progress) {}
 
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
-    ProgressBar bar("tracing");
-    ComputeControl control;
-    control.progress = [&bar](int64_t d, int64_t t) { bar.Update(d, t); };
+    const ResolvedParams resolved =
+        ResolveParams(params, ev_->mesh().dimension);
+    const int64_t rays =
+        params.method == SdfMethod::kNormalRay ? 1 : resolved.rays;
+    ProgressBar bar(
+        absl::StrCat("tracing ", ev_->mesh().num_vertices() * rays, " rays"),
+        progress_);
     hits_ = HitTable();
-    auto result = ev_->Compute(
-        params, control, derivatives == Derivatives::kNone ? nullptr : &hits_);
+    auto result =
+        ev_->Compute(params, bar.Control(),
+                     derivatives == Derivatives::kNone ? nullptr : &hits_);
     bar.Finish();
     if (result.ok()) result_ = *result;
     return result;
@@ -30,16 +37,19 @@ class Local : public Backend {
                        .hit_table = hits_.Bytes()};
   }
   absl::StatusOr<SparseJacobian> Jacobian() override {
-    return ComputeJacobian(*ev_, hits_);
+    ProgressBar bar("jacobian rows", progress_);
+    return ComputeJacobian(*ev_, hits_, bar.Control());
   }
   absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) override {
-    return ComputeVjp(*ev_, hits_, weights);
+    ProgressBar bar("derivatives (g^T J)", progress_);
+    return ComputeVjp(*ev_, hits_, weights, bar.Control());
   }
   absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
                                         bool with_gradient) override {
+    ProgressBar bar("penalty gradient", progress_);
     return ComputePenalty(*ev_, result_, params,
-                          with_gradient ? &hits_ : nullptr);
+                          with_gradient ? &hits_ : nullptr, bar.Control());
   }
   absl::StatusOr<CalibrationReport> Calibrate(
       const CalibrationParams& params) override {
@@ -48,18 +58,20 @@ class Local : public Backend {
 
  private:
   std::unique_ptr<SdfEvaluator> ev_;
+  const ProgressMode progress_;
   HitTable hits_;
   SdfResult result_;
 };
 
 }  // namespace
 
-BackendFactory LocalBackend() {
-  return [](const Mesh& mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
-    auto ev = SdfEvaluator::Create(mesh);
-    if (!ev.ok()) return ev.status();
-    return std::make_unique<Local>(std::move(*ev));
-  };
+BackendFactory LocalBackend(ProgressMode progress) {
+  return
+      [progress](const Mesh& mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+        auto ev = SdfEvaluator::Create(mesh);
+        if (!ev.ok()) return ev.status();
+        return std::make_unique<Local>(std::move(*ev), progress);
+      };
 }
 
 }  // namespace meshgauge::cli

@@ -145,7 +145,11 @@ int Main(int argc, char** argv) {
   MeshVerbs local;
   AddMeshVerbs(
       app, &local,
-      [] { return absl::StatusOr<BackendFactory>(LocalBackend()); }, &run);
+      [&local] {
+        return absl::StatusOr<BackendFactory>(
+            LocalBackend(local.in.out.Progress()));
+      },
+      &run);
   GradcheckFlags check;
   CLI::App* gc = MeshVerb(app, "gradcheck",
                           "check the derivatives by central differences "
@@ -180,7 +184,11 @@ int Main(int argc, char** argv) {
   std::string remote_session;
   AddMeshVerbs(
       *remote, &remote_verbs,
-      [&] { return RemoteBackend(r.remote, remote_session); }, &run);
+      [&] {
+        return RemoteBackend(r.remote, remote_session,
+                             remote_verbs.in.out.Progress());
+      },
+      &run);
   for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "report"}) {
     remote->get_subcommand(verb)->add_option(
         "--session-id", remote_session,

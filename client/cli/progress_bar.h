@@ -1,29 +1,39 @@
-// A terminal progress bar on stderr for long CLI runs.
+// A progress bar on stderr for long CLI runs.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <string>
 
+#include "lib/core/sdf_types.h"
+
 namespace meshgauge::cli {
 
-// Draws "label [#####     ]  42%" on stderr, only when stderr is a terminal
-// and only once the run has lasted longer than `delay` (short runs print
-// nothing). Finish() clears the line.
+// --progress: auto draws only when stderr is a terminal and only once the
+// run has lasted 0.5 s (short runs print nothing); always draws from the
+// start wherever stderr goes (one line, ended by a newline); never draws.
+enum class ProgressMode { kAuto, kAlways, kNever };
+
+// Draws "LABEL [#####     ]  42%  ETA 3 s", LABEL naming the work (e.g.
+// "tracing 13434500 rays"). Finish() clears the line on a terminal and ends
+// it otherwise.
 class ProgressBar {
  public:
-  explicit ProgressBar(std::string label, std::chrono::milliseconds delay =
-                                              std::chrono::milliseconds(500));
+  ProgressBar(std::string label, ProgressMode mode);
   ~ProgressBar();
   void Update(int64_t done, int64_t total);
   void Finish();
+  // A ComputeControl whose progress updates this bar.
+  ComputeControl Control();
 
  private:
   std::string label_;
   bool enabled_;
-  bool drawn_ = false;
-  std::chrono::steady_clock::time_point start_;
+  bool terminal_;
   std::chrono::milliseconds delay_;
+  bool drawn_ = false;
+  int last_percent_ = -1;
+  std::chrono::steady_clock::time_point start_;
 };
 
 }  // namespace meshgauge::cli

@@ -1,5 +1,6 @@
 #include "absl/strings/str_cat.h"
 #include "client/cli/backend.h"
+#include "client/cli/progress_bar.h"
 #include "client/remote/remote_client.h"
 
 namespace meshgauge::cli {
@@ -8,8 +9,13 @@ namespace {
 class Remote : public Backend {
  public:
   Remote(std::shared_ptr<client::RemoteClient> c, std::string id,
-         bool temporary)
-      : c_(std::move(c)), id_(std::move(id)), temporary_(temporary) {}
+         bool temporary, const Mesh& mesh, ProgressMode progress)
+      : c_(std::move(c)),
+        id_(std::move(id)),
+        temporary_(temporary),
+        num_vertices_(mesh.num_vertices()),
+        dimension_(mesh.dimension),
+        progress_(progress) {}
   ~Remote() override {
     if (temporary_) (void)c_->Delete(id_);
   }
@@ -17,9 +23,21 @@ class Remote : public Backend {
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
     params_ = params;
-    auto r = c_->ComputeSdf(
-        id_, params,
-        {.include_jacobian = derivatives == Derivatives::kJacobian});
+    const int64_t rays = params.method == SdfMethod::kNormalRay
+                             ? 1
+                             : ResolveParams(params, dimension_).rays;
+    ProgressBar bar(
+        absl::StrCat("tracing ", num_vertices_ * rays, " rays on the server"),
+        progress_);
+    client::SdfCall call{.include_jacobian =
+                             derivatives == Derivatives::kJacobian};
+    if (progress_ != ProgressMode::kNever) {
+      call.progress = [&bar](int64_t done, int64_t total) {
+        bar.Update(done, total);
+      };
+    }
+    auto r = c_->ComputeSdf(id_, params, call);
+    bar.Finish();
     if (!r.ok()) return r.status();
     jacobian_ = std::move(r->jacobian);
     return std::move(r->result);
@@ -49,6 +67,9 @@ class Remote : public Backend {
   std::shared_ptr<client::RemoteClient> c_;
   const std::string id_;
   const bool temporary_;
+  const int64_t num_vertices_;
+  const int dimension_;
+  const ProgressMode progress_;
   SdfParams params_;
   std::optional<SparseJacobian> jacobian_;
 };
@@ -86,17 +107,18 @@ absl::StatusOr<std::unique_ptr<client::RemoteClient>> Connect(
 }
 
 absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
-                                             const std::string& session_id) {
+                                             const std::string& session_id,
+                                             ProgressMode progress) {
   auto connected = Connect(remote);
   if (!connected.ok()) return connected.status();
   std::shared_ptr<client::RemoteClient> c = std::move(*connected);
-  return BackendFactory([c, session_id](const Mesh& mesh)
+  return BackendFactory([c, session_id, progress](const Mesh& mesh)
                             -> absl::StatusOr<std::unique_ptr<Backend>> {
     if (!session_id.empty()) {
       auto info = c->Get(session_id);
       if (info.ok()) {
         if (absl::Status s = CheckSession(*info, mesh); !s.ok()) return s;
-        return std::make_unique<Remote>(c, session_id, false);
+        return std::make_unique<Remote>(c, session_id, false, mesh, progress);
       }
       if (info.status().code() != absl::StatusCode::kNotFound) {
         return info.status();
@@ -104,7 +126,8 @@ absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
     }
     auto up = c->Upload(mesh, session_id);
     if (!up.ok()) return up.status();
-    return std::make_unique<Remote>(c, up->session_id, session_id.empty());
+    return std::make_unique<Remote>(c, up->session_id, session_id.empty(), mesh,
+                                    progress);
   });
 }
 

@@ -252,6 +252,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
   *req.mutable_params() = wire::ToWire(params);
   req.set_include_jacobian(call.include_jacobian);
   req.set_chunk_vertices(call.chunk_vertices);
+  req.set_report_progress(call.progress != nullptr);
   if (call.expected_generation) {
     req.set_expected_generation(*call.expected_generation);
   }
@@ -266,6 +267,11 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
     if (msg.has_summary()) {
       parsed = wire::FinishReply(msg.summary(), params, &out);
       summary = true;
+    } else if (msg.has_progress()) {
+      if (call.progress) {
+        call.progress(msg.progress().vertices_done(),
+                      msg.progress().vertices_total());
+      }
     } else {
       parsed = wire::AppendChunk(msg.chunk(), &out);
     }

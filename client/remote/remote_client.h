@@ -6,6 +6,7 @@
 
 #include <grpcpp/grpcpp.h>
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -71,6 +72,9 @@ struct SdfCall {
   // If set, must equal the session's generation (else ABORTED).
   std::optional<int64_t> expected_generation = std::nullopt;
   int chunk_vertices = 0;  // vertices per message, 1..65536; 0: the server's.
+  // If set, the server streams the ray pass's progress to it (vertices
+  // done, vertices in all); not called when the server reuses a pass.
+  std::function<void(int64_t done, int64_t total)> progress = nullptr;
 };
 
 class RemoteClient {

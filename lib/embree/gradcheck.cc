@@ -34,6 +34,20 @@ absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
   return pass;
 }
 
+// The control of ray pass `index` of `passes`: its progress is reported as
+// the whole check's (each pass counts its vertices).
+ComputeControl PassControl(const ComputeControl& control, int64_t index,
+                           int64_t passes) {
+  ComputeControl c;
+  c.cancelled = control.cancelled;
+  if (control.progress) {
+    c.progress = [&control, index, passes](int64_t done, int64_t total) {
+      control.progress(index * total + done, passes * total);
+    };
+  }
+  return c;
+}
+
 bool SameRow(const HitTable& a, const HitTable& b, int64_t p) {
   const auto ra = a.Row(p), rb = b.Row(p);
   const auto ka = a.KeptRow(p), kb = b.KeptRow(p);
@@ -116,19 +130,26 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   auto created = SdfEvaluator::Create(mesh);
   if (!created.ok()) return created.status();
   SdfEvaluator& ev = **created;
-  auto base = Evaluate(ev, params, options, control);
+  const std::vector<int32_t> probed = PickVertices(options, ev);
+  const int64_t passes = 1 + 2 * mesh.dimension * std::ssize(probed);
+  int64_t pass_index = 0;
+  auto base =
+      Evaluate(ev, params, options, PassControl(control, pass_index++, passes));
   if (!base.ok()) return base.status();
-  auto jac = ComputeJacobian(ev, base->hits, control, params.threads);
+  // The derivatives' own progress would restart the check's.
+  ComputeControl quiet;
+  quiet.cancelled = control.cancelled;
+  auto jac = ComputeJacobian(ev, base->hits, quiet, params.threads);
   if (!jac.ok()) return jac.status();
   const int64_t nv = mesh.num_vertices();
   std::vector<double> g(nv);
   for (int64_t i = 0; i < nv; ++i) g[i] = std::sin(1.0 + 7.3 * i);
-  auto vjp = ComputeVjp(ev, base->hits, g, control, params.threads);
+  auto vjp = ComputeVjp(ev, base->hits, g, quiet, params.threads);
   if (!vjp.ok()) return vjp.status();
   PenaltyResult pen;
   if (options.penalty) {
-    auto p = ComputePenalty(ev, base->sdf, *options.penalty, &base->hits,
-                            control, params.threads);
+    auto p = ComputePenalty(ev, base->sdf, *options.penalty, &base->hits, quiet,
+                            params.threads);
     if (!p.ok()) return p.status();
     pen = std::move(*p);
   }
@@ -141,7 +162,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   auto move = [&ev](int32_t j, const Vec3& x) {
     return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
   };
-  for (int32_t j : PickVertices(options, ev)) {
+  for (int32_t j : probed) {
     const Vec3 x0 = mesh.positions[j];
     for (int c = 0; c < mesh.dimension; ++c) {
       Pass at[2];
@@ -149,7 +170,8 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
         Vec3 x = x0;
         x[c] += (s == 0 ? 1 : -1) * step;
         if (absl::Status st = move(j, x); !st.ok()) return st;
-        auto pass = Evaluate(ev, params, options, control);
+        auto pass = Evaluate(ev, params, options,
+                             PassControl(control, pass_index++, passes));
         if (!pass.ok()) return pass.status();
         at[s] = std::move(*pass);
       }
