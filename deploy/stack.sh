@@ -16,6 +16,9 @@
 # gRPC on 127.0.0.1:50051 (TLS, token: deploy/secrets), Prometheus on
 # 127.0.0.1:9090.
 set -euo pipefail
+if [ -n "${MESHGAUGE_PREBUILT_FROM:-}" ]; then
+  MESHGAUGE_PREBUILT_FROM=$(realpath "$MESHGAUGE_PREBUILT_FROM")
+fi
 cd "$(dirname "$0")"
 VERSION=$(cat ../VERSION)
 export MESHGAUGE_VERSION="$VERSION"

@@ -35,7 +35,7 @@ enum class Derivatives {
 // Bytes a local backend holds (a remote one's are the server's).
 struct MemoryBytes {
   int64_t mesh = 0;       // positions, faces, regions
-  int64_t derived = 0;    // topology and double-precision corners
+  int64_t derived = 0;    // topology
   int64_t bvh = 0;        // Embree: BVH and geometry buffers
   int64_t hit_table = 0;  // kept for derivatives only: 5 bytes per ray
 };

@@ -20,7 +20,11 @@ enum class ProgressMode { kAuto, kAlways, kNever };
 class ProgressBar {
  public:
   ProgressBar(std::string label, ProgressMode mode);
+  ProgressBar(const ProgressBar&) = delete;
+  ProgressBar& operator=(const ProgressBar&) = delete;
   ~ProgressBar();
+  // Whether this bar draws at all (its mode and stderr).
+  bool enabled() const { return enabled_; }
   void Update(int64_t done, int64_t total);
   void Finish();
   // A ComputeControl whose progress updates this bar.

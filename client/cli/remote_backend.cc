@@ -31,7 +31,7 @@ class Remote : public Backend {
         progress_);
     client::SdfCall call{.include_jacobian =
                              derivatives == Derivatives::kJacobian};
-    if (progress_ != ProgressMode::kNever) {
+    if (bar.enabled()) {
       call.progress = [&bar](int64_t done, int64_t total) {
         bar.Update(done, total);
       };

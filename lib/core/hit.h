@@ -16,9 +16,9 @@ struct HitGeometry {
   double lambda[3] = {};  // barycentric coordinates of the hit point.
 };
 
-// The corners of one primitive, packed contiguously (one or two cache lines)
-// so the hit evaluation after a trace touches little memory. `segment` is
-// true for 2D segments (c unused).
+// The corners of one primitive in double precision, read from the
+// positions for one hit evaluation. `segment` is true for 2D segments (c
+// unused).
 struct PrimitiveCorners {
   Vec3 a, b, c;
   int32_t face = -1;  // the mesh face the primitive belongs to.

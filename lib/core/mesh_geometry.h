@@ -1,6 +1,7 @@
 // A validated mesh with the derived state that the SDF's values and
-// derivatives read: topology, ray primitives' corners in double precision,
-// the mean edge length, the bounding-box diagonal and a generation counter.
+// derivatives read: topology, the mean edge length, the bounding-box
+// diagonal and a generation counter; ray primitives' corners are read from
+// the positions in double precision.
 // SdfEvaluator (lib/embree) adds the BVH and the ray pass; the sensitivities
 // and penalties (lib/core) need only this.
 #pragma once

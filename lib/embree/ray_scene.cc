@@ -245,6 +245,17 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
 void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             float t_near, float t_far,
                             absl::Span<Hit> out) const {
+  // Where Embree has no native 16-wide packets (built without them, or a
+  // CPU without AVX-512) rays are traced one at a time.
+  static const bool packets =
+      rtcGetDeviceProperty(device_,
+                           RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
+  if (!packets) {
+    for (size_t k = 0; k < dirs.size(); ++k) {
+      out[k] = Intersect(origin, dirs[k], t_near, t_far);
+    }
+    return;
+  }
   constexpr int kWidth = 16;
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);

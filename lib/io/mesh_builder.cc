@@ -69,9 +69,13 @@ absl::Status MeshBuilder::ReserveFaces(int64_t n, int corners) {
       !s.ok()) {
     return s;
   }
-  sizes_.reserve(n);
-  corners_.reserve(n * corners);
-  regions_.reserve(n);
+  // A declared count passed the file-size check at a byte or so a face;
+  // beyond 2^24 faces the arrays grow as faces arrive (a crafted header
+  // cannot make the reader reserve gigabytes).
+  const int64_t room = std::min<int64_t>(n, int64_t{1} << 24);
+  sizes_.reserve(room);
+  corners_.reserve(room * corners);
+  regions_.reserve(room);
   return absl::OkStatus();
 }
 
