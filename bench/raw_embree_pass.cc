@@ -18,62 +18,34 @@
 namespace meshgauge::bench {
 namespace {
 
-// Embree's packet types and calls by packet width.
-template <int N>
-struct Packet;
-template <>
-struct Packet<4> {
-  using Type = RTCRayHit4;
-  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
-                        Type* rh) {
-    rtcIntersect4(valid, s, c, rh);
-  }
-};
-template <>
-struct Packet<8> {
-  using Type = RTCRayHit8;
-  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
-                        Type* rh) {
-    rtcIntersect8(valid, s, c, rh);
-  }
-};
-template <>
-struct Packet<16> {
-  using Type = RTCRayHit16;
-  static void Intersect(const int* valid, RTCScene s, RTCIntersectContext* c,
-                        Type* rh) {
-    rtcIntersect16(valid, s, c, rh);
-  }
-};
+// Embree's packet call for a packet type.
+void IntersectPacket(const int* valid, RTCScene s, RTCIntersectContext* c,
+                     RTCRayHit4* rh) {
+  rtcIntersect4(valid, s, c, rh);
+}
+void IntersectPacket(const int* valid, RTCScene s, RTCIntersectContext* c,
+                     RTCRayHit8* rh) {
+  rtcIntersect8(valid, s, c, rh);
+}
+void IntersectPacket(const int* valid, RTCScene s, RTCIntersectContext* c,
+                     RTCRayHit16* rh) {
+  rtcIntersect16(valid, s, c, rh);
+}
 
 // Traces rays from `x` along `dirs` in packets of N; returns the hits.
-template <int N>
+template <int N, typename RayHitN>
 int64_t TracePackets(RTCScene scene, RTCIntersectContext* ctx, const Vec3& x,
                      const std::vector<Vec3>& dirs, float t_near, float t_far) {
   int64_t hits = 0;
-  alignas(64) typename Packet<N>::Type rh;
+  alignas(64) RayHitN rh;
   alignas(64) int valid[N];
   for (size_t first = 0; first < dirs.size(); first += N) {
     for (int j = 0; j < N; ++j) {
       const size_t k = first + j;
       valid[j] = k < dirs.size() ? -1 : 0;
-      const Vec3& d = dirs[k < dirs.size() ? k : first];
-      rh.ray.org_x[j] = static_cast<float>(x.x);
-      rh.ray.org_y[j] = static_cast<float>(x.y);
-      rh.ray.org_z[j] = static_cast<float>(x.z);
-      rh.ray.dir_x[j] = static_cast<float>(d.x);
-      rh.ray.dir_y[j] = static_cast<float>(d.y);
-      rh.ray.dir_z[j] = static_cast<float>(d.z);
-      rh.ray.tnear[j] = t_near;
-      rh.ray.tfar[j] = t_far;
-      rh.ray.time[j] = 0;
-      rh.ray.mask[j] = std::numeric_limits<unsigned>::max();
-      rh.ray.id[j] = 0;
-      rh.ray.flags[j] = 0;
-      rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+      SetPacketRay(rh, j, x, dirs[k < dirs.size() ? k : first], t_near, t_far);
     }
-    Packet<N>::Intersect(valid, scene, ctx, &rh);
+    IntersectPacket(valid, scene, ctx, &rh);
     for (int j = 0; j < N; ++j) {
       hits += valid[j] != 0 && rh.hit.geomID[j] != RTC_INVALID_GEOMETRY_ID;
     }
@@ -96,11 +68,11 @@ int64_t TraceVertex(RawTrace trace, RTCScene scene, const Vec3& x,
       }
       return hits;
     case RawTrace::kPacket4:
-      return TracePackets<4>(scene, &ctx, x, dirs, t_near, t_far);
+      return TracePackets<4, RTCRayHit4>(scene, &ctx, x, dirs, t_near, t_far);
     case RawTrace::kPacket8:
-      return TracePackets<8>(scene, &ctx, x, dirs, t_near, t_far);
+      return TracePackets<8, RTCRayHit8>(scene, &ctx, x, dirs, t_near, t_far);
     case RawTrace::kPacket16:
-      return TracePackets<16>(scene, &ctx, x, dirs, t_near, t_far);
+      return TracePackets<16, RTCRayHit16>(scene, &ctx, x, dirs, t_near, t_far);
     case RawTrace::kStream:
       ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
       stream.resize(dirs.size());

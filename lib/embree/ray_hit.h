@@ -11,6 +11,26 @@ namespace meshgauge {
 RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
                      float t_far);
 
+// Lane `lane` of an Embree packet (RTCRayHit4/8/16) as MakeRayHit's ray.
+template <typename RayHitN>
+void SetPacketRay(RayHitN& rh, int lane, const Vec3& origin, const Vec3& dir,
+                  float t_near, float t_far) {
+  rh.ray.org_x[lane] = static_cast<float>(origin.x);
+  rh.ray.org_y[lane] = static_cast<float>(origin.y);
+  rh.ray.org_z[lane] = static_cast<float>(origin.z);
+  rh.ray.dir_x[lane] = static_cast<float>(dir.x);
+  rh.ray.dir_y[lane] = static_cast<float>(dir.y);
+  rh.ray.dir_z[lane] = static_cast<float>(dir.z);
+  rh.ray.tnear[lane] = t_near;
+  rh.ray.tfar[lane] = t_far;
+  rh.ray.time[lane] = 0;
+  rh.ray.mask[lane] = ~0u;
+  rh.ray.id[lane] = 0;
+  rh.ray.flags[lane] = 0;
+  rh.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+}
+
 // One Embree device for the whole process (created on first use, never
 // released; Embree devices are thread-safe), so that rebuilding a scene
 // does not create a device. Null when Embree cannot create one.

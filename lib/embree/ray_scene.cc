@@ -266,22 +266,8 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
     const int n =
         static_cast<int>(std::min<size_t>(kWidth, dirs.size() - first));
     for (int j = 0; j < kWidth; ++j) {
-      const Vec3& d = dirs[first + std::min(j, n - 1)];
       valid[j] = j < n ? -1 : 0;
-      rh.ray.org_x[j] = static_cast<float>(o.x);
-      rh.ray.org_y[j] = static_cast<float>(o.y);
-      rh.ray.org_z[j] = static_cast<float>(o.z);
-      rh.ray.dir_x[j] = static_cast<float>(d.x);
-      rh.ray.dir_y[j] = static_cast<float>(d.y);
-      rh.ray.dir_z[j] = static_cast<float>(d.z);
-      rh.ray.tnear[j] = t_near;
-      rh.ray.tfar[j] = t_far;
-      rh.ray.time[j] = 0;
-      rh.ray.mask[j] = std::numeric_limits<unsigned>::max();
-      rh.ray.id[j] = 0;
-      rh.ray.flags[j] = 0;
-      rh.hit.geomID[j] = RTC_INVALID_GEOMETRY_ID;
-      rh.hit.instID[0][j] = RTC_INVALID_GEOMETRY_ID;
+      SetPacketRay(rh, j, o, dirs[first + std::min(j, n - 1)], t_near, t_far);
     }
     rtcIntersect16(valid, scene_, &ctx, &rh);
     for (int j = 0; j < n; ++j) {
