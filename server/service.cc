@@ -144,11 +144,9 @@ ComputeControl MeshGaugeService::Control(grpc::ServerContext* ctx) const {
 std::function<void(int64_t, int64_t)> MeshGaugeService::ProgressWriter(
     const Prepared& prep, grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
   const SdfEvaluator& ev = *prep.reader.evaluator;
-  const ResolvedParams resolved =
-      ResolveParams(prep.params, ev.mesh().dimension);
   const int64_t rays_total =
       ev.mesh().num_vertices() *
-      (prep.params.method == SdfMethod::kNormalRay ? 1 : resolved.rays);
+      int64_t{ResolveParams(prep.params, ev.mesh().dimension).rays};
   // The evaluator serialises progress calls; at most one write every
   // kProgressInterval, and the last one.
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();

@@ -62,10 +62,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   for (const std::string& w : loaded->warnings) {
     std::cerr << "meshgauge: warning: " << w << "\n";
   }
-  const int64_t rays =
-      params->method == SdfMethod::kNormalRay
-          ? 1
-          : ResolveParams(*params, loaded->mesh.dimension).rays;
+  const int64_t rays = ResolveParams(*params, loaded->mesh.dimension).rays;
   ProgressBar bar(
       absl::StrCat(
           "gradcheck: ",

@@ -15,10 +15,7 @@ class Local : public Backend {
 
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
-    const ResolvedParams resolved =
-        ResolveParams(params, ev_->mesh().dimension);
-    const int64_t rays =
-        params.method == SdfMethod::kNormalRay ? 1 : resolved.rays;
+    const int64_t rays = ResolveParams(params, ev_->mesh().dimension).rays;
     ProgressBar bar(
         absl::StrCat("tracing ", ev_->mesh().num_vertices() * rays, " rays"),
         progress_);

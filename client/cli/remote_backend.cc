@@ -23,9 +23,7 @@ class Remote : public Backend {
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
     params_ = params;
-    const int64_t rays = params.method == SdfMethod::kNormalRay
-                             ? 1
-                             : ResolveParams(params, dimension_).rays;
+    const int64_t rays = ResolveParams(params, dimension_).rays;
     ProgressBar bar(
         absl::StrCat("tracing ", num_vertices_ * rays, " rays on the server"),
         progress_);
