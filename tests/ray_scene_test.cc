@@ -1,5 +1,6 @@
-// RayScene's packet tracing: a fan of rays from one origin, traced 16 at a
-// time, finds what each ray traced alone finds, bit for bit.
+// RayScene's fans: traced 16 rays at a time they find what each ray traced
+// alone finds, and the candidates for a closest hit do not depend on the
+// BVH (built, or refitted from other positions) even where primitives tie.
 #include "lib/embree/ray_scene.h"
 
 #include <gtest/gtest.h>
@@ -8,32 +9,43 @@
 #include <random>
 
 #include "lib/core/shapes.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
-// Random unit directions, `n` per vertex (n not a multiple of 16, so the
-// last packet of every fan is partial).
+std::vector<Vec3> RandomDirections(int n, int dimension, std::mt19937& rng) {
+  std::normal_distribution<double> gauss;
+  std::vector<Vec3> dirs(n);
+  for (Vec3& d : dirs) {
+    d = Vec3(gauss(rng), gauss(rng), dimension == 3 ? gauss(rng) : 0);
+    d = d / std::sqrt(Dot(d, d));
+  }
+  return dirs;
+}
+
+// `n` random directions per vertex (not a multiple of 16, so the last
+// packet of every fan is partial).
 void ExpectFansHitAsSingleRays(const Mesh& mesh, int n) {
   const MeshTopology topo = MeshTopology::Build(mesh);
   auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
   ASSERT_TRUE(scene.ok()) << scene.status();
   std::mt19937 rng(5);
-  std::normal_distribution<double> gauss;
-  std::vector<Vec3> dirs(n);
-  std::vector<RayScene::Hit> fan(n);
+  std::vector<HitCandidates> fan(n);
   int64_t hits = 0;
   for (const Vec3& x : mesh.positions) {
-    for (Vec3& d : dirs) {
-      d = Vec3(gauss(rng), gauss(rng), mesh.dimension == 3 ? gauss(rng) : 0);
-      d = d / std::sqrt(Dot(d, d));
-    }
-    (*scene)->IntersectFan(x, dirs, 1e-4f, 1e30f, absl::MakeSpan(fan));
+    const std::vector<Vec3> dirs = RandomDirections(n, mesh.dimension, rng);
+    (*scene)->IntersectFan(x, dirs, 1e-4f, 1e30f, {}, absl::MakeSpan(fan));
     for (int k = 0; k < n; ++k) {
       const RayScene::Hit one = (*scene)->Intersect(x, dirs[k], 1e-4f, 1e30f);
-      ASSERT_EQ(fan[k].prim, one.prim) << "ray " << k;
-      ASSERT_EQ(fan[k].t, one.t) << "ray " << k;
-      hits += one.prim >= 0;
+      ASSERT_EQ(fan[k].count() > 0, one.prim >= 0) << "ray " << k;
+      if (one.prim < 0) continue;
+      ++hits;
+      ASSERT_EQ(fan[k][0].t, one.t) << "ray " << k;
+      bool found = false;
+      for (int i = 0; i < fan[k].count(); ++i)
+        found |= fan[k][i].prim == one.prim;
+      ASSERT_TRUE(found) << "ray " << k;
     }
   }
   EXPECT_GT(hits, mesh.num_vertices() * n / 4);  // the test sees hits.
@@ -45,6 +57,54 @@ TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays3d) {
 
 TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays2d) {
   ExpectFansHitAsSingleRays(MakeCircle(1.0, 200), 21);
+}
+
+// Every face twice (the copy's corners rotated): each hit is a tie that a
+// traversal-order rule would break by the BVH. Scenes built with either
+// policy, or refitted from other positions, give the same candidates, and
+// both copies are among them.
+TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
+  const Mesh mesh = testing::WithEveryFaceTwice(MakeTorus(1.0, 0.4, 40, 20));
+  const int64_t nf = mesh.num_faces() / 2;
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  Mesh elsewhere = mesh;
+  for (Vec3& p : elsewhere.positions) p = Vec3(p.x * 1.3, p.z, p.y - 2);
+  auto built = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
+  auto refitted = RayScene::Create(elsewhere, topo, BvhUpdatePolicy::kRefit);
+  ASSERT_TRUE(built.ok() && refitted.ok());
+  ASSERT_TRUE((*refitted)->UpdatePositions(mesh).ok());
+  std::mt19937 rng(11);
+  const int n = 24;
+  std::vector<HitCandidates> a(n), b(n);
+  int64_t ties = 0;
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
+    const Vec3& x = mesh.positions[v];
+    const std::vector<Vec3> dirs = RandomDirections(n, 3, rng);
+    std::vector<int32_t> ring;
+    OneRingPrimitives(topo, v, &ring);
+    (*built)->IntersectFan(x, dirs, 1e-6f, 1e30f, ring, absl::MakeSpan(a));
+    (*refitted)->IntersectFan(x, dirs, 1e-6f, 1e30f, ring, absl::MakeSpan(b));
+    for (int k = 0; k < n; ++k) {
+      ASSERT_EQ(a[k].count(), b[k].count()) << "vertex " << v << " ray " << k;
+      for (int i = 0; i < a[k].count(); ++i) {
+        ASSERT_EQ(a[k][i].prim, b[k][i].prim);
+        ASSERT_EQ(a[k][i].t, b[k][i].t);
+        // No one-ring face, neither copy.
+        ASSERT_FALSE(
+            std::binary_search(ring.begin(), ring.end(), a[k][i].prim));
+      }
+      if (a[k].count() == 0) continue;
+      const int32_t face = topo.primitives[a[k][0].prim].face;
+      const int64_t twin = face < nf ? face + nf : face - nf;
+      bool found = false;
+      for (int i = 0; i < a[k].count(); ++i) {
+        found |= topo.primitives[a[k][i].prim].face == twin;
+      }
+      EXPECT_TRUE(found) << "vertex " << v << " ray " << k;
+      ++ties;
+    }
+  }
+  EXPECT_GT(ties, mesh.num_vertices() * n / 4);
 }
 
 }  // namespace

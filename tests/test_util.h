@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "lib/core/mesh.h"
+
 namespace meshgauge::testing {
 
 // True when both hold the same doubles, bit for bit (NaNs and signed zeros
@@ -16,6 +18,32 @@ inline bool SameBits(const std::vector<double>& a,
                      const std::vector<double>& b) {
   return a.size() == b.size() &&
          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+// `mesh` (triangles) with every face a second time, the copy's corners
+// rotated: every hit ties with the copy's, at a double-precision distance
+// that may differ in its last bit.
+inline Mesh WithEveryFaceTwice(Mesh mesh) {
+  const size_t nf = mesh.faces.size();
+  for (size_t f = 0; f < nf; ++f) {
+    Face copy = mesh.faces[f];
+    std::rotate(copy.v.begin(), copy.v.begin() + 1, copy.v.begin() + 3);
+    mesh.faces.push_back(copy);
+  }
+  return mesh;
+}
+
+// The vertices of `mesh` within `radius` of vertex `centre` (a connected
+// patch on a smooth part), ascending.
+inline std::vector<int32_t> Patch(const Mesh& mesh, int64_t centre,
+                                  double radius) {
+  std::vector<int32_t> patch;
+  const Vec3 c = mesh.positions[centre];
+  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
+    const Vec3 d = mesh.positions[v] - c;
+    if (Dot(d, d) < radius * radius) patch.push_back(static_cast<int32_t>(v));
+  }
+  return patch;
 }
 
 // ../shared/meshes/NAME as configured at build time.

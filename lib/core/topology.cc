@@ -91,4 +91,20 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
   return topo;
 }
 
+void OneRingPrimitives(const MeshTopology& topo, int64_t p,
+                       std::vector<int32_t>* out) {
+  out->clear();
+  const auto& prims = topo.primitives;
+  for (int32_t q : topo.vertex_primitives.Of(p)) {
+    out->push_back(q);
+    // A quad's two triangles are consecutive primitives.
+    if (q > 0 && prims[q - 1].face == prims[q].face) out->push_back(q - 1);
+    if (q + 1 < std::ssize(prims) && prims[q + 1].face == prims[q].face) {
+      out->push_back(q + 1);
+    }
+  }
+  std::sort(out->begin(), out->end());
+  out->erase(std::unique(out->begin(), out->end()), out->end());
+}
+
 }  // namespace meshgauge

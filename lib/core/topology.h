@@ -46,4 +46,10 @@ struct MeshTopology {
   static MeshTopology Build(const Mesh& mesh);
 };
 
+// The primitives of the faces incident to vertex `p` (SPEC §4's one-ring,
+// which a ray from p ignores), ascending: vertex_primitives.Of(p) and, for a
+// quad, its other triangle. Reads only the one-ring's entries.
+void OneRingPrimitives(const MeshTopology& topo, int64_t p,
+                       std::vector<int32_t>* out);
+
 }  // namespace meshgauge

@@ -42,8 +42,8 @@ namespace {
 // and 42 vertices gets no hit, one of 642 vertices gets all), and beyond
 // about 1.8e18 Embree asserts, aborting the process. Such meshes are
 // refused, and so is a face's vertex farther than kMaxSpan from `origin`
-// (the coordinates Embree sees are relative to it; an unused vertex far
-// away, or a whole mesh moved far by an update, would put them there).
+// (SceneOrigin: the coordinates Embree sees are relative to it; an unused
+// vertex far away would put a face's vertices there).
 constexpr double kMaxSpanTimesEdgeSquared = 1e38;
 constexpr double kMaxSpan = 1e17;
 
@@ -62,9 +62,7 @@ absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin) {
   if (reach > kMaxSpan) {
     return absl::InvalidArgumentError(absl::StrCat(
         "a face's vertex lies ", reach,
-        " from the centroid of the vertices the ray tracer was built on "
-        "(at most ",
-        kMaxSpan,
+        " from the centroid of the vertices (at most ", kMaxSpan,
         " in single precision; an unused vertex far away moves that "
         "centroid): rescale or recentre the mesh"));
   }
@@ -81,17 +79,25 @@ absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin) {
       "): rescale the mesh"));
 }
 
+// A power of two at or above `x` (> 0), 1 for x <= 0.
+double PowerOfTwoAbove(double x) {
+  return x > 0 ? std::exp2(std::ceil(std::log2(x))) : 1.0;
+}
+
 }  // namespace
+
+Vec3 SceneOrigin(const Mesh& mesh) {
+  Vec3 c;
+  for (const Vec3& p : mesh.positions) c += p;
+  if (mesh.positions.empty()) return c;
+  c = c / std::ssize(mesh.positions);
+  const double q = PowerOfTwoAbove(BoundingBoxDiagonal(mesh));
+  return Vec3(std::round(c.x / q) * q, std::round(c.y / q) * q,
+              std::round(c.z / q) * q);
+}
 
 absl::Status RayScene::Init(const Mesh& mesh) {
   dimension_ = mesh.dimension;
-  // The BVH is single precision: storing coordinates relative to the
-  // vertices' centroid keeps their relative precision whatever the part's
-  // offset from the origin (CAD coordinates), so hits do not depend on a
-  // translation of the mesh.
-  for (const Vec3& p : mesh.positions) origin_ += p;
-  if (!mesh.positions.empty()) origin_ = origin_ / std::ssize(mesh.positions);
-  if (absl::Status s = CheckSpan(mesh, origin_); !s.ok()) return s;
   device_ = SharedDevice();
   if (!device_) return absl::InternalError("rtcNewDevice failed");
   scene_ = rtcNewScene(device_);
@@ -99,12 +105,10 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   // vertex (common on symmetric meshes) cannot slip between primitives.
   // DYNAMIC (with LOW quality and a REFIT geometry): without it Embree 3
   // rebuilds on every commit instead of refitting (measured: 50 ms vs 4 ms
-  // for 320k triangles).
-  rtcSetSceneFlags(scene_,
-                   policy_ == BvhUpdatePolicy::kRefit
-                       ? static_cast<RTCSceneFlags>(RTC_SCENE_FLAG_ROBUST |
-                                                    RTC_SCENE_FLAG_DYNAMIC)
-                       : RTC_SCENE_FLAG_ROBUST);
+  // for 320k triangles). CONTEXT_FILTER_FUNCTION: IntersectFan's filter.
+  int flags = RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+  if (policy_ == BvhUpdatePolicy::kRefit) flags |= RTC_SCENE_FLAG_DYNAMIC;
+  rtcSetSceneFlags(scene_, static_cast<RTCSceneFlags>(flags));
   rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
                                       ? RTC_BUILD_QUALITY_LOW
                                       : RTC_BUILD_QUALITY_MEDIUM);
@@ -121,7 +125,6 @@ absl::Status RayScene::Init(const Mesh& mesh) {
     }
   } else {
     // Vertex i at z = -H is 2i, at z = +H is 2i + 1.
-    extrude_half_height_ = static_cast<float>(BoundingBoxDiagonal(mesh) + 1);
     geometry_ = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_QUAD);
     auto* idx = static_cast<uint32_t*>(
         rtcSetNewGeometryBuffer(geometry_, RTC_BUFFER_TYPE_INDEX, 0,
@@ -142,7 +145,7 @@ absl::Status RayScene::Init(const Mesh& mesh) {
       geometry_, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
       4 * sizeof(float), num_embree_vertices));
   if (!vertex_buffer_) return DeviceStatus(device_, "vertex buffer");
-  FillVertices(mesh);
+  if (absl::Status s = FillVertices(mesh); !s.ok()) return s;
   if (policy_ == BvhUpdatePolicy::kRefit) {
     rtcSetGeometryBuildQuality(geometry_, RTC_BUILD_QUALITY_REFIT);
   }
@@ -151,7 +154,13 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   return Commit();
 }
 
-void RayScene::FillVertices(const Mesh& mesh) {
+absl::Status RayScene::FillVertices(const Mesh& mesh) {
+  const Vec3 origin = SceneOrigin(mesh);
+  if (absl::Status s = CheckSpan(mesh, origin); !s.ok()) return s;
+  origin_ = origin;
+  // Like the origin, a function of the current positions alone.
+  extrude_half_height_ =
+      static_cast<float>(PowerOfTwoAbove(BoundingBoxDiagonal(mesh) + 1));
   const size_t nv = mesh.positions.size();
   for (size_t i = 0; i < nv; ++i) {
     const Vec3 p = mesh.positions[i] - origin_;
@@ -171,6 +180,7 @@ void RayScene::FillVertices(const Mesh& mesh) {
       }
     }
   }
+  return absl::OkStatus();
 }
 
 absl::Status RayScene::Commit() {
@@ -179,8 +189,7 @@ absl::Status RayScene::Commit() {
 }
 
 absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
-  if (absl::Status s = CheckSpan(mesh, origin_); !s.ok()) return s;
-  FillVertices(mesh);
+  if (absl::Status s = FillVertices(mesh); !s.ok()) return s;
   rtcUpdateGeometryBuffer(geometry_, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(geometry_);
   rtcCommitScene(scene_);
@@ -242,9 +251,51 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
 
+namespace {
+
+// The context of one fan's traversal: Embree passes it to FanFilter.
+struct FanContext {
+  RTCIntersectContext rtc;  // first: Embree sees a pointer to it.
+  absl::Span<const int32_t> excluded;
+  HitCandidates* out;  // out[lane] for packets; out[0] for single rays.
+};
+
+// Called by Embree for every hit within the ray's current tfar: skips the
+// excluded primitives (the hit is rejected and tfar restored), records the
+// others and keeps tfar at the candidates' window, so that every primitive in
+// it is reported whatever the traversal order (Embree keeps a tfar that the
+// filter set when it accepts the hit).
+void FanFilter(const RTCFilterFunctionNArguments* args) {
+  const auto* fan = reinterpret_cast<const FanContext*>(args->context);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    const auto prim =
+        static_cast<int32_t>(RTCHitN_primID(args->hit, args->N, i));
+    if (std::binary_search(fan->excluded.begin(), fan->excluded.end(), prim)) {
+      args->valid[i] = 0;
+      continue;
+    }
+    HitCandidates& c = fan->out[args->N == 1 ? 0 : i];
+    float& tfar = RTCRayN_tfar(args->ray, args->N, i);
+    c.Add(prim, tfar);
+    tfar = c.Limit();
+  }
+}
+
+}  // namespace
+
 void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             float t_near, float t_far,
-                            absl::Span<Hit> out) const {
+                            absl::Span<const int32_t> excluded,
+                            absl::Span<HitCandidates> out) const {
+  const Vec3 o = origin - origin_;
+  const float reach = static_cast<float>(
+      std::max({std::abs(o.x), std::abs(o.y), std::abs(o.z)}));
+  for (HitCandidates& c : out) c = HitCandidates(reach);
+  FanContext fan;
+  rtcInitIntersectContext(&fan.rtc);
+  fan.rtc.filter = FanFilter;
+  fan.excluded = excluded;
   // Where Embree has no native 16-wide packets (built without them, or a
   // CPU without AVX-512) rays are traced one at a time.
   static const bool packets =
@@ -252,14 +303,13 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
   if (!packets) {
     for (size_t k = 0; k < dirs.size(); ++k) {
-      out[k] = Intersect(origin, dirs[k], t_near, t_far);
+      fan.out = &out[k];
+      RTCRayHit rh = MakeRayHit(o, dirs[k], t_near, t_far);
+      rtcIntersect1(scene_, &fan.rtc, &rh);
     }
     return;
   }
   constexpr int kWidth = 16;
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  const Vec3 o = origin - origin_;
   alignas(64) RTCRayHit16 rh;
   alignas(64) int valid[kWidth];
   for (size_t first = 0; first < dirs.size(); first += kWidth) {
@@ -269,13 +319,8 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
       valid[j] = j < n ? -1 : 0;
       SetPacketRay(rh, j, o, dirs[first + std::min(j, n - 1)], t_near, t_far);
     }
-    rtcIntersect16(valid, scene_, &ctx, &rh);
-    for (int j = 0; j < n; ++j) {
-      out[first + j] =
-          rh.hit.geomID[j] == RTC_INVALID_GEOMETRY_ID
-              ? Hit{}
-              : Hit{static_cast<int32_t>(rh.hit.primID[j]), rh.ray.tfar[j]};
-    }
+    fan.out = &out[first];
+    rtcIntersect16(valid, scene_, &fan.rtc, &rh);
   }
 }
 

@@ -14,6 +14,7 @@
 #include "absl/types/span.h"
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
+#include "lib/embree/hit_candidates.h"
 
 // Embree's opaque handles (embree3/rtcore.h typedefs RTCScene etc. as
 // pointers to these), so that this header does not pull Embree in.
@@ -31,12 +32,21 @@ enum class BvhUpdatePolicy {
   kRefit,
 };
 
+// The origin of the coordinates Embree sees: the vertices' centroid rounded
+// to a multiple of the power of two at or above the bounding-box diagonal.
+// Coordinates relative to it keep their precision whatever the part's
+// offset (CAD coordinates), it depends on the current positions alone (a
+// refitted scene and one built at the same positions see the same
+// single-precision coordinates, so hits do not depend on the history), and
+// it changes only when the mesh moves by about its size.
+Vec3 SceneOrigin(const Mesh& mesh);
+
 class RayScene {
  public:
   // Builds the BVH. `topo` must outlive the scene. Errors: InvalidArgument
   // for a mesh too large for Embree's single precision (bounding-box
   // diagonal x (longest edge)^2 over 1e38, a diagonal over 1e17, or a
-  // face's vertex over 1e17 from the centroid of all vertices);
+  // face's vertex over 1e17 from SceneOrigin(mesh));
   // Internal on Embree failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
       const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);
@@ -45,33 +55,41 @@ class RayScene {
   RayScene& operator=(const RayScene&) = delete;
 
   // Copies mesh.positions (same vertex count) into the Embree buffers and
-  // refits or rebuilds per the policy. Errors: InvalidArgument as Create's
-  // (the scene is unchanged).
+  // refits or rebuilds per the policy. The coordinates Embree sees are a
+  // function of the current positions alone (SceneOrigin), as after Create.
+  // Errors: InvalidArgument as Create's (the scene is unchanged).
   absl::Status UpdatePositions(const Mesh& mesh);
 
-  // Closest hit of origin + t * dir with t in [t_near, t_far] (single
-  // precision, plain rtcIntersect1, in coordinates relative to the mesh's
-  // centroid at creation). `prim` indexes
-  // MeshTopology::primitives; -1 for a miss. Thread-safe. The one-ring
-  // exclusion of SPEC §4 is the caller's (TraceExcluding in sdf_pass.h), so
-  // that its face lookup can use prefetched memory.
+  // Closest hit of origin + t * dir with t in [t_near, t_far] as Embree
+  // reports it (single precision, plain rtcIntersect1; among primitives at
+  // the same distance the one it visits first, so this depends on the BVH:
+  // for pictures, not for values). `prim` indexes MeshTopology::primitives;
+  // -1 for a miss. Thread-safe.
   struct Hit {
     int32_t prim = -1;
     float t = 0;
   };
   Hit Intersect(const Vec3& origin, const Vec3& dir, float t_near,
                 float t_far) const;
-  // out[k] = Intersect(origin, dirs[k], t_near, t_far) for every k, traced
-  // in packets of 16 rays (a cone's rays share their origin and are
-  // coherent). dirs.size() == out.size().
+  // For every k, out[k] receives the candidates for the closest hit of
+  // origin + t * dirs[k], t in [t_near, t_far], ignoring the primitives in
+  // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
+  // every primitive within HitCandidates' window of the closest, found
+  // whatever the BVH's history (see hit_candidates.h). Traced in packets of
+  // 16 rays where Embree has them (a cone's rays share their origin and are
+  // coherent). dirs.size() == out.size(). Thread-safe.
   void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
-                    float t_near, float t_far, absl::Span<Hit> out) const;
+                    float t_near, float t_far,
+                    absl::Span<const int32_t> excluded,
+                    absl::Span<HitCandidates> out) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy)
       : topo_(topo), policy_(policy) {}
   absl::Status Init(const Mesh& mesh);
-  void FillVertices(const Mesh& mesh);
+  // Sets origin_ and extrude_half_height_ for `mesh` and copies its
+  // positions into the vertex buffer.
+  absl::Status FillVertices(const Mesh& mesh);
   absl::Status Commit();
 
   const MeshTopology& topo_;

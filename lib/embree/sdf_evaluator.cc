@@ -57,29 +57,26 @@ class ControlGate {
   int64_t reported_ = 0;
 };
 
-// A ray crosses at most this many one-ring faces before it counts as a miss
-// (a one-ring has about 6 faces; more means a pathological fold).
-constexpr int kMaxOneRingSkips = 64;
-
-// SPEC §4 one-ring exclusion: a hit on a face incident to the vertex (possible
-// beyond t_min only where the surface around it is concave) is skipped by
-// tracing again just past it. This replaces an Embree filter callback, which
-// slowed every ray by about 10%; the two differ only when another primitive
-// lies at exactly the same single-precision distance as the skipped one.
-int32_t SkipOneRing(const RayScene& scene,
-                    const std::vector<Primitive>& primitives,
-                    absl::Span<const int32_t> one_ring, const Vec3& x,
-                    const Vec3& d, RayScene::Hit hit, float t_max) {
-  for (int skips = 0; hit.prim >= 0; ++skips) {
-    if (!std::binary_search(one_ring.begin(), one_ring.end(),
-                            primitives[hit.prim].face)) {
-      return hit.prim;
+// The closest of a ray's candidates (SPEC §3, §4): the smallest distance
+// recomputed in double precision, ties broken by the lower primitive index;
+// a distance that is not a positive number (a ray along the primitive's
+// plane) only when no candidate has one. -1 when there is no candidate. `t`
+// receives the distance (NaN for none).
+int32_t PickClosest(const MeshGeometry& geometry, const HitCandidates& c,
+                    const Vec3& x, const Vec3& d, double* t) {
+  int32_t best = -1;
+  *t = kNaN;
+  for (int i = 0; i < c.count(); ++i) {
+    const double ti = HitDistance(geometry.Corners(c[i].prim), x, d);
+    const bool better =
+        best < 0 || (!std::isnan(ti) && (std::isnan(*t) || ti < *t ||
+                                         (ti == *t && c[i].prim < best)));
+    if (better) {
+      best = c[i].prim;
+      *t = ti;
     }
-    if (skips == kMaxOneRingSkips) return -1;
-    hit = scene.Intersect(
-        x, d, std::nextafter(hit.t, std::numeric_limits<float>::max()), t_max);
   }
-  return -1;
+  return best;
 }
 
 }  // namespace
@@ -160,7 +157,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     if (!gate.Poll()) return;
     std::vector<double> t(num_rays);
     std::vector<int32_t> prims(num_rays);
-    std::vector<RayScene::Hit> raw(num_rays);
+    std::vector<HitCandidates> candidates(num_rays);
+    std::vector<int32_t> excluded;
     std::vector<Vec3> dirs(num_rays);
     std::vector<uint8_t> kept(num_rays);
     std::vector<double> scratch;
@@ -168,8 +166,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     int64_t traced = 0, world_frames = 0;
     for (int64_t i = range.begin(); i < range.end(); ++i) {
       const int64_t p = order_[i];
-      const auto one_ring = topo_.vertex_faces.Of(p);
-      if (one_ring.empty()) {
+      if (topo_.vertex_faces.Of(p).empty()) {
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
@@ -185,18 +182,17 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       for (int k = 0; k < num_rays; ++k) {
         dirs[k] = RayDirection(vc.frame, cone[k]);
       }
-      scene_->IntersectFan(x, dirs, t_min_f, t_max_f, absl::MakeSpan(raw));
+      OneRingPrimitives(topo_, p, &excluded);
+      scene_->IntersectFan(x, dirs, t_min_f, t_max_f, excluded,
+                           absl::MakeSpan(candidates));
       for (int k = 0; k < num_rays; ++k) {
-        if (raw[k].prim >= 0) PrefetchPrimitive(raw[k].prim);
+        if (candidates[k].count() > 0) PrefetchPrimitive(candidates[k][0].prim);
       }
       for (int k = 0; k < num_rays; ++k) {
-        if (raw[k].prim >= 0) PrefetchCorners(raw[k].prim);
+        if (candidates[k].count() > 0) PrefetchCorners(candidates[k][0].prim);
       }
       for (int k = 0; k < num_rays; ++k) {
-        prims[k] = SkipOneRing(*scene_, topo_.primitives, one_ring, x, dirs[k],
-                               raw[k], t_max_f);
-        t[k] =
-            prims[k] >= 0 ? HitDistance(Corners(prims[k]), x, dirs[k]) : kNaN;
+        prims[k] = PickClosest(*this, candidates[k], x, dirs[k], &t[k]);
         if (!(t[k] <= t_max)) {
           t[k] = kNaN;
           prims[k] = -1;

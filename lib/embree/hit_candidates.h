@@ -1,0 +1,72 @@
+// The candidates for a ray's closest hit, collected while Embree traverses
+// (RayScene::IntersectFan) so that the primitive picked does not depend on
+// the traversal order (SPEC §3: not on the BVH's history).
+//
+// Embree's single-precision test gives each primitive a distance t_f; which
+// of several primitives at (nearly) the same t_f it reports depends on the
+// order it visits them. Instead, every primitive with
+//   t_f <= t* + Window(t*, reach),   t* = the smallest t_f,
+// is kept (the `kMax` smallest by (t_f, primitive)), and the caller picks
+// among them in double precision (PickClosest in sdf_evaluator.cc). The
+// window is far wider than single-precision rounding (2^-16 of the
+// coordinates' magnitude against about 2^-22), so a primitive at its edge is
+// never the one picked, and its set depends only on each primitive's own
+// test, not on the order of the tests.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+
+namespace meshgauge {
+
+class HitCandidates {
+ public:
+  static constexpr int kMax = 8;
+  struct Entry {
+    int32_t prim;
+    float t;
+  };
+
+  // `reach`: the largest coordinate magnitude of the ray's origin in the
+  // scene's coordinates (the rounding of t_f scales with it).
+  explicit HitCandidates(float reach = 0) : reach_(reach) {}
+
+  // Largest t_f still in the window of `best`.
+  static float Window(float best, float reach) {
+    return best + (reach + best) * 0x1p-16f;
+  }
+  // The distance up to which Embree must still report primitives.
+  float Limit() const { return Window(entries_[0].t, reach_); }
+
+  // Records a primitive hit at t_f = `t` (reported once or more; Embree's
+  // spatial splits may report one primitive twice).
+  void Add(int32_t prim, float t) {
+    if (count_ > 0 && t > Limit()) return;
+    for (int i = 0; i < count_; ++i) {
+      if (entries_[i].prim == prim) return;
+    }
+    int i = std::min(count_, kMax - 1);
+    if (count_ == kMax && !Before({prim, t}, entries_[i])) return;
+    for (; i > 0 && Before({prim, t}, entries_[i - 1]); --i) {
+      entries_[i] = entries_[i - 1];
+    }
+    entries_[i] = {prim, t};
+    count_ = std::min(count_ + 1, kMax);
+    const float limit = Limit();
+    while (entries_[count_ - 1].t > limit) --count_;
+  }
+
+  int count() const { return count_; }
+  const Entry& operator[](int i) const { return entries_[i]; }
+
+ private:
+  static bool Before(const Entry& a, const Entry& b) {
+    return a.t < b.t || (a.t == b.t && a.prim < b.prim);
+  }
+
+  float reach_;
+  int count_ = 0;
+  Entry entries_[kMax];
+};
+
+}  // namespace meshgauge
