@@ -35,7 +35,8 @@ void ExpectFansHitAsSingleRays(const Mesh& mesh, int n) {
   int64_t hits = 0;
   for (const Vec3& x : mesh.positions) {
     const std::vector<Vec3> dirs = RandomDirections(n, mesh.dimension, rng);
-    (*scene)->IntersectFan(x, dirs, 1e-4f, 1e30f, {}, absl::MakeSpan(fan));
+    (*scene)->IntersectFan(x, dirs, {1e-4f, 1e-4f, 0, 1e30f}, {},
+                           absl::MakeSpan(fan));
     for (int k = 0; k < n; ++k) {
       const RayScene::Hit one = (*scene)->Intersect(x, dirs[k], 1e-4f, 1e30f);
       ASSERT_EQ(fan[k].count() > 0, one.prim >= 0) << "ray " << k;
@@ -74,6 +75,7 @@ TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
   ASSERT_TRUE(built.ok() && refitted.ok());
   ASSERT_TRUE((*refitted)->UpdatePositions(mesh).ok());
   std::mt19937 rng(11);
+  const RayScene::FanLimits kLimits = {1e-6f, 1e-6f, 0, 1e30f};
   const int n = 24;
   std::vector<HitCandidates> a(n), b(n);
   int64_t ties = 0;
@@ -82,8 +84,8 @@ TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
     const std::vector<Vec3> dirs = RandomDirections(n, 3, rng);
     std::vector<int32_t> ring;
     OneRingPrimitives(topo, v, &ring);
-    (*built)->IntersectFan(x, dirs, 1e-6f, 1e30f, ring, absl::MakeSpan(a));
-    (*refitted)->IntersectFan(x, dirs, 1e-6f, 1e30f, ring, absl::MakeSpan(b));
+    (*built)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(a));
+    (*refitted)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(b));
     for (int k = 0; k < n; ++k) {
       ASSERT_EQ(a[k].count(), b[k].count()) << "vertex " << v << " ray " << k;
       for (int i = 0; i < a[k].count(); ++i) {

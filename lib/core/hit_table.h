@@ -7,6 +7,7 @@
 #include "absl/types/span.h"
 #include "lib/core/cone.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/vec3.h"
 
 namespace meshgauge {
 
@@ -22,10 +23,21 @@ struct HitTable {
   double t_min = 0;           // self-hit threshold, mesh units.
   double t_max = 0;           // miss distance, mesh units.
   int64_t generation = -1;
-  // Bytes held: 5 per ray (a primitive index and a kept flag).
+  // What a later pass needs to reuse this one's rays (SdfEvaluator::Compute
+  // with a PreviousPass): the positions, per vertex whether a ray met a
+  // primitive near the self-hit threshold (RayScene::FanLimits), and the
+  // ray tracer's frame and single-precision self-hit distance.
+  std::vector<Vec3> positions;
+  std::vector<uint8_t> near;
+  Vec3 scene_origin;
+  float extrude_half_height = 0;
+  float t_near = 0;
+  // Bytes held: 5 per ray (a primitive index and a kept flag) and 25 per
+  // vertex.
   int64_t Bytes() const {
-    return static_cast<int64_t>(primitives.capacity() * sizeof(int32_t) +
-                                kept.capacity());
+    return static_cast<int64_t>(
+        primitives.capacity() * sizeof(int32_t) + kept.capacity() +
+        positions.capacity() * sizeof(Vec3) + near.capacity());
   }
   absl::Span<const int32_t> Row(int64_t vertex) const {
     return absl::MakeConstSpan(primitives.data() + vertex * cone.size(),

@@ -56,6 +56,12 @@ class HitCandidates {
     while (entries_[count_ - 1].t > limit) --count_;
   }
 
+  // Set when a primitive was met near the self-hit threshold (RayScene's
+  // FanLimits::near_below), where a change of the threshold could change
+  // the hit (the incremental pass retraces such rays when it changes).
+  void MarkNear() { near_ = true; }
+  bool near() const { return near_; }
+
   int count() const { return count_; }
   const Entry& operator[](int i) const { return entries_[i]; }
 
@@ -65,6 +71,7 @@ class HitCandidates {
   }
 
   float reach_;
+  bool near_ = false;
   int count_ = 0;
   Entry entries_[kMax];
 };

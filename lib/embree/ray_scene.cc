@@ -257,14 +257,15 @@ namespace {
 struct FanContext {
   RTCIntersectContext rtc;  // first: Embree sees a pointer to it.
   absl::Span<const int32_t> excluded;
+  float t_min, near_below;
   HitCandidates* out;  // out[lane] for packets; out[0] for single rays.
 };
 
 // Called by Embree for every hit within the ray's current tfar: skips the
-// excluded primitives (the hit is rejected and tfar restored), records the
-// others and keeps tfar at the candidates' window, so that every primitive in
-// it is reported whatever the traversal order (Embree keeps a tfar that the
-// filter set when it accepts the hit).
+// excluded primitives and those closer than t_min (the hit is rejected and tfar
+// restored), records the others and keeps tfar at the candidates' window, so
+// that every primitive in it is reported whatever the traversal order (Embree
+// keeps a tfar that the filter set when it accepts the hit).
 void FanFilter(const RTCFilterFunctionNArguments* args) {
   const auto* fan = reinterpret_cast<const FanContext*>(args->context);
   for (unsigned i = 0; i < args->N; ++i) {
@@ -277,6 +278,11 @@ void FanFilter(const RTCFilterFunctionNArguments* args) {
     }
     HitCandidates& c = fan->out[args->N == 1 ? 0 : i];
     float& tfar = RTCRayN_tfar(args->ray, args->N, i);
+    if (tfar < fan->near_below) c.MarkNear();
+    if (tfar < fan->t_min) {
+      args->valid[i] = 0;
+      continue;
+    }
     c.Add(prim, tfar);
     tfar = c.Limit();
   }
@@ -285,7 +291,7 @@ void FanFilter(const RTCFilterFunctionNArguments* args) {
 }  // namespace
 
 void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
-                            float t_near, float t_far,
+                            const FanLimits& limits,
                             absl::Span<const int32_t> excluded,
                             absl::Span<HitCandidates> out) const {
   const Vec3 o = origin - origin_;
@@ -296,6 +302,9 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   rtcInitIntersectContext(&fan.rtc);
   fan.rtc.filter = FanFilter;
   fan.excluded = excluded;
+  fan.t_min = limits.t_min;
+  fan.near_below = limits.near_below;
+  const float t_near = limits.t_near, t_far = limits.t_far;
   // Where Embree has no native 16-wide packets (built without them, or a
   // CPU without AVX-512) rays are traced one at a time.
   static const bool packets =

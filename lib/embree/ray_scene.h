@@ -60,6 +60,11 @@ class RayScene {
   // Errors: InvalidArgument as Create's (the scene is unchanged).
   absl::Status UpdatePositions(const Mesh& mesh);
 
+  // The origin of the coordinates Embree sees (SceneOrigin) and, in 2D, the
+  // extrusion's half height: what a hit depends on besides the geometry.
+  const Vec3& origin() const { return origin_; }
+  float extrude_half_height() const { return extrude_half_height_; }
+
   // Closest hit of origin + t * dir with t in [t_near, t_far] as Embree
   // reports it (single precision, plain rtcIntersect1; among primitives at
   // the same distance the one it visits first, so this depends on the BVH:
@@ -71,16 +76,24 @@ class RayScene {
   };
   Hit Intersect(const Vec3& origin, const Vec3& dir, float t_near,
                 float t_far) const;
+  // The distances of a fan's rays (single precision): Embree reports
+  // primitives within [t_near, t_far]; those closer than t_min (>= t_near)
+  // are ignored; a primitive closer than near_below marks the ray's
+  // candidates near() (SPEC §4's self-hit threshold: t_near a power of two
+  // at or below t_min, near_below = 2 t_near, so that a threshold moving
+  // within [t_near, near_below) changes only the rays marked).
+  struct FanLimits {
+    float t_near = 0, t_min = 0, near_below = 0, t_far = 0;
+  };
   // For every k, out[k] receives the candidates for the closest hit of
-  // origin + t * dirs[k], t in [t_near, t_far], ignoring the primitives in
+  // origin + t * dirs[k] within `limits`, ignoring the primitives in
   // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
   // every primitive within HitCandidates' window of the closest, found
   // whatever the BVH's history (see hit_candidates.h). Traced in packets of
   // 16 rays where Embree has them (a cone's rays share their origin and are
   // coherent). dirs.size() == out.size(). Thread-safe.
   void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
-                    float t_near, float t_far,
-                    absl::Span<const int32_t> excluded,
+                    const FanLimits& limits, absl::Span<const int32_t> excluded,
                     absl::Span<HitCandidates> out) const;
 
  private:

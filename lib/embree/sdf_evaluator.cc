@@ -8,6 +8,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <mutex>
 
@@ -17,6 +18,7 @@
 #include "lib/core/normalized_sdf.h"
 #include "lib/core/spatial_order.h"
 #include "lib/core/vertex_cone.h"
+#include "lib/embree/moved_boxes.h"
 
 namespace meshgauge {
 namespace {
@@ -57,23 +59,84 @@ class ControlGate {
   int64_t reported_ = 0;
 };
 
-// The closest of a ray's candidates (SPEC §3, §4): the smallest distance
-// recomputed in double precision, ties broken by the lower primitive index;
-// a distance that is not a positive number (a ray along the primitive's
-// plane) only when no candidate has one. -1 when there is no candidate. `t`
-// receives the distance (NaN for none).
-int32_t PickClosest(const MeshGeometry& geometry, const HitCandidates& c,
-                    const Vec3& x, const Vec3& d, double* t) {
+// The smallest barycentric coordinate of the hit (its corners only) and
+// the tolerance on it: 2^-16 of the coordinates' magnitude (`reach` + t) over
+// the primitive's size, 64 times single-precision rounding.
+struct EdgeMargin {
+  double t, min_lambda, tolerance;
+};
+bool Margin(const PrimitiveCorners& pc, const Vec3& x, const Vec3& d,
+            double reach, EdgeMargin* out) {
+  HitGeometry h;
+  if (!EvaluateHit(pc, x, d, &h)) return false;
+  const int corners = pc.segment ? 2 : 3;
+  out->t = h.t;
+  out->min_lambda = *std::min_element(h.lambda, h.lambda + corners);
+  const double size = pc.segment ? std::sqrt(Dot(h.m, h.m))
+                                 : std::sqrt(std::sqrt(Dot(h.m, h.m)));
+  out->tolerance = (reach + h.t) * 0x1p-16 / size;
+  return true;
+}
+
+// The hit of a ray among its candidates (SPEC §3, §4), in double
+// precision: a primitive that contains the hit point (all barycentric
+// coordinates >= 0) before one that does not, then the smallest distance,
+// then the lower primitive index. Where a candidate is hit within its
+// tolerance of its boundary, the primitives around its corners that the ray
+// hits within theirs are candidates too, so that the pick does not depend on
+// which side of a shared edge Embree's single-precision test put the ray (it
+// may differ between BVHs). A distance that is not a positive number (a ray
+// along the primitive's plane) is picked only when no candidate has one. -1
+// when there is no candidate; `t` receives the distance (NaN for none).
+int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
+                    absl::Span<const int32_t> excluded, double t_min,
+                    double reach, const Vec3& x, const Vec3& d,
+                    std::vector<int32_t>* around, double* t) {
   int32_t best = -1;
+  bool best_inside = false;
   *t = kNaN;
-  for (int i = 0; i < c.count(); ++i) {
-    const double ti = HitDistance(geometry.Corners(c[i].prim), x, d);
-    const bool better =
-        best < 0 || (!std::isnan(ti) && (std::isnan(*t) || ti < *t ||
-                                         (ti == *t && c[i].prim < best)));
+  auto consider = [&](int32_t prim, double ti, bool inside) {
+    bool better = best < 0;
+    if (!better && !std::isnan(ti)) {
+      if (std::isnan(*t) || inside != best_inside) {
+        better = std::isnan(*t) || inside;
+      } else {
+        better = ti < *t || (ti == *t && prim < best);
+      }
+    }
     if (better) {
-      best = c[i].prim;
+      best = prim;
+      best_inside = inside;
       *t = ti;
+    }
+  };
+  around->clear();
+  for (int i = 0; i < c.count(); ++i) {
+    EdgeMargin m;
+    if (!Margin(g.Corners(c[i].prim), x, d, reach, &m)) {
+      consider(c[i].prim, kNaN, false);
+      continue;
+    }
+    consider(c[i].prim, m.t, m.min_lambda >= 0);
+    if (m.min_lambda >= m.tolerance) continue;
+    for (int32_t v : g.topology().primitives[c[i].prim].v) {
+      if (v < 0) continue;
+      for (int32_t q : g.topology().vertex_primitives.Of(v)) {
+        around->push_back(q);
+      }
+    }
+  }
+  if (around->empty()) return best;
+  std::sort(around->begin(), around->end());
+  around->erase(std::unique(around->begin(), around->end()), around->end());
+  for (int32_t q : *around) {
+    if (std::binary_search(excluded.begin(), excluded.end(), q)) continue;
+    bool listed = false;
+    for (int i = 0; i < c.count(); ++i) listed |= c[i].prim == q;
+    EdgeMargin m;
+    if (listed || !Margin(g.Corners(q), x, d, reach, &m)) continue;
+    if (m.t >= t_min && m.min_lambda >= -m.tolerance) {
+      consider(q, m.t, m.min_lambda >= 0);
     }
   }
   return best;
@@ -110,9 +173,112 @@ absl::Status SdfEvaluator::RebuildBvh() {
   return absl::OkStatus();
 }
 
-absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
-                                                const ComputeControl& control,
-                                                HitTable* hits) const {
+namespace {
+
+// The largest power of two at or below x (> 0); 0 for x <= 0.
+float PowerOfTwoBelow(float x) {
+  if (!(x > 0)) return 0;
+  int e;
+  std::frexp(x, &e);
+  return std::ldexp(1.0f, e - 1);
+}
+
+}  // namespace
+
+// What an incremental pass reuses and what it must retrace (SPEC 2.1 §3:
+// the result is the full pass's, bit for bit; docs/numerics.md,
+// "Incremental passes").
+struct SdfEvaluator::ReusePlan {
+  const SdfResult* result = nullptr;
+  const HitTable* hits = nullptr;
+  // Vertices whose cone (position, normal, frame) may have changed: every
+  // corner of a face with a moved vertex.
+  std::vector<uint8_t> dirty;
+  std::vector<uint8_t> moved_primitive;
+  std::unique_ptr<MovedBoxes> boxes;
+  bool t_min_changed = false, t_max_changed = false;
+  double t_max_both = 0;  // min of the old and new miss distances.
+};
+
+absl::StatusOr<std::unique_ptr<SdfEvaluator::ReusePlan>>
+SdfEvaluator::PlanReuse(const PreviousPass& previous,
+                        const std::vector<ConeRay>& cone,
+                        const ResolvedParams& resolved, float t_near,
+                        float t_min_f, double t_max) const {
+  const HitTable& h = *previous.hits;
+  const SdfResult& r = *previous.result;
+  const int64_t nv = mesh_.num_vertices();
+  const bool same_rays =
+      h.resolved.params == resolved.params && h.cone.size() == cone.size() &&
+      std::ssize(h.positions) == nv && std::ssize(h.near) == nv &&
+      std::ssize(r.values) == nv &&
+      std::ssize(h.primitives) == nv * std::ssize(cone) &&
+      h.scene_origin == scene_->origin() &&
+      h.extrude_half_height == scene_->extrude_half_height() &&
+      h.t_near == t_near;
+  if (!same_rays) return nullptr;
+  auto plan = std::make_unique<ReusePlan>();
+  plan->result = &r;
+  plan->hits = &h;
+  std::vector<int32_t> moved;
+  for (int64_t v = 0; v < nv; ++v) {
+    if (std::memcmp(&h.positions[v], &mesh_.positions[v], sizeof(Vec3)) != 0) {
+      moved.push_back(static_cast<int32_t>(v));
+    }
+  }
+  // Beyond half the vertices a full pass costs less than the checks.
+  if (2 * std::ssize(moved) > nv) return nullptr;
+  plan->dirty.assign(nv, 0);
+  plan->moved_primitive.assign(topo_.primitives.size(), 0);
+  for (int32_t v : moved) {
+    for (int32_t f : topo_.vertex_faces.Of(v)) {
+      const Face& face = mesh_.faces[f];
+      for (int k = 0; k < face.size; ++k) plan->dirty[face.v[k]] = 1;
+    }
+    for (int32_t q : topo_.vertex_primitives.Of(v)) {
+      plan->moved_primitive[q] = 1;
+    }
+  }
+  // Each moved primitive's corners before and after, in the tracer's
+  // coordinates, enlarged by far more than single-precision rounding.
+  const Vec3& o = scene_->origin();
+  double reach = bbox_diagonal_;
+  for (const Vec3& p : mesh_.positions) {
+    reach = std::max(
+        {reach, std::abs(p.x - o.x), std::abs(p.y - o.y), std::abs(p.z - o.z)});
+  }
+  const double slack = reach * 0x1p-16;
+  const double z = mesh_.dimension == 2 ? scene_->extrude_half_height() : 0;
+  std::vector<Box> boxes;
+  for (size_t q = 0; q < plan->moved_primitive.size(); ++q) {
+    if (!plan->moved_primitive[q]) continue;
+    Box b{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
+    for (int32_t v : topo_.primitives[q].v) {
+      if (v < 0) continue;
+      for (const Vec3* p : {&h.positions[v], &mesh_.positions[v]}) {
+        const Vec3 c = *p - o;
+        b.lo = Vec3(std::min(b.lo.x, c.x), std::min(b.lo.y, c.y),
+                    std::min(b.lo.z, c.z - z));
+        b.hi = Vec3(std::max(b.hi.x, c.x), std::max(b.hi.y, c.y),
+                    std::max(b.hi.z, c.z + z));
+      }
+    }
+    b.lo = b.lo - Vec3(slack, slack, slack);
+    b.hi = b.hi + Vec3(slack, slack, slack);
+    boxes.push_back(b);
+  }
+  auto made = MovedBoxes::Create(std::move(boxes));
+  if (!made.ok()) return made.status();
+  plan->boxes = std::move(*made);
+  plan->t_min_changed = static_cast<float>(h.t_min) != t_min_f;
+  plan->t_max_changed = h.t_max != t_max;
+  plan->t_max_both = std::min(h.t_max, t_max);
+  return plan;
+}
+
+absl::StatusOr<SdfResult> SdfEvaluator::Compute(
+    const SdfParams& params, const ComputeControl& control, HitTable* hits,
+    const PreviousPass* previous) const {
   const bool keep_hits = hits != nullptr;
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
   const ResolvedParams resolved = ResolveParams(params, mesh_.dimension);
@@ -132,6 +298,22 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       params.max_distance > 0 ? params.max_distance : bbox_diagonal_;
   const std::vector<Vec3> normals =
       UnnormalizedNormals(mesh_, topo_, params.normal_weighting);
+  RayScene::FanLimits limits;
+  limits.t_min = static_cast<float>(t_min);
+  limits.t_near = PowerOfTwoBelow(limits.t_min);
+  limits.near_below = 2 * limits.t_near;
+  // Slightly beyond t_max so the double-precision check below decides.
+  limits.t_far = std::nextafter(static_cast<float>(t_max),
+                                std::numeric_limits<float>::max());
+
+  std::unique_ptr<ReusePlan> plan;
+  if (previous != nullptr && previous->hits != nullptr &&
+      previous->result != nullptr) {
+    auto planned = PlanReuse(*previous, cone, resolved, limits.t_near,
+                             limits.t_min, t_max);
+    if (!planned.ok()) return planned.status();
+    plan = std::move(*planned);
+  }
 
   SdfResult result;
   result.resolved = resolved;
@@ -140,32 +322,34 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
   result.hits.assign(nv, 0);
   result.kept.assign(nv, 0);
   std::vector<int32_t> table;
-  std::vector<uint8_t> kept_table;
+  std::vector<uint8_t> kept_table, near;
   if (keep_hits) {
     table.assign(nv * num_rays, -1);
     kept_table.assign(nv * num_rays, 0);
+    near.assign(nv, 0);
   }
 
   ControlGate gate(control, nv);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
   const auto start = std::chrono::steady_clock::now();
-  const float t_min_f = static_cast<float>(t_min);
-  // Slightly beyond t_max so the double-precision check below decides.
-  const float t_max_f = std::nextafter(static_cast<float>(t_max),
-                                       std::numeric_limits<float>::max());
+  const double cone_half_angle = params.method == SdfMethod::kNormalRay
+                                     ? 0
+                                     : resolved.aperture_radians / 2;
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
     if (!gate.Poll()) return;
     std::vector<double> t(num_rays);
     std::vector<int32_t> prims(num_rays);
     std::vector<HitCandidates> candidates(num_rays);
-    std::vector<int32_t> excluded;
-    std::vector<Vec3> dirs(num_rays);
+    std::vector<int32_t> excluded, retrace, around;
+    std::vector<Vec3> dirs(num_rays), retrace_dirs;
     std::vector<uint8_t> kept(num_rays);
     std::vector<double> scratch;
     scratch.reserve(num_rays);
     int64_t traced = 0, world_frames = 0;
     for (int64_t i = range.begin(); i < range.end(); ++i) {
       const int64_t p = order_[i];
+      const bool reuse = plan && !plan->dirty[p] &&
+                         !(plan->t_min_changed && plan->hits->near[p]);
       if (topo_.vertex_faces.Of(p).empty()) {
         result.status[p] = VertexStatus::kNoFaces;
         continue;
@@ -177,34 +361,100 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
       }
       world_frames += vc.world_frame;
       const Vec3& x = mesh_.positions[p];
-      // Trace all rays first (in packets), prefetching each hit primitive,
-      // then evaluate the hits in double precision once it has arrived.
+      const double reach = std::max({std::abs(x.x - scene_->origin().x),
+                                     std::abs(x.y - scene_->origin().y),
+                                     std::abs(x.z - scene_->origin().z)});
       for (int k = 0; k < num_rays; ++k) {
         dirs[k] = RayDirection(vc.frame, cone[k]);
       }
+      int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
+      uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
+      // Which rays to trace: all, or (reusing) those whose hit may change.
+      retrace.clear();
+      if (reuse) {
+        const int32_t* old_row = plan->hits->Row(p).data();
+        const MovedBoxes& boxes = *plan->boxes;
+        // Can the cone reach the moved primitives' boxes at all?
+        const Vec3 to = boxes.centre() - (x - scene_->origin());
+        const double dist = std::sqrt(Dot(to, to));
+        bool cone_reaches = boxes.radius() > 0;
+        if (cone_reaches && dist > boxes.radius()) {
+          const double axis_angle =
+              std::acos(std::clamp(Dot(vc.frame.axis, to) / dist, -1.0, 1.0));
+          cone_reaches = axis_angle <= cone_half_angle +
+                                           std::asin(boxes.radius() / dist) +
+                                           1e-6;
+        }
+        for (int k = 0; k < num_rays; ++k) {
+          const int32_t q = old_row[k];
+          prims[k] = q;
+          bool again = q >= 0 && plan->moved_primitive[q];
+          double t_end = limits.t_far;
+          if (!again && q >= 0) {
+            const double tq = HitDistance(Corners(q), x, dirs[k]);
+            t_end = tq + (reach + tq) * 0x1p-12;
+            again = plan->t_max_changed && !(t_end < plan->t_max_both);
+          } else if (!again) {
+            again = plan->t_max_changed;
+          }
+          if (!again && cone_reaches) {
+            again = boxes.Crosses(x - scene_->origin(), dirs[k], t_end);
+          }
+          if (again) retrace.push_back(k);
+        }
+        if (retrace.empty()) {
+          const SdfResult& r = *plan->result;
+          result.values[p] = r.values[p];
+          result.status[p] = r.status[p];
+          result.hits[p] = r.hits[p];
+          result.kept[p] = r.kept[p];
+          if (row) {
+            std::copy_n(old_row, num_rays, row);
+            std::copy_n(plan->hits->KeptRow(p).data(), num_rays, kept_row);
+            near[p] = plan->hits->near[p];
+          }
+          continue;
+        }
+      } else {
+        for (int k = 0; k < num_rays; ++k) retrace.push_back(k);
+      }
+      // Trace (in packets), prefetching each candidate primitive, then pick
+      // each ray's hit in double precision once it has arrived.
+      retrace_dirs.clear();
+      for (int k : retrace) retrace_dirs.push_back(dirs[k]);
       OneRingPrimitives(topo_, p, &excluded);
-      scene_->IntersectFan(x, dirs, t_min_f, t_max_f, excluded,
-                           absl::MakeSpan(candidates));
-      for (int k = 0; k < num_rays; ++k) {
-        if (candidates[k].count() > 0) PrefetchPrimitive(candidates[k][0].prim);
+      const auto fan = absl::MakeSpan(candidates.data(), retrace.size());
+      scene_->IntersectFan(x, retrace_dirs, limits, excluded, fan);
+      for (const HitCandidates& c : fan) {
+        if (c.count() > 0) PrefetchPrimitive(c[0].prim);
+      }
+      for (const HitCandidates& c : fan) {
+        if (c.count() > 0) PrefetchCorners(c[0].prim);
+      }
+      bool vertex_near = reuse && plan->hits->near[p];
+      std::fill(t.begin(), t.end(), kNaN);
+      for (size_t j = 0; j < retrace.size(); ++j) {
+        prims[retrace[j]] =
+            PickClosest(*this, fan[j], excluded, limits.t_min, reach, x,
+                        retrace_dirs[j], &around, &t[retrace[j]]);
+        vertex_near |= fan[j].near();
       }
       for (int k = 0; k < num_rays; ++k) {
-        if (candidates[k].count() > 0) PrefetchCorners(candidates[k][0].prim);
-      }
-      for (int k = 0; k < num_rays; ++k) {
-        prims[k] = PickClosest(*this, candidates[k], x, dirs[k], &t[k]);
+        // A reused hit's distance, as when it was picked.
+        if (reuse && prims[k] >= 0 && std::isnan(t[k])) {
+          t[k] = HitDistance(Corners(prims[k]), x, dirs[k]);
+        }
         if (!(t[k] <= t_max)) {
           t[k] = kNaN;
           prims[k] = -1;
         }
-        if (keep_hits) table[p * num_rays + k] = prims[k];
+        if (row) row[k] = prims[k];
       }
-      traced += num_rays;
+      traced += std::ssize(retrace);
       const ConeEstimate est =
           EstimateCone(t, cone, params.kappa, absl::MakeSpan(kept), scratch);
-      if (keep_hits) {
-        std::copy(kept.begin(), kept.end(), kept_table.begin() + p * num_rays);
-      }
+      if (kept_row) std::copy(kept.begin(), kept.end(), kept_row);
+      if (!near.empty()) near[p] = vertex_near;
       result.hits[p] = est.hits;
       result.kept[p] = est.kept;
       if (est.kept == 0) {
@@ -240,6 +490,11 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(const SdfParams& params,
     hits->t_min = t_min;
     hits->t_max = t_max;
     hits->generation = generation_;
+    hits->positions = mesh_.positions;
+    hits->near = std::move(near);
+    hits->scene_origin = scene_->origin();
+    hits->extrude_half_height = scene_->extrude_half_height();
+    hits->t_near = limits.t_near;
   }
   return result;
 }

@@ -38,6 +38,13 @@ struct EvaluatorOptions {
 // restored at any generation agree.
 bool IsBvhBase(int64_t generation, int rebuild_every_updates);
 
+// A pass of the same evaluator, at an earlier generation or the same one,
+// whose rays a new pass may reuse: its result and the hit table it filled.
+struct PreviousPass {
+  const SdfResult* result = nullptr;
+  const HitTable* hits = nullptr;
+};
+
 class SdfEvaluator : public MeshGeometry {
  public:
   // Validates `mesh` (SPEC §1) and builds the BVH.
@@ -49,11 +56,18 @@ class SdfEvaluator : public MeshGeometry {
   // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
   // K). Const and thread-safe: concurrent Computes on one evaluator are fine;
   // UpdatePositions must not run concurrently with anything.
+  // With `previous` (a pass of this evaluator with the same parameters
+  // whose hit table was kept), only the rays whose hit may have changed
+  // since are traced (docs/numerics.md, "Incremental passes"); the result
+  // and hit table are the full pass's, bit for bit, and rays_traced counts
+  // the rays traced. A previous pass that does not fit (other parameters,
+  // another frame of the ray tracer, over half the vertices moved) gives a
+  // full pass.
   // Errors: InvalidArgument for bad params; Cancelled when
-  // control.cancelled() returned true.
-  absl::StatusOr<SdfResult> Compute(const SdfParams& params,
-                                    const ComputeControl& control = {},
-                                    HitTable* hits = nullptr) const;
+  // control.cancelled() returned true; Internal from Embree.
+  absl::StatusOr<SdfResult> Compute(
+      const SdfParams& params, const ComputeControl& control = {},
+      HitTable* hits = nullptr, const PreviousPass* previous = nullptr) const;
 
   // Replaces all vertex positions (#V entries, finite) and refits or
   // rebuilds the BVH. Topology never changes. The new positions are
@@ -74,6 +88,12 @@ class SdfEvaluator : public MeshGeometry {
  private:
   SdfEvaluator() = default;
   absl::Status CommitPositions(std::vector<Vec3> old_positions);
+  struct ReusePlan;
+  // What of `previous` a pass can reuse; null when nothing.
+  absl::StatusOr<std::unique_ptr<ReusePlan>> PlanReuse(
+      const PreviousPass& previous, const std::vector<ConeRay>& cone,
+      const ResolvedParams& resolved, float t_near, float t_min_f,
+      double t_max) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
 

@@ -1,0 +1,171 @@
+// Incremental ray passes (SdfEvaluator::Compute with a PreviousPass): after
+// position updates of every kind, only some rays are traced and the result
+// and hit table equal a fresh full pass at the same positions, bit for bit.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <random>
+
+#include "lib/core/shapes.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using testing::Patch;
+using testing::SameBits;
+
+struct Pass {
+  SdfResult result;
+  HitTable hits;
+};
+
+Pass Full(const Mesh& mesh, const std::vector<Vec3>& positions,
+          const SdfParams& params) {
+  Mesh moved = mesh;
+  moved.positions = positions;
+  auto ev = SdfEvaluator::Create(moved);
+  EXPECT_TRUE(ev.ok()) << ev.status();
+  Pass pass;
+  pass.result = *(*ev)->Compute(params, {}, &pass.hits);
+  return pass;
+}
+
+// Applies each step's positions to one evaluator, computing each pass from
+// the one before, and compares it with a fresh full pass. Returns the rays
+// traced per step.
+std::vector<int64_t> ExpectIncrementalEqualsFull(
+    const Mesh& mesh, const std::vector<std::vector<Vec3>>& steps,
+    const SdfParams& params) {
+  auto ev = SdfEvaluator::Create(mesh);
+  EXPECT_TRUE(ev.ok());
+  Pass last;
+  last.result = *(*ev)->Compute(params, {}, &last.hits);
+  std::vector<int64_t> traced;
+  for (size_t i = 0; i < steps.size(); ++i) {
+    EXPECT_TRUE((*ev)->UpdatePositions(steps[i]).ok());
+    Pass next;
+    const PreviousPass previous{&last.result, &last.hits};
+    auto r = (*ev)->Compute(params, {}, &next.hits, &previous);
+    EXPECT_TRUE(r.ok()) << r.status();
+    next.result = std::move(*r);
+    const Pass full = Full(mesh, steps[i], params);
+    EXPECT_TRUE(SameBits(next.result.values, full.result.values))
+        << "step " << i;
+    EXPECT_EQ(next.result.status, full.result.status) << "step " << i;
+    EXPECT_EQ(next.result.hits, full.result.hits) << "step " << i;
+    EXPECT_EQ(next.result.kept, full.result.kept) << "step " << i;
+    EXPECT_EQ(next.hits.primitives, full.hits.primitives) << "step " << i;
+    EXPECT_EQ(next.hits.kept, full.hits.kept) << "step " << i;
+    traced.push_back(next.result.rays_traced);
+    last = std::move(next);
+  }
+  return traced;
+}
+
+std::vector<Vec3> Moved(const std::vector<Vec3>& from,
+                        const std::vector<int32_t>& which, const Vec3& by) {
+  std::vector<Vec3> p = from;
+  for (int32_t v : which) p[v] += by;
+  return p;
+}
+
+TEST(IncrementalPassTest, EveryKindOfUpdateMatchesAFullPass) {
+  auto rocker = ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  ASSERT_TRUE(rocker.ok());
+  const Mesh& m = *rocker;
+  const double d = BoundingBoxDiagonal(m);
+  const int64_t nv = m.num_vertices();
+  const std::vector<int32_t> patch1 = Patch(m, 100, 0.05 * d);
+  const std::vector<int32_t> patch10 = Patch(m, 5000, 0.2 * d);
+  std::vector<int32_t> scattered;
+  std::mt19937 rng(3);
+  for (int i = 0; i < nv / 100; ++i) scattered.push_back(rng() % nv);
+  std::sort(scattered.begin(), scattered.end());
+  scattered.erase(std::unique(scattered.begin(), scattered.end()),
+                  scattered.end());
+  std::vector<int32_t> all(nv);
+  std::iota(all.begin(), all.end(), 0);
+
+  std::vector<std::vector<Vec3>> steps;
+  std::vector<Vec3> p = m.positions;
+  // One vertex along its surface (the faces around it flip which rays hit
+  // them) and along the normal (its neighbours' normals change).
+  p = Moved(p, {1234}, Vec3(3e-3, -2e-3, 1e-3) * d);
+  steps.push_back(p);
+  // Patches of about 1 % and 10 %, small moves and a move far across the
+  // part (its faces cross other vertices' rays).
+  p = Moved(p, patch1, Vec3(1e-3, 2e-3, -1e-3) * d);
+  steps.push_back(p);
+  p = Moved(p, patch10, Vec3(-2e-3, 1e-3, 3e-3) * d);
+  steps.push_back(p);
+  p = Moved(p, patch1, Vec3(0.05, -0.04, 0.03) * d);
+  steps.push_back(p);
+  // Scattered vertices, then everything.
+  p = Moved(p, scattered, Vec3(1e-4, 1e-4, -2e-4) * d);
+  steps.push_back(p);
+  p = Moved(p, all, Vec3(1e-5, 0, 0) * d);
+  steps.push_back(p);
+  // Back to the start: every earlier move undone.
+  steps.push_back(m.positions);
+  SdfParams params;
+  const std::vector<int64_t> traced =
+      ExpectIncrementalEqualsFull(m, steps, params);
+  const int64_t full = nv * 100;
+  ASSERT_EQ(traced.size(), steps.size());
+  EXPECT_LT(traced[0], full / 10);  // one vertex.
+  EXPECT_LT(traced[1], full / 4);   // 1 % patch.
+  EXPECT_LT(traced[2], full);       // 10 % patch.
+  EXPECT_EQ(traced[5], full);       // all moved: a full pass.
+  for (size_t i = 0; i < traced.size(); ++i) {
+    std::printf("step %zu: %lld of %lld rays traced\n", i,
+                static_cast<long long>(traced[i]),
+                static_cast<long long>(full));
+  }
+}
+
+TEST(IncrementalPassTest, GeneratedShapesIn2dAnd3dMatchAFullPass) {
+  const Mesh torus = MakeTorus(2, 0.5, 64, 24);
+  const Mesh twins = testing::WithEveryFaceTwice(MakeTorus(1, 0.4, 40, 20));
+  const Mesh circle = MakeHollowSquare(4, 1, 0.01);
+  for (const Mesh* mesh : {&torus, &twins, &circle}) {
+    const double d = BoundingBoxDiagonal(*mesh);
+    std::vector<std::vector<Vec3>> steps;
+    std::vector<Vec3> p = mesh->positions;
+    p = Moved(p, {3}, Vec3(0.02, -0.01, mesh->dimension == 3 ? 0.01 : 0) * d);
+    steps.push_back(p);
+    p = Moved(p, Patch(*mesh, mesh->num_vertices() / 2, 0.1 * d),
+              Vec3(-0.01, 0.02, 0) * d);
+    steps.push_back(p);
+    SdfParams params;
+    params.rays = 24;
+    ExpectIncrementalEqualsFull(*mesh, steps, params);
+  }
+}
+
+// A previous pass with other parameters, or without its hit table's
+// reuse data, gives a full pass (and the same result).
+TEST(IncrementalPassTest, APreviousPassThatDoesNotFitGivesAFullPass) {
+  const Mesh torus = MakeTorus(2, 0.5, 48, 16);
+  auto ev = SdfEvaluator::Create(torus);
+  ASSERT_TRUE(ev.ok());
+  Pass narrow;
+  SdfParams p30, p60;
+  p60.cone_angle_degrees = 60;
+  narrow.result = *(*ev)->Compute(p30, {}, &narrow.hits);
+  const PreviousPass previous{&narrow.result, &narrow.hits};
+  auto wide = (*ev)->Compute(p60, {}, nullptr, &previous);
+  ASSERT_TRUE(wide.ok());
+  EXPECT_EQ(wide->rays_traced, torus.num_vertices() * 100);
+  EXPECT_TRUE(SameBits(wide->values, (*ev)->Compute(p60)->values));
+  // Same parameters, nothing moved: nothing traced.
+  auto same = (*ev)->Compute(p30, {}, nullptr, &previous);
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(same->rays_traced, 0);
+  EXPECT_TRUE(SameBits(same->values, narrow.result.values));
+}
+
+}  // namespace
+}  // namespace meshgauge
