@@ -199,8 +199,13 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
   if (auto cached = session.FindPass(params, ev.generation())) {
     return Pass{std::move(cached), true};
   }
+  // The rays of the session's last pass with these parameters (an earlier
+  // generation's) are reused where they cannot have changed.
+  const std::shared_ptr<const CachedPass> last = session.LatestPass(params);
+  const PreviousPass previous{last ? &last->result : nullptr,
+                              last ? &last->hits : nullptr};
   auto pass = std::make_shared<CachedPass>();
-  auto result = ev.Compute(params, control, &pass->hits);
+  auto result = ev.Compute(params, control, &pass->hits, &previous);
   if (!result.ok()) return Interrupted(ctx, result.status());
   metrics_->AddRays(static_cast<double>(result->rays_traced));
   pass->params = params;

@@ -161,11 +161,8 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
   refits_ = evaluator_->refits();
   out.generation = evaluator_->generation();
   generation_ = out.generation;
-  {
-    std::lock_guard<std::mutex> cache_lock(cache_mu_);
-    cache_.reset();  // stale: generation moved on.
-    cache_bytes_ = 0;
-  }
+  // The cached pass stays (still counted in memory_bytes): the next pass
+  // with its parameters reuses its rays (LatestPass).
   return out;
 }
 
@@ -175,6 +172,13 @@ std::shared_ptr<const CachedPass> Session::FindPass(const SdfParams& params,
   if (cache_ && cache_->generation == generation && cache_->params == params) {
     return cache_;
   }
+  return nullptr;
+}
+
+std::shared_ptr<const CachedPass> Session::LatestPass(
+    const SdfParams& params) const {
+  std::lock_guard<std::mutex> lock(cache_mu_);
+  if (cache_ && cache_->params == params) return cache_;
   return nullptr;
 }
 

@@ -86,6 +86,9 @@ class Session {
   // The cached pass for these parameters at this generation, or null.
   std::shared_ptr<const CachedPass> FindPass(const SdfParams& params,
                                              int64_t generation) const;
+  // The cached pass for these parameters at any generation (an earlier one
+  // after updates), or null: a new pass reuses its rays.
+  std::shared_ptr<const CachedPass> LatestPass(const SdfParams& params) const;
   void StorePass(std::shared_ptr<const CachedPass> pass);
 
   SessionSnapshot Snapshot() const;

@@ -220,10 +220,12 @@ TEST_F(ServerTest, UpdatePositionsRefitsAndChecksGeneration) {
 // SPEC §3 (2.1): a session's values do not depend on its history. After a
 // patch update (a refit) rocker-arm's values, hits and statuses equal a
 // fresh upload's of the same positions (4 of 10,044 vertices differed when
-// the BVH kept the first positions' centroid as its origin).
+// the BVH kept the first positions' centroid as its origin), and the pass
+// after the update traced only some rays (it reused generation 0's).
 TEST_F(ServerTest, AnUpdatedSessionMatchesAFreshUploadOfItsPositions) {
   const Mesh rocker = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
   ASSERT_TRUE(client_->Upload(rocker, "updated").ok());
+  ASSERT_TRUE(client_->ComputeSdf("updated", SdfParams{}).ok());
   const double d = BoundingBoxDiagonal(rocker);
   Mesh moved = rocker;
   std::vector<int32_t> indices = testing::Patch(rocker, 100, 0.15 * d);
@@ -243,6 +245,10 @@ TEST_F(ServerTest, AnUpdatedSessionMatchesAFreshUploadOfItsPositions) {
   EXPECT_EQ(a->result.hits, b->result.hits);
   EXPECT_EQ(a->result.kept, b->result.kept);
   EXPECT_EQ(a->result.status, b->result.status);
+  EXPECT_EQ(b->result.rays_traced, rocker.num_vertices() * 100);
+  EXPECT_GT(a->result.rays_traced, 0);
+  EXPECT_LT(a->result.rays_traced, b->result.rays_traced / 2);
+  EXPECT_FALSE(a->facts.reused_hits);
 }
 
 TEST_F(ServerTest, RebuildsAfterConfiguredNumberOfUpdates) {
