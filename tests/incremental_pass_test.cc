@@ -7,6 +7,7 @@
 #include <random>
 
 #include "lib/core/shapes.h"
+#include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
@@ -165,6 +166,20 @@ TEST(IncrementalPassTest, APreviousPassThatDoesNotFitGivesAFullPass) {
   ASSERT_TRUE(same.ok());
   EXPECT_EQ(same->rays_traced, 0);
   EXPECT_TRUE(SameBits(same->values, narrow.result.values));
+}
+
+// gradcheck's probes move one vertex each: they reuse the base pass, so all
+// its passes together trace fewer rays than two full passes.
+TEST(IncrementalPassTest, GradcheckProbesReuseTheBasePass) {
+  auto rocker = ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  ASSERT_TRUE(rocker.ok());
+  GradCheckOptions options;
+  options.vertices = {10, 5000};
+  auto rep = RunGradCheck(*rocker, {}, options);
+  ASSERT_TRUE(rep.ok()) << rep.status();
+  EXPECT_EQ(rep->full_pass_rays, rocker->num_vertices() * 100);
+  EXPECT_LT(rep->rays_traced, 2 * rep->full_pass_rays);  // 13 passes.
+  EXPECT_TRUE(rep->Passed());
 }
 
 }  // namespace

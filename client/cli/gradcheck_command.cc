@@ -88,6 +88,8 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     j["max_abs_derivative"] = rep->max_abs_derivative;
     j["median_abs_derivative"] = rep->median_abs_derivative;
     j["world_frame_vertices"] = rep->world_frame_vertices;
+    j["rays_traced"] = rep->rays_traced;
+    j["full_pass_rays"] = rep->full_pass_rays;
     j["passed"] = passed;
     j["rows"] = nlohmann::json::array();
     for (const auto* rows : {&rep->rows, &rep->penalty_rows}) {
@@ -109,9 +111,11 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     }
     std::cout << absl::StrFormat(
         "|dSDF/dx|: max %.4g, median %.4g; %d vertices in the world frame\n"
+        "rays traced: %d (a full pass: %d; probes reuse the base pass)\n"
         "verdict: %s\n",
         rep->max_abs_derivative, rep->median_abs_derivative,
-        rep->world_frame_vertices, passed ? "PASS" : "FAIL");
+        rep->world_frame_vertices, rep->rays_traced, rep->full_pass_rays,
+        passed ? "PASS" : "FAIL");
   }
   if (!passed) {
     return absl::FailedPreconditionError(

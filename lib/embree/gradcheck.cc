@@ -19,11 +19,16 @@ struct Pass {
   double penalty = 0;
 };
 
+// A probe's pass reuses the base pass's rays (`base`; only the rays the
+// probed vertex can change are traced).
 absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
                               const GradCheckOptions& options,
-                              const ComputeControl& control) {
+                              const ComputeControl& control,
+                              const Pass* base = nullptr) {
   Pass pass;
-  auto r = ev.Compute(params, control, &pass.hits);
+  const PreviousPass previous{base ? &base->sdf : nullptr,
+                              base ? &base->hits : nullptr};
+  auto r = ev.Compute(params, control, &pass.hits, &previous);
   if (!r.ok()) return r.status();
   pass.sdf = std::move(*r);
   if (options.penalty) {
@@ -156,6 +161,8 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
 
   GradCheckReport rep;
   rep.min_clean_fraction = options.min_clean_fraction;
+  rep.rays_traced = base->sdf.rays_traced;
+  rep.full_pass_rays = base->sdf.rays_traced;
   rep.world_frame_vertices = base->sdf.world_frame_vertices;
   SummarizeJacobian(*jac, rep);
   const double step = options.relative_step * BoundingBoxDiagonal(mesh);
@@ -170,9 +177,11 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
         Vec3 x = x0;
         x[c] += (s == 0 ? 1 : -1) * step;
         if (absl::Status st = move(j, x); !st.ok()) return st;
-        auto pass = Evaluate(ev, params, options,
-                             PassControl(control, pass_index++, passes));
+        auto pass =
+            Evaluate(ev, params, options,
+                     PassControl(control, pass_index++, passes), &*base);
         if (!pass.ok()) return pass.status();
+        rep.rays_traced += pass->sdf.rays_traced;
         at[s] = std::move(*pass);
       }
       if (absl::Status st = move(j, x0); !st.ok()) return st;

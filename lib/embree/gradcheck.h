@@ -57,6 +57,9 @@ struct GradCheckReport {
   double max_abs_derivative = 0, median_abs_derivative = 0;
   int64_t world_frame_vertices = 0;
   double min_clean_fraction = 0.9;
+  // Rays traced by all passes (each probe reuses the base pass's rays
+  // where the probed vertex cannot change them) and by one full pass.
+  int64_t rays_traced = 0, full_pass_rays = 0;
 
   // SPEC §6: enough clean samples, all of them (and every VJP and clean
   // penalty row) within tolerance.

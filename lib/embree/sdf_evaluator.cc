@@ -364,9 +364,15 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       const double reach = std::max({std::abs(x.x - scene_->origin().x),
                                      std::abs(x.y - scene_->origin().y),
                                      std::abs(x.z - scene_->origin().z)});
-      for (int k = 0; k < num_rays; ++k) {
-        dirs[k] = RayDirection(vc.frame, cone[k]);
-      }
+      // The directions, computed only when a ray needs them.
+      bool have_dirs = false;
+      auto directions = [&] {
+        if (have_dirs) return;
+        for (int k = 0; k < num_rays; ++k) {
+          dirs[k] = RayDirection(vc.frame, cone[k]);
+        }
+        have_dirs = true;
+      };
       int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
       uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
       // Which rays to trace: all, or (reusing) those whose hit may change.
@@ -385,10 +391,17 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
                                            std::asin(boxes.radius() / dist) +
                                            1e-6;
         }
+        // Far from every moved primitive: only a moved hit changes.
+        const bool only_moved_hits = !cone_reaches && !plan->t_max_changed;
+        if (!only_moved_hits) directions();
         for (int k = 0; k < num_rays; ++k) {
           const int32_t q = old_row[k];
           prims[k] = q;
           bool again = q >= 0 && plan->moved_primitive[q];
+          if (only_moved_hits) {
+            if (again) retrace.push_back(k);
+            continue;
+          }
           double t_end = limits.t_far;
           if (!again && q >= 0) {
             const double tq = HitDistance(Corners(q), x, dirs[k]);
@@ -418,6 +431,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       } else {
         for (int k = 0; k < num_rays; ++k) retrace.push_back(k);
       }
+      directions();
       // Trace (in packets), prefetching each candidate primitive, then pick
       // each ray's hit in double precision once it has arrived.
       retrace_dirs.clear();
