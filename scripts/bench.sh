@@ -3,7 +3,8 @@
 # raw Embree configuration (bench/raw_embree_pass.h), meshgauge's ray pass and
 # the whole `meshgauge sdf` run (wall time, stages, memory and peak RSS) with
 # their ratios to the fastest raw pass, on the shared meshes, on igea with its
-# vertices permuted and on a generated mesh of a million vertices (25 rays).
+# vertices permuted and on a generated mesh of a million vertices (25 rays);
+# then incremental passes after patch updates (meshgauge_incremental_bench).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,3 +20,7 @@ build/bench/meshgauge_bench --cli "$CLI" "$@" ../shared/meshes/horse.ply \
   ../shared/meshes/stanford-bunny.obj ../shared/meshes/rocker-arm.obj
 build/bench/meshgauge_bench --cli "$CLI" --rays 25 --repeat 1 \
   --generated_vertices 1000000 "$@"
+# Incremental passes (issue 25's goals): 1 % and 10 % patches and every
+# vertex moved, against a full pass.
+build/bench/meshgauge_incremental_bench ../shared/meshes/igea-triangles.ply \
+  ../shared/meshes/rocker-arm.obj

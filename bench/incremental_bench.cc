@@ -1,0 +1,124 @@
+// The cost of incremental ray passes (docs/numerics.md, "Incremental
+// passes") against a full pass, as issue 25 states its goals: per mesh, a
+// connected patch of about 1 % and 10 % of the vertices (the vertices
+// nearest a centre vertex) moved by 1e-3 of the diagonal, and every vertex
+// moved. Each pass keeps its hit table (as a server session does) and
+// starts from the base pass at the original positions; best of --repeat.
+//   meshgauge_incremental_bench [--repeat N] [--threads T] MESH...
+#include <algorithm>
+#include <cstdio>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "absl/flags/flag.h"
+#include "absl/flags/parse.h"
+#include "lib/core/stopwatch.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
+
+ABSL_FLAG(int, repeat, 3, "rounds of every pass; the best of each is kept");
+ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
+
+namespace meshgauge {
+namespace {
+
+// The `count` vertices nearest vertex `centre`.
+std::vector<int32_t> NearestVertices(const Mesh& mesh, int64_t centre,
+                                     int64_t count) {
+  std::vector<int32_t> order(mesh.num_vertices());
+  std::iota(order.begin(), order.end(), 0);
+  const Vec3 c = mesh.positions[centre];
+  auto dist = [&](int32_t v) {
+    const Vec3 d = mesh.positions[v] - c;
+    return Dot(d, d);
+  };
+  std::nth_element(order.begin(), order.begin() + count, order.end(),
+                   [&](int32_t a, int32_t b) { return dist(a) < dist(b); });
+  order.resize(count);
+  std::sort(order.begin(), order.end());
+  return order;
+}
+
+int Bench(const std::string& name, const Mesh& mesh) {
+  SdfParams params;
+  params.threads = absl::GetFlag(FLAGS_threads);
+  auto created = SdfEvaluator::Create(mesh);
+  if (!created.ok()) {
+    std::fprintf(stderr, "%s\n",
+                 std::string(created.status().message()).c_str());
+    return 1;
+  }
+  SdfEvaluator& ev = **created;
+  const int64_t nv = mesh.num_vertices();
+  const Vec3 by = Vec3(1, -1, 1) * (1e-3 * BoundingBoxDiagonal(mesh) / 1.732);
+  struct Case {
+    std::string label;
+    std::vector<int32_t> moved;
+  };
+  std::vector<Case> cases = {
+      {"1 % patch", NearestVertices(mesh, nv / 3, nv / 100)},
+      {"10 % patch", NearestVertices(mesh, nv / 3, nv / 10)},
+      {"every vertex", NearestVertices(mesh, nv / 3, nv)}};
+  HitTable base_hits;
+  SdfResult base;
+  double full = 1e300;
+  for (int r = 0; r < absl::GetFlag(FLAGS_repeat); ++r) {
+    const Stopwatch watch;
+    auto pass = ev.Compute(params, {}, &base_hits);
+    full = std::min(full, watch.Seconds());
+    if (!pass.ok()) return 1;
+    base = std::move(*pass);
+  }
+  std::printf("%-24s %8lld V  full pass with hit table %.3f s, %lld rays\n",
+              name.c_str(), static_cast<long long>(nv), full,
+              static_cast<long long>(base.rays_traced));
+  const PreviousPass previous{&base, &base_hits};
+  for (const Case& c : cases) {
+    std::vector<Vec3> to;
+    for (int32_t v : c.moved) to.push_back(mesh.positions[v] + by);
+    std::vector<Vec3> back;
+    for (int32_t v : c.moved) back.push_back(mesh.positions[v]);
+    if (!ev.UpdatePositions(c.moved, to).ok()) return 1;
+    double best = 1e300;
+    int64_t traced = 0;
+    for (int r = 0; r < absl::GetFlag(FLAGS_repeat); ++r) {
+      HitTable hits;
+      const Stopwatch watch;
+      auto pass = ev.Compute(params, {}, &hits, &previous);
+      best = std::min(best, watch.Seconds());
+      if (!pass.ok()) return 1;
+      traced = pass->rays_traced;
+    }
+    if (!ev.UpdatePositions(c.moved, back).ok()) return 1;
+    std::printf(
+        "%-24s %-13s %7lld moved  %.3f s = %.3f of the full pass, "
+        "%.3f of its rays traced\n",
+        "", c.label.c_str(), static_cast<long long>(c.moved.size()), best,
+        best / full, static_cast<double>(traced) / base.rays_traced);
+  }
+  std::fflush(stdout);
+  return 0;
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+int main(int argc, char** argv) {
+  using namespace meshgauge;
+  std::vector<char*> args = absl::ParseCommandLine(argc, argv);
+  int rc = 0;
+  for (size_t i = 1; i < args.size(); ++i) {
+    const std::string path = args[i];
+    auto mesh = ReadMesh(path);
+    if (!mesh.ok()) {
+      std::fprintf(stderr, "%s\n",
+                   std::string(mesh.status().message()).c_str());
+      rc = 1;
+      continue;
+    }
+    if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
+    rc |= Bench(path.substr(path.find_last_of('/') + 1), *mesh);
+  }
+  return rc;
+}
