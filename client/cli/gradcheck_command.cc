@@ -74,7 +74,12 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   bar.Finish();
   if (!rep.ok()) return rep.status();
   const int64_t samples = std::ssize(rep->rows);
-  const bool passed = rep->Passed();
+  const GradCheckVerdict verdict = rep->Verdict();
+  const bool passed = verdict == GradCheckVerdict::kPass;
+  const char* verdict_name = passed ? "PASS"
+                             : verdict == GradCheckVerdict::kFail
+                                 ? "FAIL"
+                                 : "INCONCLUSIVE";
   if (in.out.json) {
     nlohmann::json j;
     j["samples"] = samples;
@@ -91,6 +96,8 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     j["rays_traced"] = rep->rays_traced;
     j["full_pass_rays"] = rep->full_pass_rays;
     j["passed"] = passed;
+    j["verdict"] = verdict_name;
+    j["retried_probes"] = rep->retried;
     j["rows"] = nlohmann::json::array();
     for (const auto* rows : {&rep->rows, &rep->penalty_rows}) {
       for (const GradCheckRow& r : *rows) j["rows"].push_back(RowJson(r));
@@ -112,14 +119,22 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     std::cout << absl::StrFormat(
         "|dSDF/dx|: max %.4g, median %.4g; %d vertices in the world frame\n"
         "rays traced: %d (a full pass: %d; probes reuse the base pass)\n"
+        "probes repeated with smaller steps after an event: %d\n"
         "verdict: %s\n",
         rep->max_abs_derivative, rep->median_abs_derivative,
         rep->world_frame_vertices, rep->rays_traced, rep->full_pass_rays,
-        passed ? "PASS" : "FAIL");
+        rep->retried, verdict_name);
   }
-  if (!passed) {
+  if (verdict == GradCheckVerdict::kFail) {
     return absl::FailedPreconditionError(
         "gradcheck failed: derivatives do not meet the SPEC §6 criterion");
+  }
+  if (verdict == GradCheckVerdict::kInconclusive) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "gradcheck inconclusive: ", rep->rows.size() - rep->clean, " of ",
+        rep->rows.size(),
+        " entries crossed an event even at a step 100 times smaller (listed "
+        "as 'event'); every entry that could be checked agrees"));
   }
   return absl::OkStatus();
 }

@@ -12,6 +12,10 @@
 namespace meshgauge {
 namespace {
 
+// Probes that crossed an event are repeated with steps 10 and 100 times
+// smaller.
+constexpr int kRetries = 2;
+
 // One ray pass (and the penalty, when asked) at the evaluator's positions.
 struct Pass {
   SdfResult sdf;
@@ -120,11 +124,16 @@ double GradCheckRelativeError(double fd, double analytic) {
          std::max({std::abs(analytic), std::abs(fd), 1e-2});
 }
 
-bool GradCheckReport::Passed() const {
+GradCheckVerdict GradCheckReport::Verdict() const {
   const int64_t samples = std::ssize(rows);
-  return samples > 0 && clean >= min_clean_fraction * samples &&
-         passed == clean && vjp_passed == vjp_checks &&
-         penalty_passed == penalty_clean;
+  if (passed != clean || vjp_passed != vjp_checks ||
+      penalty_passed != penalty_clean) {
+    return GradCheckVerdict::kFail;
+  }
+  if (samples == 0 || clean < min_clean_fraction * samples) {
+    return GradCheckVerdict::kInconclusive;
+  }
+  return GradCheckVerdict::kPass;
 }
 
 absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
@@ -169,68 +178,97 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   auto move = [&ev](int32_t j, const Vec3& x) {
     return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
   };
-  for (int32_t j : probed) {
+  // The passes at x_j[c] +- h.
+  auto probe = [&](int32_t j, int c, double h, Pass at[2]) -> absl::Status {
     const Vec3 x0 = mesh.positions[j];
+    for (int s = 0; s < 2; ++s) {
+      Vec3 x = x0;
+      x[c] += (s == 0 ? 1 : -1) * h;
+      if (absl::Status st = move(j, x); !st.ok()) return st;
+      auto pass = Evaluate(
+          ev, params, options,
+          PassControl(control, std::min(pass_index++, passes - 1), passes),
+          &*base);
+      if (!pass.ok()) return pass.status();
+      rep.rays_traced += pass->sdf.rays_traced;
+      at[s] = std::move(*pass);
+    }
+    return move(j, x0);
+  };
+  for (int32_t j : probed) {
     for (int c = 0; c < mesh.dimension; ++c) {
+      // Entries whose probe crossed an event are probed again with steps 10
+      // and 100 times smaller; each keeps its first clean attempt.
+      std::vector<GradCheckRow> rows;
+      std::vector<int64_t> row_of(nv, -1);
+      bool vjp_done = false;
       Pass at[2];
-      for (int s = 0; s < 2; ++s) {
-        Vec3 x = x0;
-        x[c] += (s == 0 ? 1 : -1) * step;
-        if (absl::Status st = move(j, x); !st.ok()) return st;
-        auto pass =
-            Evaluate(ev, params, options,
-                     PassControl(control, pass_index++, passes), &*base);
-        if (!pass.ok()) return pass.status();
-        rep.rays_traced += pass->sdf.rays_traced;
-        at[s] = std::move(*pass);
-      }
-      if (absl::Status st = move(j, x0); !st.ok()) return st;
-      bool all_clean = true;
-      double fd_dot = 0;
-      for (int64_t p = 0; p < nv; ++p) {
-        GradCheckRow row{static_cast<int32_t>(p), j, c};
-        for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
-             ++e) {
-          if (jac->columns[e] == j) row.analytic = jac->values[e][c];
+      for (int attempt = 0; attempt <= kRetries; ++attempt) {
+        const double h = step * std::pow(0.1, attempt);
+        if (absl::Status st = probe(j, c, h, at); !st.ok()) return st;
+        bool all_clean = true;
+        double fd_dot = 0;
+        for (int64_t p = 0; p < nv; ++p) {
+          GradCheckRow row{static_cast<int32_t>(p), j, c};
+          for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
+               ++e) {
+            if (jac->columns[e] == j) row.analytic = jac->values[e][c];
+          }
+          const double plus = at[0].sdf.values[p], minus = at[1].sdf.values[p];
+          const bool finite = std::isfinite(plus) && std::isfinite(minus) &&
+                              std::isfinite(base->sdf.values[p]);
+          row.fd = finite ? (plus - minus) / (2 * h) : 0;
+          row.step = h;
+          if (row.analytic == 0 && (row.fd == 0 || !finite)) continue;
+          row.clean = finite && SameRow(base->hits, at[0].hits, p) &&
+                      SameRow(base->hits, at[1].hits, p);
+          all_clean &= row.clean;
+          if (row.clean) {
+            fd_dot += g[p] * row.fd;
+            row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+          }
+          if (row_of[p] < 0) {
+            row_of[p] = std::ssize(rows);
+            rows.push_back(row);
+          } else if (!rows[row_of[p]].clean && row.clean) {
+            rows[row_of[p]] = row;
+          }
         }
-        const double plus = at[0].sdf.values[p], minus = at[1].sdf.values[p];
-        const bool finite = std::isfinite(plus) && std::isfinite(minus) &&
-                            std::isfinite(base->sdf.values[p]);
-        row.fd = finite ? (plus - minus) / (2 * step) : 0;
-        if (row.analytic == 0 && (row.fd == 0 || !finite)) continue;
-        row.clean = finite && SameRow(base->hits, at[0].hits, p) &&
-                    SameRow(base->hits, at[1].hits, p);
-        all_clean &= row.clean;
+        if (all_clean && !vjp_done) {
+          vjp_done = true;
+          ++rep.vjp_checks;
+          rep.vjp_passed +=
+              GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <= options.tolerance;
+        }
+        if (attempt == 0 && options.penalty) {
+          GradCheckRow row{-1, j, c};
+          row.analytic = pen.gradient[j][c];
+          row.measure_part = pen.measure_gradient[j][c];
+          row.fd = (at[0].penalty - at[1].penalty) / (2 * h);
+          row.step = h;
+          row.clean = base->hits.primitives == at[0].hits.primitives &&
+                      base->hits.primitives == at[1].hits.primitives &&
+                      base->hits.kept == at[0].hits.kept &&
+                      base->hits.kept == at[1].hits.kept;
+          if (row.analytic != 0 || row.fd != 0) {
+            row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+            if (row.clean) {
+              ++rep.penalty_clean;
+              rep.penalty_passed += row.relative_error <= options.tolerance;
+            }
+            rep.penalty_rows.push_back(row);
+          }
+        }
+        if (all_clean) break;
+        rep.retried += attempt < kRetries;
+      }
+      for (const GradCheckRow& row : rows) {
         if (row.clean) {
-          fd_dot += g[p] * row.fd;
-          row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
           ++rep.clean;
           rep.passed += row.relative_error <= options.tolerance;
           rep.worst = std::max(rep.worst, row.relative_error);
         }
         rep.rows.push_back(row);
-      }
-      if (all_clean) {
-        ++rep.vjp_checks;
-        rep.vjp_passed +=
-            GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <= options.tolerance;
-      }
-      if (options.penalty) {
-        GradCheckRow row{-1, j, c};
-        row.analytic = pen.gradient[j][c];
-        row.measure_part = pen.measure_gradient[j][c];
-        row.fd = (at[0].penalty - at[1].penalty) / (2 * step);
-        row.clean = base->hits.primitives == at[0].hits.primitives &&
-                    base->hits.primitives == at[1].hits.primitives &&
-                    base->hits.kept == at[0].hits.kept &&
-                    base->hits.kept == at[1].hits.kept;
-        if (row.analytic == 0 && row.fd == 0) continue;
-        row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
-        if (row.clean) {
-          ++rep.penalty_clean;
-          rep.penalty_passed += row.relative_error <= options.tolerance;
-        }
-        rep.penalty_rows.push_back(row);
       }
     }
   }

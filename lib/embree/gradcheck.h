@@ -6,10 +6,14 @@
 // (step = relative_step x bounding-box diagonal) and everything is
 // recomputed. A sample (row p, column j, c) is *clean* when p's hit
 // primitives and kept set are identical at x, x + step and x - step (the
-// derivative is then defined); otherwise it straddles an event. The check
-// passes when clean samples are >= min_clean_fraction of all and every clean
-// one agrees within `tolerance` (relative error, magnitude floored at 1e-2:
-// derivatives of a length by a length are O(1); docs/sensitivities.md).
+// derivative is then defined); otherwise it straddles an event, and the
+// probe is repeated with steps 10 and 100 times smaller (each sample keeps
+// its first clean attempt). Verdict: FAIL when a clean sample (or a VJP or
+// penalty check) disagrees beyond `tolerance` (relative error, magnitude
+// floored at 1e-2: derivatives of a length by a length are O(1);
+// docs/sensitivities.md): the derivatives are wrong; INCONCLUSIVE when none
+// disagrees but fewer than min_clean_fraction of the samples are clean even
+// at the smallest step; PASS otherwise.
 #pragma once
 
 #include <cstdint>
@@ -36,12 +40,15 @@ struct GradCheckOptions {
   double min_clean_fraction = 0.9;
 };
 
+enum class GradCheckVerdict { kPass, kFail, kInconclusive };
+
 struct GradCheckRow {
   int32_t row = -1;     // the SDF of this vertex; -1 for the penalty.
   int32_t vertex = -1;  // the vertex moved.
   int coordinate = 0;   // 0, 1, 2 = x, y, z.
   double analytic = 0, fd = 0, relative_error = 0;
   bool clean = false;  // false: an event (hit or kept set changed).
+  double step = 0;     // the step of the attempt kept (mesh units).
   // Penalty rows: the explicit element-measure part of `analytic`.
   double measure_part = 0;
 };
@@ -61,9 +68,13 @@ struct GradCheckReport {
   // where the probed vertex cannot change them) and by one full pass.
   int64_t rays_traced = 0, full_pass_rays = 0;
 
-  // SPEC §6: enough clean samples, all of them (and every VJP and clean
-  // penalty row) within tolerance.
-  bool Passed() const;
+  // Probes repeated with a smaller step because a sample crossed an event.
+  int64_t retried = 0;
+
+  // SPEC §6: every clean sample (and every VJP and clean penalty row)
+  // within tolerance, and enough clean samples.
+  GradCheckVerdict Verdict() const;
+  bool Passed() const { return Verdict() == GradCheckVerdict::kPass; }
 };
 
 // Precondition: none. Errors: InvalidArgument (mesh, params, options),

@@ -1,0 +1,66 @@
+// RunGradCheck's retries and verdicts: a probe that crosses an event is
+// repeated with smaller steps, and a check whose checkable entries all agree
+// but too few are checkable is INCONCLUSIVE, not FAIL.
+#include "lib/embree/gradcheck.h"
+
+#include <gtest/gtest.h>
+
+#include "lib/io/mesh_io.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+// On the CAD tray (thin plates, many rays grazing edges) some probes at
+// the default step cross an event; the retries at steps 10 and 100 times
+// smaller make entries clean, and the check passes.
+TEST(GradCheckTest, AProbeThatCrossedAnEventIsRepeatedWithSmallerSteps) {
+  auto tray = ReadMesh(testing::SharedMesh("1002_tray_bottom.STL"));
+  ASSERT_TRUE(tray.ok());
+  GradCheckOptions options;
+  auto rep = RunGradCheck(*tray, {}, options);
+  ASSERT_TRUE(rep.ok()) << rep.status();
+  EXPECT_GT(rep->retried, 0);
+  const double first = options.relative_step * BoundingBoxDiagonal(*tray);
+  int64_t clean_after_retry = 0;
+  for (const GradCheckRow& r : rep->rows) {
+    clean_after_retry += r.clean && r.step < 0.5 * first;
+  }
+  EXPECT_GT(clean_after_retry, 0);
+  EXPECT_EQ(rep->Verdict(), GradCheckVerdict::kPass);
+  std::printf(
+      "retried %lld probes; %lld entries clean only at a smaller step; "
+      "clean %lld of %zu, passed %lld, worst %.2e, VJP %lld/%lld\n",
+      static_cast<long long>(rep->retried),
+      static_cast<long long>(clean_after_retry),
+      static_cast<long long>(rep->clean), rep->rows.size(),
+      static_cast<long long>(rep->passed), rep->worst,
+      static_cast<long long>(rep->vjp_passed),
+      static_cast<long long>(rep->vjp_checks));
+}
+
+GradCheckRow Row(bool clean, double relative_error) {
+  GradCheckRow r;
+  r.clean = clean;
+  r.relative_error = relative_error;
+  return r;
+}
+
+TEST(GradCheckTest, TooFewCheckableEntriesIsInconclusiveAndAWrongOneFails) {
+  GradCheckReport rep;
+  rep.min_clean_fraction = 0.9;
+  for (int i = 0; i < 8; ++i) rep.rows.push_back(Row(true, 1e-8));
+  for (int i = 0; i < 2; ++i) rep.rows.push_back(Row(false, 0));
+  rep.clean = rep.passed = 8;
+  EXPECT_EQ(rep.Verdict(), GradCheckVerdict::kInconclusive);
+  rep.min_clean_fraction = 0.8;
+  EXPECT_EQ(rep.Verdict(), GradCheckVerdict::kPass);
+  rep.passed = 7;  // one clean entry beyond the tolerance.
+  EXPECT_EQ(rep.Verdict(), GradCheckVerdict::kFail);
+  rep.passed = 8;
+  rep.vjp_checks = 1;  // a VJP check that failed.
+  EXPECT_EQ(rep.Verdict(), GradCheckVerdict::kFail);
+}
+
+}  // namespace
+}  // namespace meshgauge
