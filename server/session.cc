@@ -182,6 +182,11 @@ std::shared_ptr<const CachedPass> Session::LatestPass(
   return nullptr;
 }
 
+std::shared_ptr<const CachedPass> Session::CachedPassOfAnyGeneration() const {
+  std::lock_guard<std::mutex> lock(cache_mu_);
+  return cache_;
+}
+
 void Session::StorePass(std::shared_ptr<const CachedPass> pass) {
   std::lock_guard<std::mutex> lock(cache_mu_);
   cache_bytes_ = pass->bytes;

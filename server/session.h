@@ -89,6 +89,9 @@ class Session {
   // The cached pass for these parameters at any generation (an earlier one
   // after updates), or null: a new pass reuses its rays.
   std::shared_ptr<const CachedPass> LatestPass(const SdfParams& params) const;
+  // The cached pass whatever its parameters and generation, or null (a
+  // replica hands it to the session it restores from the record).
+  std::shared_ptr<const CachedPass> CachedPassOfAnyGeneration() const;
   void StorePass(std::shared_ptr<const CachedPass> pass);
 
   SessionSnapshot Snapshot() const;

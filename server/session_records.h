@@ -63,8 +63,8 @@ class SessionRecords {
 
   // Claims a session slot and `bytes` of the tenant's budget for an upload
   // in flight, under `token` (unique), for `ttl_seconds` unless renewed
-  // (so a replica that dies mid-upload holds nothing for long). The limits count
-  // records and live claims of every replica. Errors: RESOURCE_EXHAUSTED
+  // (so a replica that dies mid-upload holds nothing for long). The limits
+  // count records and live claims of every replica. Errors: RESOURCE_EXHAUSTED
   // naming the limit, UNAVAILABLE.
   virtual absl::Status Reserve(const std::string& tenant,
                                const std::string& token, int64_t bytes,

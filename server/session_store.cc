@@ -324,15 +324,21 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
     }
     return version.status();
   }
+  // This replica's ray pass of the session at an earlier generation, which
+  // the restored session's next pass reuses (the pass records its
+  // positions; docs/numerics.md, "Incremental passes").
+  std::shared_ptr<const CachedPass> earlier_pass;
   {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = sessions_.find({tenant, id});
     if (it != sessions_.end() &&
-        it->second->incarnation() == version->incarnation &&
-        it->second->generation() == version->generation) {
-      if (touch) it->second->Touch(clock_->NowSeconds());
-      metrics_->RecordSessionCache(true, 0);
-      return it->second;
+        it->second->incarnation() == version->incarnation) {
+      if (it->second->generation() == version->generation) {
+        if (touch) it->second->Touch(clock_->NowSeconds());
+        metrics_->RecordSessionCache(true, 0);
+        return it->second;
+      }
+      earlier_pass = it->second->CachedPassOfAnyGeneration();
     }
   }
   // A miss: first use on this replica, evicted, updated elsewhere, or
@@ -344,6 +350,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
   auto session =
       std::make_shared<Session>(std::move(*record), options_, metrics_, start);
   if (auto reader = session->Read(); !reader.ok()) return reader.status();
+  if (earlier_pass) session->StorePass(std::move(earlier_pass));
   metrics_->RecordSessionCache(
       false,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall)

@@ -150,6 +150,34 @@ TEST_F(RedisStoreTest, AnyReplicaServesAnySessionBitForBit) {
   EXPECT_THAT(b_->metrics.Text(), HasSubstr("meshgauge_session_load_seconds"));
 }
 
+// A replica that computed generation 0 and then serves generation 1 (the
+// update went through the other replica) restores the session from Redis and
+// reuses its generation-0 pass: it traces only some rays, and its values
+// equal the in-memory server's bit for bit.
+TEST_F(RedisStoreTest, AReplicaReusesItsPassOfAnEarlierGeneration) {
+  const Mesh rocker = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  ASSERT_TRUE(a_->client->Upload(rocker, "r").ok());
+  ASSERT_TRUE(memory_->client->Upload(rocker, "r").ok());
+  ASSERT_TRUE(a_->client->ComputeSdf("r", SdfParams{}).ok());
+  const std::vector<int32_t> idx =
+      testing::Patch(rocker, 100, 0.05 * BoundingBoxDiagonal(rocker));
+  std::vector<Vec3> p;
+  for (int32_t i : idx) p.push_back(rocker.positions[i] * 1.001);
+  ASSERT_TRUE(b_->client->UpdatePositions("r", 0, 3, p, idx).ok());
+  ASSERT_TRUE(memory_->client->UpdatePositions("r", 0, 3, p, idx).ok());
+  auto got =
+      a_->client->ComputeSdf("r", SdfParams{}, {.expected_generation = 1});
+  auto want =
+      memory_->client->ComputeSdf("r", SdfParams{}, {.expected_generation = 1});
+  ASSERT_TRUE(got.ok()) << got.status();
+  ASSERT_TRUE(want.ok()) << want.status();
+  EXPECT_TRUE(SameBits(got->result.values, want->result.values));
+  EXPECT_EQ(got->result.hits, want->result.hits);
+  EXPECT_EQ(got->result.status, want->result.status);
+  EXPECT_LT(got->result.rays_traced, rocker.num_vertices() * 100 / 2);
+  EXPECT_GT(got->result.rays_traced, 0);
+}
+
 TEST_F(RedisStoreTest, GenerationIsCompareAndSetAcrossReplicas) {
   const Mesh mesh = Knight();
   ASSERT_TRUE(a_->client->Upload(mesh, "cas").ok());
