@@ -24,10 +24,10 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf.h"
-#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(int, rays, 25, "rays per cone (CGAL's default is 25)");
 ABSL_FLAG(double, cone_angle, 120, "cone angle in degrees (CGAL: 2/3 pi)");
@@ -122,11 +122,9 @@ int main(int argc, char** argv) {
       "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
       "| --- |\n");
   for (size_t i = 1; i < args.size(); ++i) {
-    auto mesh = ReadMesh(args[i]);
+    auto mesh = bench::ReadOutwardMesh(args[i]);
     if (!mesh.ok() || !ValidateMesh(*mesh).ok()) continue;
-    if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
-    const std::string path = args[i];
-    bench::Row(path.substr(path.find_last_of('/') + 1), *mesh);
+    bench::Row(bench::BaseName(args[i]), *mesh);
   }
   if (absl::GetFlag(FLAGS_generated)) {
     for (int f : {32, 64, 100, 200}) {  // 10k, 41k, 100k, 400k vertices.

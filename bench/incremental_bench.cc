@@ -13,9 +13,9 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "bench/bench_mesh.h"
 #include "lib/core/stopwatch.h"
 #include "lib/embree/sdf_evaluator.h"
-#include "lib/io/mesh_io.h"
 
 ABSL_FLAG(int, repeat, 3, "rounds of every pass; the best of each is kept");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
@@ -109,16 +109,14 @@ int main(int argc, char** argv) {
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {
-    const std::string path = args[i];
-    auto mesh = ReadMesh(path);
+    auto mesh = bench::ReadOutwardMesh(args[i]);
     if (!mesh.ok()) {
       std::fprintf(stderr, "%s\n",
                    std::string(mesh.status().message()).c_str());
       rc = 1;
       continue;
     }
-    if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
-    rc |= Bench(path.substr(path.find_last_of('/') + 1), *mesh);
+    rc |= Bench(bench::BaseName(args[i]), *mesh);
   }
   return rc;
 }

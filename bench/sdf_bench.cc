@@ -26,6 +26,7 @@
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
 #include "absl/strings/str_cat.h"
+#include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
@@ -272,15 +273,14 @@ int main(int argc, char** argv) {
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {
     const std::string path = args[i];
-    auto mesh = ReadMesh(path);
+    auto mesh = ReadOutwardMesh(path);
     if (!mesh.ok()) {
       std::fprintf(stderr, "%s\n",
                    std::string(mesh.status().message()).c_str());
       rc = 1;
       continue;
     }
-    if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
-    const std::string name = path.substr(path.find_last_of('/') + 1);
+    const std::string name = BaseName(path);
     rc |= BenchMesh(name, *mesh, path);
     if (const uint64_t seed = absl::GetFlag(FLAGS_permute_seed); seed != 0) {
       const Mesh permuted = Permuted(*mesh, seed);

@@ -98,6 +98,15 @@ class RedisStoreTest : public ::testing::Test {
     r.mutable_header()->set_num_faces(nf);
     return r;
   }
+  // Generation 0 -> 1 of session `id` through `writer` and the in-memory
+  // server: vertices `idx` of `mesh` scaled by `scale`.
+  void MoveSubset(Replica& writer, const std::string& id, const Mesh& mesh,
+                  const std::vector<int32_t>& idx, double scale) {
+    std::vector<Vec3> p;
+    for (int32_t i : idx) p.push_back(mesh.positions[i] * scale);
+    ASSERT_TRUE(writer.client->UpdatePositions(id, 0, 3, p, idx).ok());
+    ASSERT_TRUE(memory_->client->UpdatePositions(id, 0, 3, p, idx).ok());
+  }
   testing::RedisProcess redis_;
   std::unique_ptr<Replica> a_, b_, memory_;
 };
@@ -159,12 +168,9 @@ TEST_F(RedisStoreTest, AReplicaReusesItsPassOfAnEarlierGeneration) {
   ASSERT_TRUE(a_->client->Upload(rocker, "r").ok());
   ASSERT_TRUE(memory_->client->Upload(rocker, "r").ok());
   ASSERT_TRUE(a_->client->ComputeSdf("r", SdfParams{}).ok());
-  const std::vector<int32_t> idx =
-      testing::Patch(rocker, 100, 0.05 * BoundingBoxDiagonal(rocker));
-  std::vector<Vec3> p;
-  for (int32_t i : idx) p.push_back(rocker.positions[i] * 1.001);
-  ASSERT_TRUE(b_->client->UpdatePositions("r", 0, 3, p, idx).ok());
-  ASSERT_TRUE(memory_->client->UpdatePositions("r", 0, 3, p, idx).ok());
+  MoveSubset(*b_, "r", rocker,
+             testing::Patch(rocker, 100, 0.05 * BoundingBoxDiagonal(rocker)),
+             1.001);
   auto got =
       a_->client->ComputeSdf("r", SdfParams{}, {.expected_generation = 1});
   auto want =
@@ -201,10 +207,7 @@ TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
   ASSERT_TRUE(a_->client->Upload(mesh, "sub").ok());
   ASSERT_TRUE(memory_->client->Upload(mesh, "sub").ok());
   const std::vector<int32_t> idx = {3, 10, 200};
-  std::vector<Vec3> p;
-  for (int32_t i : idx) p.push_back(mesh.positions[i] * 1.01);
-  ASSERT_TRUE(a_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
-  ASSERT_TRUE(memory_->client->UpdatePositions("sub", 0, 3, p, idx).ok());
+  MoveSubset(*a_, "sub", mesh, idx, 1.01);
   auto got =
       b_->client->ComputeSdf("sub", SdfParams{}, {.expected_generation = 1});
   auto want = memory_->client->ComputeSdf("sub", SdfParams{},
@@ -212,6 +215,7 @@ TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
   ASSERT_TRUE(got.ok()) << got.status();
   EXPECT_TRUE(SameBits(got->result.values, want->result.values));
   // Validation happens before the record changes.
+  const std::vector<Vec3> p(3, mesh.positions[3]);
   EXPECT_EQ(Code(b_->client->UpdatePositions("sub", 1, 3, p, {3, 3, 4})),
             absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(a_->client->Get("sub")->generation, 1);

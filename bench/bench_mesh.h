@@ -1,0 +1,18 @@
+// Meshes as the benchmarks use them.
+#pragma once
+
+#include <string>
+
+#include "absl/status/statusor.h"
+#include "lib/core/mesh.h"
+
+namespace meshgauge::bench {
+
+// Reads `path` (any format lib/io reads); a closed mesh whose faces point
+// inwards (horse.ply) is turned outwards, so that the cone looks inside.
+absl::StatusOr<Mesh> ReadOutwardMesh(const std::string& path);
+
+// The file name of `path` without its directories (a row's label).
+std::string BaseName(const std::string& path);
+
+}  // namespace meshgauge::bench
