@@ -49,8 +49,7 @@ const char* CodeName(grpc::StatusCode code) {
 }
 
 int64_t PassBytes(const CachedPass& p) {
-  return std::ssize(p.hits.primitives) * 4 + std::ssize(p.hits.kept) +
-         std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4);
+  return p.hits.Bytes() + std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4);
 }
 
 double Seconds(std::chrono::steady_clock::time_point start) {

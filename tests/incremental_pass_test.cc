@@ -104,9 +104,17 @@ TEST(IncrementalPassTest, EveryKindOfUpdateMatchesAFullPass) {
   steps.push_back(p);
   p = Moved(p, patch1, Vec3(0.05, -0.04, 0.03) * d);
   steps.push_back(p);
-  // Scattered vertices, then everything.
+  // Scattered vertices; the vertex of largest x pushed out (the bounding
+  // box, so the default miss distance, changes).
   p = Moved(p, scattered, Vec3(1e-4, 1e-4, -2e-4) * d);
   steps.push_back(p);
+  const int32_t right = static_cast<int32_t>(
+      std::max_element(p.begin(), p.end(),
+                       [](const Vec3& a, const Vec3& b) { return a.x < b.x; }) -
+      p.begin());
+  p = Moved(p, {right}, Vec3(0.02, 0, 0) * d);
+  steps.push_back(p);
+  // Then everything.
   p = Moved(p, all, Vec3(1e-5, 0, 0) * d);
   steps.push_back(p);
   // Back to the start: every earlier move undone.
@@ -117,9 +125,18 @@ TEST(IncrementalPassTest, EveryKindOfUpdateMatchesAFullPass) {
   const int64_t full = nv * 100;
   ASSERT_EQ(traced.size(), steps.size());
   EXPECT_LT(traced[0], full / 10);  // one vertex.
-  EXPECT_LT(traced[1], full / 4);   // 1 % patch.
-  EXPECT_LT(traced[2], full);       // 10 % patch.
-  EXPECT_EQ(traced[5], full);       // all moved: a full pass.
+  EXPECT_LT(traced[1], full / 10);  // 1 % patch.
+  EXPECT_LT(traced[2], full / 2);   // 10 % patch.
+  EXPECT_LT(traced[5], full / 2);   // the bounding box grew.
+  EXPECT_EQ(traced[6], full);       // all moved: a full pass.
+  // A self-hit threshold of 3 mean edge lengths (every update moves it, and
+  // many rays meet primitives near it) and a fixed miss distance.
+  SdfParams near;
+  near.self_hit_epsilon = 3;
+  near.max_distance = 0.2 * d;
+  const std::vector<int64_t> near_traced =
+      ExpectIncrementalEqualsFull(m, steps, near);
+  EXPECT_LT(near_traced[1], full / 2);
   for (size_t i = 0; i < traced.size(); ++i) {
     std::printf("step %zu: %lld of %lld rays traced\n", i,
                 static_cast<long long>(traced[i]),
@@ -142,7 +159,9 @@ TEST(IncrementalPassTest, GeneratedShapesIn2dAnd3dMatchAFullPass) {
     steps.push_back(p);
     SdfParams params;
     params.rays = 24;
-    ExpectIncrementalEqualsFull(*mesh, steps, params);
+    const std::vector<int64_t> traced =
+        ExpectIncrementalEqualsFull(*mesh, steps, params);
+    EXPECT_LT(traced[0], mesh->num_vertices() * 24 / 2);  // reused.
   }
 }
 

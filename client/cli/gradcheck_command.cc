@@ -97,7 +97,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     j["full_pass_rays"] = rep->full_pass_rays;
     j["passed"] = passed;
     j["verdict"] = verdict_name;
-    j["retried_probes"] = rep->retried;
+    j["probe_repeats"] = rep->retried;
     j["rows"] = nlohmann::json::array();
     for (const auto* rows : {&rep->rows, &rep->penalty_rows}) {
       for (const GradCheckRow& r : *rows) j["rows"].push_back(RowJson(r));
@@ -119,7 +119,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     std::cout << absl::StrFormat(
         "|dSDF/dx|: max %.4g, median %.4g; %d vertices in the world frame\n"
         "rays traced: %d (a full pass: %d; probes reuse the base pass)\n"
-        "probes repeated with smaller steps after an event: %d\n"
+        "probe repeats with a smaller step after an event: %d\n"
         "verdict: %s\n",
         rep->max_abs_derivative, rep->median_abs_derivative,
         rep->world_frame_vertices, rep->rays_traced, rep->full_pass_rays,

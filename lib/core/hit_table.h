@@ -32,6 +32,7 @@ struct HitTable {
   Vec3 scene_origin;
   float extrude_half_height = 0;
   float t_near = 0;
+  int64_t num_primitives = 0;  // of the topology the pass was traced on.
   // Bytes held: 5 per ray (a primitive index and a kept flag) and 25 per
   // vertex.
   int64_t Bytes() const {

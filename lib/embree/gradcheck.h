@@ -68,7 +68,8 @@ struct GradCheckReport {
   // where the probed vertex cannot change them) and by one full pass.
   int64_t rays_traced = 0, full_pass_rays = 0;
 
-  // Probes repeated with a smaller step because a sample crossed an event.
+  // Probe repeats with a smaller step (up to 2 per probe) because a sample
+  // crossed an event.
   int64_t retried = 0;
 
   // SPEC §6: every clean sample (and every VJP and clean penalty row)

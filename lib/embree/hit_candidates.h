@@ -9,9 +9,8 @@
 // is kept (the `kMax` smallest by (t_f, primitive)), and the caller picks
 // among them in double precision (PickClosest in sdf_evaluator.cc). The
 // window is far wider than single-precision rounding (2^-16 of the
-// coordinates' magnitude against about 2^-22), so a primitive at its edge is
-// never the one picked, and its set depends only on each primitive's own
-// test, not on the order of the tests.
+// coordinates' magnitude against about 2^-22), and its set depends only on
+// each primitive's own test, not on the order of the tests.
 #pragma once
 
 #include <algorithm>
@@ -25,6 +24,10 @@ class HitCandidates {
   struct Entry {
     int32_t prim;
     float t;
+    // Embree's barycentric coordinates put the hit within 2^-10 of the
+    // primitive's boundary (where the closure of PickClosest looks at the
+    // neighbours).
+    bool edge;
   };
 
   // `reach`: the largest coordinate magnitude of the ray's origin in the
@@ -40,17 +43,18 @@ class HitCandidates {
 
   // Records a primitive hit at t_f = `t` (reported once or more; Embree's
   // spatial splits may report one primitive twice).
-  void Add(int32_t prim, float t) {
+  void Add(int32_t prim, float t, bool edge) {
     if (count_ > 0 && t > Limit()) return;
     for (int i = 0; i < count_; ++i) {
       if (entries_[i].prim == prim) return;
     }
     int i = std::min(count_, kMax - 1);
-    if (count_ == kMax && !Before({prim, t}, entries_[i])) return;
-    for (; i > 0 && Before({prim, t}, entries_[i - 1]); --i) {
+    const Entry e{prim, t, edge};
+    if (count_ == kMax && !Before(e, entries_[i])) return;
+    for (; i > 0 && Before(e, entries_[i - 1]); --i) {
       entries_[i] = entries_[i - 1];
     }
-    entries_[i] = {prim, t};
+    entries_[i] = e;
     count_ = std::min(count_ + 1, kMax);
     const float limit = Limit();
     while (entries_[count_ - 1].t > limit) --count_;

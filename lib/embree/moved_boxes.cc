@@ -68,18 +68,6 @@ absl::StatusOr<std::unique_ptr<MovedBoxes>> MovedBoxes::Create(
     std::vector<Box> boxes) {
   std::unique_ptr<MovedBoxes> m(new MovedBoxes());
   m->boxes_ = std::move(boxes);
-  Box all{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
-  for (const Box& b : m->boxes_) {
-    all.lo = Vec3(std::min(all.lo.x, b.lo.x), std::min(all.lo.y, b.lo.y),
-                  std::min(all.lo.z, b.lo.z));
-    all.hi = Vec3(std::max(all.hi.x, b.hi.x), std::max(all.hi.y, b.hi.y),
-                  std::max(all.hi.z, b.hi.z));
-  }
-  if (!m->boxes_.empty()) {
-    m->centre_ = (all.lo + all.hi) * 0.5;
-    const Vec3 half = (all.hi - all.lo) * 0.5;
-    m->radius_ = std::sqrt(Dot(half, half));
-  }
   RTCDevice device = SharedDevice();
   if (!device) return absl::InternalError("rtcNewDevice failed");
   m->scene_ = rtcNewScene(device);

@@ -34,15 +34,9 @@ class MovedBoxes {
   // (conservative: the single-precision ray against the boxes). Thread-safe.
   bool Crosses(const Vec3& origin, const Vec3& dir, double t_end) const;
 
-  // A sphere around all boxes (centre, radius); radius 0 for none.
-  const Vec3& centre() const { return centre_; }
-  double radius() const { return radius_; }
-
  private:
   MovedBoxes() = default;
   std::vector<Box> boxes_;
-  Vec3 centre_;
-  double radius_ = 0;
   RTCSceneTy* scene_ = nullptr;
   RTCGeometryTy* geometry_ = nullptr;
 };

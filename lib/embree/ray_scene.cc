@@ -257,7 +257,8 @@ namespace {
 struct FanContext {
   RTCIntersectContext rtc;  // first: Embree sees a pointer to it.
   absl::Span<const int32_t> excluded;
-  float t_min, near_below;
+  float t_min, near_below, t_far;
+  bool segments;       // 2D: extruded quads, whose u runs along the segment.
   HitCandidates* out;  // out[lane] for packets; out[0] for single rays.
 };
 
@@ -283,8 +284,13 @@ void FanFilter(const RTCFilterFunctionNArguments* args) {
       args->valid[i] = 0;
       continue;
     }
-    c.Add(prim, tfar);
-    tfar = c.Limit();
+    constexpr float kEdge = 0x1p-10f;
+    const float u = RTCHitN_u(args->hit, args->N, i);
+    const float v = RTCHitN_v(args->hit, args->N, i);
+    const bool edge = fan->segments ? std::min(u, 1 - u) < kEdge
+                                    : std::min({u, v, 1 - u - v}) < kEdge;
+    c.Add(prim, tfar, edge);
+    tfar = std::min(c.Limit(), fan->t_far);
   }
 }
 
@@ -304,6 +310,8 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   fan.excluded = excluded;
   fan.t_min = limits.t_min;
   fan.near_below = limits.near_below;
+  fan.t_far = limits.t_far;
+  fan.segments = dimension_ == 2;
   const float t_near = limits.t_near, t_far = limits.t_far;
   // Where Embree has no native 16-wide packets (built without them, or a
   // CPU without AVX-512) rays are traced one at a time.

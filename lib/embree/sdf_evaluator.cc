@@ -59,39 +59,55 @@ class ControlGate {
   int64_t reported_ = 0;
 };
 
-// The smallest barycentric coordinate of the hit (its corners only) and
-// the tolerance on it: 2^-16 of the coordinates' magnitude (`reach` + t) over
-// the primitive's size, 64 times single-precision rounding.
-struct EdgeMargin {
-  double t, min_lambda, tolerance;
+// Where a ray meets a primitive's plane: the distance t and how far the
+// point lies inside the primitive (in its plane, the smallest distance to
+// an edge; negative outside).
+struct PlaneHit {
+  double t, inside;
 };
-bool Margin(const PrimitiveCorners& pc, const Vec3& x, const Vec3& d,
-            double reach, EdgeMargin* out) {
+bool HitPlane(const PrimitiveCorners& pc, const Vec3& x, const Vec3& d,
+              PlaneHit* out) {
   HitGeometry h;
   if (!EvaluateHit(pc, x, d, &h)) return false;
-  const int corners = pc.segment ? 2 : 3;
   out->t = h.t;
-  out->min_lambda = *std::min_element(h.lambda, h.lambda + corners);
-  const double size = pc.segment ? std::sqrt(Dot(h.m, h.m))
-                                 : std::sqrt(std::sqrt(Dot(h.m, h.m)));
-  out->tolerance = (reach + h.t) * 0x1p-16 / size;
+  if (pc.segment) {
+    const double length = std::sqrt(Dot(h.m, h.m));
+    out->inside = std::min(h.lambda[0], h.lambda[1]) * length;
+    return true;
+  }
+  // lambda_i times the altitude over the edge opposite corner i.
+  const double area2 = std::sqrt(Dot(h.m, h.m));
+  const Vec3 corner[3] = {pc.a, pc.b, pc.c};
+  out->inside = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 e = corner[(i + 2) % 3] - corner[(i + 1) % 3];
+    out->inside =
+        std::min(out->inside, h.lambda[i] * area2 / std::sqrt(Dot(e, e)));
+  }
   return true;
 }
 
 // The hit of a ray among its candidates (SPEC §3, §4), in double
-// precision: a primitive that contains the hit point (all barycentric
-// coordinates >= 0) before one that does not, then the smallest distance,
-// then the lower primitive index. Where a candidate is hit within its
-// tolerance of its boundary, the primitives around its corners that the ray
-// hits within theirs are candidates too, so that the pick does not depend on
-// which side of a shared edge Embree's single-precision test put the ray (it
-// may differ between BVHs). A distance that is not a positive number (a ray
-// along the primitive's plane) is picked only when no candidate has one. -1
-// when there is no candidate; `t` receives the distance (NaN for none).
+// precision: a primitive that contains the hit point before one that does
+// not, then the smallest distance, then the lower primitive index. Where
+// Embree hit a candidate near its boundary (HitCandidates::Entry::edge),
+// the primitives around its corners are candidates too when the ray meets
+// them within `slack` of their boundary and within `slack` of the closest
+// candidate's distance (slack = 2^-16 of the coordinates' magnitude,
+// `reach` + t): then the pick does not depend on which side of a shared
+// edge Embree's single-precision test put the ray (it may differ between
+// BVHs). A distance that is not a positive number (a ray along the
+// primitive's plane) is picked only when no candidate has one. -1 when there
+// is no candidate; `t` receives the distance (NaN for none).
 int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
                     absl::Span<const int32_t> excluded, double t_min,
                     double reach, const Vec3& x, const Vec3& d,
                     std::vector<int32_t>* around, double* t) {
+  // The common case: one candidate, well inside.
+  if (c.count() == 1 && !c[0].edge) {
+    *t = HitDistance(g.Corners(c[0].prim), x, d);
+    return c[0].prim;
+  }
   int32_t best = -1;
   bool best_inside = false;
   *t = kNaN;
@@ -111,14 +127,16 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
     }
   };
   around->clear();
+  double closest = std::numeric_limits<double>::infinity();
   for (int i = 0; i < c.count(); ++i) {
-    EdgeMargin m;
-    if (!Margin(g.Corners(c[i].prim), x, d, reach, &m)) {
+    PlaneHit h;
+    if (!HitPlane(g.Corners(c[i].prim), x, d, &h)) {
       consider(c[i].prim, kNaN, false);
       continue;
     }
-    consider(c[i].prim, m.t, m.min_lambda >= 0);
-    if (m.min_lambda >= m.tolerance) continue;
+    consider(c[i].prim, h.t, h.inside >= 0);
+    closest = std::min(closest, h.t);
+    if (!c[i].edge) continue;
     for (int32_t v : g.topology().primitives[c[i].prim].v) {
       if (v < 0) continue;
       for (int32_t q : g.topology().vertex_primitives.Of(v)) {
@@ -129,14 +147,16 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
   if (around->empty()) return best;
   std::sort(around->begin(), around->end());
   around->erase(std::unique(around->begin(), around->end()), around->end());
+  const double slack = (reach + closest) * 0x1p-16;
   for (int32_t q : *around) {
     if (std::binary_search(excluded.begin(), excluded.end(), q)) continue;
     bool listed = false;
     for (int i = 0; i < c.count(); ++i) listed |= c[i].prim == q;
-    EdgeMargin m;
-    if (listed || !Margin(g.Corners(q), x, d, reach, &m)) continue;
-    if (m.t >= t_min && m.min_lambda >= -m.tolerance) {
-      consider(q, m.t, m.min_lambda >= 0);
+    PlaneHit h;
+    if (listed || !HitPlane(g.Corners(q), x, d, &h)) continue;
+    if (h.t >= t_min && std::abs(h.t - closest) <= slack &&
+        h.inside >= -slack) {
+      consider(q, h.t, h.inside >= 0);
     }
   }
   return best;
@@ -196,6 +216,9 @@ struct SdfEvaluator::ReusePlan {
   std::vector<uint8_t> dirty;
   std::vector<uint8_t> moved_primitive;
   std::unique_ptr<MovedBoxes> boxes;
+  // A sphere around the boxes (tracer coordinates); radius 0 for none.
+  Vec3 sphere_centre;
+  double sphere_radius = 0;
   bool t_min_changed = false, t_max_changed = false;
   double t_max_both = 0;  // min of the old and new miss distances.
 };
@@ -213,6 +236,7 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
       std::ssize(h.positions) == nv && std::ssize(h.near) == nv &&
       std::ssize(r.values) == nv &&
       std::ssize(h.primitives) == nv * std::ssize(cone) &&
+      h.num_primitives == std::ssize(topo_.primitives) &&
       h.scene_origin == scene_->origin() &&
       h.extrude_half_height == scene_->extrude_half_height() &&
       h.t_near == t_near;
@@ -247,9 +271,11 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
     reach = std::max(
         {reach, std::abs(p.x - o.x), std::abs(p.y - o.y), std::abs(p.z - o.z)});
   }
-  const double slack = reach * 0x1p-16;
+  // 4 times the most PickClosest lets a neighbour's plane hit lie outside it.
+  const double slack = reach * 0x1p-14;
   const double z = mesh_.dimension == 2 ? scene_->extrude_half_height() : 0;
   std::vector<Box> boxes;
+  Box all{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
   for (size_t q = 0; q < plan->moved_primitive.size(); ++q) {
     if (!plan->moved_primitive[q]) continue;
     Box b{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
@@ -266,6 +292,16 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
     b.lo = b.lo - Vec3(slack, slack, slack);
     b.hi = b.hi + Vec3(slack, slack, slack);
     boxes.push_back(b);
+    // The sphere around them all (in 2D in the rays' plane z = 0).
+    all.lo = Vec3(std::min(all.lo.x, b.lo.x), std::min(all.lo.y, b.lo.y),
+                  std::min(all.lo.z, b.lo.z + z));
+    all.hi = Vec3(std::max(all.hi.x, b.hi.x), std::max(all.hi.y, b.hi.y),
+                  std::max(all.hi.z, b.hi.z - z));
+  }
+  if (!boxes.empty()) {
+    plan->sphere_centre = (all.lo + all.hi) * 0.5;
+    const Vec3 half = (all.hi - all.lo) * 0.5;
+    plan->sphere_radius = std::sqrt(Dot(half, half));
   }
   auto made = MovedBoxes::Create(std::move(boxes));
   if (!made.ok()) return made.status();
@@ -381,15 +417,15 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         const int32_t* old_row = plan->hits->Row(p).data();
         const MovedBoxes& boxes = *plan->boxes;
         // Can the cone reach the moved primitives' boxes at all?
-        const Vec3 to = boxes.centre() - (x - scene_->origin());
+        const Vec3 to = plan->sphere_centre - (x - scene_->origin());
         const double dist = std::sqrt(Dot(to, to));
-        bool cone_reaches = boxes.radius() > 0;
-        if (cone_reaches && dist > boxes.radius()) {
+        const double radius = plan->sphere_radius;
+        bool cone_reaches = radius > 0;
+        if (cone_reaches && dist > radius) {
           const double axis_angle =
               std::acos(std::clamp(Dot(vc.frame.axis, to) / dist, -1.0, 1.0));
-          cone_reaches = axis_angle <= cone_half_angle +
-                                           std::asin(boxes.radius() / dist) +
-                                           1e-6;
+          cone_reaches =
+              axis_angle <= cone_half_angle + std::asin(radius / dist) + 1e-6;
         }
         // Far from every moved primitive: only a moved hit changes.
         const bool only_moved_hits = !cone_reaches && !plan->t_max_changed;
@@ -509,6 +545,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     hits->scene_origin = scene_->origin();
     hits->extrude_half_height = scene_->extrude_half_height();
     hits->t_near = limits.t_near;
+    hits->num_primitives = std::ssize(topo_.primitives);
   }
   return result;
 }

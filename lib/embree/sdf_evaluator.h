@@ -54,12 +54,13 @@ class SdfEvaluator : public MeshGeometry {
 
   // Computes SDF values for every vertex (SPEC §3-5). When `hits` is not
   // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
-  // K). Const and thread-safe: concurrent Computes on one evaluator are fine;
+  // K and 25 x #V). Const and thread-safe: concurrent Computes on one evaluator are fine;
   // UpdatePositions must not run concurrently with anything.
   // With `previous` (a pass of this evaluator with the same parameters
   // whose hit table was kept), only the rays whose hit may have changed
   // since are traced (docs/numerics.md, "Incremental passes"); the result
-  // and hit table are the full pass's, bit for bit, and rays_traced counts
+  // and the hit table's primitives and kept flags are the full pass's, bit
+  // for bit, and rays_traced counts
   // the rays traced. A previous pass that does not fit (other parameters,
   // another frame of the ray tracer, over half the vertices moved) gives a
   // full pass.
