@@ -30,8 +30,8 @@ struct SessionRecord {
   Mesh mesh;  // with the current positions (generation info.generation).
   // BVH base: the BVH of generation g is built at the positions of
   // generation base_generation = g - g % rebuild_every_updates and refitted
-  // to the current ones, whichever replica serves it (so results are bit
-  // for bit the same on every replica).
+  // to the current ones, whichever replica serves it (values do not depend
+  // on the BVH; this keeps its quality the same on every replica).
   int64_t base_generation = 0;
   std::vector<Vec3> base_positions;  // empty when base == current.
 };
