@@ -13,8 +13,10 @@
 #include "lib/core/sensitivity.h"
 #include "lib/core/thin_regions.h"
 #include "lib/embree/calibration.h"
+#include "lib/embree/gradcheck.h"
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
+#include "proto/wire/gradcheck_convert.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
@@ -50,6 +52,11 @@ const char* CodeName(grpc::StatusCode code) {
 
 int64_t PassBytes(const CachedPass& p) {
   return p.hits.Bytes() + std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4);
+}
+
+int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
+  return ev.mesh().num_vertices() *
+         int64_t{ResolveParams(params, ev.mesh().dimension).rays};
 }
 
 double Seconds(std::chrono::steady_clock::time_point start) {
@@ -140,12 +147,9 @@ ComputeControl MeshGaugeService::Control(grpc::ServerContext* ctx) const {
   return control;
 }
 
+template <typename Response>
 std::function<void(int64_t, int64_t)> MeshGaugeService::ProgressWriter(
-    const Prepared& prep, grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
-  const SdfEvaluator& ev = *prep.reader.evaluator;
-  const int64_t rays_total =
-      ev.mesh().num_vertices() *
-      int64_t{ResolveParams(prep.params, ev.mesh().dimension).rays};
+    int64_t rays_total, grpc::ServerWriter<Response>* writer) {
   // The evaluator serialises progress calls; at most one write every
   // kProgressInterval, and the last one.
   auto last = std::make_shared<std::chrono::steady_clock::time_point>();
@@ -153,7 +157,7 @@ std::function<void(int64_t, int64_t)> MeshGaugeService::ProgressWriter(
     const auto now = std::chrono::steady_clock::now();
     if (done < total && now - *last < kProgressInterval) return;
     *last = now;
-    v1::ComputeSdfResponse msg;
+    Response msg;
     v1::SdfProgress* p = msg.mutable_progress();
     p->set_vertices_done(done);
     p->set_vertices_total(total);
@@ -410,7 +414,8 @@ grpc::Status MeshGaugeService::ComputeSdf(
         if (!prep.ok()) return prep.status();
         ComputeControl control = Control(ctx);
         if (request->report_progress()) {
-          control.progress = ProgressWriter(*prep, writer);
+          control.progress = ProgressWriter(
+              FullPassRays(*prep->reader.evaluator, prep->params), writer);
         }
         auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
                                control);
@@ -644,6 +649,64 @@ grpc::Status MeshGaugeService::GetMesh(grpc::ServerContext* ctx,
           return s;
         }
         wire::ToWire(mesh, reader->generation(), response);
+        return absl::OkStatus();
+      });
+}
+
+grpc::Status MeshGaugeService::GradCheck(
+    grpc::ServerContext* ctx, const v1::GradCheckRequest* request,
+    grpc::ServerWriter<v1::GradCheckResponse>* writer) {
+  return Instrumented(
+      "GradCheck", ctx, [&](const std::string& tenant) -> absl::Status {
+        const auto start = std::chrono::steady_clock::now();
+        auto options = wire::GradCheckFromWire(*request);
+        if (!options.ok()) return options.status();
+        auto prep = Prepare(tenant, request->session_id(), request->params(),
+                            request->has_expected_generation(),
+                            request->expected_generation());
+        if (!prep.ok()) return prep.status();
+        const int64_t generation = prep->reader.generation();
+        const Mesh& mesh = prep->reader.evaluator->mesh();
+        const int64_t full_pass_rays =
+            FullPassRays(*prep->reader.evaluator, prep->params);
+        // The probes move the vertices of a private evaluator: its memory is
+        // claimed before it is made.
+        auto claim =
+            store_->ClaimScratch(tenant, prep->session,
+                                 Session::EstimateBaseBytes(mesh) +
+                                     GradCheckWorkBytes(mesh, prep->params));
+        if (!claim.ok()) return claim.status();
+        auto ev = SdfEvaluator::Create(mesh);
+        prep->reader.lock.unlock();  // updates of the session go on.
+        if (!ev.ok()) return ev.status();
+        ComputeControl control = Control(ctx);
+        if (request->report_progress()) {
+          // Progress counts the vertices of every pass of the check.
+          const int64_t passes =
+              1 + 2 * int64_t{(*ev)->mesh().dimension} *
+                      (options->vertices.empty()
+                           ? std::min<int64_t>(options->samples,
+                                               (*ev)->mesh().num_vertices())
+                           : std::ssize(options->vertices));
+          control.progress = ProgressWriter(passes * full_pass_rays, writer);
+        }
+        auto rep = RunGradCheck(**ev, prep->params, *options, control);
+        if (!rep.ok()) return Interrupted(ctx, rep.status());
+        metrics_->AddRays(static_cast<double>(rep->rays_traced));
+        v1::GradCheckResponse msg;
+        wire::ToWire(*rep, generation, msg.mutable_report());
+        msg.mutable_report()->set_seconds(Seconds(start));
+        const int64_t bytes = static_cast<int64_t>(msg.ByteSizeLong());
+        if (bytes > options_.max_message_bytes) {
+          return absl::ResourceExhaustedError(absl::StrCat(
+              "the report of ", rep->rows.size(), " entries takes ", bytes,
+              " bytes, over the server's message limit of ",
+              options_.max_message_bytes,
+              " bytes (--max_message_bytes); ask for fewer samples"));
+        }
+        if (!writer->Write(msg)) {
+          return absl::CancelledError("client went away before the report");
+        }
         return absl::OkStatus();
       });
 }

@@ -65,6 +65,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                        const v1::GetMeshRequest* request,
                        v1::GetMeshResponse* response) override;
 
+  grpc::Status GradCheck(
+      grpc::ServerContext* ctx, const v1::GradCheckRequest* request,
+      grpc::ServerWriter<v1::GradCheckResponse>* writer) override;
+
   // From now on every new call fails UNAVAILABLE ("draining"); returns when
   // the calls in flight have finished or at `deadline`.
   void Drain(std::chrono::system_clock::time_point deadline);
@@ -93,10 +97,11 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                                    bool has_expected_generation,
                                    int64_t expected_generation);
   ComputeControl Control(grpc::ServerContext* ctx) const;
-  // A ComputeControl::progress that streams SdfProgress messages of the
-  // prepared pass to `writer` (report_progress).
+  // A ComputeControl::progress that streams SdfProgress messages (with
+  // `rays_total`) to `writer` (report_progress).
+  template <typename Response>
   static std::function<void(int64_t, int64_t)> ProgressWriter(
-      const Prepared& prep, grpc::ServerWriter<v1::ComputeSdfResponse>* writer);
+      int64_t rays_total, grpc::ServerWriter<Response>* writer);
   absl::Status Interrupted(grpc::ServerContext* ctx, absl::Status s) const;
   // Authenticates, runs body(tenant), records the RPC's code and latency.
   template <typename Body>

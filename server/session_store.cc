@@ -511,6 +511,45 @@ void SessionStore::Sweep() {
   PublishLocked();
 }
 
+ScratchClaim::~ScratchClaim() {
+  store_->ReleaseScratch(session_.get(), bytes_);
+}
+
+absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionStore::ClaimScratch(
+    const std::string& tenant, std::shared_ptr<Session> session,
+    int64_t bytes) {
+  const int64_t budget =
+      std::min(options_.memory_budget_bytes, options_.BudgetPerTenant());
+  if (session->memory_bytes() + bytes > budget) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the session and this computation's scratch memory (a private copy "
+        "of the mesh and its passes) need about ",
+        session->memory_bytes() + bytes,
+        " bytes, more than the memory budget of ", budget,
+        " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant); "
+        "use fewer rays"));
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  if (absl::Status s = CheckBytesLocked(tenant, bytes); !s.ok()) return s;
+  session->AddScratchBytes(bytes);
+  const bool fits = MakeRoomLocked(session.get(), &tenant);
+  if (!fits) session->AddScratchBytes(-bytes);
+  PublishLocked();
+  if (!fits) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the computation needs about ", bytes,
+        " bytes of scratch memory, which the server's memory budget cannot "
+        "hold now (other tenants' sessions fill it); retry later"));
+  }
+  return std::make_unique<ScratchClaim>(this, std::move(session), bytes);
+}
+
+void SessionStore::ReleaseScratch(Session* session, int64_t bytes) {
+  std::lock_guard<std::mutex> lock(mu_);
+  session->AddScratchBytes(-bytes);
+  PublishLocked();
+}
+
 void SessionStore::EnforceBudget(const Session* keep) {
   std::lock_guard<std::mutex> lock(mu_);
   MakeRoomLocked(keep);

@@ -71,6 +71,23 @@ class UploadReservation {
   int64_t arrived_ = 0;
 };
 
+// A computation's memory beyond its session's (a gradcheck's private copy
+// of the mesh and its passes), accounted to the session while it lives.
+class ScratchClaim {
+ public:
+  ScratchClaim(SessionStore* store, std::shared_ptr<Session> session,
+               int64_t bytes)
+      : store_(store), session_(std::move(session)), bytes_(bytes) {}
+  ScratchClaim(const ScratchClaim&) = delete;
+  ScratchClaim& operator=(const ScratchClaim&) = delete;
+  ~ScratchClaim();
+
+ private:
+  SessionStore* store_;
+  std::shared_ptr<Session> session_;
+  int64_t bytes_;
+};
+
 class SessionStore {
  public:
   // options, metrics, clock and records (null: in memory) must outlive the
@@ -119,6 +136,15 @@ class SessionStore {
       const std::string& tenant, const std::string& page_token, int page_size,
       std::string* next_token);
 
+  // Accounts `bytes` of a computation's scratch memory to `session` (of
+  // `tenant`) until the claim is destroyed. Evicts by the upload rule (only
+  // from the tenant holding the most bytes, never `session`). Errors:
+  // RESOURCE_EXHAUSTED, nothing claimed, when the bytes exceed the tenant's
+  // budget or the server's even after eviction.
+  absl::StatusOr<std::unique_ptr<ScratchClaim>> ClaimScratch(
+      const std::string& tenant, std::shared_ptr<Session> session,
+      int64_t bytes);
+
   // Evicts sessions idle longer than the TTL.
   void Sweep();
   // Evicts (never `keep`; see the top of this file) while the accounted
@@ -131,6 +157,8 @@ class SessionStore {
 
  private:
   friend class UploadReservation;
+  friend class ScratchClaim;
+  void ReleaseScratch(Session* session, int64_t bytes);
   using Key = std::pair<std::string, std::string>;  // (tenant, id).
   using Map = std::map<Key, std::shared_ptr<Session>>;
   void Release(UploadReservation* r);

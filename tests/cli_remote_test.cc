@@ -158,6 +158,21 @@ TEST_F(CliRemoteTest, PenaltyAndConstraintAreTheLocalOnes) {
                     {});
 }
 
+// The server runs the probes (GradCheck): the same table, counts and
+// verdict; its own limits are the server's errors.
+TEST_F(CliRemoteTest, GradcheckIsTheLocalOne) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string text =
+      ExpectSameOutputs("gradcheck", knight, "--rays 20 --samples 4", {});
+  EXPECT_THAT(text, HasSubstr("verdict: PASS"));
+  ExpectSameOutputs("gradcheck", knight,
+                    "--rays 20 --samples 3 --t-min 0.3 --form ks --json", {});
+  const CliRun refused = RunCliStderr("remote gradcheck " + knight +
+                                      " --samples 1001 --server " + target_);
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_THAT(refused.out, HasSubstr("samples must be in [1, 1000]"));
+}
+
 TEST_F(CliRemoteTest, CalibrateIsTheLocalOne) {
   const std::string knight = SharedMesh("decimated-knight.off");
   ExpectSameOutputs("calibrate", knight, "--t-min 0.2 --rays 20", {});

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "lib/core/shapes.h"
 #include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
 
@@ -60,6 +61,26 @@ TEST(GradCheckTest, TooFewCheckableEntriesIsInconclusiveAndAWrongOneFails) {
   rep.passed = 8;
   rep.vjp_checks = 1;  // a VJP check that failed.
   EXPECT_EQ(rep.Verdict(), GradCheckVerdict::kFail);
+}
+
+// On a caller's evaluator the probed vertices are put back, also when the
+// check is cancelled between a probe's two passes.
+TEST(GradCheckTest, TheEvaluatorEndsAtItsPositionsEvenWhenCancelled) {
+  const Mesh sphere = MakeIcosphere(1, 4);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  SdfParams params;
+  params.rays = 10;
+  auto rep = RunGradCheck(**ev, params, {.samples = 2});
+  ASSERT_TRUE(rep.ok()) << rep.status();
+  EXPECT_EQ((*ev)->mesh().positions, sphere.positions);
+  EXPECT_GE((*ev)->generation(), 2 * 3 * 3);  // +h, -h and back per probe.
+  ComputeControl control;
+  int64_t asked = 0;
+  control.cancelled = [&] { return ++asked > 40; };
+  auto cancelled = RunGradCheck(**ev, params, {.samples = 2}, control);
+  EXPECT_EQ(cancelled.status().code(), absl::StatusCode::kCancelled);
+  EXPECT_EQ((*ev)->mesh().positions, sphere.positions);
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 
 #include "absl/strings/str_replace.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/gradcheck.h"
 #include "server/auth.h"
 #include "tests/server_test_util.h"
 #include "tests/tls_test_util.h"
@@ -123,6 +124,8 @@ TEST_F(SecurityTest, TenantsNeverSeeEachOthersSessions) {
     EXPECT_EQ(Code(bob_->UpdatePositions(id, 0, 3, moved)),
               absl::StatusCode::kNotFound);
     EXPECT_EQ(Code(bob_->Delete(id)), absl::StatusCode::kNotFound);
+    EXPECT_EQ(Code(bob_->GradCheck(id, SdfParams{}, {.samples = 1})),
+              absl::StatusCode::kNotFound);
   }
   auto missing = bob_->Get("nobody-has-this");
   auto theirs = bob_->Get("shared-name");
@@ -179,6 +182,39 @@ TEST_F(SecurityTest, ATenantFillingTheBudgetEvictsItsOwnSessionsFirst) {
   EXPECT_EQ(Code(bob_->Get("b2")), absl::StatusCode::kNotFound);
   EXPECT_TRUE(bob_->Get("b3").ok());
   EXPECT_TRUE(bob_->Get("b4").ok());
+}
+
+// A gradcheck's scratch memory counts as its tenant's: room is made from
+// the tenant holding the most (here bob, the caller), never from a smaller
+// tenant; when bob has nothing left to give, the check is refused.
+TEST_F(SecurityTest, AGradCheckNeverEvictsASmallerTenant) {
+  const Mesh sphere = MakeIcosphere(1, 10);
+  const int64_t base = server::Session::EstimateBaseBytes(sphere);
+  const int64_t scratch = base + GradCheckWorkBytes(sphere, SdfParams{});
+  server::ServerOptions o = options_;
+  o.memory_budget_bytes = 2 * base + scratch + base / 2;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "old").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "k").ok());
+  ASSERT_EQ(Code(alice_->Get("a")), absl::StatusCode::kOk);
+  // Bob's check fits once bob's older session is evicted.
+  auto checked = bob_->GradCheck("k", SdfParams{}, {.samples = 1});
+  EXPECT_TRUE(checked.ok()) << checked.status();
+  EXPECT_EQ(Code(bob_->Get("old")), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(alice_->Get("a").ok());
+  // Now bob has only the session checked: alice's is not taken instead.
+  clock_.Advance(1);
+  ASSERT_TRUE(alice_->Upload(sphere, "a2").ok());
+  auto refused = bob_->GradCheck("k", SdfParams{}, {.samples = 1});
+  EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
+  EXPECT_TRUE(alice_->Get("a").ok());
+  EXPECT_TRUE(alice_->Get("a2").ok());
+  EXPECT_TRUE(bob_->Get("k").ok());
 }
 
 // Data of an upload in flight counts as its tenant's: bob's upload evicts

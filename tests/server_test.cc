@@ -9,6 +9,7 @@
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
@@ -23,6 +24,29 @@ using testing::RawUpload;
 using testing::SameBits;
 
 Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
+
+// The value of an unlabelled counter or gauge in Prometheus text.
+double MetricValue(const std::string& text, const std::string& name) {
+  const size_t at = text.find("\n" + name + " ");
+  if (at == std::string::npos) return 0;
+  return std::stod(text.substr(at + name.size() + 2));
+}
+
+void ExpectSameRows(const std::vector<GradCheckRow>& a,
+                    const std::vector<GradCheckRow>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].row, b[i].row);
+    EXPECT_EQ(a[i].vertex, b[i].vertex);
+    EXPECT_EQ(a[i].coordinate, b[i].coordinate);
+    EXPECT_TRUE(SameBits({a[i].analytic, a[i].fd, a[i].relative_error,
+                          a[i].step, a[i].measure_part},
+                         {b[i].analytic, b[i].fd, b[i].relative_error,
+                          b[i].step, b[i].measure_part}))
+        << "entry " << i;
+    EXPECT_EQ(a[i].clean, b[i].clean);
+  }
+}
 
 class ServerTest : public testing::ServerFixture {};
 
@@ -249,6 +273,120 @@ TEST_F(ServerTest, AnUpdatedSessionMatchesAFreshUploadOfItsPositions) {
   EXPECT_GT(a->result.rays_traced, 0);
   EXPECT_LT(a->result.rays_traced, b->result.rays_traced / 2);
   EXPECT_FALSE(a->facts.reused_hits);
+  // Prometheus counts the rays traced: two full passes and the incremental
+  // one.
+  EXPECT_EQ(MetricValue(metrics_.Text(), "meshgauge_rays_traced_total"),
+            2 * b->result.rays_traced + a->result.rays_traced);
+}
+
+// GradCheck checks the session's current generation (after an update) and
+// reports what the library reports at those positions, bit for bit; it
+// streams progress when asked, counts its rays and leaves the session (its
+// generation, cached pass and memory) as it was.
+TEST_F(ServerTest, GradCheckChecksTheCurrentPositionsAndLeavesTheSession) {
+  const Mesh knight = Knight();
+  ASSERT_TRUE(client_->Upload(knight, "g").ok());
+  Mesh moved = knight;
+  std::vector<int32_t> indices = testing::Patch(knight, 7, 0.1);
+  std::vector<Vec3> to;
+  for (int32_t v : indices) {
+    moved.positions[v] += Vec3(0.004, -0.002, 0.003);
+    to.push_back(moved.positions[v]);
+  }
+  ASSERT_TRUE(client_->UpdatePositions("g", 0, 3, to, indices).ok());
+  SdfParams params;
+  params.rays = 30;
+  auto before = client_->ComputeSdf("g", params);
+  ASSERT_TRUE(before.ok()) << before.status();
+  const int64_t memory = client_->Get("g")->memory_bytes;
+  GradCheckOptions options;
+  options.samples = 4;
+  options.penalty = PenaltyParams{.t_min = 0.3};
+  const double rays_before =
+      MetricValue(metrics_.Text(), "meshgauge_rays_traced_total");
+  int64_t calls = 0, done = 0, total = 0;
+  auto remote =
+      client_->GradCheck("g", params, options, [&](int64_t d, int64_t t) {
+        ++calls;
+        EXPECT_GE(d, done);
+        done = d;
+        total = t;
+      });
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  auto local = RunGradCheck(moved, params, options);
+  ASSERT_TRUE(local.ok()) << local.status();
+  EXPECT_EQ(remote->facts.generation, 1);
+  ExpectSameRows(remote->report.rows, local->rows);
+  ExpectSameRows(remote->report.penalty_rows, local->penalty_rows);
+  EXPECT_FALSE(local->rows.empty());
+  EXPECT_FALSE(local->penalty_rows.empty());
+  EXPECT_EQ(remote->report.Verdict(), GradCheckVerdict::kPass);
+  EXPECT_EQ(remote->report.vjp_checks, local->vjp_checks);
+  EXPECT_EQ(remote->report.rays_traced, local->rays_traced);
+  EXPECT_EQ(remote->report.retried, local->retried);
+  EXPECT_EQ(remote->report.max_abs_derivative, local->max_abs_derivative);
+  EXPECT_EQ(
+      MetricValue(metrics_.Text(), "meshgauge_rays_traced_total") - rays_before,
+      local->rays_traced);
+  EXPECT_GE(calls, 1);
+  EXPECT_EQ(done, total);
+  EXPECT_EQ(total, (1 + 2 * 3 * 4) * knight.num_vertices());
+  auto after = client_->ComputeSdf("g", params);
+  ASSERT_TRUE(after.ok());
+  EXPECT_EQ(after->facts.generation, 1);
+  EXPECT_TRUE(after->facts.reused_hits);
+  EXPECT_TRUE(SameBits(after->result.values, before->result.values));
+  EXPECT_EQ(client_->Get("g")->memory_bytes, memory);
+}
+
+// Options, generation, session and normals are checked before anything is
+// computed (no ray is traced).
+TEST_F(ServerTest, GradCheckRejectsBadOptionsBeforeTracing) {
+  ASSERT_TRUE(client_->Upload(Knight(), "g").ok());
+  auto code = [&](GradCheckOptions o, SdfParams p = {}) {
+    return client_->GradCheck("g", p, o).status().code();
+  };
+  EXPECT_EQ(code({.samples = 1001}), absl::StatusCode::kInvalidArgument);
+  GradCheckOptions many;
+  many.vertices.assign(1001, 0);
+  EXPECT_EQ(code(many), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code({.vertices = {502}}), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code({.relative_step = 0.5}), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code({.penalty = PenaltyParams{.t_min = -1}}),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code({}, SdfParams{.normal_weighting = NormalWeighting::kAngle}),
+            absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(client_->GradCheck("nope", {}, {}).status().code(),
+            absl::StatusCode::kNotFound);
+  v1::GradCheckRequest stale;
+  stale.set_session_id("g");
+  stale.set_expected_generation(3);
+  auto ctx = client_->Context("g");
+  auto reader = client_->stub().GradCheck(ctx.get(), stale);
+  v1::GradCheckResponse msg;
+  while (reader->Read(&msg)) {
+  }
+  EXPECT_EQ(reader->Finish().error_code(), grpc::StatusCode::ABORTED);
+  EXPECT_EQ(MetricValue(metrics_.Text(), "meshgauge_rays_traced_total"), 0);
+}
+
+// The private copy and its passes are claimed against the memory budget
+// before they are made: a check that cannot fit is RESOURCE_EXHAUSTED, and
+// the sessions (and their accounted memory) are as before.
+TEST_F(ServerTest, GradCheckOverTheMemoryBudgetIsRefusedBeforeComputing) {
+  server::ServerOptions o;
+  const Mesh knight = Knight();
+  o.memory_budget_bytes = 2 << 20;  // 8 knights; a check needs 4.3 MB.
+  RestartServer(o);
+  ASSERT_TRUE(client_->Upload(knight, "a").ok());
+  ASSERT_TRUE(client_->Upload(knight, "b").ok());
+  const int64_t memory = client_->Get("a")->memory_bytes;
+  auto refused = client_->GradCheck("a", {}, {.samples = 1});
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(refused.status().message(), HasSubstr("scratch memory"));
+  EXPECT_TRUE(client_->Get("b").ok());
+  EXPECT_EQ(client_->Get("a")->memory_bytes, memory);
+  EXPECT_EQ(MetricValue(metrics_.Text(), "meshgauge_rays_traced_total"), 0);
 }
 
 TEST_F(ServerTest, RebuildsAfterConfiguredNumberOfUpdates) {

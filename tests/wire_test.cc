@@ -12,6 +12,7 @@
 
 #include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
+#include "proto/wire/gradcheck_convert.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
@@ -300,6 +301,91 @@ namespace {
 
 // The C++ client compiles in the one service config file the Python client
 // ships: the same bytes.
+// Options and report of GradCheck: every field back as sent, doubles bit
+// for bit (values float32 would change); a verdict its counts contradict
+// and a coordinate out of range are DATA_LOSS.
+TEST(WireTest, GradCheckOptionsAndReportRoundTrip) {
+  GradCheckOptions o;
+  o.samples = 7;
+  o.seed = 0;  // a seed of 0 is sent, not replaced by the default.
+  o.vertices = {3, 1};
+  o.relative_step = 1.0000000000000002e-7;
+  o.tolerance = 3e-6;
+  o.min_clean_fraction = 0.75;
+  o.penalty =
+      PenaltyParams{.t_min = 0.1 + 1e-12, .form = PenaltyForm::kKs, .rho = 30};
+  v1::GradCheckRequest req;
+  wire::ToWire(o, &req);
+  auto back = wire::GradCheckFromWire(req);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->samples, 7);
+  EXPECT_EQ(back->seed, 0u);
+  EXPECT_EQ(back->vertices, o.vertices);
+  EXPECT_EQ(back->relative_step, o.relative_step);
+  EXPECT_EQ(back->tolerance, o.tolerance);
+  EXPECT_EQ(back->min_clean_fraction, 0.75);
+  ASSERT_TRUE(back->penalty.has_value());
+  EXPECT_EQ(back->penalty->t_min, o.penalty->t_min);
+  EXPECT_EQ(back->penalty->form, PenaltyForm::kKs);
+  EXPECT_EQ(back->penalty->rho, 30);
+  // Unset fields take the library's defaults.
+  auto defaults = wire::GradCheckFromWire(v1::GradCheckRequest());
+  ASSERT_TRUE(defaults.ok());
+  const GradCheckOptions library;
+  EXPECT_EQ(defaults->samples, library.samples);
+  EXPECT_EQ(defaults->seed, library.seed);
+  EXPECT_EQ(defaults->relative_step, library.relative_step);
+  EXPECT_EQ(defaults->tolerance, library.tolerance);
+  EXPECT_EQ(defaults->min_clean_fraction, library.min_clean_fraction);
+  EXPECT_FALSE(defaults->penalty.has_value());
+
+  GradCheckReport rep;
+  rep.rows.push_back({.row = 4,
+                      .vertex = 9,
+                      .coordinate = 2,
+                      .analytic = 0.1 + 1e-15,
+                      .fd = 0.1 + 2e-15,
+                      .relative_error = 1e-14,
+                      .clean = true,
+                      .step = 1.0000000000000002e-8});
+  rep.penalty_rows.push_back({.row = -1,
+                              .vertex = 9,
+                              .coordinate = 1,
+                              .analytic = 1.0 / 3,
+                              .fd = 1.0 / 3,
+                              .clean = true,
+                              .measure_part = 1e-300});
+  rep.clean = rep.passed = 1;
+  rep.penalty_clean = rep.penalty_passed = 1;
+  rep.rays_traced = 123456789012;
+  rep.retried = 2;
+  v1::GradCheckReport w;
+  wire::ToWire(rep, 5, &w);
+  EXPECT_EQ(w.generation(), 5);
+  EXPECT_EQ(w.verdict(), v1::GRAD_CHECK_VERDICT_PASS);
+  auto got = wire::FromWire(w);
+  ASSERT_TRUE(got.ok()) << got.status();
+  ASSERT_EQ(got->rows.size(), 1u);
+  EXPECT_EQ(got->rows[0].analytic, rep.rows[0].analytic);
+  EXPECT_EQ(got->rows[0].fd, rep.rows[0].fd);
+  EXPECT_EQ(got->rows[0].step, rep.rows[0].step);
+  EXPECT_EQ(got->rows[0].coordinate, 2);
+  ASSERT_EQ(got->penalty_rows.size(), 1u);
+  EXPECT_EQ(got->penalty_rows[0].analytic, 1.0 / 3);
+  EXPECT_EQ(got->penalty_rows[0].measure_part, 1e-300);
+  EXPECT_EQ(got->rays_traced, rep.rays_traced);
+  EXPECT_EQ(got->retried, 2);
+  EXPECT_EQ(got->Verdict(), GradCheckVerdict::kPass);
+
+  v1::GradCheckReport lying = w;
+  lying.set_passed(0);  // a clean entry out of tolerance: FAIL, not PASS.
+  EXPECT_EQ(wire::FromWire(lying).status().code(), absl::StatusCode::kDataLoss);
+  v1::GradCheckReport bad_axis = w;
+  bad_axis.mutable_rows(0)->set_coordinate(3);
+  EXPECT_EQ(wire::FromWire(bad_axis).status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
 TEST(ServiceConfigTest, TheCompiledConfigIsTheFileNextToTheProto) {
   std::ifstream in(std::string(MESHGAUGE_SOURCE_DIR) +
                    "/proto/meshgauge/v1/service_config.json");

@@ -13,6 +13,7 @@
 #include "absl/status/statusor.h"
 #include "client/cli/cli_flags.h"
 #include "lib/core/calibration_types.h"
+#include "lib/core/gradcheck_types.h"
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
@@ -61,6 +62,11 @@ class Backend {
   // Both passes of SPEC §8 (the report's per-vertex arrays may be empty).
   virtual absl::StatusOr<CalibrationReport> Calibrate(
       const CalibrationParams& params) = 0;
+  // The SPEC §6 finite-difference check at the mesh's positions (remotely
+  // run by the server); control.progress, if set, follows all its passes.
+  virtual absl::StatusOr<GradCheckReport> GradCheck(
+      const SdfParams& params, const GradCheckOptions& options,
+      const ComputeControl& control) = 0;
 };
 
 // Makes the backend of a loaded, validated mesh.

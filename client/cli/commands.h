@@ -59,7 +59,8 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& report,
 // derivatives (SPEC §6), and of the penalty with --t-min; FailedPrecondition
 // (exit 1) on FAIL.
 absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
-                          const PenaltyFlags& penalty);
+                          const PenaltyFlags& penalty,
+                          const BackendFactory& make);
 
 // meshgauge shape KIND --out FILE: writes an analytic test shape (OBJ; 2D
 // shapes as `l` polylines).

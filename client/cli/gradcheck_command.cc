@@ -7,7 +7,7 @@
 #include "absl/strings/str_format.h"
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
-#include "lib/embree/gradcheck.h"
+#include "client/cli/progress_bar.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -45,9 +45,8 @@ void PrintTable(const GradCheckReport& rep, double tolerance) {
 }  // namespace
 
 absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
-                          const PenaltyFlags& penalty_flags) {
-  auto params = ToSdfParams(in.sdf);
-  if (!params.ok()) return params.status();
+                          const PenaltyFlags& penalty_flags,
+                          const BackendFactory& make) {
   GradCheckOptions options;
   options.samples = check.samples;
   options.seed = check.seed;
@@ -57,20 +56,20 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     if (!penalty.ok()) return penalty.status();
     options.penalty = *penalty;
   }
-  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
-  if (!loaded.ok()) return loaded.status();
-  for (const std::string& w : loaded->warnings) {
-    std::cerr << "meshgauge: warning: " << w << "\n";
-  }
-  const int64_t rays = ResolveParams(*params, loaded->mesh.dimension).rays;
+  auto opened = Open(in, make, /*print_warnings=*/true);
+  if (!opened.ok()) return opened.status();
+  const Mesh& mesh = opened->loaded.mesh;
+  const int64_t rays = ResolveParams(opened->params, mesh.dimension).rays;
   ProgressBar bar(
       absl::StrCat(
           "gradcheck: ",
-          1 + 2 * loaded->mesh.dimension *
-                  std::min<int64_t>(check.samples, loaded->mesh.num_vertices()),
-          " passes of ", loaded->mesh.num_vertices() * rays, " rays"),
+          1 + 2 * mesh.dimension *
+                  std::min<int64_t>(check.samples, mesh.num_vertices()),
+          " passes of ", mesh.num_vertices() * rays, " rays"),
       in.out.Progress());
-  auto rep = RunGradCheck(loaded->mesh, *params, options, bar.Control());
+  auto rep = opened->backend->GradCheck(
+      opened->params, options,
+      bar.enabled() ? bar.Control() : ComputeControl{});
   bar.Finish();
   if (!rep.ok()) return rep.status();
   const int64_t samples = std::ssize(rep->rows);

@@ -2,6 +2,7 @@
 #include "client/cli/backend.h"
 #include "client/cli/progress_bar.h"
 #include "lib/embree/calibration.h"
+#include "lib/embree/gradcheck.h"
 #include "lib/embree/ray_hit.h"
 #include "lib/embree/sdf_evaluator.h"
 
@@ -51,6 +52,11 @@ class Local : public Backend {
   absl::StatusOr<CalibrationReport> Calibrate(
       const CalibrationParams& params) override {
     return meshgauge::Calibrate(*ev_, params);
+  }
+  absl::StatusOr<GradCheckReport> GradCheck(
+      const SdfParams& params, const GradCheckOptions& options,
+      const ComputeControl& control) override {
+    return RunGradCheck(*ev_, params, options, control);
   }
 
  private:

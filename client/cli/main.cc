@@ -59,12 +59,13 @@ struct MeshVerbs {
   PenaltyFlags penalty;
   CalibrateFlags calibrate;
   ReportFlags report;
+  GradcheckFlags check;
 };
 
 using BackendSource = std::function<absl::StatusOr<BackendFactory>()>;
 
-// Adds sdf, grad, penalty, calibrate and report to `app`; after parsing,
-// `backend` gives the backend they compute with.
+// Adds sdf, grad, penalty, calibrate, report and gradcheck to `app`; after
+// parsing, `backend` gives the backend they compute with.
 void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
                   Run* run) {
   auto with = [backend,
@@ -111,6 +112,15 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
   r->callback(with([v](const BackendFactory& make) {
     return RunReport(v->in, v->report, make);
   }));
+  CLI::App* gc = MeshVerb(app, "gradcheck",
+                          "check the derivatives by central differences "
+                          "(exit 1 on FAIL or INCONCLUSIVE)",
+                          &v->in, false);
+  AddGradcheckFlags(gc, &v->check);
+  AddPenaltyFlags(gc, &v->penalty, /*t_min_required=*/false);
+  gc->callback(with([v](const BackendFactory& make) {
+    return RunGradcheck(v->in, v->check, v->penalty, make);
+  }));
 }
 
 // "unknown verb 'X' (verbs: ...)" when the first argument of `app` (argv
@@ -150,16 +160,6 @@ int Main(int argc, char** argv) {
             LocalBackend(local.in.out.Progress()));
       },
       &run);
-  GradcheckFlags check;
-  CLI::App* gc = MeshVerb(app, "gradcheck",
-                          "check the derivatives by central differences "
-                          "(exit 1 on FAIL)",
-                          &local.in, false);
-  AddGradcheckFlags(gc, &check);
-  AddPenaltyFlags(gc, &local.penalty, /*t_min_required=*/false);
-  gc->callback([&] {
-    run = [&] { return RunGradcheck(local.in, check, local.penalty); };
-  });
 
   ShapeInput shape;
   CLI::App* sh = app.add_subcommand("shape", "write an analytic test shape");
@@ -189,7 +189,8 @@ int Main(int argc, char** argv) {
                              remote_verbs.in.out.Progress());
       },
       &run);
-  for (const char* verb : {"sdf", "grad", "penalty", "calibrate", "report"}) {
+  for (const char* verb :
+       {"sdf", "grad", "penalty", "calibrate", "report", "gradcheck"}) {
     remote->get_subcommand(verb)->add_option(
         "--session-id", remote_session,
         "compute on this session (kept; created from MESH if missing) "

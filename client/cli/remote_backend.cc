@@ -60,6 +60,13 @@ class Remote : public Backend {
       const CalibrationParams& params) override {
     return c_->Calibrate(id_, params);
   }
+  absl::StatusOr<GradCheckReport> GradCheck(
+      const SdfParams& params, const GradCheckOptions& options,
+      const ComputeControl& control) override {
+    auto r = c_->GradCheck(id_, params, options, control.progress);
+    if (!r.ok()) return r.status();
+    return std::move(r->report);
+  }
 
  private:
   std::shared_ptr<client::RemoteClient> c_;

@@ -14,6 +14,7 @@
 #include "lib/io/text_file.h"
 #include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
+#include "proto/wire/gradcheck_convert.h"
 
 namespace meshgauge::client {
 
@@ -282,6 +283,36 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
     return absl::DataLossError("ComputeSdf stream ended without its summary");
   }
   return out;
+}
+
+absl::StatusOr<wire::GradCheckReply> RemoteClient::GradCheck(
+    const std::string& id, const SdfParams& params,
+    const GradCheckOptions& options,
+    std::function<void(int64_t, int64_t)> progress) {
+  auto ctx = Context(id);
+  v1::GradCheckRequest req;
+  req.set_session_id(id);
+  *req.mutable_params() = wire::ToWire(params);
+  wire::ToWire(options, &req);
+  req.set_report_progress(progress != nullptr);
+  auto reader = stub_->GradCheck(ctx.get(), req);
+  std::optional<v1::GradCheckReport> report;
+  v1::GradCheckResponse msg;
+  while (reader->Read(&msg)) {
+    if (msg.has_report()) {
+      report = std::move(*msg.mutable_report());
+    } else if (msg.has_progress() && progress) {
+      progress(msg.progress().vertices_done(), msg.progress().vertices_total());
+    }
+  }
+  if (absl::Status s = wire::FromGrpc(reader->Finish()); !s.ok()) return s;
+  if (!report) {
+    return absl::DataLossError("GradCheck stream ended without its report");
+  }
+  auto rep = wire::FromWire(*report);
+  if (!rep.ok()) return rep.status();
+  return wire::GradCheckReply{std::move(*rep),
+                              {report->generation(), false, report->seconds()}};
 }
 
 namespace {

@@ -116,6 +116,16 @@ class RemoteClient {
   absl::StatusOr<CalibrationReport> Calibrate(const std::string& session_id,
                                               const CalibrationParams& params);
 
+  // The SPEC §6 finite-difference check of the session's derivatives at
+  // its current positions, run by the server on a private copy (the
+  // session is not changed). `progress`, if set, receives the vertices done
+  // over all the check's passes. Errors: the server's, DATA_LOSS for a
+  // malformed reply.
+  absl::StatusOr<wire::GradCheckReply> GradCheck(
+      const std::string& session_id, const SdfParams& params,
+      const GradCheckOptions& options,
+      std::function<void(int64_t done, int64_t total)> progress = nullptr);
+
   // grpc.health.v1.Health/Check for the whole server: true when SERVING,
   // false when NOT_SERVING (draining). Errors: the call's status.
   absl::StatusOr<bool> Serving();

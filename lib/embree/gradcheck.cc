@@ -119,21 +119,11 @@ void SummarizeJacobian(const SparseJacobian& jac, GradCheckReport& rep) {
 
 }  // namespace
 
-double GradCheckRelativeError(double fd, double analytic) {
-  return std::abs(fd - analytic) /
-         std::max({std::abs(analytic), std::abs(fd), 1e-2});
-}
-
-GradCheckVerdict GradCheckReport::Verdict() const {
-  const int64_t samples = std::ssize(rows);
-  if (passed != clean || vjp_passed != vjp_checks ||
-      penalty_passed != penalty_clean) {
-    return GradCheckVerdict::kFail;
-  }
-  if (samples == 0 || clean < min_clean_fraction * samples) {
-    return GradCheckVerdict::kInconclusive;
-  }
-  return GradCheckVerdict::kPass;
+int64_t GradCheckWorkBytes(const Mesh& mesh, const SdfParams& params) {
+  const int64_t rays = ResolveParams(params, mesh.dimension).rays;
+  const int64_t pass = rays * 5 + 64;  // hit table and values, per vertex.
+  const int64_t jacobian = (2 * rays + 32) * (4 + 8 * 3) + 8;
+  return mesh.num_vertices() * (3 * pass + jacobian);
 }
 
 absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
@@ -143,7 +133,21 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   if (absl::Status s = ValidateOptions(options, mesh); !s.ok()) return s;
   auto created = SdfEvaluator::Create(mesh);
   if (!created.ok()) return created.status();
-  SdfEvaluator& ev = **created;
+  return RunGradCheck(**created, params, options, control);
+}
+
+absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
+                                             const SdfParams& params,
+                                             const GradCheckOptions& options,
+                                             const ComputeControl& control) {
+  const Mesh& mesh = ev.mesh();
+  if (absl::Status s = ValidateOptions(options, mesh); !s.ok()) return s;
+  if (params.normal_weighting != NormalWeighting::kArea) {
+    // Known before any ray is traced: the derivatives need area weighting.
+    return absl::FailedPreconditionError(
+        "gradcheck checks derivatives, which are only available with "
+        "area-weighted normals (--normals area, the default)");
+  }
   const std::vector<int32_t> probed = PickVertices(options, ev);
   const int64_t passes = 1 + 2 * mesh.dimension * std::ssize(probed);
   int64_t pass_index = 0;
@@ -178,22 +182,28 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   auto move = [&ev](int32_t j, const Vec3& x) {
     return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
   };
-  // The passes at x_j[c] +- h.
+  // The passes at x_j[c] +- h; x_j is put back whatever happens.
   auto probe = [&](int32_t j, int c, double h, Pass at[2]) -> absl::Status {
     const Vec3 x0 = mesh.positions[j];
-    for (int s = 0; s < 2; ++s) {
+    absl::Status status;
+    for (int s = 0; s < 2 && status.ok(); ++s) {
       Vec3 x = x0;
       x[c] += (s == 0 ? 1 : -1) * h;
-      if (absl::Status st = move(j, x); !st.ok()) return st;
+      status = move(j, x);
+      if (!status.ok()) break;
       auto pass = Evaluate(
           ev, params, options,
           PassControl(control, std::min(pass_index++, passes - 1), passes),
           &*base);
-      if (!pass.ok()) return pass.status();
+      if (!pass.ok()) {
+        status = pass.status();
+        break;
+      }
       rep.rays_traced += pass->sdf.rays_traced;
       at[s] = std::move(*pass);
     }
-    return move(j, x0);
+    absl::Status restored = move(j, x0);
+    return status.ok() ? restored : status;
   };
   for (int32_t j : probed) {
     for (int c = 0; c < mesh.dimension; ++c) {

@@ -23,6 +23,54 @@ absl::Status Malformed(absl::string_view what) {
       absl::StrCat("malformed ComputeSdf reply: ", what));
 }
 
+// ComputePenaltyRequest and PenaltyParameters share these fields.
+template <typename Message>
+void PenaltyToMessage(const PenaltyParams& p, Message* out) {
+  out->set_t_min(p.t_min);
+  switch (p.form) {
+    case PenaltyForm::kOneSided:
+      out->set_form(v1::PENALTY_FORM_ONE_SIDED);
+      break;
+    case PenaltyForm::kThesis:
+      out->set_form(v1::PENALTY_FORM_THESIS);
+      break;
+    case PenaltyForm::kKs:
+      out->set_form(v1::PENALTY_FORM_KS);
+      break;
+  }
+  out->set_power(p.power);
+  out->set_rho(p.rho);
+  out->set_max_missing_fraction(p.max_missing_fraction);
+}
+
+template <typename Message>
+absl::StatusOr<PenaltyParams> PenaltyFromMessage(const Message& r) {
+  PenaltyParams p;
+  p.t_min = r.t_min();
+  p.power = r.power() == 0 ? 2.0 : r.power();
+  if (r.rho() != 0) p.rho = r.rho();
+  if (r.has_max_missing_fraction()) {
+    p.max_missing_fraction = r.max_missing_fraction();
+  }
+  switch (r.form()) {
+    case v1::PENALTY_FORM_UNSPECIFIED:
+    case v1::PENALTY_FORM_ONE_SIDED:
+      p.form = PenaltyForm::kOneSided;
+      break;
+    case v1::PENALTY_FORM_THESIS:
+      p.form = PenaltyForm::kThesis;
+      break;
+    case v1::PENALTY_FORM_KS:
+      p.form = PenaltyForm::kKs;
+      break;
+    default:
+      return absl::InvalidArgumentError(absl::StrCat(
+          "form ", static_cast<int>(r.form()), " is not a known PenaltyForm"));
+  }
+  if (absl::Status s = ValidatePenaltyParams(p); !s.ok()) return s;
+  return p;
+}
+
 }  // namespace
 
 v1::SdfParameters ToWire(const SdfParams& p) {
@@ -90,21 +138,11 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
 }
 
 void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out) {
-  out->set_t_min(p.t_min);
-  switch (p.form) {
-    case PenaltyForm::kOneSided:
-      out->set_form(v1::PENALTY_FORM_ONE_SIDED);
-      break;
-    case PenaltyForm::kThesis:
-      out->set_form(v1::PENALTY_FORM_THESIS);
-      break;
-    case PenaltyForm::kKs:
-      out->set_form(v1::PENALTY_FORM_KS);
-      break;
-  }
-  out->set_power(p.power);
-  out->set_rho(p.rho);
-  out->set_max_missing_fraction(p.max_missing_fraction);
+  PenaltyToMessage(p, out);
+}
+
+void ToWire(const PenaltyParams& p, v1::PenaltyParameters* out) {
+  PenaltyToMessage(p, out);
 }
 
 absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(
@@ -128,30 +166,11 @@ absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(
 
 absl::StatusOr<PenaltyParams> PenaltyFromWire(
     const v1::ComputePenaltyRequest& r) {
-  PenaltyParams p;
-  p.t_min = r.t_min();
-  p.power = r.power() == 0 ? 2.0 : r.power();
-  if (r.rho() != 0) p.rho = r.rho();
-  if (r.has_max_missing_fraction()) {
-    p.max_missing_fraction = r.max_missing_fraction();
-  }
-  switch (r.form()) {
-    case v1::PENALTY_FORM_UNSPECIFIED:
-    case v1::PENALTY_FORM_ONE_SIDED:
-      p.form = PenaltyForm::kOneSided;
-      break;
-    case v1::PENALTY_FORM_THESIS:
-      p.form = PenaltyForm::kThesis;
-      break;
-    case v1::PENALTY_FORM_KS:
-      p.form = PenaltyForm::kKs;
-      break;
-    default:
-      return absl::InvalidArgumentError(absl::StrCat(
-          "form ", static_cast<int>(r.form()), " is not a known PenaltyForm"));
-  }
-  if (absl::Status s = ValidatePenaltyParams(p); !s.ok()) return s;
-  return p;
+  return PenaltyFromMessage(r);
+}
+
+absl::StatusOr<PenaltyParams> PenaltyFromWire(const v1::PenaltyParameters& r) {
+  return PenaltyFromMessage(r);
 }
 
 void ToWire(const CalibrationParams& p, v1::CalibrateRequest* out) {

@@ -29,8 +29,10 @@ v1::SdfParameters ToWire(const SdfParams& p);
 absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
                                    int threads);
 void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out);
+void ToWire(const PenaltyParams& p, v1::PenaltyParameters* out);
 absl::StatusOr<PenaltyParams> PenaltyFromWire(
     const v1::ComputePenaltyRequest& r);
+absl::StatusOr<PenaltyParams> PenaltyFromWire(const v1::PenaltyParameters& r);
 // nullopt without with_thin_regions. Errors: INVALID_ARGUMENT naming the
 // field (min_region_area < 0, max_thin_regions outside 0..100000).
 absl::StatusOr<std::optional<ThinRequest>> ThinFromWire(

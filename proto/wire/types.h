@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "lib/core/gradcheck_types.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/sensitivity.h"
@@ -49,6 +50,11 @@ struct SdfReply {
   std::optional<SparseJacobian> jacobian;  // with include_jacobian.
   double integral = 0;  // SdfSummary.integral (IntegrateNodal's value).
   CallFacts facts;
+};
+
+struct GradCheckReply {
+  GradCheckReport report;
+  CallFacts facts;  // reused_hits is always false.
 };
 
 struct VjpReply {
