@@ -2,6 +2,7 @@
 // 2D data is stored with z = 0.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 
 namespace meshgauge {
@@ -55,6 +56,10 @@ constexpr Vec3 Cross(const Vec3& a, const Vec3& b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
 inline double Norm(const Vec3& a) { return std::sqrt(Dot(a, a)); }
+// The largest absolute coordinate (the infinity norm).
+inline double MaxAbs(const Vec3& a) {
+  return std::max({std::abs(a.x), std::abs(a.y), std::abs(a.z)});
+}
 inline bool IsFinite(const Vec3& a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }

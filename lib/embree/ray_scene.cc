@@ -47,16 +47,15 @@ namespace {
 constexpr double kMaxSpanTimesEdgeSquared = 1e38;
 constexpr double kMaxSpan = 1e17;
 
-absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin) {
-  const double span = BoundingBoxDiagonal(mesh);
+// `span` is the mesh's bounding-box diagonal.
+absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
   double edge2 = 0, reach = 0;
   for (const Face& f : mesh.faces) {
     for (int k = 0; k < f.size; ++k) {
       const Vec3& p = mesh.positions[f.v[k]];
       const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
       edge2 = std::max(edge2, Dot(e, e));
-      reach = std::max({reach, std::abs(p.x - origin.x),
-                        std::abs(p.y - origin.y), std::abs(p.z - origin.z)});
+      reach = std::max(reach, MaxAbs(p - origin));
     }
   }
   if (reach > kMaxSpan) {
@@ -84,16 +83,21 @@ double PowerOfTwoAbove(double x) {
   return x > 0 ? std::exp2(std::ceil(std::log2(x))) : 1.0;
 }
 
-}  // namespace
-
-Vec3 SceneOrigin(const Mesh& mesh) {
+// SceneOrigin for a mesh of this bounding-box diagonal.
+Vec3 OriginOf(const Mesh& mesh, double diagonal) {
   Vec3 c;
   for (const Vec3& p : mesh.positions) c += p;
   if (mesh.positions.empty()) return c;
   c = c / std::ssize(mesh.positions);
-  const double q = PowerOfTwoAbove(BoundingBoxDiagonal(mesh));
+  const double q = PowerOfTwoAbove(diagonal);
   return Vec3(std::round(c.x / q) * q, std::round(c.y / q) * q,
               std::round(c.z / q) * q);
+}
+
+}  // namespace
+
+Vec3 SceneOrigin(const Mesh& mesh) {
+  return OriginOf(mesh, BoundingBoxDiagonal(mesh));
 }
 
 absl::Status RayScene::Init(const Mesh& mesh) {
@@ -155,12 +159,12 @@ absl::Status RayScene::Init(const Mesh& mesh) {
 }
 
 absl::Status RayScene::FillVertices(const Mesh& mesh) {
-  const Vec3 origin = SceneOrigin(mesh);
-  if (absl::Status s = CheckSpan(mesh, origin); !s.ok()) return s;
+  const double diagonal = BoundingBoxDiagonal(mesh);
+  const Vec3 origin = OriginOf(mesh, diagonal);
+  if (absl::Status s = CheckSpan(mesh, origin, diagonal); !s.ok()) return s;
   origin_ = origin;
   // Like the origin, a function of the current positions alone.
-  extrude_half_height_ =
-      static_cast<float>(PowerOfTwoAbove(BoundingBoxDiagonal(mesh) + 1));
+  extrude_half_height_ = static_cast<float>(PowerOfTwoAbove(diagonal + 1));
   const size_t nv = mesh.positions.size();
   for (size_t i = 0; i < nv; ++i) {
     const Vec3 p = mesh.positions[i] - origin_;
@@ -301,8 +305,7 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             absl::Span<const int32_t> excluded,
                             absl::Span<HitCandidates> out) const {
   const Vec3 o = origin - origin_;
-  const float reach = static_cast<float>(
-      std::max({std::abs(o.x), std::abs(o.y), std::abs(o.z)}));
+  const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c = HitCandidates(reach);
   FanContext fan;
   rtcInitIntersectContext(&fan.rtc);

@@ -267,36 +267,27 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
   // coordinates, enlarged by far more than single-precision rounding.
   const Vec3& o = scene_->origin();
   double reach = bbox_diagonal_;
-  for (const Vec3& p : mesh_.positions) {
-    reach = std::max(
-        {reach, std::abs(p.x - o.x), std::abs(p.y - o.y), std::abs(p.z - o.z)});
-  }
+  for (const Vec3& p : mesh_.positions) reach = std::max(reach, MaxAbs(p - o));
   // 4 times the most PickClosest lets a neighbour's plane hit lie outside it.
   const double slack = reach * 0x1p-14;
   const double z = mesh_.dimension == 2 ? scene_->extrude_half_height() : 0;
+  const Vec3 extrusion(0, 0, z), enlarged(slack, slack, slack);
   std::vector<Box> boxes;
-  Box all{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
+  Box all;
   for (size_t q = 0; q < plan->moved_primitive.size(); ++q) {
     if (!plan->moved_primitive[q]) continue;
-    Box b{Vec3(1e300, 1e300, 1e300), Vec3(-1e300, -1e300, -1e300)};
+    Box b;
     for (int32_t v : topo_.primitives[q].v) {
       if (v < 0) continue;
       for (const Vec3* p : {&h.positions[v], &mesh_.positions[v]}) {
-        const Vec3 c = *p - o;
-        b.lo = Vec3(std::min(b.lo.x, c.x), std::min(b.lo.y, c.y),
-                    std::min(b.lo.z, c.z - z));
-        b.hi = Vec3(std::max(b.hi.x, c.x), std::max(b.hi.y, c.y),
-                    std::max(b.hi.z, c.z + z));
+        b.Extend(*p - o - extrusion, *p - o + extrusion);
       }
     }
-    b.lo = b.lo - Vec3(slack, slack, slack);
-    b.hi = b.hi + Vec3(slack, slack, slack);
+    b.lo = b.lo - enlarged;
+    b.hi = b.hi + enlarged;
     boxes.push_back(b);
     // The sphere around them all (in 2D in the rays' plane z = 0).
-    all.lo = Vec3(std::min(all.lo.x, b.lo.x), std::min(all.lo.y, b.lo.y),
-                  std::min(all.lo.z, b.lo.z + z));
-    all.hi = Vec3(std::max(all.hi.x, b.hi.x), std::max(all.hi.y, b.hi.y),
-                  std::max(all.hi.z, b.hi.z - z));
+    all.Extend(b.lo + extrusion, b.hi - extrusion);
   }
   if (!boxes.empty()) {
     plan->sphere_centre = (all.lo + all.hi) * 0.5;
@@ -310,6 +301,51 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
   plan->t_max_changed = h.t_max != t_max;
   plan->t_max_both = std::min(h.t_max, t_max);
   return plan;
+}
+
+void SdfEvaluator::RaysToRetrace(
+    const ReusePlan& plan, int64_t p, const Vec3& x, const Vec3& axis,
+    double cone_half_angle, double reach, float t_far,
+    absl::FunctionRef<void()> directions, absl::Span<const Vec3> dirs,
+    absl::Span<int32_t> prims, absl::Span<double> t,
+    std::vector<int32_t>* retrace) const {
+  const int32_t* old_row = plan.hits->Row(p).data();
+  const int num_rays = static_cast<int>(prims.size());
+  // Can the cone reach the moved primitives' boxes at all?
+  const Vec3 to = plan.sphere_centre - (x - scene_->origin());
+  const double dist = std::sqrt(Dot(to, to));
+  const double radius = plan.sphere_radius;
+  bool cone_reaches = radius > 0;
+  if (cone_reaches && dist > radius) {
+    const double axis_angle =
+        std::acos(std::clamp(Dot(axis, to) / dist, -1.0, 1.0));
+    cone_reaches =
+        axis_angle <= cone_half_angle + std::asin(radius / dist) + 1e-6;
+  }
+  // Far from every moved primitive: only a moved hit changes.
+  const bool only_moved_hits = !cone_reaches && !plan.t_max_changed;
+  if (!only_moved_hits) directions();
+  for (int k = 0; k < num_rays; ++k) {
+    const int32_t q = old_row[k];
+    prims[k] = q;
+    bool again = q >= 0 && plan.moved_primitive[q];
+    if (only_moved_hits) {
+      if (again) retrace->push_back(k);
+      continue;
+    }
+    double t_end = t_far;
+    if (!again && q >= 0) {
+      t[k] = HitDistance(Corners(q), x, dirs[k]);
+      t_end = t[k] + (reach + t[k]) * 0x1p-12;
+      again = plan.t_max_changed && !(t_end < plan.t_max_both);
+    } else if (!again) {
+      again = plan.t_max_changed;
+    }
+    if (!again && cone_reaches) {
+      again = plan.boxes->Crosses(x - scene_->origin(), dirs[k], t_end);
+    }
+    if (again) retrace->push_back(k);
+  }
 }
 
 absl::StatusOr<SdfResult> SdfEvaluator::Compute(
@@ -397,9 +433,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       }
       world_frames += vc.world_frame;
       const Vec3& x = mesh_.positions[p];
-      const double reach = std::max({std::abs(x.x - scene_->origin().x),
-                                     std::abs(x.y - scene_->origin().y),
-                                     std::abs(x.z - scene_->origin().z)});
+      const double reach = MaxAbs(x - scene_->origin());
       // The directions, computed only when a ray needs them.
       bool have_dirs = false;
       auto directions = [&] {
@@ -412,45 +446,13 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
       uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
       // Which rays to trace: all, or (reusing) those whose hit may change.
+      std::fill(t.begin(), t.end(), kNaN);
       retrace.clear();
       if (reuse) {
         const int32_t* old_row = plan->hits->Row(p).data();
-        const MovedBoxes& boxes = *plan->boxes;
-        // Can the cone reach the moved primitives' boxes at all?
-        const Vec3 to = plan->sphere_centre - (x - scene_->origin());
-        const double dist = std::sqrt(Dot(to, to));
-        const double radius = plan->sphere_radius;
-        bool cone_reaches = radius > 0;
-        if (cone_reaches && dist > radius) {
-          const double axis_angle =
-              std::acos(std::clamp(Dot(vc.frame.axis, to) / dist, -1.0, 1.0));
-          cone_reaches =
-              axis_angle <= cone_half_angle + std::asin(radius / dist) + 1e-6;
-        }
-        // Far from every moved primitive: only a moved hit changes.
-        const bool only_moved_hits = !cone_reaches && !plan->t_max_changed;
-        if (!only_moved_hits) directions();
-        for (int k = 0; k < num_rays; ++k) {
-          const int32_t q = old_row[k];
-          prims[k] = q;
-          bool again = q >= 0 && plan->moved_primitive[q];
-          if (only_moved_hits) {
-            if (again) retrace.push_back(k);
-            continue;
-          }
-          double t_end = limits.t_far;
-          if (!again && q >= 0) {
-            const double tq = HitDistance(Corners(q), x, dirs[k]);
-            t_end = tq + (reach + tq) * 0x1p-12;
-            again = plan->t_max_changed && !(t_end < plan->t_max_both);
-          } else if (!again) {
-            again = plan->t_max_changed;
-          }
-          if (!again && cone_reaches) {
-            again = boxes.Crosses(x - scene_->origin(), dirs[k], t_end);
-          }
-          if (again) retrace.push_back(k);
-        }
+        RaysToRetrace(*plan, p, x, vc.frame.axis, cone_half_angle, reach,
+                      limits.t_far, directions, dirs, absl::MakeSpan(prims),
+                      absl::MakeSpan(t), &retrace);
         if (retrace.empty()) {
           const SdfResult& r = *plan->result;
           result.values[p] = r.values[p];
@@ -482,7 +484,6 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         if (c.count() > 0) PrefetchCorners(c[0].prim);
       }
       bool vertex_near = reuse && plan->hits->near[p];
-      std::fill(t.begin(), t.end(), kNaN);
       for (size_t j = 0; j < retrace.size(); ++j) {
         prims[retrace[j]] =
             PickClosest(*this, fan[j], excluded, limits.t_min, reach, x,
@@ -490,7 +491,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         vertex_near |= fan[j].near();
       }
       for (int k = 0; k < num_rays; ++k) {
-        // A reused hit's distance, as when it was picked.
+        // A reused hit's distance not measured yet, as when it was picked.
         if (reuse && prims[k] >= 0 && std::isnan(t[k])) {
           t[k] = HitDistance(Corners(prims[k]), x, dirs[k]);
         }

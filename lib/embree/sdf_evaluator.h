@@ -7,6 +7,7 @@
 #include <memory>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/core/cone.h"
@@ -54,17 +55,15 @@ class SdfEvaluator : public MeshGeometry {
 
   // Computes SDF values for every vertex (SPEC §3-5). When `hits` is not
   // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
-  // K and 25 x #V). Const and thread-safe: concurrent Computes on one evaluator are fine;
-  // UpdatePositions must not run concurrently with anything.
-  // With `previous` (a pass of this evaluator with the same parameters
-  // whose hit table was kept), only the rays whose hit may have changed
-  // since are traced (docs/numerics.md, "Incremental passes"); the result
-  // and the hit table's primitives and kept flags are the full pass's, bit
-  // for bit, and rays_traced counts
-  // the rays traced. A previous pass that does not fit (other parameters,
-  // another frame of the ray tracer, over half the vertices moved) gives a
-  // full pass.
-  // Errors: InvalidArgument for bad params; Cancelled when
+  // K and 25 x #V). Const and thread-safe: concurrent Computes on one evaluator
+  // are fine; UpdatePositions must not run concurrently with anything. With
+  // `previous` (a pass of this evaluator with the same parameters whose hit
+  // table was kept), only the rays whose hit may have changed since are traced
+  // (docs/numerics.md, "Incremental passes"); the result and the hit table's
+  // primitives and kept flags are the full pass's, bit for bit, and rays_traced
+  // counts the rays traced. A previous pass that does not fit (other
+  // parameters, another frame of the ray tracer, over half the vertices moved)
+  // gives a full pass. Errors: InvalidArgument for bad params; Cancelled when
   // control.cancelled() returned true; Internal from Embree.
   absl::StatusOr<SdfResult> Compute(
       const SdfParams& params, const ComputeControl& control = {},
@@ -95,6 +94,15 @@ class SdfEvaluator : public MeshGeometry {
       const PreviousPass& previous, const std::vector<ConeRay>& cone,
       const ResolvedParams& resolved, float t_near, float t_min_f,
       double t_max) const;
+  // The rays of vertex p (at x, cone axis `axis`) that a pass reusing
+  // `plan` traces again (docs/numerics.md, "Incremental passes"), into
+  // `retrace`; prims gets the previous pass's hits and t the distances of
+  // those it measured. `directions` fills `dirs` when they are needed.
+  void RaysToRetrace(const ReusePlan& plan, int64_t p, const Vec3& x,
+                     const Vec3& axis, double cone_half_angle, double reach,
+                     float t_far, absl::FunctionRef<void()> directions,
+                     absl::Span<const Vec3> dirs, absl::Span<int32_t> prims,
+                     absl::Span<double> t, std::vector<int32_t>* retrace) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
 
