@@ -100,12 +100,16 @@ class RedisStoreTest : public ::testing::Test {
   }
   // Generation 0 -> 1 of session `id` through `writer` and the in-memory
   // server: vertices `idx` of `mesh` scaled by `scale`.
+  // Moves vertices idx of `mesh` to `scale` times their first positions
+  // through `writer` and on the in-memory server, both at `generation`.
   void MoveSubset(Replica& writer, const std::string& id, const Mesh& mesh,
-                  const std::vector<int32_t>& idx, double scale) {
+                  const std::vector<int32_t>& idx, double scale,
+                  int64_t generation = 0) {
     std::vector<Vec3> p;
     for (int32_t i : idx) p.push_back(mesh.positions[i] * scale);
-    ASSERT_TRUE(writer.client->UpdatePositions(id, 0, 3, p, idx).ok());
-    ASSERT_TRUE(memory_->client->UpdatePositions(id, 0, 3, p, idx).ok());
+    ASSERT_TRUE(writer.client->UpdatePositions(id, generation, 3, p, idx).ok());
+    ASSERT_TRUE(
+        memory_->client->UpdatePositions(id, generation, 3, p, idx).ok());
   }
   testing::RedisProcess redis_;
   std::unique_ptr<Replica> a_, b_, memory_;
@@ -159,29 +163,44 @@ TEST_F(RedisStoreTest, AnyReplicaServesAnySessionBitForBit) {
   EXPECT_THAT(b_->metrics.Text(), HasSubstr("meshgauge_session_load_seconds"));
 }
 
-// A replica that computed generation 0 and then serves generation 1 (the
-// update went through the other replica) restores the session from Redis and
-// reuses its generation-0 pass: it traces only some rays, and its values
-// equal the in-memory server's bit for bit.
+// A replica that computed generation g and then serves generation g + 1
+// (the update went through the other replica) restores the session from
+// Redis and reuses its earlier pass: it traces only some rays, and its
+// values, hits and statuses equal the in-memory server's bit for bit. The
+// replicas take turns over a patch, one vertex and scattered vertices.
 TEST_F(RedisStoreTest, AReplicaReusesItsPassOfAnEarlierGeneration) {
   const Mesh rocker = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
   ASSERT_TRUE(a_->client->Upload(rocker, "r").ok());
   ASSERT_TRUE(memory_->client->Upload(rocker, "r").ok());
-  ASSERT_TRUE(a_->client->ComputeSdf("r", SdfParams{}).ok());
-  MoveSubset(*b_, "r", rocker,
-             testing::Patch(rocker, 100, 0.05 * BoundingBoxDiagonal(rocker)),
-             1.001);
-  auto got =
-      a_->client->ComputeSdf("r", SdfParams{}, {.expected_generation = 1});
-  auto want =
-      memory_->client->ComputeSdf("r", SdfParams{}, {.expected_generation = 1});
-  ASSERT_TRUE(got.ok()) << got.status();
-  ASSERT_TRUE(want.ok()) << want.status();
-  EXPECT_TRUE(SameBits(got->result.values, want->result.values));
-  EXPECT_EQ(got->result.hits, want->result.hits);
-  EXPECT_EQ(got->result.status, want->result.status);
-  EXPECT_LT(got->result.rays_traced, rocker.num_vertices() * 100 / 2);
-  EXPECT_GT(got->result.rays_traced, 0);
+  std::vector<int32_t> scattered;
+  for (int32_t v = 0; v < rocker.num_vertices(); v += 101) {
+    scattered.push_back(v);
+  }
+  const std::vector<std::vector<int32_t>> moves = {
+      testing::Patch(rocker, 100, 0.05 * BoundingBoxDiagonal(rocker)),
+      {4321},
+      scattered};
+  Replica* reader = a_.get();
+  Replica* writer = b_.get();
+  ASSERT_TRUE(reader->client->ComputeSdf("r", SdfParams{}).ok());
+  for (size_t k = 0; k < moves.size(); ++k) {
+    MoveSubset(*writer, "r", rocker, moves[k], 1.0 + 1e-3 * (k + 1),
+               static_cast<int64_t>(k));
+    const client::SdfCall call{.expected_generation =
+                                   static_cast<int64_t>(k + 1)};
+    auto got = reader->client->ComputeSdf("r", SdfParams{}, call);
+    auto want = memory_->client->ComputeSdf("r", SdfParams{}, call);
+    ASSERT_TRUE(got.ok()) << got.status();
+    ASSERT_TRUE(want.ok()) << want.status();
+    EXPECT_TRUE(SameBits(got->result.values, want->result.values)) << k;
+    EXPECT_EQ(got->result.hits, want->result.hits) << k;
+    EXPECT_EQ(got->result.status, want->result.status) << k;
+    EXPECT_LT(got->result.rays_traced, rocker.num_vertices() * 100 / 2) << k;
+    EXPECT_GT(got->result.rays_traced, 0) << k;
+    // The writer computes next: it reuses its own pass of generation k.
+    ASSERT_TRUE(writer->client->ComputeSdf("r", SdfParams{}, call).ok());
+    std::swap(reader, writer);
+  }
 }
 
 TEST_F(RedisStoreTest, GenerationIsCompareAndSetAcrossReplicas) {
