@@ -27,7 +27,7 @@ class Authenticator {
   static absl::StatusOr<Authenticator> FromText(const std::string& text,
                                                 const std::string& name);
 
-  bool enabled() const { return enabled_; }
+  // 0 in open mode; a tokens file holds at least one.
   int64_t tenants() const { return std::ssize(by_hash_); }
   // The caller's tenant. Errors: UNAUTHENTICATED (no or malformed
   // authorization metadata, unknown token) without echoing the token.
@@ -39,7 +39,6 @@ class Authenticator {
       const std::multimap<grpc::string_ref, grpc::string_ref>& md) const;
 
  private:
-  bool enabled_ = false;
   std::map<std::string, std::string> by_hash_;  // hex sha256 -> tenant.
 };
 

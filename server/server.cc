@@ -1,8 +1,8 @@
 #include "server/server.h"
 
 #include <dlfcn.h>
-#include <grpcpp/health_check_service_interface.h>
 #include <grpc/support/log.h>
+#include <grpcpp/health_check_service_interface.h>
 #include <grpcpp/security/server_credentials.h>
 #include <openssl/err.h>
 #include <openssl/pem.h>
@@ -40,9 +40,9 @@ absl::StatusOr<std::string> ReadPem(const std::string& path, const char* flag,
   BIO_free(bio);
   ERR_clear_error();
   if (!ok) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "--", flag, " file '", path, "' holds no PEM ",
-        key ? "private key (unencrypted)" : "certificate"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("--", flag, " file '", path, "' holds no PEM ",
+                     key ? "private key (unencrypted)" : "certificate"));
   }
   return text;
 }
@@ -167,9 +167,9 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   // A second server on a taken port must fail, not split the clients.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&s->service_);
-  if (options.reflection && s->auth_.enabled()) {
-    std::vector<std::unique_ptr<
-        grpc::experimental::ServerInterceptorFactoryInterface>>
+  if (options.reflection && s->auth_.tenants() > 0) {
+    std::vector<
+        std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
         guards;
     guards.push_back(std::make_unique<ReflectionGuardFactory>(&s->auth_));
     builder.experimental().SetInterceptorCreators(std::move(guards));

@@ -7,7 +7,6 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -87,11 +86,10 @@ TEST(MeshReaderTest, PlyWithPropertyBeforeElementIsAnErrorNotACrash) {
               HasSubstr(": line 3: property before any element"));
 }
 
+// A hang would be caught by the test's timeout (ctest).
 TEST(MeshReaderTest, PlyWithoutEndHeaderIsAnErrorNotAHang) {
-  const auto start = std::chrono::steady_clock::now();
   EXPECT_THAT(Message(ReadMeshFile(Corpus("ply/no_end_header.ply"))),
               HasSubstr("no end_header"));
-  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
 }
 
 TEST(MeshReaderTest, ObjNonFiniteVertexIsAnErrorNamingTheLine) {

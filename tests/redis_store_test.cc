@@ -22,6 +22,7 @@
 #include "server/server.h"
 #include "tests/redis_test_util.h"
 #include "tests/test_util.h"
+#include "tests/wait_for.h"
 
 namespace meshgauge {
 namespace {
@@ -459,9 +460,7 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
   v1::CreateSessionResponse resp;
   auto w = b_->client->stub().CreateSession(&ctx, &resp);
   ASSERT_TRUE(w->Write(UploadHeader(3, 1)));
-  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() == 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  testing::WaitFor([&] { return b_->server->store().reserved_uploads() > 0; });
   ASSERT_EQ(b_->server->store().reserved_uploads(), 1);
   auto refused = a_->client->Upload(mesh, "x2");
   EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
@@ -469,9 +468,7 @@ TEST_F(RedisStoreTest, UploadsInFlightCountOverAllReplicas) {
               HasSubstr("uploads in flight"));
   ctx.TryCancel();
   w->Finish();
-  for (int i = 0; i < 200 && b_->server->store().reserved_uploads() > 0; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
+  testing::WaitFor([&] { return b_->server->store().reserved_uploads() == 0; });
   EXPECT_TRUE(a_->client->Upload(mesh, "x2").ok());
 }
 

@@ -41,14 +41,6 @@ std::string TempFile(const std::string& name, const std::string& text) {
   return path;
 }
 
-// Polls `done` every 10 ms for up to 2 s.
-template <typename Pred>
-void WaitFor(Pred done) {
-  for (int i = 0; i < 200 && !done(); ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-}
-
 class SecurityTest : public testing::ServerFixture {
  protected:
   void SetUp() override {
@@ -245,7 +237,8 @@ TEST_F(SecurityTest, AnUploadInFlightNeverEvictsASmallerTenant) {
   for (int k = 0; k < 4 && w->Write(chunk); ++k) {
   }
   // The upload's data (about 390 kB) arrived: the budget needs room.
-  WaitFor([&] { return Code(bob_->Get("b")) == absl::StatusCode::kNotFound; });
+  testing::WaitFor(
+      [&] { return Code(bob_->Get("b")) == absl::StatusCode::kNotFound; });
   EXPECT_EQ(Code(bob_->Get("b")), absl::StatusCode::kNotFound);
   for (int i = 0; i < 5; ++i) {
     EXPECT_TRUE(alice_->Get("a" + std::to_string(i)).ok()) << i;
@@ -350,7 +343,7 @@ TEST_F(UploadAttackTest, UploadsInFlightCountAgainstTheSessionLimit) {
   auto w2 = Open(&c2, &r2);
   ASSERT_TRUE(w1->Write(Header(3, 1)));
   ASSERT_TRUE(w2->Write(Header(3, 1)));
-  WaitFor([&] { return server_->store().reserved_uploads() >= 2; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() >= 2; });
   ASSERT_EQ(server_->store().reserved_uploads(), 2);
   auto third = client_->Upload(MakeIcosphere(1, 1), "third");
   EXPECT_EQ(Code(third), absl::StatusCode::kResourceExhausted);
@@ -359,7 +352,7 @@ TEST_F(UploadAttackTest, UploadsInFlightCountAgainstTheSessionLimit) {
   c2.TryCancel();
   w1->Finish();
   w2->Finish();
-  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
   EXPECT_TRUE(client_->Upload(MakeIcosphere(1, 1), "third").ok());
 }
@@ -372,7 +365,7 @@ TEST_F(UploadAttackTest, ConcurrentUploadsAreCapped) {
   v1::CreateSessionResponse r1;
   auto w1 = Open(&c1, &r1);
   ASSERT_TRUE(w1->Write(Header(3, 1)));
-  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   auto second = client_->Upload(MakeIcosphere(1, 1), "second");
   EXPECT_EQ(Code(second), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(second.status().message()),
@@ -389,12 +382,12 @@ TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
   v1::CreateSessionResponse resp;
   auto w = Open(&ctx, &resp);
   ASSERT_TRUE(w->Write(Header(3, 1)));
-  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   ASSERT_EQ(server_->store().reserved_uploads(), 1);
   clock_.Advance(1);  // the upload is now idle on the server's clock.
   const grpc::Status s = w->Finish();
   EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
-  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
 }
 
@@ -406,7 +399,7 @@ TEST_F(UploadAttackTest, ATrickleBelowTheMinimumRateIsAborted) {
   const grpc::Status s = Trickle();
   EXPECT_EQ(s.error_code(), grpc::StatusCode::DEADLINE_EXCEEDED);
   EXPECT_THAT(s.error_message(), HasSubstr("--upload_min_bytes_per_second"));
-  WaitFor([&] { return server_->store().reserved_uploads() == 0; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
 }
 
@@ -470,7 +463,7 @@ TEST_F(UploadAttackTest, AHeaderAloneEvictsNothing) {
   v1::CreateSessionResponse r1, r2;
   auto w1 = Open(&c1, &r1);
   ASSERT_TRUE(w1->Write(Header(nv, nf)));
-  WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
+  testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   EXPECT_TRUE(client_->Get("victim").ok());
   auto w2 = Open(&c2, &r2);
   w2->Write(Header(nv, nf));

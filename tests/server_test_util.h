@@ -11,6 +11,7 @@
 #include "proto/wire/convert.h"
 #include "server/server.h"
 #include "tests/fake_clock.h"
+#include "tests/wait_for.h"
 
 namespace meshgauge::testing {
 
