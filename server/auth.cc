@@ -9,7 +9,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "lib/io/text_file.h"
-#include "server/session_store.h"
+#include "server/session_messages.h"
 
 namespace meshgauge::server {
 

@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "server/record_codec.h"
+#include "server/session_messages.h"
 
 namespace meshgauge::server {
 
@@ -225,12 +226,6 @@ int64_t Int(const redisReply* r) {
 const redisReply* At(const redisReply* r, size_t i) {
   return r && r->type == REDIS_REPLY_ARRAY && i < r->elements ? r->element[i]
                                                               : nullptr;
-}
-
-absl::Status NoSession(const std::string& id) {
-  return absl::NotFoundError(
-      absl::StrCat("no session '", absl::CHexEscape(id.substr(0, 80)),
-                   "' (never created, deleted, or expired after idling)"));
 }
 
 }  // namespace
@@ -487,7 +482,7 @@ absl::StatusOr<RecordVersion> RedisRecords::Version(const std::string& tenant,
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t g = Int(At(v, 0));
-  if (g < 0) return NoSession(id);
+  if (g < 0) return SessionNotFound(id);
   return RecordVersion{g, Str(At(v, 1))};
 }
 
@@ -496,7 +491,8 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   auto r = Eval(kLoad, {SessionKey(tenant, id)}, {});
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
-  if (v->type != REDIS_REPLY_ARRAY || v->elements < 8) return NoSession(id);
+  if (v->type != REDIS_REPLY_ARRAY || v->elements < 8)
+    return SessionNotFound(id);
   SessionRecord rec;
   rec.info.session_id = id;
   if (absl::Status s = DecodeInfo(Str(At(v, 0)), &rec.info); !s.ok()) return s;
@@ -532,17 +528,15 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t code = Int(At(v, 0)), gen = Int(At(v, 1));
-  if (code == -1) return NoSession(id);
+  if (code == -1) return SessionNotFound(id);
   if (code == -2) {
     return absl::AbortedError(absl::StrCat(
-        "session '", id,
-        "' was deleted and created again while the update was checked; "
+        "session ", QuoteId(id),
+        " was deleted and created again while the update was checked; "
         "read it again and retry"));
   }
   if (code == 0) {
-    return absl::AbortedError(
-        absl::StrCat("session '", id, "' is at generation ", gen,
-                     ", the update expected generation ", expected.generation));
+    return GenerationMismatch(id, gen, expected.generation, "update");
   }
   return gen;
 }
@@ -555,7 +549,7 @@ absl::Status RedisRecords::Delete(const std::string& tenant,
                  absl::StrCat(options_.key_prefix, "all")},
                 {id});
   if (!r.ok()) return r.status();
-  return Int((*r)->reply) > 0 ? absl::OkStatus() : NoSession(id);
+  return Int((*r)->reply) > 0 ? absl::OkStatus() : SessionNotFound(id);
 }
 
 absl::StatusOr<std::vector<RecordSummary>> RedisRecords::List(

@@ -49,7 +49,8 @@ class ReflectionGuard : public grpc::experimental::Interceptor {
 
 }  // namespace
 
-grpc::experimental::Interceptor* ReflectionGuardFactory::CreateServerInterceptor(
+grpc::experimental::Interceptor*
+ReflectionGuardFactory::CreateServerInterceptor(
     grpc::experimental::ServerRpcInfo* info) {
   if (!absl::StartsWith(info->method(), "/grpc.reflection.")) return nullptr;
   return new ReflectionGuard(auth_, info);

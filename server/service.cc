@@ -188,9 +188,8 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
   if (!reader.ok()) return reader.status();
   const int64_t generation = reader->evaluator->generation();
   if (has_expected_generation && expected_generation != generation) {
-    return absl::AbortedError(absl::StrCat(
-        "session ", QuoteId(session_id), " is at generation ", generation,
-        ", the request expected generation ", expected_generation));
+    return GenerationMismatch(session_id, generation, expected_generation,
+                              "request");
   }
   return Prepared{std::move(*session), std::move(*reader), *sdf_params};
 }
@@ -376,12 +375,10 @@ grpc::Status MeshGaugeService::UpdatePositions(
         const bool subset = request->indices_size() > 0;
         const int64_t expected =
             subset ? request->indices_size() : (*session)->num_vertices();
-        if (std::ssize(*points) != expected) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("positions holds ", points->size(),
-                           " points, expected ", expected,
-                           subset ? " (one per index)"
-                                  : " (one per vertex of the session)"));
+        if (absl::Status c =
+                CheckPointCount(std::ssize(*points), expected, subset);
+            !c.ok()) {
+          return c;
         }
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());

@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/stopwatch.h"
+#include "server/session_messages.h"
 
 namespace meshgauge::server {
 namespace {
@@ -139,9 +140,8 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
   std::unique_lock<std::shared_mutex> lock(mu_);
   if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
   if (expected_generation != evaluator_->generation()) {
-    return absl::AbortedError(absl::StrCat(
-        "session '", id_, "' is at generation ", evaluator_->generation(),
-        ", the update expected generation ", expected_generation));
+    return GenerationMismatch(id_, evaluator_->generation(),
+                              expected_generation, "update");
   }
   const Stopwatch watch;
   const int64_t builds = evaluator_->builds();

@@ -3,28 +3,10 @@
 #include <chrono>
 #include <random>
 
-#include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 
 namespace meshgauge::server {
-
-bool ValidSessionId(const std::string& id) {
-  if (id.empty() || id.size() > 64) return false;
-  for (char c : id) {
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' ||
-          c == '-')) {
-      return false;
-    }
-  }
-  return true;
-}
-
-std::string QuoteId(const std::string& id) {
-  std::string s = absl::CHexEscape(id.substr(0, 80));
-  if (id.size() > 80) s += "...";
-  return absl::StrCat("'", s, "'");
-}
 
 UploadReservation& UploadReservation::operator=(
     UploadReservation&& o) noexcept {
@@ -303,9 +285,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
   std::lock_guard<std::mutex> lock(mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) {
-    return absl::NotFoundError(absl::StrCat(
-        "no session ", QuoteId(id),
-        " (never created, deleted, or evicted after idling or for memory)"));
+    return SessionNotFound(id);
   }
   if (touch) it->second->Touch(clock_->NowSeconds());
   return it->second;
@@ -313,9 +293,7 @@ absl::StatusOr<std::shared_ptr<Session>> SessionStore::Get(
 
 absl::StatusOr<std::shared_ptr<Session>> SessionStore::GetRecorded(
     const std::string& tenant, const std::string& id, bool touch) {
-  if (!ValidSessionId(id)) {
-    return absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
-  }
+  if (!ValidSessionId(id)) return SessionNotFound(id);
   auto version = records_->Version(tenant, id, touch);
   if (!version.ok()) {
     if (absl::IsNotFound(version.status())) {
@@ -368,9 +346,7 @@ absl::Status SessionStore::Delete(const std::string& tenant,
                                   const std::string& id) {
   if (records_) {
     absl::Status s =
-        ValidSessionId(id)
-            ? records_->Delete(tenant, id)
-            : absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
+        ValidSessionId(id) ? records_->Delete(tenant, id) : SessionNotFound(id);
     std::lock_guard<std::mutex> lock(mu_);
     if (s.ok() || absl::IsNotFound(s)) sessions_.erase({tenant, id});
     PublishLocked();
@@ -378,9 +354,7 @@ absl::Status SessionStore::Delete(const std::string& tenant,
   }
   std::lock_guard<std::mutex> lock(mu_);
   auto it = sessions_.find({tenant, id});
-  if (it == sessions_.end()) {
-    return absl::NotFoundError(absl::StrCat("no session ", QuoteId(id)));
-  }
+  if (it == sessions_.end()) return SessionNotFound(id);
   sessions_.erase(it);
   PublishLocked();
   return absl::OkStatus();
@@ -400,9 +374,8 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
   // was lost: the record's compare-and-set recognises it.
   const bool maybe_retry = s.generation() == expected_generation + 1;
   if (s.generation() != expected_generation && !maybe_retry) {
-    return absl::AbortedError(absl::StrCat(
-        "session ", QuoteId(id), " is at generation ", s.generation(),
-        ", the update expected generation ", expected_generation));
+    return GenerationMismatch(id, s.generation(), expected_generation,
+                              "update");
   }
   // The new positions of every vertex, validated before the record changes.
   std::vector<Vec3> all;
@@ -415,10 +388,10 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
       // check may have seen another incarnation (deleted and re-created in
       // between), and extra points would pass validation as unused
       // vertices, then corrupt the record.
-      if (positions.size() != moved.positions.size()) {
-        return absl::InvalidArgumentError(absl::StrCat(
-            "positions holds ", positions.size(), " points, expected ",
-            moved.positions.size(), " (one per vertex of the session)"));
+      if (absl::Status c = CheckPointCount(std::ssize(positions),
+                                           std::ssize(moved.positions), false);
+          !c.ok()) {
+        return c;
       }
       moved.positions = positions;
     } else if (absl::Status v =

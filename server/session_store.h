@@ -37,6 +37,7 @@
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/session.h"
+#include "server/session_messages.h"
 
 namespace meshgauge::server {
 
@@ -205,12 +206,5 @@ class SessionStore {
   std::map<std::string, Reserved> reserved_;  // by tenant.
   Reserved reserved_total_;
 };
-
-// Session ids: [A-Za-z0-9._-]{1,64}.
-bool ValidSessionId(const std::string& id);
-
-// An id or name for a message: at most 80 characters, control and
-// non-ASCII characters escaped, quoted.
-std::string QuoteId(const std::string& id);
 
 }  // namespace meshgauge::server
