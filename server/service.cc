@@ -17,6 +17,7 @@
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
+#include "proto/wire/reply_convert.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
@@ -385,9 +386,7 @@ grpc::Status MeshGaugeService::UpdatePositions(
         auto outcome = store_->UpdatePositions(
             tenant, *session, request->expected_generation(), indices, *points);
         if (!outcome.ok()) return outcome.status();
-        response->set_generation(outcome->generation);
-        response->set_refit(outcome->refit);
-        response->set_bvh_seconds(outcome->bvh_seconds);
+        wire::ToWire(*outcome, response);
         return absl::OkStatus();
       });
 }
@@ -519,12 +518,10 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
                                                       request->weights_size()),
                                   Control(ctx), options_.compute_threads);
         if (!vjp.ok()) return Interrupted(ctx, vjp.status());
-        response->set_generation(ev.generation());
-        response->set_dimension(ev.mesh().dimension);
-        wire::AppendFlattened(*vjp, ev.mesh().dimension,
-                              response->mutable_gradient());
-        response->set_reused_hits(pass->reused);
-        response->set_seconds(Seconds(start));
+        wire::ToWire(
+            wire::VjpReply{std::move(*vjp),
+                           {ev.generation(), pass->reused, Seconds(start)}},
+            ev.mesh().dimension, response);
         return absl::OkStatus();
       });
 }
@@ -564,16 +561,6 @@ grpc::Status MeshGaugeService::ComputePenalty(
             request->with_gradient() ? &pass->pass->hits : nullptr,
             Control(ctx), options_.compute_threads);
         if (!pen.ok()) return Interrupted(ctx, pen.status());
-        response->set_generation(ev.generation());
-        response->set_value(pen->value);
-        response->set_skipped_faces(pen->missing.faces);
-        wire::ToWire(pen->missing, response->mutable_missing());
-        response->set_world_frame_vertices(sdf.world_frame_vertices);
-        response->set_dimension(ev.mesh().dimension);
-        if (request->with_gradient()) {
-          wire::AppendFlattened(pen->gradient, ev.mesh().dimension,
-                                response->mutable_gradient());
-        }
         if (*thin_request) {
           auto thin =
               FindThinRegions(ev.mesh(), sdf.values, (*thin_request)->params);
@@ -581,9 +568,12 @@ grpc::Status MeshGaugeService::ComputePenalty(
           wire::ToWire(*thin, (*thin_request)->max_regions,
                        response->mutable_thin());
         }
-        response->set_sdf_min(SummarizeValues(sdf.values).min);
-        response->set_reused_hits(pass->reused);
-        response->set_seconds(Seconds(start));
+        wire::ToWire(
+            wire::PenaltyReply{std::move(*pen),
+                               SummarizeValues(sdf.values).min,
+                               sdf.world_frame_vertices,
+                               {ev.generation(), pass->reused, Seconds(start)}},
+            ev.mesh().dimension, request->with_gradient(), response);
         return absl::OkStatus();
       });
 }

@@ -134,7 +134,7 @@ absl::StatusOr<Session::Reader> Session::Read() {
   return Reader{std::move(lock), evaluator_.get()};
 }
 
-absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
+absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
     int64_t expected_generation, absl::Span<const int32_t> indices,
     absl::Span<const Vec3> positions) {
   std::unique_lock<std::shared_mutex> lock(mu_);
@@ -149,7 +149,7 @@ absl::StatusOr<UpdateOutcome> Session::UpdatePositions(
                        ? evaluator_->UpdatePositions(positions)
                        : evaluator_->UpdatePositions(indices, positions);
   if (!s.ok()) return s;
-  UpdateOutcome out;
+  wire::UpdateResult out;
   out.refit = evaluator_->builds() == builds;
   out.bvh_seconds = watch.Seconds();
   if (out.refit) {

@@ -43,12 +43,6 @@ struct SessionSnapshot {
   double last_used = 0;
 };
 
-struct UpdateOutcome {
-  int64_t generation = 0;
-  bool refit = false;
-  double bvh_seconds = 0;
-};
-
 class Session {
  public:
   // A new session of a repaired, validated and diagnosed mesh (its
@@ -79,7 +73,7 @@ class Session {
   // Exclusive: moves vertices and refits the BVH, or rebuilds it when the
   // new generation is a BVH base (IsBvhBase). Errors: ABORTED on a
   // generation mismatch, INVALID_ARGUMENT for bad positions.
-  absl::StatusOr<UpdateOutcome> UpdatePositions(
+  absl::StatusOr<wire::UpdateResult> UpdatePositions(
       int64_t expected_generation, absl::Span<const int32_t> indices,
       absl::Span<const Vec3> positions);
 

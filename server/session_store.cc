@@ -360,7 +360,7 @@ absl::Status SessionStore::Delete(const std::string& tenant,
   return absl::OkStatus();
 }
 
-absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
+absl::StatusOr<wire::UpdateResult> SessionStore::UpdatePositions(
     const std::string& tenant, const std::shared_ptr<Session>& session,
     int64_t expected_generation, const std::vector<int32_t>& indices,
     const std::vector<Vec3>& positions) {
@@ -412,7 +412,7 @@ absl::StatusOr<UpdateOutcome> SessionStore::UpdatePositions(
       IsBvhBase(expected_generation + 1, options_.rebuild_every_updates));
   if (!committed.ok()) return committed.status();
   if (maybe_retry) {
-    return UpdateOutcome{
+    return wire::UpdateResult{
         .generation = *committed,
         .refit = !IsBvhBase(*committed, options_.rebuild_every_updates)};
   }

@@ -126,7 +126,7 @@ class SessionStore {
   // generation and incarnation compare-and-set happens in the record first.
   // Errors: ABORTED (generation, incarnation), INVALID_ARGUMENT (positions,
   // indices), NOT_FOUND.
-  absl::StatusOr<UpdateOutcome> UpdatePositions(
+  absl::StatusOr<wire::UpdateResult> UpdatePositions(
       const std::string& tenant, const std::shared_ptr<Session>& session,
       int64_t expected_generation, const std::vector<int32_t>& indices,
       const std::vector<Vec3>& positions);

@@ -13,6 +13,7 @@
 #include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
+#include "proto/wire/reply_convert.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
@@ -384,6 +385,67 @@ TEST(WireTest, GradCheckOptionsAndReportRoundTrip) {
   bad_axis.mutable_rows(0)->set_coordinate(3);
   EXPECT_EQ(wire::FromWire(bad_axis).status().code(),
             absl::StatusCode::kDataLoss);
+}
+
+// The unary replies back as sent (doubles bit for bit, 2D gradients as
+// dimension-2 vectors); a reply a client cannot read is DATA_LOSS.
+TEST(WireTest, UnaryRepliesRoundTripAndMalformedOnesAreDataLoss) {
+  v1::UpdatePositionsResponse up;
+  wire::ToWire(wire::UpdateResult{7, true, 0.1 + 1e-17}, &up);
+  const wire::UpdateResult u = wire::FromWire(up);
+  EXPECT_EQ(u.generation, 7);
+  EXPECT_TRUE(u.refit);
+  EXPECT_EQ(u.bvh_seconds, 0.1 + 1e-17);
+
+  const std::vector<Vec3> g = {Vec3(1.0 / 3, -2e-300, 0), Vec3(5, 6, 0)};
+  for (int dim : {2, 3}) {
+    v1::ComputeVjpResponse vjp;
+    wire::ToWire(wire::VjpReply{g, {4, true, 1.5}}, dim, &vjp);
+    EXPECT_EQ(vjp.gradient_size(), 2 * dim);
+    auto back = wire::FromWire(vjp);
+    ASSERT_TRUE(back.ok()) << back.status();
+    EXPECT_EQ(back->gradient, g);
+    EXPECT_EQ(back->facts.generation, 4);
+    EXPECT_TRUE(back->facts.reused_hits);
+  }
+  v1::ComputeVjpResponse bad;
+  wire::ToWire(wire::VjpReply{g, {}}, 3, &bad);
+  bad.set_dimension(4);
+  EXPECT_EQ(wire::FromWire(bad).status().code(), absl::StatusCode::kDataLoss);
+  bad.set_dimension(3);
+  bad.mutable_gradient()->RemoveLast();
+  EXPECT_EQ(wire::FromWire(bad).status().code(), absl::StatusCode::kDataLoss);
+
+  wire::PenaltyReply pen;
+  pen.penalty.value = 0.1 + 1e-16;
+  pen.penalty.missing = {3, 2, 0.25};
+  pen.penalty.gradient = g;
+  pen.sdf_min = 1.0 / 7;
+  pen.world_frame_vertices = 9;
+  pen.facts = {11, false, 2.5};
+  for (bool with_gradient : {true, false}) {
+    v1::ComputePenaltyResponse w;
+    wire::ToWire(pen, 3, with_gradient, &w);
+    EXPECT_EQ(w.skipped_faces(), 2);
+    auto back = wire::FromWire(w, with_gradient);
+    ASSERT_TRUE(back.ok()) << back.status();
+    EXPECT_EQ(back->penalty.value, pen.penalty.value);
+    EXPECT_EQ(back->penalty.missing.vertices, 3);
+    EXPECT_EQ(back->penalty.missing.area_fraction, 0.25);
+    EXPECT_EQ(back->penalty.gradient, with_gradient ? g : std::vector<Vec3>{});
+    EXPECT_EQ(back->sdf_min, pen.sdf_min);
+    EXPECT_EQ(back->world_frame_vertices, 9);
+    EXPECT_EQ(back->facts.generation, 11);
+  }
+
+  EXPECT_EQ(*wire::ServingFromHealthBytes(std::string("\x08\x01", 2)), true);
+  EXPECT_EQ(*wire::ServingFromHealthBytes(std::string("\x08\x02", 2)), false);
+  for (const std::string& junk :
+       {std::string(), std::string("\x08", 1), std::string("\x08\x03", 2),
+        std::string("\x10\x01", 2), std::string("\x08\x01\x00", 3)}) {
+    EXPECT_EQ(wire::ServingFromHealthBytes(junk).status().code(),
+              absl::StatusCode::kDataLoss);
+  }
 }
 
 TEST(ServiceConfigTest, TheCompiledConfigIsTheFileNextToTheProto) {

@@ -15,6 +15,7 @@
 #include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
+#include "proto/wire/reply_convert.h"
 
 namespace meshgauge::client {
 
@@ -159,9 +160,8 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
 }
 
 absl::StatusOr<bool> RemoteClient::Serving() {
-  // The health protocol by hand-encoded bytes (no generated health stubs):
-  // the request is empty; the response is field 1 (status) as a varint,
-  // 1 = SERVING, 2 = NOT_SERVING.
+  // The health protocol as bytes (no generated health stubs): the request
+  // is empty.
   grpc::GenericStub stub(channel_);
   auto ctx = Context("");
   grpc::Slice empty("");
@@ -178,10 +178,7 @@ absl::StatusOr<bool> RemoteClient::Serving() {
   }
   std::string bytes;
   for (const auto& s : slices) bytes.append(s.begin(), s.end());
-  if (bytes.size() != 2 || bytes[0] != 0x08) {
-    return absl::DataLossError("unexpected health response");
-  }
-  return bytes[1] == 1;
+  return wire::ServingFromHealthBytes(bytes);
 }
 
 absl::StatusOr<wire::SessionInfo> RemoteClient::Get(const std::string& id) {
@@ -240,8 +237,7 @@ absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
       !s.ok()) {
     return s;
   }
-  return wire::UpdateResult{resp.generation(), resp.refit(),
-                            resp.bvh_seconds()};
+  return wire::FromWire(resp);
 }
 
 absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
@@ -315,23 +311,6 @@ absl::StatusOr<wire::GradCheckReply> RemoteClient::GradCheck(
                               {report->generation(), false, report->seconds()}};
 }
 
-namespace {
-
-// Per-vertex vectors of a reply's gradient; DATA_LOSS when its size is not
-// a whole number of `dimension`-vectors.
-absl::StatusOr<std::vector<Vec3>> Gradient(
-    const google::protobuf::RepeatedField<double>& flat, int dimension) {
-  if (dimension != 2 && dimension != 3) {
-    return absl::DataLossError(
-        absl::StrCat("reply gradient dimension ", dimension));
-  }
-  auto points = wire::ToPoints(flat, dimension, "gradient");
-  if (!points.ok()) return absl::DataLossError(points.status().message());
-  return points;
-}
-
-}  // namespace
-
 absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
     const std::string& id, const SdfParams& params,
     absl::Span<const double> weights,
@@ -347,11 +326,7 @@ absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
       !s.ok()) {
     return s;
   }
-  auto gradient = Gradient(resp.gradient(), resp.dimension());
-  if (!gradient.ok()) return gradient.status();
-  return wire::VjpReply{
-      std::move(*gradient),
-      {resp.generation(), resp.reused_hits(), resp.seconds()}};
+  return wire::FromWire(resp);
 }
 
 absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenalty(
@@ -371,18 +346,7 @@ absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenalty(
       !s.ok()) {
     return s;
   }
-  wire::PenaltyReply out;
-  out.penalty.value = resp.value();
-  out.penalty.missing = wire::FromWire(resp.missing());
-  if (with_gradient) {
-    auto gradient = Gradient(resp.gradient(), resp.dimension());
-    if (!gradient.ok()) return gradient.status();
-    out.penalty.gradient = std::move(*gradient);
-  }
-  out.sdf_min = resp.sdf_min();
-  out.world_frame_vertices = resp.world_frame_vertices();
-  out.facts = {resp.generation(), resp.reused_hits(), resp.seconds()};
-  return out;
+  return wire::FromWire(resp, with_gradient);
 }
 
 absl::StatusOr<CalibrationReport> RemoteClient::Calibrate(

@@ -1,0 +1,93 @@
+#include "proto/wire/reply_convert.h"
+
+#include "absl/strings/str_cat.h"
+#include "proto/wire/convert.h"
+
+namespace meshgauge::wire {
+namespace {
+
+// Per-vertex vectors of a reply's gradient.
+absl::StatusOr<std::vector<Vec3>> Gradient(
+    const google::protobuf::RepeatedField<double>& flat, int dimension) {
+  if (dimension != 2 && dimension != 3) {
+    return absl::DataLossError(
+        absl::StrCat("reply gradient dimension ", dimension));
+  }
+  auto points = ToPoints(flat, dimension, "gradient");
+  if (!points.ok()) return absl::DataLossError(points.status().message());
+  return points;
+}
+
+CallFacts Facts(int64_t generation, bool reused_hits, double seconds) {
+  return {generation, reused_hits, seconds};
+}
+
+}  // namespace
+
+void ToWire(const UpdateResult& r, v1::UpdatePositionsResponse* out) {
+  out->set_generation(r.generation);
+  out->set_refit(r.refit);
+  out->set_bvh_seconds(r.bvh_seconds);
+}
+
+UpdateResult FromWire(const v1::UpdatePositionsResponse& r) {
+  return {r.generation(), r.refit(), r.bvh_seconds()};
+}
+
+void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
+  out->set_generation(r.facts.generation);
+  out->set_dimension(dimension);
+  AppendFlattened(r.gradient, dimension, out->mutable_gradient());
+  out->set_reused_hits(r.facts.reused_hits);
+  out->set_seconds(r.facts.seconds);
+}
+
+absl::StatusOr<VjpReply> FromWire(const v1::ComputeVjpResponse& r) {
+  auto gradient = Gradient(r.gradient(), r.dimension());
+  if (!gradient.ok()) return gradient.status();
+  return VjpReply{std::move(*gradient),
+                  Facts(r.generation(), r.reused_hits(), r.seconds())};
+}
+
+void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,
+            v1::ComputePenaltyResponse* out) {
+  out->set_generation(r.facts.generation);
+  out->set_value(r.penalty.value);
+  out->set_skipped_faces(r.penalty.missing.faces);
+  ToWire(r.penalty.missing, out->mutable_missing());
+  out->set_world_frame_vertices(r.world_frame_vertices);
+  out->set_dimension(dimension);
+  if (with_gradient) {
+    AppendFlattened(r.penalty.gradient, dimension, out->mutable_gradient());
+  }
+  out->set_sdf_min(r.sdf_min);
+  out->set_reused_hits(r.facts.reused_hits);
+  out->set_seconds(r.facts.seconds);
+}
+
+absl::StatusOr<PenaltyReply> FromWire(const v1::ComputePenaltyResponse& r,
+                                      bool with_gradient) {
+  PenaltyReply out;
+  out.penalty.value = r.value();
+  out.penalty.missing = FromWire(r.missing());
+  if (with_gradient) {
+    auto gradient = Gradient(r.gradient(), r.dimension());
+    if (!gradient.ok()) return gradient.status();
+    out.penalty.gradient = std::move(*gradient);
+  }
+  out.sdf_min = r.sdf_min();
+  out.world_frame_vertices = r.world_frame_vertices();
+  out.facts = Facts(r.generation(), r.reused_hits(), r.seconds());
+  return out;
+}
+
+absl::StatusOr<bool> ServingFromHealthBytes(const std::string& bytes) {
+  // Field 1 (status) as a varint: 1 = SERVING, 2 = NOT_SERVING.
+  if (bytes.size() != 2 || bytes[0] != 0x08 ||
+      (bytes[1] != 1 && bytes[1] != 2)) {
+    return absl::DataLossError("unexpected health response");
+  }
+  return bytes[1] == 1;
+}
+
+}  // namespace meshgauge::wire
