@@ -5,13 +5,14 @@ server/metrics.cc registers (or Prometheus' own `up`, or the Redis
 exporter's `redis_up`), the dashboard must be Grafana JSON with a Prometheus
 target per panel, and the rules must cover replica down, error ratio, p95
 latency and Redis down. The balancer's health check, raw HTTP/2 frames in
-hex, must decode to a grpc.health.v1.Health/Check call that passes only on
-SERVING.
+hex, must be deploy/haproxy/health_check.py's output and decode to a
+grpc.health.v1.Health/Check call that passes only on SERVING.
 """
 
 import json
 import os
 import re
+import subprocess
 import sys
 import unittest
 
@@ -62,6 +63,17 @@ class DeployConfigTest(unittest.TestCase):
                 used = metrics_in(t["expr"])
                 self.assertTrue(used, t["expr"])
                 self.assertLessEqual(used, known, t["expr"])
+
+    def test_balancer_health_check_is_the_generators_output(self):
+        cfg = read("deploy", "haproxy", "haproxy.cfg")
+        block = re.search(r"# BEGIN health_check.py\n(.*?)\n\s*# END "
+                          r"health_check.py", cfg, re.S)
+        self.assertIsNotNone(block)
+        generated = subprocess.run(
+            [sys.executable,
+             os.path.join(ROOT, "deploy", "haproxy", "health_check.py")],
+            check=True, capture_output=True, text=True).stdout
+        self.assertEqual(block.group(1), generated.rstrip("\n"))
 
     def test_balancer_health_check_is_a_grpc_health_call(self):
         cfg = read("deploy", "haproxy", "haproxy.cfg")
