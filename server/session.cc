@@ -116,8 +116,7 @@ absl::Status Session::EnsureEvaluator() {
     metrics_->RecordBvhRefit(refit_watch.Seconds());
   }
   evaluator_ = std::move(*ev);
-  builds_ = evaluator_->builds();
-  refits_ = evaluator_->refits();
+  published_ = evaluator_.get();
   return absl::OkStatus();
 }
 
@@ -157,8 +156,6 @@ absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
   } else {
     metrics_->RecordBvhBuild(out.bvh_seconds);
   }
-  builds_ = evaluator_->builds();
-  refits_ = evaluator_->refits();
   out.generation = evaluator_->generation();
   generation_ = out.generation;
   // The cached pass stays (still counted in memory_bytes): the next pass
@@ -197,8 +194,10 @@ SessionSnapshot Session::Snapshot() const {
   SessionSnapshot s;
   s.info = Info();
   s.info.memory_bytes = memory_bytes();
-  s.info.bvh_builds = builds_;
-  s.info.bvh_refits = refits_;
+  if (const SdfEvaluator* ev = published_.load()) {
+    s.info.bvh_builds = ev->builds();
+    s.info.bvh_refits = ev->refits();
+  }
   s.last_used = last_used_;
   return s;
 }

@@ -130,8 +130,9 @@ class Session {
   std::vector<Vec3> pending_positions_;
   std::unique_ptr<SdfEvaluator> evaluator_;
   std::mutex update_mu_;
-  // Mirror the evaluator's counts (Snapshot never takes mu_).
-  std::atomic<int64_t> builds_{0}, refits_{0};
+  // evaluator_ once it exists, for Snapshot (which never takes mu_) to read
+  // its BVH counts.
+  std::atomic<const SdfEvaluator*> published_{nullptr};
   // Mirrors the evaluator's generation so Snapshot never takes mu_ (a
   // reader must not lock it twice).
   std::atomic<int64_t> generation_{0};

@@ -3,6 +3,7 @@
 // again without rebuilding. The one-shot entry point is ComputeSdf (sdf.h).
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -82,8 +83,9 @@ class SdfEvaluator : public MeshGeometry {
   const RayScene& scene() const { return *scene_; }
   // BVH builds (creation, kRebuild updates, base generations) and refits
   // (other kRefit updates): each update counts once.
-  int64_t builds() const { return builds_; }
-  int64_t refits() const { return refits_; }
+  // Safe to read while another thread updates the positions.
+  int64_t builds() const { return builds_.load(); }
+  int64_t refits() const { return refits_.load(); }
 
  private:
   SdfEvaluator() = default;
@@ -108,7 +110,7 @@ class SdfEvaluator : public MeshGeometry {
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   int rebuild_every_updates_ = 0;
-  int64_t builds_ = 0, refits_ = 0;
+  std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;
   // The ray pass visits vertices in this Morton order of the positions at
   // creation (kept across updates; results stay in vertex order and do not
