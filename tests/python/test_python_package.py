@@ -9,12 +9,9 @@ import json
 import os
 import re
 import shutil
-import signal
-import socket
 import subprocess
 import sys
 import tempfile
-import time
 import unittest
 
 import numpy as np
@@ -31,39 +28,7 @@ SHARED = os.environ.get("MESHGAUGE_SHARED_DIR",
                         os.path.join(SOURCE, "..", "shared"))
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-class ServerProcess:
-    """meshgauge-server on a fixed loopback port, restartable."""
-
-    def __init__(self, port):
-        self.port = port
-        self.target = f"127.0.0.1:{port}"
-        self.proc = None
-        self.start()
-
-    def start(self):
-        self.proc = subprocess.Popen(
-            [os.environ["MESHGAUGE_SERVER"], f"--address={self.target}",
-             "--metrics_address=", "--drain_notice_seconds=0"],
-            stderr=subprocess.DEVNULL)
-        with MeshGaugeClient(self.target, retry_seconds=20) as c:
-            c.list()  # waits until it serves
-
-    def kill(self):
-        self.proc.send_signal(signal.SIGKILL)
-        self.proc.wait(timeout=20)
-
-    def stop(self):
-        if self.proc.poll() is None:
-            self.proc.terminate()
-            self.proc.wait(timeout=20)
+from server_fixture import ServerProcess  # noqa: E402
 
 
 def descend(client, steps, on_step=None):
@@ -84,13 +49,13 @@ def descend(client, steps, on_step=None):
 class PackageTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.server = ServerProcess(free_port())
+        cls.server = ServerProcess()
         cls.client = MeshGaugeClient(cls.server.target, retry_seconds=20)
 
     @classmethod
     def tearDownClass(cls):
         cls.client.close()
-        cls.server.stop()
+        cls.server.close()
 
     def test_session_survives_a_server_restart_with_the_same_result(self):
         undisturbed, p0, n0 = descend(self.client, 12)

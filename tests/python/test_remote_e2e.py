@@ -4,11 +4,8 @@ example, and a graceful SIGTERM drain."""
 
 import os
 import signal
-import socket
 import subprocess
 import sys
-import tempfile
-import time
 import unittest
 import urllib.request
 
@@ -20,14 +17,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
 import thicken_plate  # noqa: E402
+from server_fixture import ServerProcess  # noqa: E402
 
 import grpc  # noqa: E402
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def octahedron(scale=1.0):
@@ -41,30 +33,20 @@ def octahedron(scale=1.0):
 class RemoteEndToEnd(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
-        cls.tmp = tempfile.mkdtemp()
-        port_file = os.path.join(cls.tmp, "port")
-        cls.metrics_port = free_port()
-        cls.log = open(os.path.join(cls.tmp, "server.log"), "w+")
-        cls.proc = subprocess.Popen(
-            [os.environ["MESHGAUGE_SERVER"], "--address=127.0.0.1:0",
-             f"--metrics_address=127.0.0.1:{cls.metrics_port}",
-             f"--port_file={port_file}", "--drain_notice_seconds=0.2",
-             "--shutdown_grace_seconds=10"],
-            stderr=cls.log)
-        deadline = time.time() + 20
-        while not os.path.exists(port_file) or not open(port_file).read().strip():
-            if time.time() > deadline or cls.proc.poll() is not None:
-                raise RuntimeError("server did not start")
-            time.sleep(0.05)
-        cls.target = "127.0.0.1:" + open(port_file).read().strip()
+        cls.server = ServerProcess("--drain_notice_seconds=0.2",
+                                   "--shutdown_grace_seconds=10",
+                                   metrics=True)
+        cls.tmp = cls.server.tmp
+        cls.metrics_port = cls.server.metrics_port
+        cls.target = cls.server.target
         cls.client = MeshGaugeClient(cls.target)
 
     @classmethod
     def tearDownClass(cls):
         cls.client.close()
-        if cls.proc.poll() is None:
-            cls.proc.kill()
-        cls.log.close()
+        if cls.server.proc.poll() is None:
+            cls.server.proc.kill()
+        cls.server.close()
 
     def test_1_values_vjp_penalty_numpy(self):
         v, f = octahedron()
@@ -347,10 +329,9 @@ class RemoteEndToEnd(unittest.TestCase):
         s.close()
 
     def test_9_sigterm_drains_and_exits_cleanly(self):
-        self.proc.send_signal(signal.SIGTERM)
-        self.assertEqual(self.proc.wait(timeout=20), 0)
-        self.log.seek(0)
-        log = self.log.read()
+        self.server.proc.send_signal(signal.SIGTERM)
+        self.assertEqual(self.server.proc.wait(timeout=20), 0)
+        log = self.server.stderr()
         self.assertIn("draining", log)
         self.assertIn("stopped", log)
 

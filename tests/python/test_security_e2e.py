@@ -17,6 +17,7 @@ import grpc
 import numpy as np
 
 from meshgauge_client import MeshGaugeClient, MeshGaugeError
+from server_fixture import ServerProcess as Server
 
 SERVER = os.environ["MESHGAUGE_SERVER"]
 CLI = os.environ["MESHGAUGE_CLI"]
@@ -31,46 +32,6 @@ def octahedron():
     f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5],
                   [1, 2, 5], [3, 1, 5], [0, 3, 5]])
     return v, f
-
-
-class Server:
-    """A meshgauge-server process on a free loopback port."""
-
-    def __init__(self, *flags):
-        self.tmp = tempfile.mkdtemp()
-        port_file = os.path.join(self.tmp, "port")
-        self.log = open(os.path.join(self.tmp, "server.log"), "w+")
-        self.proc = subprocess.Popen(
-            [SERVER, "--address=127.0.0.1:0", "--metrics_address=",
-             f"--port_file={port_file}", "--drain_notice_seconds=0",
-             *flags], stderr=self.log)
-        deadline = time.time() + 20
-        while not self._read(port_file):
-            if time.time() > deadline or self.proc.poll() is not None:
-                self.log.seek(0)
-                raise RuntimeError("server did not start: " + self.log.read())
-            time.sleep(0.05)
-        self.port = int(self._read(port_file))
-        self.target = f"127.0.0.1:{self.port}"
-
-    @staticmethod
-    def _read(path):
-        if not os.path.exists(path):
-            return ""
-        with open(path) as f:
-            return f.read().strip()
-
-    def stop(self):
-        self.proc.terminate()
-        self.proc.wait(timeout=20)
-        self._final = self.stderr()
-        self.log.close()
-
-    def stderr(self):
-        if self.log.closed:
-            return self._final
-        self.log.seek(0)
-        return self.log.read()
 
 
 def run_server(*flags, timeout=20):
