@@ -10,8 +10,8 @@ trap 'kill "$server" 2>/dev/null || true; rm -rf "$tmp"' EXIT
 build/server/meshgauge-server --address 127.0.0.1:0 --metrics_address= \
   --port_file "$tmp/port" 2>"$tmp/server.log" &
 server=$!
-for _ in $(seq 100); do [ -s "$tmp/port" ] && break; sleep 0.1; done
-target="127.0.0.1:$(cat "$tmp/port")"
+source scripts/lib.sh
+target="127.0.0.1:$(await_port_file "$tmp/port")"
 cpp=$(build/bench/meshgauge_client_bench --iterations "$N" --dump "$tmp/mesh.obj" \
       "$target" "$MESH" | tee /dev/stderr | grep -o '[0-9.]* s' | cut -d' ' -f1)
 py=$(PYTHONPATH=build/python /usr/bin/python3 bench/python_client_bench.py \

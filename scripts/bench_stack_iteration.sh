@@ -12,19 +12,16 @@ cd "$(dirname "$0")/.."
 source scripts/bench_setup.sh
 pids=()
 trap 'kill "${pids[@]}" 2>/dev/null || true; rm -rf "$tmp"' EXIT
-free_port() { /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'; }
-rp=$(free_port)
-redis-server --port "$rp" --bind 127.0.0.1 --save "" --appendonly yes \
-  --dir "$tmp" --logfile "$tmp/redis.log" &
-pids+=($!)
+source scripts/lib.sh
+start_redis "$tmp" yes
+pids+=("$redis_pid")
 ports=()
 for r in 1 2; do
   build/server/meshgauge-server --address 127.0.0.1:0 --metrics_address= \
-    --session_store "redis://127.0.0.1:$rp" --port_file "$tmp/port$r" \
+    --session_store "redis://127.0.0.1:$redis_port" --port_file "$tmp/port$r" \
     2>"$tmp/server$r.log" &
   pids+=($!)
-  for _ in $(seq 100); do [ -s "$tmp/port$r" ] && break; sleep 0.1; done
-  ports+=("$(cat "$tmp/port$r")")
+  ports+=("$(await_port_file "$tmp/port$r")")
 done
 hp=$(free_port)
 cat >"$tmp/haproxy.cfg" <<CFG
@@ -43,6 +40,6 @@ backend replicas
 CFG
 haproxy -db -f "$tmp/haproxy.cfg" &
 pids+=($!)
-sleep 0.5
+await_tcp "$hp"
 build/bench/meshgauge_client_bench --iterations "$N" --in_process \
   --miss_target "127.0.0.1:${ports[1]}" "127.0.0.1:$hp" "$MESH"

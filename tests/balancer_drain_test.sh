@@ -20,9 +20,7 @@ tmp=$(mktemp -d)
 pids=()
 cleanup() { kill "${pids[@]}" 2>/dev/null || true; wait 2>/dev/null || true; rm -rf "$tmp"; }
 trap cleanup EXIT
-free_port() {
-  /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])'
-}
+source "$(dirname "$0")/../scripts/lib.sh"
 fail() {
   echo "--- load client"; cat "$tmp/load.txt" 2>/dev/null || true
   echo "--- balancer"; cat "$tmp/haproxy.log"
@@ -39,19 +37,22 @@ await_log() {
   return 1
 }
 
-rp=$(free_port)
-redis-server --port "$rp" --bind 127.0.0.1 --save "" --appendonly no \
-  --dir "$tmp" --logfile "$tmp/redis.log" &
-pids+=($!)
+start_redis "$tmp"
+pids+=("$redis_pid")
 
-ports=("$(free_port)" "$(free_port)")
+# Each replica binds port 0 first and keeps the port it got on restarts
+# (the balancer's configuration names it).
+ports=(0 0)
 replica_pid=()
 start_replica() {  # INDEX
+  rm -f "$tmp/port$1"
   "$server" --address "127.0.0.1:${ports[$1]}" --metrics_address= \
-    --session_store "redis://127.0.0.1:$rp" --drain_notice_seconds=4 \
+    --port_file "$tmp/port$1" \
+    --session_store "redis://127.0.0.1:$redis_port" --drain_notice_seconds=4 \
     --shutdown_grace_seconds=20 2>>"$tmp/replica$1.log" &
   replica_pid[$1]=$!
   pids+=($!)
+  ports[$1]=$(await_port_file "$tmp/port$1")
 }
 start_replica 0
 start_replica 1
@@ -62,7 +63,7 @@ sed -e "s|^ *bind .*|  bind 127.0.0.1:$hp proto h2|" \
     "$cfg" >"$tmp/haproxy.cfg"
 haproxy -db -f "$tmp/haproxy.cfg" 2>"$tmp/haproxy.log" &
 pids+=($!)
-sleep 2
+await_tcp "$hp"
 
 "$load" --target "127.0.0.1:$hp" --clients 4 --iterations $((cycles * 150)) \
   --frequency 4 --session_prefix drain --time_limit_seconds 120 >"$tmp/load.txt" 2>&1 &
