@@ -130,9 +130,9 @@ MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
     : options_(options),
       auth_(std::move(auth)),
       records_(std::move(records)),
-      store_(options, metrics, clock, records_.get()),
+      store_(MakeSessionStore(options, metrics, clock, records_.get())),
       uploads_(options, clock),
-      service_(options, &store_, &uploads_, &auth_, metrics, clock) {}
+      service_(options, store_.get(), &uploads_, &auth_, metrics, clock) {}
 
 absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
     const ServerOptions& options, Metrics* metrics, const Clock* clock) {
@@ -212,7 +212,7 @@ void MeshGaugeServer::SweepLoop() {
     uploads_.AbortIdle();
     since_sweep += period;
     if (since_sweep >= options_.sweep_interval_seconds) {
-      store_.Sweep();
+      store_->Sweep();
       since_sweep = 0;
     }
     lock.lock();

@@ -36,7 +36,7 @@ class MeshGaugeServer {
   ~MeshGaugeServer();
 
   int port() const { return port_; }
-  SessionStore& store() { return store_; }
+  SessionStore& store() { return *store_; }
 
   // Graceful drain: health turns NOT_SERVING (calls are still served for
   // options.drain_notice_seconds), then new calls are refused with
@@ -57,7 +57,7 @@ class MeshGaugeServer {
   const ServerOptions& options_;
   Authenticator auth_;
   std::unique_ptr<SessionRecords> records_;  // null: sessions in memory.
-  SessionStore store_;
+  std::unique_ptr<SessionStore> store_;
   UploadWatch uploads_;
   MeshGaugeService service_;
   std::unique_ptr<grpc::Server> server_;

@@ -1,9 +1,11 @@
 #include "server/session_messages.h"
 
 #include <cctype>
+#include <random>
 
 #include "absl/strings/escaping.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 
 namespace meshgauge::server {
 
@@ -16,6 +18,17 @@ bool ValidSessionId(const std::string& id) {
     }
   }
   return true;
+}
+
+std::string RandomSessionId() {
+  static thread_local std::mt19937_64 rng(std::random_device{}());
+  return absl::StrFormat("s-%016x", rng());
+}
+
+absl::Status InvalidSessionId(const std::string& id) {
+  return absl::InvalidArgumentError(
+      absl::StrCat("session id ", QuoteId(id),
+                   " is invalid: use 1 to 64 characters from [A-Za-z0-9._-]"));
 }
 
 std::string QuoteId(const std::string& id) {

@@ -13,6 +13,12 @@ namespace meshgauge::server {
 // Session ids: [A-Za-z0-9._-]{1,64}.
 bool ValidSessionId(const std::string& id);
 
+// A random session id ("s-" and 16 hex digits) for a caller who named none.
+std::string RandomSessionId();
+
+// INVALID_ARGUMENT naming a client-chosen id that is not a session id.
+absl::Status InvalidSessionId(const std::string& id);
+
 // An id or name for a message: at most 80 characters, control and
 // non-ASCII characters escaped, quoted.
 std::string QuoteId(const std::string& id);

@@ -1,0 +1,366 @@
+#include "server/session_cache.h"
+
+#include <algorithm>
+
+#include "absl/strings/str_cat.h"
+
+namespace meshgauge::server {
+
+UploadReservation& UploadReservation::operator=(
+    UploadReservation&& o) noexcept {
+  if (this != &o) {
+    if (store_) store_->Release(this);
+    store_ = std::exchange(o.store_, nullptr);
+    tenant_ = std::move(o.tenant_);
+    token_ = std::move(o.token_);
+    renewed_at_ = o.renewed_at_;
+    bytes_ = std::exchange(o.bytes_, 0);
+    arrived_ = std::exchange(o.arrived_, 0);
+  }
+  return *this;
+}
+
+UploadReservation::~UploadReservation() {
+  if (store_) store_->Release(this);
+}
+
+absl::Status UploadReservation::Arrived(int64_t bytes) {
+  return store_ ? store_->Arrive(this, bytes) : absl::OkStatus();
+}
+
+absl::Status UploadReservation::GrowTo(int64_t bytes) {
+  return store_ ? store_->Grow(this, bytes) : absl::OkStatus();
+}
+
+SessionCache::SessionCache(const ServerOptions& options, Metrics* metrics,
+                           const Clock* clock, bool records_hold_limits)
+    : options_(options),
+      metrics_(metrics),
+      clock_(clock),
+      records_hold_limits_(records_hold_limits) {}
+
+absl::Status SessionCache::CheckCountLimitsLocked(
+    const std::string& tenant, int64_t tenant_uploads) const {
+  if (records_hold_limits_) return absl::OkStatus();
+  if (std::ssize(sessions_) + reserved_total_.uploads >=
+      options_.max_sessions) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the server holds the maximum of ", options_.max_sessions,
+        " sessions and uploads in flight (--max_sessions); delete one first"));
+  }
+  if (options_.max_sessions_per_tenant > 0 &&
+      TenantSessionsLocked(tenant) + tenant_uploads >=
+          options_.SessionsPerTenant()) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this tenant holds its maximum of ", options_.SessionsPerTenant(),
+        " sessions and uploads in flight (--max_sessions_per_tenant); delete "
+        "one first"));
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SessionCache::CheckBudgets(int64_t bytes) const {
+  if (bytes <= options_.memory_budget_bytes &&
+      bytes <= options_.BudgetPerTenant()) {
+    return absl::OkStatus();
+  }
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "the mesh needs about ", bytes, " bytes, more than the memory budget of ",
+      std::min(options_.memory_budget_bytes, options_.BudgetPerTenant()),
+      " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant)"));
+}
+
+absl::StatusOr<UploadReservation> SessionCache::Reserve(
+    const std::string& tenant, int64_t bytes) {
+  if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
+  UploadReservation r;
+  r.tenant_ = tenant;
+  r.bytes_ = bytes;
+  if (ClaimsUploads()) {
+    // The slot is claimed in the records, over all replicas, for a while
+    // that every arriving message renews (Arrive).
+    r.token_ = NewIncarnation();
+    if (absl::Status s = UploadClaimed(tenant, r.token_, bytes); !s.ok()) {
+      return s;
+    }
+    r.renewed_at_ = clock_->NowSeconds();
+  }
+  if (absl::Status s = ClaimLocally(&r); !s.ok()) {
+    if (!r.token_.empty()) UploadReleased(tenant, r.token_);  // not under mu_.
+    return s;
+  }
+  return r;
+}
+
+double SessionCache::ClaimSeconds() const {
+  return std::min(options_.upload_deadline_seconds,
+                  2 * options_.upload_idle_seconds);
+}
+
+absl::Status SessionCache::CheckBytesLocked(const std::string& tenant,
+                                            int64_t bytes) const {
+  auto mine = reserved_.find(tenant);
+  const int64_t held = mine == reserved_.end() ? 0 : mine->second.bytes;
+  if (!records_hold_limits_ && options_.memory_budget_bytes_per_tenant > 0 &&
+      TenantBytesLocked(tenant) + held + bytes > options_.BudgetPerTenant()) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this tenant's sessions and uploads would exceed its memory budget "
+        "of ",
+        options_.BudgetPerTenant(),
+        " bytes (--memory_budget_bytes_per_tenant); delete a session first"));
+  }
+  if (reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
+    return absl::ResourceExhaustedError(
+        "uploads in flight hold the server's memory budget; retry later");
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SessionCache::Grow(UploadReservation* r, int64_t bytes) {
+  if (bytes <= r->bytes_) return absl::OkStatus();
+  if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
+  const int64_t delta = bytes - r->bytes_;
+  {
+    std::lock_guard<std::mutex> lock(mu_);
+    if (absl::Status s = CheckBytesLocked(r->tenant_, delta); !s.ok()) {
+      return s;
+    }
+    reserved_[r->tenant_].bytes += delta;
+    reserved_total_.bytes += delta;
+    r->bytes_ = bytes;
+    PublishLocked();
+  }
+  if (!r->token_.empty()) {
+    // The claim is made again with its new size (its own old size is not
+    // counted against the limits); refused, the local claim shrinks back.
+    absl::Status s = UploadClaimed(r->tenant_, r->token_, bytes);
+    if (!s.ok()) {
+      std::lock_guard<std::mutex> lock(mu_);
+      reserved_[r->tenant_].bytes -= delta;
+      reserved_total_.bytes -= delta;
+      r->bytes_ -= delta;
+      PublishLocked();
+      return s;
+    }
+    r->renewed_at_ = clock_->NowSeconds();
+  }
+  return absl::OkStatus();
+}
+
+absl::Status SessionCache::ClaimLocally(UploadReservation* r) {
+  const std::string& tenant = r->tenant_;
+  const int64_t bytes = r->bytes_;
+  std::lock_guard<std::mutex> lock(mu_);
+  Reserved& mine = reserved_[tenant];
+  absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
+  if (refused.ok()) refused = CheckBytesLocked(tenant, bytes);
+  if (!refused.ok()) {
+    if (mine.uploads == 0) reserved_.erase(tenant);
+    return refused;
+  }
+  ++mine.uploads;
+  mine.bytes += bytes;
+  ++reserved_total_.uploads;
+  reserved_total_.bytes += bytes;
+  r->store_ = this;
+  PublishLocked();
+  return absl::OkStatus();
+}
+
+void SessionCache::Release(UploadReservation* r) {
+  if (!r->token_.empty()) UploadReleased(r->tenant_, r->token_);
+  std::lock_guard<std::mutex> lock(mu_);
+  ReleaseLocked(r);
+  PublishLocked();
+}
+
+void SessionCache::ConsumeLocked(UploadReservation& ticket) {
+  ticket.token_.clear();  // the records took the claim over, if any.
+  if (ticket.store_ == this) ReleaseLocked(&ticket);
+}
+
+void SessionCache::ReleaseLocked(UploadReservation* r) {
+  r->store_ = nullptr;
+  auto it = reserved_.find(r->tenant_);
+  if (it == reserved_.end()) return;
+  --it->second.uploads;
+  it->second.bytes -= r->bytes_;
+  it->second.arrived -= r->arrived_;
+  --reserved_total_.uploads;
+  reserved_total_.bytes -= r->bytes_;
+  reserved_total_.arrived -= r->arrived_;
+  if (it->second.uploads == 0) reserved_.erase(it);
+}
+
+absl::Status SessionCache::Arrive(UploadReservation* r, int64_t bytes) {
+  if (!r->token_.empty()) {
+    const double now = clock_->NowSeconds();
+    if (now - r->renewed_at_ > options_.upload_idle_seconds / 2) {
+      UploadRenewed(r->tenant_, r->token_);
+      r->renewed_at_ = now;
+    }
+  }
+  // What was reserved bounds what may evict (the estimate covers the data).
+  bytes = std::min(bytes, r->bytes_);
+  if (bytes <= r->arrived_) return absl::OkStatus();
+  std::lock_guard<std::mutex> lock(mu_);
+  const int64_t delta = bytes - r->arrived_;
+  r->arrived_ = bytes;
+  reserved_[r->tenant_].arrived += delta;
+  reserved_total_.arrived += delta;
+  const bool fits = MakeRoomLocked(nullptr, &r->tenant_);
+  PublishLocked();
+  if (fits) return absl::OkStatus();
+  return absl::ResourceExhaustedError(
+      "the data of uploads in flight fill the server's memory budget "
+      "(--memory_budget_bytes); retry later");
+}
+
+void SessionCache::Sweep() {
+  std::lock_guard<std::mutex> lock(mu_);
+  const double now = clock_->NowSeconds();
+  for (auto it = sessions_.begin(); it != sessions_.end();) {
+    auto next = std::next(it);
+    if (now - it->second->last_used() > options_.session_ttl_seconds) {
+      EvictLocked(it, "ttl");
+    }
+    it = next;
+  }
+  PublishLocked();
+}
+
+ScratchClaim::~ScratchClaim() {
+  store_->ReleaseScratch(session_.get(), bytes_);
+}
+
+absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
+    const std::string& tenant, std::shared_ptr<Session> session,
+    int64_t bytes) {
+  const int64_t budget =
+      std::min(options_.memory_budget_bytes, options_.BudgetPerTenant());
+  if (session->memory_bytes() + bytes > budget) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the session and this computation's scratch memory (a private copy "
+        "of the mesh and its passes) need about ",
+        session->memory_bytes() + bytes,
+        " bytes, more than the memory budget of ", budget,
+        " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant); "
+        "use fewer rays"));
+  }
+  std::lock_guard<std::mutex> lock(mu_);
+  if (absl::Status s = CheckBytesLocked(tenant, bytes); !s.ok()) return s;
+  session->AddScratchBytes(bytes);
+  const bool fits = MakeRoomLocked(session.get(), &tenant);
+  if (!fits) session->AddScratchBytes(-bytes);
+  PublishLocked();
+  if (!fits) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "the computation needs about ", bytes,
+        " bytes of scratch memory, which the server's memory budget cannot "
+        "hold now (other tenants' sessions fill it); retry later"));
+  }
+  return std::make_unique<ScratchClaim>(this, std::move(session), bytes);
+}
+
+void SessionCache::ReleaseScratch(Session* session, int64_t bytes) {
+  std::lock_guard<std::mutex> lock(mu_);
+  session->AddScratchBytes(-bytes);
+  PublishLocked();
+}
+
+void SessionCache::EnforceBudget(const Session* keep) {
+  std::lock_guard<std::mutex> lock(mu_);
+  MakeRoomLocked(keep);
+  PublishLocked();
+}
+
+bool SessionCache::MakeRoomLocked(const Session* keep,
+                                  const std::string* for_tenant) {
+  while (TotalBytesLocked() + reserved_total_.arrived >
+         options_.memory_budget_bytes) {
+    // What each tenant holds: its sessions and its uploads' arrived data.
+    std::map<std::string, int64_t> held;
+    for (const auto& [key, s] : sessions_) held[key.first] += s->memory_bytes();
+    for (const auto& [tenant, r] : reserved_) held[tenant] += r.arrived;
+    // The tenant holding the most gives up its least recently used session
+    // (never `keep`). When that is the tenant asking for room and it has
+    // nothing left to give but its own upload, nobody else is evicted.
+    auto most = held.begin();
+    for (auto it = held.begin(); it != held.end(); ++it) {
+      if (it->second > most->second) most = it;
+    }
+    auto victim = sessions_.end();
+    for (auto it = sessions_.lower_bound({most->first, ""});
+         it != sessions_.end() && it->first.first == most->first; ++it) {
+      if (it->second.get() == keep) continue;
+      if (victim == sessions_.end() ||
+          it->second->last_used() < victim->second->last_used()) {
+        victim = it;
+      }
+    }
+    if (victim == sessions_.end() && for_tenant == nullptr) {
+      // The largest holder has nothing evictable (only `keep` or uploads):
+      // the next session by the same rule, from anyone.
+      for (auto it = sessions_.begin(); it != sessions_.end(); ++it) {
+        if (it->second.get() == keep) continue;
+        if (victim == sessions_.end() ||
+            held[it->first.first] > held[victim->first.first] ||
+            (held[it->first.first] == held[victim->first.first] &&
+             it->second->last_used() < victim->second->last_used())) {
+          victim = it;
+        }
+      }
+    }
+    if (victim == sessions_.end()) return false;
+    EvictLocked(victim, "memory");
+  }
+  return true;
+}
+
+int64_t SessionCache::size() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return std::ssize(sessions_);
+}
+
+int64_t SessionCache::reserved_uploads() const {
+  std::lock_guard<std::mutex> lock(mu_);
+  return reserved_total_.uploads;
+}
+
+void SessionCache::EvictLocked(Map::iterator it, const std::string& reason) {
+  sessions_.erase(it);
+  // With records only the cache entry goes; the session stays.
+  metrics_->RecordEviction(records_hold_limits_ ? "cache_" + reason : reason);
+}
+
+int64_t SessionCache::TotalBytesLocked() const {
+  int64_t total = 0;
+  for (const auto& [key, s] : sessions_) total += s->memory_bytes();
+  return total;
+}
+
+int64_t SessionCache::TenantBytesLocked(const std::string& tenant) const {
+  int64_t total = 0;
+  for (auto it = sessions_.lower_bound({tenant, ""});
+       it != sessions_.end() && it->first.first == tenant; ++it) {
+    total += it->second->memory_bytes();
+  }
+  return total;
+}
+
+int64_t SessionCache::TenantSessionsLocked(const std::string& tenant) const {
+  int64_t n = 0;
+  for (auto it = sessions_.lower_bound({tenant, ""});
+       it != sessions_.end() && it->first.first == tenant; ++it) {
+    ++n;
+  }
+  return n;
+}
+
+void SessionCache::PublishLocked() {
+  metrics_->SetSessions(
+      static_cast<double>(sessions_.size()),
+      static_cast<double>(TotalBytesLocked() + reserved_total_.arrived));
+}
+
+}  // namespace meshgauge::server

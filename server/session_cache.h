@@ -1,0 +1,109 @@
+// What both session stores share (session_store.h): the sessions this
+// process holds by (tenant, id), the uploads' reservations and the
+// computations' scratch claims, eviction under the memory budget (the rule
+// at the top of session_store.h), the idle TTL and the session gauges.
+// InMemorySessionStore and RecordedSessionStore add the sessions' life
+// (create, get, delete, update, list); the records' claims on upload slots
+// come in through the Upload* hooks.
+#pragma once
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <utility>
+
+#include "server/session_store.h"
+
+namespace meshgauge::server {
+
+class SessionCache : public SessionStore {
+ public:
+  // `records_hold_limits`: the session counts and per-tenant budgets are
+  // the records' to check (over all replicas); evictions then drop cache
+  // entries (metric reason "cache_..."). options, metrics and clock must
+  // outlive the cache.
+  SessionCache(const ServerOptions& options, Metrics* metrics,
+               const Clock* clock, bool records_hold_limits);
+
+  absl::StatusOr<UploadReservation> Reserve(const std::string& tenant,
+                                            int64_t bytes) override;
+  absl::StatusOr<std::unique_ptr<ScratchClaim>> ClaimScratch(
+      const std::string& tenant, std::shared_ptr<Session> session,
+      int64_t bytes) override;
+  void Sweep() override;
+  void EnforceBudget(const Session* keep) override;
+  int64_t size() const override;
+  int64_t reserved_uploads() const override;
+
+ protected:
+  using Key = std::pair<std::string, std::string>;  // (tenant, id).
+  using Map = std::map<Key, std::shared_ptr<Session>>;
+
+  // The records' claim on an upload slot (token: the claim's id), made
+  // when the upload reserves, again when it grows, renewed as its data
+  // arrive, dropped when it ends; none without records.
+  virtual bool ClaimsUploads() const { return false; }
+  virtual absl::Status UploadClaimed(const std::string& /*tenant*/,
+                                     const std::string& /*token*/,
+                                     int64_t /*bytes*/) {
+    return absl::OkStatus();
+  }
+  virtual void UploadRenewed(const std::string& /*tenant*/,
+                             const std::string& /*token*/) {}
+  virtual void UploadReleased(const std::string& /*tenant*/,
+                              const std::string& /*token*/) {}
+
+  // The upload's claim in the records (empty without).
+  static const std::string& ClaimToken(const UploadReservation& r) {
+    return r.token_;
+  }
+  // Consumes the upload's reservation (under mu_): it becomes a session.
+  void ConsumeLocked(UploadReservation& ticket);
+  // Evicts while sessions plus arrived bytes exceed the budget; false when
+  // nothing may be evicted. For an upload or scratch of `for_tenant` (not
+  // null), only the tenant holding the most bytes gives up sessions: it
+  // never pushes out a tenant that holds less than its own tenant.
+  bool MakeRoomLocked(const Session* keep,
+                      const std::string* for_tenant = nullptr);
+  void PublishLocked();
+  // How long a claim in the records lives unless renewed.
+  double ClaimSeconds() const;
+
+  const ServerOptions& options_;
+  Metrics* metrics_;
+  const Clock* clock_;
+  mutable std::mutex mu_;
+  Map sessions_;
+
+ private:
+  friend class UploadReservation;
+  friend class ScratchClaim;
+  void Release(UploadReservation* r);
+  void ReleaseLocked(UploadReservation* r);
+  absl::Status Arrive(UploadReservation* r, int64_t bytes);
+  absl::Status Grow(UploadReservation* r, int64_t bytes);
+  void ReleaseScratch(Session* session, int64_t bytes);
+  // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
+  absl::Status CheckBudgets(int64_t bytes) const;
+  // RESOURCE_EXHAUSTED when `bytes` more for uploads of `tenant` would
+  // exceed its budget or the server's (held reservations counted).
+  absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const;
+  // The local half of Reserve (counts, budgets) under mu_; sets r->store_.
+  absl::Status ClaimLocally(UploadReservation* r);
+  absl::Status CheckCountLimitsLocked(const std::string& tenant,
+                                      int64_t tenant_uploads) const;
+  void EvictLocked(Map::iterator it, const std::string& reason);
+  int64_t TotalBytesLocked() const;
+  int64_t TenantBytesLocked(const std::string& tenant) const;
+  int64_t TenantSessionsLocked(const std::string& tenant) const;
+
+  const bool records_hold_limits_;
+  struct Reserved {
+    int64_t uploads = 0, bytes = 0, arrived = 0;
+  };
+  std::map<std::string, Reserved> reserved_;  // by tenant.
+  Reserved reserved_total_;
+};
+
+}  // namespace meshgauge::server
