@@ -212,14 +212,9 @@ int64_t MeshAssembler::bytes_held() const {
 
 namespace {
 
-// Appends a packed field to `to` and its bytes to the running checksum.
 template <typename T>
-void Append(const google::protobuf::RepeatedField<T>& from, std::vector<T>* to,
-            uLong* crc, int64_t* crc_len) {
-  if (from.empty()) return;
-  *crc = crc32(*crc, reinterpret_cast<const Bytef*>(from.data()),
-               from.size() * sizeof(T));
-  *crc_len += from.size() * sizeof(T);
+void Append(const google::protobuf::RepeatedField<T>& from,
+            std::vector<T>* to) {
   to->insert(to->end(), from.begin(), from.end());
 }
 
@@ -244,10 +239,11 @@ absl::Status MeshAssembler::Chunk(const v1::CreateSessionRequest::Chunk& c) {
   }
   // Nothing is stored from a chunk that would exceed the header's counts.
   if (absl::Status s = CheckRoom(c); !s.ok()) return s;
-  Append(c.positions(), &coords_, &crc_[0], &crc_len_[0]);
-  Append(c.face_sizes(), &sizes_, &crc_[1], &crc_len_[1]);
-  Append(c.face_indices(), &indices_, &crc_[2], &crc_len_[2]);
-  Append(c.face_regions(), &regions_, &crc_[3], &crc_len_[3]);
+  crc_.Add(c);
+  Append(c.positions(), &coords_);
+  Append(c.face_sizes(), &sizes_);
+  Append(c.face_indices(), &indices_);
+  Append(c.face_regions(), &regions_);
   return absl::OkStatus();
 }
 
@@ -265,9 +261,7 @@ absl::Status MeshAssembler::FileChunk(
                                 " still to come)"));
   }
   if (file_.empty()) file_.reserve(declared_file_bytes_);
-  crc_[0] = crc32(crc_[0], reinterpret_cast<const Bytef*>(c.file_data().data()),
-                  c.file_data().size());
-  crc_len_[0] += std::ssize(c.file_data());
+  crc_.AddFile(c.file_data());
   file_ += c.file_data();
   return absl::OkStatus();
 }
@@ -286,11 +280,7 @@ absl::Status MeshAssembler::Footer(const v1::CreateSessionRequest::Footer& f) {
 }
 
 absl::Status MeshAssembler::CheckCrc() const {
-  uLong combined = crc_[0];
-  for (int i = 1; i < 4; ++i) {
-    combined = crc32_combine(combined, crc_[i], crc_len_[i]);
-  }
-  const auto crc = static_cast<uint32_t>(combined);
+  const uint32_t crc = crc_.Value();
   if (crc == footer_crc_) return absl::OkStatus();
   return Invalid(absl::StrFormat(
       "checksum mismatch: footer says %08x, the data sent has %08x",

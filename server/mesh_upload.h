@@ -9,7 +9,6 @@
 #include <grpcpp/support/byte_buffer.h>
 #include <grpcpp/support/config.h>
 #include <grpcpp/support/status.h>
-#include <zlib.h>
 
 #include <algorithm>
 #include <map>
@@ -21,6 +20,7 @@
 #include "lib/core/mesh_repair.h"
 #include "lib/io/mesh_file.h"
 #include "meshgauge/v1/meshgauge.pb.h"
+#include "proto/wire/upload_convert.h"
 #include "server/server_options.h"
 
 namespace meshgauge::server {
@@ -110,11 +110,7 @@ class MeshAssembler {
   std::string file_format_, file_name_;
   int64_t declared_file_bytes_ = 0;
   std::string file_;
-  // CRC over positions, sizes, indices, regions (in that order): the four
-  // streams are checksummed separately and combined at the end. A file
-  // upload uses the first.
-  uLong crc_[4] = {0, 0, 0, 0};
-  int64_t crc_len_[4] = {0, 0, 0, 0};
+  wire::UploadCrc crc_;  // of what the chunks carried.
   uint32_t footer_crc_ = 0;
 };
 

@@ -14,6 +14,7 @@
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
+#include "proto/wire/upload_convert.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
 
@@ -555,7 +556,9 @@ std::vector<v1::CreateSessionRequest> TriangleUpload(uint32_t crc) {
   for (int i = 0; i < 3; ++i) c->add_face_indices(i);
   m[2].mutable_footer()->set_num_vertices(3);
   m[2].mutable_footer()->set_num_faces(1);
-  m[2].mutable_footer()->set_crc32(crc ? crc : wire::MeshCrc32(tri));
+  wire::UploadCrc sent;
+  sent.Add(*c);
+  m[2].mutable_footer()->set_crc32(crc ? crc : sent.Value());
   return m;
 }
 

@@ -16,6 +16,7 @@
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
 #include "proto/wire/reply_convert.h"
+#include "proto/wire/upload_convert.h"
 
 namespace meshgauge::client {
 
@@ -116,44 +117,11 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
   auto ctx = Context(session_id);
   v1::CreateSessionResponse response;
   auto writer = stub_->CreateSession(ctx.get(), &response);
-  v1::CreateSessionRequest req;
-  auto* h = req.mutable_header();
-  h->set_session_id(session_id);
-  h->set_dimension(mesh.dimension);
-  h->set_num_vertices(mesh.num_vertices());
-  h->set_num_faces(mesh.num_faces());
-  for (const auto& [region, dir] : mesh.region_directions) {
-    auto* rd = h->add_region_directions();
-    rd->set_region(region);
-    rd->set_direction(wire::ToWire(dir));
-  }
-  bool ok = writer->Write(req);
-  const int64_t step = std::max(1, options_.upload_chunk_vertices);
-  const int64_t n = std::max(mesh.num_vertices(), mesh.num_faces());
-  for (int64_t begin = 0; ok && begin < n; begin += step) {
-    req.Clear();
-    auto* c = req.mutable_chunk();
-    if (begin < mesh.num_vertices()) {
-      wire::AppendFlattened(absl::MakeConstSpan(mesh.positions)
-                                .subspan(begin, static_cast<size_t>(step)),
-                            mesh.dimension, c->mutable_positions());
-    }
-    for (int64_t f = begin; f < std::min(begin + step, mesh.num_faces()); ++f) {
-      const Face& face = mesh.faces[f];
-      c->add_face_sizes(face.size);
-      for (int k = 0; k < face.size; ++k) c->add_face_indices(face.v[k]);
-      if (!mesh.face_regions.empty()) c->add_face_regions(mesh.face_regions[f]);
-    }
-    ok = writer->Write(req);
-  }
-  if (ok) {
-    req.Clear();
-    auto* footer = req.mutable_footer();
-    footer->set_num_vertices(mesh.num_vertices());
-    footer->set_num_faces(mesh.num_faces());
-    footer->set_crc32(wire::MeshCrc32(mesh));
-    writer->Write(req);
-  }
+  // A refused write ends the stream; Finish says why.
+  wire::WriteUpload(mesh, session_id, options_.upload_chunk_vertices,
+                    [&writer](const v1::CreateSessionRequest& m) {
+                      return writer->Write(m);
+                    });
   writer->WritesDone();
   if (absl::Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
   return wire::FromWire(response.session());

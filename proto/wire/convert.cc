@@ -1,7 +1,5 @@
 #include "proto/wire/convert.h"
 
-#include <zlib.h>
-
 #include <algorithm>
 #include <cmath>
 #include <tuple>
@@ -10,13 +8,6 @@
 
 namespace meshgauge::wire {
 namespace {
-
-template <typename T>
-uLong CrcOf(uLong crc, const std::vector<T>& v) {
-  return v.empty() ? crc
-                   : crc32(crc, reinterpret_cast<const Bytef*>(v.data()),
-                           v.size() * sizeof(T));
-}
 
 absl::Status Malformed(absl::string_view what) {
   return absl::DataLossError(
@@ -537,25 +528,6 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
   reply->integral = s.integral();
   reply->facts = {s.generation(), s.reused_hits(), s.seconds()};
   return absl::OkStatus();
-}
-
-uint32_t MeshCrc32(const Mesh& mesh) {
-  std::vector<double> coords;
-  coords.reserve(mesh.positions.size() * mesh.dimension);
-  for (const Vec3& p : mesh.positions) {
-    for (int c = 0; c < mesh.dimension; ++c) coords.push_back(p[c]);
-  }
-  std::vector<int32_t> sizes, indices;
-  for (const Face& f : mesh.faces) {
-    sizes.push_back(f.size);
-    for (int k = 0; k < f.size; ++k) indices.push_back(f.v[k]);
-  }
-  uLong crc = crc32(0, nullptr, 0);
-  crc = CrcOf(crc, coords);
-  crc = CrcOf(crc, sizes);
-  crc = CrcOf(crc, indices);
-  crc = CrcOf(crc, mesh.face_regions);
-  return static_cast<uint32_t>(crc);
 }
 
 grpc::Status ToGrpc(const absl::Status& s) {

@@ -89,10 +89,6 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
 // The mesh and its generation as GetMesh returns them.
 void ToWire(const Mesh& mesh, int64_t generation, v1::GetMeshResponse* out);
 
-// CRC-32 of the mesh in the Footer's canonical order (positions as float64,
-// then face sizes, indices, regions as int32, little-endian).
-uint32_t MeshCrc32(const Mesh& mesh);
-
 grpc::Status ToGrpc(const absl::Status& s);
 absl::Status FromGrpc(const grpc::Status& s);
 
