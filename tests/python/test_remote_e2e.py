@@ -2,6 +2,7 @@
 Python client, error mapping, Prometheus over HTTP, the remote optimiser
 example, and a graceful SIGTERM drain."""
 
+import json
 import os
 import signal
 import subprocess
@@ -165,7 +166,6 @@ class RemoteEndToEnd(unittest.TestCase):
                 self.assertEqual(p.returncode, 0, p.stderr)
             return p
 
-        import json
         info = json.loads(run("upload", knight, "--session-id", "cli").stdout)
         self.assertEqual(info["vertices"], 502)
         on = ("--session-id", "cli")
@@ -187,7 +187,6 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertIn("no session 'cli'", missing.stderr)
 
     def test_6_thin_regions_are_the_cli_reports_typed(self):
-        import json
         from meshgauge_client import ThinRegion, ThinSurface
         cli = os.environ["MESHGAUGE_CLI"]
         knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
@@ -327,6 +326,44 @@ class RemoteEndToEnd(unittest.TestCase):
         s = self.client.session(v, f)
         self.assertEqual(s.vjp(np.ones(6), options=opts).shape, (6, 3))
         s.close()
+
+    def test_8d_gradcheck_is_the_clis(self):
+        """The server's finite-difference check from Python: the CLI's
+        local `gradcheck --json` on the same file, entry for entry (doubles
+        bit for bit), with and without a penalty; bad options are
+        ValueError before any call."""
+        cli = os.environ["MESHGAUGE_CLI"]
+        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+                              "decimated-knight.off")
+        with self.client.session_from_file(knight) as s:
+            for flags, kwargs in [
+                    ([], {}),
+                    (["--t-min", "0.3", "--form", "ks"],
+                     {"penalty": {"t_min": 0.3, "form": "ks"}})]:
+                local = json.loads(subprocess.run(
+                    [cli, "gradcheck", knight, "--rays", "20", "--samples",
+                     "3", "--json", *flags], check=True, capture_output=True,
+                    text=True).stdout)
+                report = s.gradcheck(samples=3, rays=20, **kwargs)
+                self.assertTrue(report.ok)
+                self.assertEqual(report.verdict, local["verdict"])
+                rows = report.rows + report.penalty_rows
+                self.assertEqual(len(rows), len(local["rows"]))
+                for mine, theirs in zip(rows, local["rows"]):
+                    self.assertEqual((mine.row, mine.vertex, mine.analytic,
+                                      mine.fd, mine.clean),
+                                     (theirs["row"], theirs["vertex"],
+                                      theirs["analytic"], theirs["fd"],
+                                      theirs["clean"]))
+                    self.assertEqual("xyz"[mine.coordinate],
+                                     theirs["coordinate"])
+                self.assertEqual(report.rays_traced, local["rays_traced"])
+                self.assertEqual(report.probe_repeats, local["probe_repeats"])
+            for bad in [{"samples": 0}, {"samples": 1001},
+                        {"relative_step": 0.5}, {"vertices": [-1]},
+                        {"penalty": {"t_min": 0.1, "shape": 2}}]:
+                with self.assertRaises(ValueError):
+                    s.gradcheck(**bad)
 
     def test_9_sigterm_drains_and_exits_cleanly(self):
         self.server.proc.send_signal(signal.SIGTERM)

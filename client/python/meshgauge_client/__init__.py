@@ -20,7 +20,8 @@ from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
                                      ResourceExhaustedError,
                                      UnauthenticatedError, UnavailableError,
                                      UnimplementedError, UnknownError)
-from meshgauge_client.results import (Calibration, MeshData, PenaltyResult,
+from meshgauge_client.results import (Calibration, GradCheckReport,
+                                      GradCheckRow, MeshData, PenaltyResult,
                                       SdfResult,
                                       SdfSummary, ServerInfo, SessionInfo,
                                       ThinRegion,
@@ -33,6 +34,7 @@ from meshgauge_client._version import __version__  # noqa: E402
 __all__ = [
     "AbortedError", "AlreadyExistsError", "Calibration", "CancelledError",
     "DataLossError", "DeadlineExceededError", "FailedPreconditionError",
+    "GradCheckReport", "GradCheckRow",
     "InternalError", "InvalidArgumentError", "MeshGaugeClient",
     "MeshData", "MeshGaugeError", "MissingValuesWarning", "NotFoundError",
     "OutOfRangeError", "PenaltyResult",

@@ -9,7 +9,8 @@ import numpy.typing as npt
 
 from meshgauge_client._stubs import pb
 from meshgauge_client.errors import DataLossError
-from meshgauge_client.results import (Calibration, FloatArray, MeshData,
+from meshgauge_client.results import (Calibration, FloatArray,
+                                      GradCheckReport, GradCheckRow, MeshData,
                                       PenaltyResult,
                                       SdfSummary, SessionInfo, ThinRegion,
                                       ThinSurface)
@@ -204,6 +205,32 @@ def penalty(resp: Any, dimension: int, form: str, t_min: float,
                          resp.missing.area_fraction, resp.missing.vertices,
                          resp.missing.faces, resp.world_frame_vertices,
                          resp.generation, resp.reused_hits, form, thin)
+
+
+VERDICTS = {pb.GRAD_CHECK_VERDICT_PASS: "PASS",
+            pb.GRAD_CHECK_VERDICT_FAIL: "FAIL",
+            pb.GRAD_CHECK_VERDICT_INCONCLUSIVE: "INCONCLUSIVE"}
+
+
+def _grad_row(r: Any) -> GradCheckRow:
+    if r.coordinate not in (0, 1, 2):
+        raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                            f"gradcheck row with coordinate {r.coordinate}")
+    return GradCheckRow(r.row, r.vertex, r.coordinate, r.analytic, r.fd,
+                        r.relative_error, r.clean, r.step)
+
+
+def gradcheck(r: Any) -> GradCheckReport:
+    if r.verdict not in VERDICTS:
+        raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                            f"gradcheck verdict {r.verdict}")
+    return GradCheckReport(
+        VERDICTS[r.verdict], [_grad_row(x) for x in r.rows],
+        [_grad_row(x) for x in r.penalty_rows], r.clean, r.passed, r.worst,
+        r.vjp_checks, r.vjp_passed, r.penalty_clean, r.penalty_passed,
+        r.max_abs_derivative, r.median_abs_derivative,
+        r.world_frame_vertices, r.rays_traced, r.full_pass_rays,
+        r.probe_repeats, r.generation, r.seconds)
 
 
 def calibration(r: Any) -> Calibration:

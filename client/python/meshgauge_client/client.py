@@ -25,10 +25,11 @@ import scipy.sparse
 from meshgauge_client import _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
-from meshgauge_client.errors import (MeshGaugeError, MissingValuesWarning,
-                                     from_rpc_error)
+from meshgauge_client.errors import (DataLossError, MeshGaugeError,
+                                     MissingValuesWarning, from_rpc_error)
 from meshgauge_client.options import SdfOptions
-from meshgauge_client.results import (Calibration, FloatArray, MeshData,
+from meshgauge_client.results import (Calibration, FloatArray,
+                                      GradCheckReport, MeshData,
                                       PenaltyResult, SdfResult, ServerInfo,
                                       SessionInfo)
 
@@ -578,6 +579,72 @@ class MeshGaugeClient:
                 t_min=t, equal_tolerance=_wire._number(
                     "tolerance", tolerance, 0, 1, lo_open=True), bins=bins),
             session_id))
+
+    def gradcheck(self, session_id: str, *, samples: int = 12, seed: int = 1,
+                  vertices: Optional[Any] = None,
+                  relative_step: float = 1e-7, tolerance: float = 1e-5,
+                  min_clean_fraction: float = 0.9,
+                  penalty: Optional["dict[str, Any]"] = None,
+                  expected_generation: Optional[int] = None,
+                  **params: Any) -> GradCheckReport:
+        """The SPEC §6 finite-difference check of the session's derivatives
+        at its current positions, run by the server on a private copy (the
+        session is unchanged): `meshgauge gradcheck`. samples (1..1000)
+        vertices drawn with seed, or the given vertices; penalty: also the
+        penalty's gradient, a dict of t_min and optionally form, power, rho,
+        max_missing_fraction. report.ok is True on PASS."""
+        if (isinstance(samples, bool) or not isinstance(samples, int)
+                or not 1 <= samples <= 1000):
+            raise ValueError(f"samples must be an int in [1, 1000], got "
+                             f"{samples!r}")
+        req = pb.GradCheckRequest(
+            session_id=session_id, params=self._params(params),
+            samples=samples, seed=seed,
+            relative_step=_wire._number("relative_step", relative_step, 0,
+                                        0.01, lo_open=True),
+            tolerance=_wire._number("tolerance", tolerance, 0, np.inf,
+                                    lo_open=True),
+            min_clean_fraction=_wire._number(
+                "min_clean_fraction", min_clean_fraction, 0, 1))
+        if vertices is not None:
+            listed = _wire._indices(np.asarray(vertices).ravel(), "vertices")
+            if listed.size > 1000:
+                raise ValueError("at most 1000 vertices, got "
+                                 f"{listed.size}")
+            req.vertices.extend(int(v) for v in listed)
+        if penalty is not None:
+            p = dict(penalty)
+            req.penalty.t_min = _wire._number("t_min", p.pop("t_min", 0), 0,
+                                              np.inf, lo_open=True)
+            req.penalty.form = _wire._choice("form",
+                                             p.pop("form", "one-sided"),
+                                             _wire.FORMS)
+            req.penalty.power = _wire._number("power", p.pop("power", 2.0), 1,
+                                              np.inf)
+            req.penalty.rho = _wire._number("rho", p.pop("rho", 50.0), 0,
+                                            np.inf, lo_open=True)
+            req.penalty.max_missing_fraction = _wire._number(
+                "max_missing_fraction", p.pop("max_missing_fraction", 0.5),
+                0, 1)
+            if p:
+                raise ValueError(f"unknown penalty keys {sorted(p)}")
+        if expected_generation is not None:
+            req.expected_generation = expected_generation
+        metadata = self._metadata(session_id)
+
+        def call() -> GradCheckReport:
+            report = None
+            for msg in self._stub.GradCheck(req, timeout=self._deadline,
+                                            metadata=metadata,
+                                            wait_for_ready=True):
+                if msg.HasField("report"):
+                    report = msg.report
+            if report is None:
+                raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                                    "GradCheck stream ended without a report")
+            return _wire.gradcheck(report)
+
+        return self._retrying(call)
 
 
 __all__ = ["MeshGaugeClient", "MeshGaugeError", "mesh_crc32", "SESSION_KEY"]

@@ -132,6 +132,54 @@ class PenaltyResult:
 
 
 @dataclass(frozen=True)
+class GradCheckRow:
+    """One checked entry d SDF_row / d x_vertex[coordinate] (row -1: the
+    penalty's derivative); clean False: the probe crossed an event (a hit
+    or the kept set changed) even at the smallest step."""
+
+    row: int
+    vertex: int
+    coordinate: int  # 0, 1, 2 = x, y, z.
+    analytic: float
+    fd: float  # the central difference.
+    relative_error: float
+    clean: bool
+    step: float  # of the attempt kept, mesh units.
+
+
+@dataclass(frozen=True)
+class GradCheckReport:
+    """The SPEC §6 finite-difference check run by the server (GradCheck).
+
+    verdict: "PASS", "FAIL" (a clean entry, a VJP or a penalty entry
+    disagrees: wrong derivatives) or "INCONCLUSIVE" (none disagrees, but
+    fewer than min_clean_fraction of the entries are clean)."""
+
+    verdict: str
+    rows: List[GradCheckRow]
+    penalty_rows: List[GradCheckRow]
+    clean: int
+    passed: int
+    worst: float
+    vjp_checks: int
+    vjp_passed: int
+    penalty_clean: int
+    penalty_passed: int
+    max_abs_derivative: float
+    median_abs_derivative: float
+    world_frame_vertices: int
+    rays_traced: int
+    full_pass_rays: int
+    probe_repeats: int
+    generation: int
+    seconds: float
+
+    @property
+    def ok(self) -> bool:
+        return self.verdict == "PASS"
+
+
+@dataclass(frozen=True)
 class Calibration:
     """SPEC §8: SDF (cone) against physical thickness (normal ray)."""
 

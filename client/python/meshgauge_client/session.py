@@ -21,7 +21,8 @@ import scipy.sparse
 from meshgauge_client import _wire
 from meshgauge_client.client import MeshGaugeClient
 from meshgauge_client.errors import NotFoundError
-from meshgauge_client.results import (Calibration, FloatArray, PenaltyResult,
+from meshgauge_client.results import (Calibration, FloatArray,
+                                      GradCheckReport, PenaltyResult,
                                       SdfResult, SessionInfo)
 
 T = TypeVar("T")
@@ -146,6 +147,11 @@ class Session:
                    **kwargs: Any) -> PenaltyResult:
         """The aggregated KS constraint G (bound it by 0) and dG/dx."""
         return self.penalty(t_min, form="ks", rho=rho, **kwargs)
+
+    def gradcheck(self, **kwargs: Any) -> GradCheckReport:
+        """MeshGaugeClient.gradcheck at the latest positions."""
+        return self._with_session(lambda: self._client.gradcheck(
+            self.session_id, expected_generation=self.generation, **kwargs))
 
     def calibrate(self, t_min: float, **kwargs: Any) -> Calibration:
         return self._with_session(lambda: self._client.calibrate(
