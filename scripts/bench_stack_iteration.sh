@@ -14,7 +14,6 @@ pids=()
 trap 'kill "${pids[@]}" 2>/dev/null || true; rm -rf "$tmp"' EXIT
 source scripts/lib.sh
 start_redis "$tmp" yes
-pids+=("$redis_pid")
 ports=()
 for r in 1 2; do
   build/server/meshgauge-server --address 127.0.0.1:0 --metrics_address= \

@@ -31,12 +31,13 @@ await_tcp() {
 }
 
 # A throwaway redis-server on a free loopback port, its data and log in
-# directory $1 (append-only file when $2 is "yes"); sets redis_port and
-# redis_pid once it accepts connections.
+# directory $1 (append-only file when $2 is "yes"): sets redis_port, adds
+# its pid to the caller's array `pids` (to kill on exit), and waits until it
+# accepts connections.
 start_redis() {
   redis_port=$(free_port)
   redis-server --port "$redis_port" --bind 127.0.0.1 --save "" \
     --appendonly "${2:-no}" --dir "$1" --logfile "$1/redis.log" &
-  redis_pid=$!
+  pids+=($!)
   await_tcp "$redis_port"
 }

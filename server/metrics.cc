@@ -102,7 +102,7 @@ Metrics::Metrics()
   for (const char* method :
        {"CreateSession", "GetSession", "ListSessions", "DeleteSession",
         "UpdatePositions", "ComputeSdf", "ComputeVjp", "ComputePenalty",
-        "Calibrate", "GetServerInfo", "GetMesh"}) {
+        "Calibrate", "GetServerInfo", "GetMesh", "GradCheck"}) {
     retried_attempts_.Add({{"method", method}});
   }
 }

@@ -33,7 +33,6 @@ class RecordedSessionStore final : public SessionCache {
       std::string* next_token) override;
 
  private:
-  bool ClaimsUploads() const override { return true; }
   absl::Status UploadClaimed(const std::string& tenant,
                              const std::string& token, int64_t bytes) override;
   void UploadRenewed(const std::string& tenant,

@@ -654,28 +654,28 @@ grpc::Status MeshGaugeService::GradCheck(
         if (!prep.ok()) return prep.status();
         const int64_t generation = prep->reader.generation();
         const Mesh& mesh = prep->reader.evaluator->mesh();
-        const int64_t full_pass_rays =
+        if (absl::Status s = ValidateGradCheck(mesh, prep->params, *options);
+            !s.ok()) {
+          return s;
+        }
+        const int64_t rays_total =
+            GradCheckPasses(mesh, *options) *
             FullPassRays(*prep->reader.evaluator, prep->params);
         // The probes move the vertices of a private evaluator: its memory is
-        // claimed before it is made.
+        // claimed before it is made, and the session's lock is held only
+        // while its mesh is copied.
         auto claim =
             store_->ClaimScratch(tenant, prep->session,
                                  Session::EstimateBaseBytes(mesh) +
                                      GradCheckWorkBytes(mesh, prep->params));
         if (!claim.ok()) return claim.status();
-        auto ev = SdfEvaluator::Create(mesh);
+        Mesh copy = mesh;
         prep->reader.lock.unlock();  // updates of the session go on.
+        auto ev = SdfEvaluator::Create(std::move(copy));
         if (!ev.ok()) return ev.status();
         ComputeControl control = Control(ctx);
         if (request->report_progress()) {
-          // Progress counts the vertices of every pass of the check.
-          const int64_t passes =
-              1 + 2 * int64_t{(*ev)->mesh().dimension} *
-                      (options->vertices.empty()
-                           ? std::min<int64_t>(options->samples,
-                                               (*ev)->mesh().num_vertices())
-                           : std::ssize(options->vertices));
-          control.progress = ProgressWriter(passes * full_pass_rays, writer);
+          control.progress = ProgressWriter(rays_total, writer);
         }
         auto rep = RunGradCheck(**ev, prep->params, *options, control);
         if (!rep.ok()) return Interrupted(ctx, rep.status());

@@ -94,12 +94,7 @@ class Session {
   wire::SessionInfo Info() const;
   // Held across an external commit and the local update that follows.
   std::mutex& update_mutex() { return update_mu_; }
-  // Includes the cached pass and the scratch memory of computations in
-  // flight (SessionStore::ClaimScratch).
-  int64_t memory_bytes() const {
-    return base_bytes_ + cache_bytes_.load() + scratch_bytes_.load();
-  }
-  void AddScratchBytes(int64_t delta) { scratch_bytes_ += delta; }
+  int64_t memory_bytes() const { return base_bytes_ + cache_bytes_.load(); }
   void Touch(double now) { last_used_ = now; }
   double last_used() const { return last_used_.load(); }
 
@@ -139,7 +134,6 @@ class Session {
   mutable std::mutex cache_mu_;
   std::shared_ptr<const CachedPass> cache_;
   std::atomic<int64_t> cache_bytes_{0};
-  std::atomic<int64_t> scratch_bytes_{0};
   std::atomic<double> last_used_;
 };
 

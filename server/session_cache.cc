@@ -76,7 +76,7 @@ absl::StatusOr<UploadReservation> SessionCache::Reserve(
   UploadReservation r;
   r.tenant_ = tenant;
   r.bytes_ = bytes;
-  if (ClaimsUploads()) {
+  if (records_hold_limits_) {
     // The slot is claimed in the records, over all replicas, for a while
     // that every arriving message renews (Arrive).
     r.token_ = NewIncarnation();
@@ -229,9 +229,7 @@ void SessionCache::Sweep() {
   PublishLocked();
 }
 
-ScratchClaim::~ScratchClaim() {
-  store_->ReleaseScratch(session_.get(), bytes_);
-}
+ScratchClaim::~ScratchClaim() { store_->ReleaseScratch(tenant_, bytes_); }
 
 absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
     const std::string& tenant, std::shared_ptr<Session> session,
@@ -248,10 +246,24 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
         "use fewer rays"));
   }
   std::lock_guard<std::mutex> lock(mu_);
-  if (absl::Status s = CheckBytesLocked(tenant, bytes); !s.ok()) return s;
-  session->AddScratchBytes(bytes);
+  if (options_.memory_budget_bytes_per_tenant > 0 &&
+      TenantBytesLocked(tenant) + scratch_[tenant] + bytes >
+          options_.BudgetPerTenant()) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "this tenant's sessions and computations would exceed its memory "
+        "budget of ",
+        options_.BudgetPerTenant(),
+        " bytes (--memory_budget_bytes_per_tenant) with this computation's "
+        "scratch memory of about ",
+        bytes, " bytes; retry later or delete a session"));
+  }
+  scratch_[tenant] += bytes;
+  scratch_total_ += bytes;
   const bool fits = MakeRoomLocked(session.get(), &tenant);
-  if (!fits) session->AddScratchBytes(-bytes);
+  if (!fits) {
+    scratch_[tenant] -= bytes;
+    scratch_total_ -= bytes;
+  }
   PublishLocked();
   if (!fits) {
     return absl::ResourceExhaustedError(absl::StrCat(
@@ -259,12 +271,13 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
         " bytes of scratch memory, which the server's memory budget cannot "
         "hold now (other tenants' sessions fill it); retry later"));
   }
-  return std::make_unique<ScratchClaim>(this, std::move(session), bytes);
+  return std::unique_ptr<ScratchClaim>(new ScratchClaim(this, tenant, bytes));
 }
 
-void SessionCache::ReleaseScratch(Session* session, int64_t bytes) {
+void SessionCache::ReleaseScratch(const std::string& tenant, int64_t bytes) {
   std::lock_guard<std::mutex> lock(mu_);
-  session->AddScratchBytes(-bytes);
+  if ((scratch_[tenant] -= bytes) == 0) scratch_.erase(tenant);
+  scratch_total_ -= bytes;
   PublishLocked();
 }
 
@@ -276,12 +289,13 @@ void SessionCache::EnforceBudget(const Session* keep) {
 
 bool SessionCache::MakeRoomLocked(const Session* keep,
                                   const std::string* for_tenant) {
-  while (TotalBytesLocked() + reserved_total_.arrived >
+  while (TotalBytesLocked() + reserved_total_.arrived + scratch_total_ >
          options_.memory_budget_bytes) {
     // What each tenant holds: its sessions and its uploads' arrived data.
     std::map<std::string, int64_t> held;
     for (const auto& [key, s] : sessions_) held[key.first] += s->memory_bytes();
     for (const auto& [tenant, r] : reserved_) held[tenant] += r.arrived;
+    for (const auto& [tenant, b] : scratch_) held[tenant] += b;
     // The tenant holding the most gives up its least recently used session
     // (never `keep`). When that is the tenant asking for room and it has
     // nothing left to give but its own upload, nobody else is evicted.
@@ -360,7 +374,8 @@ int64_t SessionCache::TenantSessionsLocked(const std::string& tenant) const {
 void SessionCache::PublishLocked() {
   metrics_->SetSessions(
       static_cast<double>(sessions_.size()),
-      static_cast<double>(TotalBytesLocked() + reserved_total_.arrived));
+      static_cast<double>(TotalBytesLocked() + reserved_total_.arrived +
+                          scratch_total_));
 }
 
 }  // namespace meshgauge::server

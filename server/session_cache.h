@@ -42,8 +42,7 @@ class SessionCache : public SessionStore {
 
   // The records' claim on an upload slot (token: the claim's id), made
   // when the upload reserves, again when it grows, renewed as its data
-  // arrive, dropped when it ends; none without records.
-  virtual bool ClaimsUploads() const { return false; }
+  // arrive, dropped when it ends; only when records hold the limits.
   virtual absl::Status UploadClaimed(const std::string& /*tenant*/,
                                      const std::string& /*token*/,
                                      int64_t /*bytes*/) {
@@ -83,7 +82,7 @@ class SessionCache : public SessionStore {
   void ReleaseLocked(UploadReservation* r);
   absl::Status Arrive(UploadReservation* r, int64_t bytes);
   absl::Status Grow(UploadReservation* r, int64_t bytes);
-  void ReleaseScratch(Session* session, int64_t bytes);
+  void ReleaseScratch(const std::string& tenant, int64_t bytes);
   // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
   absl::Status CheckBudgets(int64_t bytes) const;
   // RESOURCE_EXHAUSTED when `bytes` more for uploads of `tenant` would
@@ -104,6 +103,8 @@ class SessionCache : public SessionStore {
   };
   std::map<std::string, Reserved> reserved_;  // by tenant.
   Reserved reserved_total_;
+  std::map<std::string, int64_t> scratch_;  // claimed, by tenant.
+  int64_t scratch_total_ = 0;
 };
 
 }  // namespace meshgauge::server

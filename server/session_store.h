@@ -75,19 +75,20 @@ class UploadReservation {
 };
 
 // A computation's memory beyond its session's (a gradcheck's private copy
-// of the mesh and its passes), accounted to the session while it lives.
+// of the mesh and its passes), accounted to its tenant while it lives
+// (SessionStore::ClaimScratch).
 class ScratchClaim {
  public:
-  ScratchClaim(SessionCache* store, std::shared_ptr<Session> session,
-               int64_t bytes)
-      : store_(store), session_(std::move(session)), bytes_(bytes) {}
   ScratchClaim(const ScratchClaim&) = delete;
   ScratchClaim& operator=(const ScratchClaim&) = delete;
   ~ScratchClaim();
 
  private:
+  friend class SessionCache;
+  ScratchClaim(SessionCache* store, std::string tenant, int64_t bytes)
+      : store_(store), tenant_(std::move(tenant)), bytes_(bytes) {}
   SessionCache* store_;
-  std::shared_ptr<Session> session_;
+  std::string tenant_;
   int64_t bytes_;
 };
 
@@ -139,11 +140,12 @@ class SessionStore {
       const std::string& tenant, const std::string& page_token, int page_size,
       std::string* next_token) = 0;
 
-  // Accounts `bytes` of a computation's scratch memory to `session` (of
-  // `tenant`) until the claim is destroyed. Evicts by the upload rule (only
-  // from the tenant holding the most bytes, never `session`). Errors:
-  // RESOURCE_EXHAUSTED, nothing claimed, when the bytes exceed the tenant's
-  // budget or the server's even after eviction.
+  // Accounts `bytes` of a computation's scratch memory on `session` to
+  // `tenant` until the claim is destroyed (evicting the session meanwhile
+  // frees none of them). Evicts by the upload rule (only from the tenant
+  // holding the most bytes, never `session`). Errors: RESOURCE_EXHAUSTED,
+  // nothing claimed, when the bytes exceed the tenant's budget or the
+  // server's even after eviction.
   virtual absl::StatusOr<std::unique_ptr<ScratchClaim>> ClaimScratch(
       const std::string& tenant, std::shared_ptr<Session> session,
       int64_t bytes) = 0;

@@ -38,7 +38,6 @@ await_log() {
 }
 
 start_redis "$tmp"
-pids+=("$redis_pid")
 
 # Each replica binds port 0 first and keeps the port it got on restarts
 # (the balancer's configuration names it).

@@ -194,6 +194,12 @@ TEST_F(SecurityTest, AGradCheckNeverEvictsASmallerTenant) {
   clock_.Advance(1);
   ASSERT_TRUE(bob_->Upload(sphere, "k").ok());
   ASSERT_EQ(Code(alice_->Get("a")), absl::StatusCode::kOk);
+  // A request the check refuses claims nothing, so it evicts nothing.
+  GradCheckOptions bad;
+  bad.vertices = {static_cast<int32_t>(sphere.num_vertices())};
+  EXPECT_EQ(Code(bob_->GradCheck("k", SdfParams{}, bad)),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(bob_->Get("old").ok());
   // Bob's check fits once bob's older session is evicted.
   auto checked = bob_->GradCheck("k", SdfParams{}, {.samples = 1});
   EXPECT_TRUE(checked.ok()) << checked.status();

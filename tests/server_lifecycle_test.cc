@@ -123,7 +123,9 @@ TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
     };
     return c.ComputeSdf("big", SdfParams{}, call);
   });
-  tracing.get_future().wait();  // the server is tracing the call's rays.
+  // The server is tracing the call's rays.
+  ASSERT_EQ(tracing.get_future().wait_for(std::chrono::seconds(60)),
+            std::future_status::ready);
   auto shutdown = std::async(std::launch::async, [&] { server_->Shutdown(); });
   testing::WaitFor([&] { return HealthStatus(target_) == 2; });
   EXPECT_EQ(HealthStatus(target_), 2) << "NOT_SERVING while draining";

@@ -337,12 +337,16 @@ TEST_F(ServerTest, GradCheckChecksTheCurrentPositionsAndLeavesTheSession) {
   const double rays_before =
       MetricValue(metrics_.Text(), "meshgauge_rays_traced_total");
   int64_t calls = 0, done = 0, total = 0;
+  double accounted = 0;  // the memory gauge while the check runs.
   auto remote =
       client_->GradCheck("g", params, options, [&](int64_t d, int64_t t) {
         ++calls;
         EXPECT_GE(d, done);
         done = d;
         total = t;
+        accounted = std::max(
+            accounted,
+            MetricValue(metrics_.Text(), "meshgauge_session_cache_bytes"));
       });
   ASSERT_TRUE(remote.ok()) << remote.status();
   auto local = RunGradCheck(moved, params, options);
@@ -369,6 +373,12 @@ TEST_F(ServerTest, GradCheckChecksTheCurrentPositionsAndLeavesTheSession) {
   EXPECT_TRUE(after->facts.reused_hits);
   EXPECT_TRUE(SameBits(after->result.values, before->result.values));
   EXPECT_EQ(client_->Get("g")->memory_bytes, memory);
+  // The private copy and its passes were accounted while the check ran,
+  // and returned after it.
+  EXPECT_GE(accounted, memory + server::Session::EstimateBaseBytes(moved) +
+                           GradCheckWorkBytes(moved, params));
+  EXPECT_EQ(MetricValue(metrics_.Text(), "meshgauge_session_cache_bytes"),
+            memory);
 }
 
 // Options, generation, session and normals are checked before anything is

@@ -56,8 +56,9 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& report,
                        const BackendFactory& make);
 
 // meshgauge gradcheck MESH: central differences against the analytic
-// derivatives (SPEC §6), and of the penalty with --t-min; FailedPrecondition
-// (exit 1) on FAIL.
+// derivatives (SPEC §6), and of the penalty with --t-min, computed by the
+// backend (here or, remote, by the server); FailedPrecondition (exit 1) on
+// FAIL or INCONCLUSIVE.
 absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
                           const PenaltyFlags& penalty,
                           const BackendFactory& make);

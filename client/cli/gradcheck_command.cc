@@ -8,6 +8,7 @@
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 #include "client/cli/progress_bar.h"
+#include "lib/embree/gradcheck.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -61,11 +62,8 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   const Mesh& mesh = opened->loaded.mesh;
   const int64_t rays = ResolveParams(opened->params, mesh.dimension).rays;
   ProgressBar bar(
-      absl::StrCat(
-          "gradcheck: ",
-          1 + 2 * mesh.dimension *
-                  std::min<int64_t>(check.samples, mesh.num_vertices()),
-          " passes of ", mesh.num_vertices() * rays, " rays"),
+      absl::StrCat("gradcheck: ", GradCheckPasses(mesh, options), " passes of ",
+                   mesh.num_vertices() * rays, " rays"),
       in.out.Progress());
   auto rep = opened->backend->GradCheck(
       opened->params, options,

@@ -64,7 +64,19 @@ bool SameRow(const HitTable& a, const HitTable& b, int64_t p) {
          std::equal(ka.begin(), ka.end(), kb.begin());
 }
 
-absl::Status ValidateOptions(const GradCheckOptions& o, const Mesh& mesh) {
+}  // namespace
+
+absl::Status ValidateGradCheck(const Mesh& mesh, const SdfParams& params,
+                               const GradCheckOptions& o) {
+  if (absl::Status s = ValidateParams(params); !s.ok()) return s;
+  if (params.normal_weighting != NormalWeighting::kArea) {
+    return absl::FailedPreconditionError(
+        "gradcheck checks derivatives, which are only available with "
+        "area-weighted normals (--normals area, the default)");
+  }
+  if (o.penalty) {
+    if (absl::Status s = ValidatePenaltyParams(*o.penalty); !s.ok()) return s;
+  }
   if (o.vertices.empty() && o.samples < 1) {
     return absl::InvalidArgumentError(
         absl::StrCat("gradcheck samples must be >= 1, got ", o.samples));
@@ -87,6 +99,21 @@ absl::Status ValidateOptions(const GradCheckOptions& o, const Mesh& mesh) {
   }
   return absl::OkStatus();
 }
+
+int64_t GradCheckPasses(const Mesh& mesh, const GradCheckOptions& options) {
+  int64_t probed = std::ssize(options.vertices);
+  if (options.vertices.empty()) {
+    std::vector<uint8_t> on_face(mesh.num_vertices(), 0);
+    for (const Face& f : mesh.faces) {
+      for (int k = 0; k < f.size; ++k) on_face[f.v[k]] = 1;
+    }
+    probed = std::min<int64_t>(options.samples,
+                               std::count(on_face.begin(), on_face.end(), 1));
+  }
+  return 1 + 2 * mesh.dimension * probed;
+}
+
+namespace {
 
 // The vertices to move: the explicit list, or `samples` distinct vertices
 // with a face drawn with the seed.
@@ -130,7 +157,10 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
                                              const SdfParams& params,
                                              const GradCheckOptions& options,
                                              const ComputeControl& control) {
-  if (absl::Status s = ValidateOptions(options, mesh); !s.ok()) return s;
+  // Refused before the BVH is built.
+  if (absl::Status s = ValidateGradCheck(mesh, params, options); !s.ok()) {
+    return s;
+  }
   auto created = SdfEvaluator::Create(mesh);
   if (!created.ok()) return created.status();
   return RunGradCheck(**created, params, options, control);
@@ -141,15 +171,11 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
                                              const GradCheckOptions& options,
                                              const ComputeControl& control) {
   const Mesh& mesh = ev.mesh();
-  if (absl::Status s = ValidateOptions(options, mesh); !s.ok()) return s;
-  if (params.normal_weighting != NormalWeighting::kArea) {
-    // Known before any ray is traced: the derivatives need area weighting.
-    return absl::FailedPreconditionError(
-        "gradcheck checks derivatives, which are only available with "
-        "area-weighted normals (--normals area, the default)");
+  if (absl::Status s = ValidateGradCheck(mesh, params, options); !s.ok()) {
+    return s;
   }
   const std::vector<int32_t> probed = PickVertices(options, ev);
-  const int64_t passes = 1 + 2 * mesh.dimension * std::ssize(probed);
+  const int64_t passes = GradCheckPasses(mesh, options);
   int64_t pass_index = 0;
   auto base =
       Evaluate(ev, params, options, PassControl(control, pass_index++, passes));
@@ -187,6 +213,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
     const Vec3 x0 = mesh.positions[j];
     absl::Status status;
     for (int s = 0; s < 2 && status.ok(); ++s) {
+      at[s] = Pass{};  // the previous attempt's pass goes first.
       Vec3 x = x0;
       x[c] += (s == 0 ? 1 : -1) * h;
       status = move(j, x);

@@ -39,8 +39,19 @@ absl::StatusOr<GradCheckReport> RunGradCheck(
     const ComputeControl& control = {});
 
 // Bytes RunGradCheck holds besides its evaluator, estimated before it runs:
-// three passes' hit tables and values, and the Jacobian at 2K + 32 entries
-// per vertex for K rays (horse.ply has 155 at K = 100, rocker-arm.obj 61).
+// three passes' hit tables and values (the base and a probe's two), and the
+// Jacobian at 2K + 32 entries per vertex for K rays (horse.ply has 155 at
+// K = 100, rocker-arm.obj 61).
 int64_t GradCheckWorkBytes(const Mesh& mesh, const SdfParams& params);
+
+// What RunGradCheck refuses before it builds or traces anything:
+// InvalidArgument (parameters, options, a vertex out of range, the
+// penalty's parameters), FailedPrecondition (angle-weighted normals).
+absl::Status ValidateGradCheck(const Mesh& mesh, const SdfParams& params,
+                               const GradCheckOptions& options);
+
+// The ray passes of a check without repeats: the base pass and two per
+// probed coordinate (the listed vertices, or `samples` vertices on a face).
+int64_t GradCheckPasses(const Mesh& mesh, const GradCheckOptions& options);
 
 }  // namespace meshgauge

@@ -18,10 +18,6 @@ absl::StatusOr<std::vector<Vec3>> Gradient(
   return points;
 }
 
-CallFacts Facts(int64_t generation, bool reused_hits, double seconds) {
-  return {generation, reused_hits, seconds};
-}
-
 }  // namespace
 
 void ToWire(const UpdateResult& r, v1::UpdatePositionsResponse* out) {
@@ -46,7 +42,7 @@ absl::StatusOr<VjpReply> FromWire(const v1::ComputeVjpResponse& r) {
   auto gradient = Gradient(r.gradient(), r.dimension());
   if (!gradient.ok()) return gradient.status();
   return VjpReply{std::move(*gradient),
-                  Facts(r.generation(), r.reused_hits(), r.seconds())};
+                  {r.generation(), r.reused_hits(), r.seconds()}};
 }
 
 void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,
@@ -77,7 +73,7 @@ absl::StatusOr<PenaltyReply> FromWire(const v1::ComputePenaltyResponse& r,
   }
   out.sdf_min = r.sdf_min();
   out.world_frame_vertices = r.world_frame_vertices();
-  out.facts = Facts(r.generation(), r.reused_hits(), r.seconds());
+  out.facts = {r.generation(), r.reused_hits(), r.seconds()};
   return out;
 }
 

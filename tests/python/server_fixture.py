@@ -50,6 +50,8 @@ class ServerProcess:
         deadline = time.time() + 20
         while not _read(port_file):
             if time.time() > deadline or self.proc.poll() is not None:
+                self.proc.kill()
+                self.proc.wait(timeout=20)
                 raise RuntimeError("server did not start: " + self.stderr())
             time.sleep(0.05)
         self.port = int(_read(port_file))
