@@ -155,12 +155,16 @@ class MeshGaugeClient:
             time.sleep(delay)
             delay = min(2 * delay, 1.0)
 
-    def _call(self, method: Any, request: Any, session_id: str = "") -> Any:
+    def _call(self, method: Any, request: Any, session_id: str = "",
+              read: Optional[Callable[[Any], Any]] = None) -> Any:
+        """method(request) with the deadline, the session's metadata and the
+        retries; read(reply) (a stream's messages) inside each attempt."""
         metadata = self._metadata(session_id)
 
         def invoke() -> Any:
-            return method(request, timeout=self._deadline, metadata=metadata,
-                          wait_for_ready=True)
+            reply = method(request, timeout=self._deadline, metadata=metadata,
+                           wait_for_ready=True)
+            return read(reply) if read else reply
 
         return self._retrying(invoke)
 
@@ -453,9 +457,8 @@ class MeshGaugeClient:
                                    include_jacobian=jacobian)
         if expected_generation is not None:
             req.expected_generation = expected_generation
-        metadata = self._metadata(session_id)
 
-        def stream() -> SdfResult:
+        def stream(messages: Iterator[Any]) -> SdfResult:
             values: List[float] = []
             status: List[int] = []
             hits: List[int] = []
@@ -465,9 +468,7 @@ class MeshGaugeClient:
             cols: List[int] = []
             data: List[float] = []
             summary = None
-            for msg in self._stub.ComputeSdf(req, timeout=self._deadline,
-                                             metadata=metadata,
-                                             wait_for_ready=True):
+            for msg in messages:
                 if msg.HasField("summary"):
                     summary = msg.summary
                     continue
@@ -500,10 +501,12 @@ class MeshGaugeClient:
                                np.asarray(normalized, dtype=np.float64),
                                _wire.summary(summary), jac)
             for w in result.summary.warnings:
-                warnings.warn(w, MissingValuesWarning, stacklevel=4)
+                warnings.warn(w, MissingValuesWarning, stacklevel=6)
             return result
 
-        return self._retrying(stream)
+        result: SdfResult = self._call(self._stub.ComputeSdf, req, session_id,
+                                       stream)
+        return result
 
     def vjp(self, session_id: str, weights: Any, *,
             expected_generation: Optional[int] = None,
@@ -630,13 +633,10 @@ class MeshGaugeClient:
                 raise ValueError(f"unknown penalty keys {sorted(p)}")
         if expected_generation is not None:
             req.expected_generation = expected_generation
-        metadata = self._metadata(session_id)
 
-        def call() -> GradCheckReport:
+        def read(messages: Iterator[Any]) -> GradCheckReport:
             report = None
-            for msg in self._stub.GradCheck(req, timeout=self._deadline,
-                                            metadata=metadata,
-                                            wait_for_ready=True):
+            for msg in messages:
                 if msg.HasField("report"):
                     report = msg.report
             if report is None:
@@ -644,7 +644,9 @@ class MeshGaugeClient:
                                     "GradCheck stream ended without a report")
             return _wire.gradcheck(report)
 
-        return self._retrying(call)
+        result: GradCheckReport = self._call(self._stub.GradCheck, req,
+                                             session_id, read)
+        return result
 
 
 __all__ = ["MeshGaugeClient", "MeshGaugeError", "mesh_crc32", "SESSION_KEY"]
