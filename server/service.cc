@@ -662,8 +662,8 @@ grpc::Status MeshGaugeService::GradCheck(
             GradCheckPasses(mesh, *options) *
             FullPassRays(*prep->reader.evaluator, prep->params);
         // The probes move the vertices of a private evaluator: its memory is
-        // claimed before it is made, and the session's lock is held only
-        // while its mesh is copied.
+        // claimed before it is made, and the session's lock is released
+        // once the mesh is copied (before the copy's BVH is built).
         auto claim =
             store_->ClaimScratch(tenant, prep->session,
                                  Session::EstimateBaseBytes(mesh) +

@@ -97,17 +97,30 @@ double SessionCache::ClaimSeconds() const {
                   2 * options_.upload_idle_seconds);
 }
 
+absl::Status SessionCache::CheckTenantBudgetLocked(const std::string& tenant,
+                                                   int64_t bytes) const {
+  if (records_hold_limits_ || options_.memory_budget_bytes_per_tenant == 0) {
+    return absl::OkStatus();
+  }
+  auto reserved = reserved_.find(tenant);
+  auto scratch = scratch_.find(tenant);
+  const int64_t held =
+      TenantBytesLocked(tenant) +
+      (reserved == reserved_.end() ? 0 : reserved->second.bytes) +
+      (scratch == scratch_.end() ? 0 : scratch->second);
+  if (held + bytes <= options_.BudgetPerTenant()) return absl::OkStatus();
+  return absl::ResourceExhaustedError(absl::StrCat(
+      "this tenant's sessions, uploads and computations would exceed its "
+      "memory budget of ",
+      options_.BudgetPerTenant(),
+      " bytes (--memory_budget_bytes_per_tenant); delete a session first or "
+      "retry later"));
+}
+
 absl::Status SessionCache::CheckBytesLocked(const std::string& tenant,
                                             int64_t bytes) const {
-  auto mine = reserved_.find(tenant);
-  const int64_t held = mine == reserved_.end() ? 0 : mine->second.bytes;
-  if (!records_hold_limits_ && options_.memory_budget_bytes_per_tenant > 0 &&
-      TenantBytesLocked(tenant) + held + bytes > options_.BudgetPerTenant()) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "this tenant's sessions and uploads would exceed its memory budget "
-        "of ",
-        options_.BudgetPerTenant(),
-        " bytes (--memory_budget_bytes_per_tenant); delete a session first"));
+  if (absl::Status s = CheckTenantBudgetLocked(tenant, bytes); !s.ok()) {
+    return s;
   }
   if (reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
     return absl::ResourceExhaustedError(
@@ -246,24 +259,13 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
         "use fewer rays"));
   }
   std::lock_guard<std::mutex> lock(mu_);
-  if (options_.memory_budget_bytes_per_tenant > 0 &&
-      TenantBytesLocked(tenant) + scratch_[tenant] + bytes >
-          options_.BudgetPerTenant()) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        "this tenant's sessions and computations would exceed its memory "
-        "budget of ",
-        options_.BudgetPerTenant(),
-        " bytes (--memory_budget_bytes_per_tenant) with this computation's "
-        "scratch memory of about ",
-        bytes, " bytes; retry later or delete a session"));
+  if (absl::Status s = CheckTenantBudgetLocked(tenant, bytes); !s.ok()) {
+    return s;
   }
   scratch_[tenant] += bytes;
   scratch_total_ += bytes;
   const bool fits = MakeRoomLocked(session.get(), &tenant);
-  if (!fits) {
-    scratch_[tenant] -= bytes;
-    scratch_total_ -= bytes;
-  }
+  if (!fits) ReduceScratchLocked(tenant, bytes);
   PublishLocked();
   if (!fits) {
     return absl::ResourceExhaustedError(absl::StrCat(
@@ -276,9 +278,15 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
 
 void SessionCache::ReleaseScratch(const std::string& tenant, int64_t bytes) {
   std::lock_guard<std::mutex> lock(mu_);
-  if ((scratch_[tenant] -= bytes) == 0) scratch_.erase(tenant);
-  scratch_total_ -= bytes;
+  ReduceScratchLocked(tenant, bytes);
   PublishLocked();
+}
+
+void SessionCache::ReduceScratchLocked(const std::string& tenant,
+                                       int64_t bytes) {
+  auto it = scratch_.find(tenant);
+  if ((it->second -= bytes) == 0) scratch_.erase(it);
+  scratch_total_ -= bytes;
 }
 
 void SessionCache::EnforceBudget(const Session* keep) {
@@ -291,7 +299,8 @@ bool SessionCache::MakeRoomLocked(const Session* keep,
                                   const std::string* for_tenant) {
   while (TotalBytesLocked() + reserved_total_.arrived + scratch_total_ >
          options_.memory_budget_bytes) {
-    // What each tenant holds: its sessions and its uploads' arrived data.
+    // What each tenant holds: its sessions, its uploads' arrived data and
+    // its computations' scratch memory.
     std::map<std::string, int64_t> held;
     for (const auto& [key, s] : sessions_) held[key.first] += s->memory_bytes();
     for (const auto& [tenant, r] : reserved_) held[tenant] += r.arrived;

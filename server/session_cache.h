@@ -59,10 +59,10 @@ class SessionCache : public SessionStore {
   }
   // Consumes the upload's reservation (under mu_): it becomes a session.
   void ConsumeLocked(UploadReservation& ticket);
-  // Evicts while sessions plus arrived bytes exceed the budget; false when
-  // nothing may be evicted. For an upload or scratch of `for_tenant` (not
-  // null), only the tenant holding the most bytes gives up sessions: it
-  // never pushes out a tenant that holds less than its own tenant.
+  // Evicts while sessions, uploads' arrived bytes and scratch exceed the
+  // budget; false when nothing may be evicted. For an upload or scratch of
+  // `for_tenant` (not null), only the tenant holding the most bytes gives up
+  // sessions: it never pushes out a tenant that holds less than its own tenant.
   bool MakeRoomLocked(const Session* keep,
                       const std::string* for_tenant = nullptr);
   void PublishLocked();
@@ -85,9 +85,14 @@ class SessionCache : public SessionStore {
   void ReleaseScratch(const std::string& tenant, int64_t bytes);
   // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
   absl::Status CheckBudgets(int64_t bytes) const;
-  // RESOURCE_EXHAUSTED when `bytes` more for uploads of `tenant` would
-  // exceed its budget or the server's (held reservations counted).
+  // RESOURCE_EXHAUSTED when `bytes` more for `tenant` would exceed its
+  // budget: its sessions, upload reservations and scratch counted (unless
+  // records hold the limits).
+  absl::Status CheckTenantBudgetLocked(const std::string& tenant,
+                                       int64_t bytes) const;
+  // The same for an upload, and the uploads' share of the server's budget.
   absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const;
+  void ReduceScratchLocked(const std::string& tenant, int64_t bytes);
   // The local half of Reserve (counts, budgets) under mu_; sets r->store_.
   absl::Status ClaimLocally(UploadReservation* r);
   absl::Status CheckCountLimitsLocked(const std::string& tenant,

@@ -19,9 +19,21 @@ TEST(GradCheckTest, AProbeThatCrossedAnEventIsRepeatedWithSmallerSteps) {
   auto tray = ReadMesh(testing::SharedMesh("1002_tray_bottom.STL"));
   ASSERT_TRUE(tray.ok());
   GradCheckOptions options;
-  auto rep = RunGradCheck(*tray, {}, options);
+  // Progress never goes back, repeats or not, and ends at the whole check.
+  int64_t done = 0, total = 0;
+  bool monotonic = true;
+  ComputeControl control;
+  control.progress = [&](int64_t d, int64_t t) {
+    monotonic &= d >= done;
+    done = d;
+    total = t;
+  };
+  auto rep = RunGradCheck(*tray, {}, options, control);
   ASSERT_TRUE(rep.ok()) << rep.status();
   EXPECT_GT(rep->retried, 0);
+  EXPECT_TRUE(monotonic);
+  EXPECT_EQ(done, total);
+  EXPECT_EQ(total, GradCheckPasses(*tray, options) * tray->num_vertices());
   const double first = options.relative_step * BoundingBoxDiagonal(*tray);
   int64_t clean_after_retry = 0;
   for (const GradCheckRow& r : rep->rows) {

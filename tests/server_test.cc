@@ -381,6 +381,34 @@ TEST_F(ServerTest, GradCheckChecksTheCurrentPositionsAndLeavesTheSession) {
             memory);
 }
 
+// A check's scratch memory counts against its tenant's budget while it
+// runs: an upload that fits beside the session alone is refused during the
+// check and accepted after it.
+TEST_F(ServerTest, GradCheckScratchCountsAgainstTheTenantsBudget) {
+  const Mesh knight = Knight();
+  SdfParams params;
+  params.rays = 30;
+  const int64_t base = server::Session::EstimateBaseBytes(knight);
+  const int64_t scratch = base + GradCheckWorkBytes(knight, params);
+  server::ServerOptions o;
+  o.memory_budget_bytes_per_tenant = base + scratch + base / 2;
+  RestartServer(o);
+  ASSERT_TRUE(client_->Upload(knight, "g").ok());
+  client::RemoteClient other(target_);
+  absl::Status during;
+  bool tried = false;
+  auto checked =
+      client_->GradCheck("g", params, {.samples = 2}, [&](int64_t, int64_t) {
+        if (tried) return;
+        tried = true;
+        during = other.Upload(knight, "h").status();
+      });
+  ASSERT_TRUE(checked.ok()) << checked.status();
+  ASSERT_TRUE(tried);
+  EXPECT_EQ(during.code(), absl::StatusCode::kResourceExhausted) << during;
+  EXPECT_TRUE(other.Upload(knight, "h").ok());
+}
+
 // Options, generation, session and normals are checked before anything is
 // computed (no ray is traced).
 TEST_F(ServerTest, GradCheckRejectsBadOptionsBeforeTracing) {

@@ -43,13 +43,14 @@ absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
   return pass;
 }
 
-// The control of ray pass `index` of `passes`: its progress is reported as
-// the whole check's (each pass counts its vertices).
+// The control of planned ray pass `index` of `passes`: its progress is
+// reported as the whole check's (each pass counts its vertices). A repeated
+// probe's pass (index -1) reports none, so progress never goes back.
 ComputeControl PassControl(const ComputeControl& control, int64_t index,
                            int64_t passes) {
   ComputeControl c;
   c.cancelled = control.cancelled;
-  if (control.progress) {
+  if (control.progress && index >= 0) {
     c.progress = [&control, index, passes](int64_t done, int64_t total) {
       control.progress(index * total + done, passes * total);
     };
@@ -176,9 +177,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
   }
   const std::vector<int32_t> probed = PickVertices(options, ev);
   const int64_t passes = GradCheckPasses(mesh, options);
-  int64_t pass_index = 0;
-  auto base =
-      Evaluate(ev, params, options, PassControl(control, pass_index++, passes));
+  auto base = Evaluate(ev, params, options, PassControl(control, 0, passes));
   if (!base.ok()) return base.status();
   // The derivatives' own progress would restart the check's.
   ComputeControl quiet;
@@ -209,7 +208,10 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
     return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
   };
   // The passes at x_j[c] +- h; x_j is put back whatever happens.
-  auto probe = [&](int32_t j, int c, double h, Pass at[2]) -> absl::Status {
+  // `planned`: the planned index of the first of the two passes, -1 for a
+  // repeat.
+  auto probe = [&](int32_t j, int c, double h, int64_t planned,
+                   Pass at[2]) -> absl::Status {
     const Vec3 x0 = mesh.positions[j];
     absl::Status status;
     for (int s = 0; s < 2 && status.ok(); ++s) {
@@ -220,8 +222,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
       if (!status.ok()) break;
       auto pass = Evaluate(
           ev, params, options,
-          PassControl(control, std::min(pass_index++, passes - 1), passes),
-          &*base);
+          PassControl(control, planned < 0 ? -1 : planned + s, passes), &*base);
       if (!pass.ok()) {
         status = pass.status();
         break;
@@ -232,8 +233,9 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
     absl::Status restored = move(j, x0);
     return status.ok() ? restored : status;
   };
+  int64_t next_planned = 1;  // the base pass is 0.
   for (int32_t j : probed) {
-    for (int c = 0; c < mesh.dimension; ++c) {
+    for (int c = 0; c < mesh.dimension; ++c, next_planned += 2) {
       // Entries whose probe crossed an event are probed again with steps 10
       // and 100 times smaller; each keeps its first clean attempt.
       std::vector<GradCheckRow> rows;
@@ -242,7 +244,11 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
       Pass at[2];
       for (int attempt = 0; attempt <= kRetries; ++attempt) {
         const double h = step * std::pow(0.1, attempt);
-        if (absl::Status st = probe(j, c, h, at); !st.ok()) return st;
+        if (absl::Status st =
+                probe(j, c, h, attempt == 0 ? next_planned : -1, at);
+            !st.ok()) {
+          return st;
+        }
         bool all_clean = true;
         double fd_dot = 0;
         for (int64_t p = 0; p < nv; ++p) {
