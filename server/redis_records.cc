@@ -10,7 +10,7 @@
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
-#include "server/record_codec.h"
+#include "server/record/record_convert.h"
 #include "server/session_messages.h"
 
 namespace meshgauge::server {
@@ -254,7 +254,9 @@ absl::Status ParseRedisUrl(const std::string& url, RedisOptions* options) {
 }
 
 RedisRecords::RedisRecords(RedisOptions options, Metrics* metrics)
-    : options_(std::move(options)), metrics_(metrics) {}
+    : options_(std::move(options)),
+      prefix_(absl::StrCat(options_.key_prefix, "r", kRecordFormat, ":")),
+      metrics_(metrics) {}
 
 RedisRecords::~RedisRecords() {
   for (redisContext* c : idle_) redisFree(c);
@@ -275,8 +277,7 @@ double RedisRecords::IdleSeconds(int64_t pttl_ms) const {
 
 std::string RedisRecords::TenantPrefix(const std::string& tenant) const {
   // Hex keeps any tenant name out of the key syntax.
-  return absl::StrCat(options_.key_prefix, "t", absl::BytesToHexString(tenant),
-                      ":");
+  return absl::StrCat(prefix_, "t", absl::BytesToHexString(tenant), ":");
 }
 
 std::string RedisRecords::SessionKey(const std::string& tenant,
@@ -372,12 +373,9 @@ absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Eval(
 std::vector<std::string> RedisRecords::LimitKeys(const std::string& tenant,
                                                  const std::string& id) const {
   const std::string prefix = TenantPrefix(tenant);
-  return {SessionKey(tenant, id),
-          absl::StrCat(prefix, "ids"),
-          absl::StrCat(options_.key_prefix, "all"),
-          absl::StrCat(options_.key_prefix, "claims"),
-          absl::StrCat(prefix, "claims"),
-          absl::StrCat(prefix, "claim_bytes")};
+  return {SessionKey(tenant, id),         absl::StrCat(prefix, "ids"),
+          absl::StrCat(prefix_, "all"),   absl::StrCat(prefix_, "claims"),
+          absl::StrCat(prefix, "claims"), absl::StrCat(prefix, "claim_bytes")};
 }
 
 std::vector<std::string> RedisRecords::LimitArgs(const std::string& tenant,
@@ -496,7 +494,9 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   SessionRecord rec;
   rec.info.session_id = id;
   if (absl::Status s = DecodeInfo(Str(At(v, 0)), &rec.info); !s.ok()) return s;
-  if (absl::Status s = DecodeTopology(Str(At(v, 1)), &rec.mesh); !s.ok()) {
+  if (absl::Status s =
+          DecodeTopology(Str(At(v, 1)), rec.info.num_vertices, &rec.mesh);
+      !s.ok()) {
     return s;
   }
   auto pos = DecodePositions(Str(At(v, 2)), rec.info.num_vertices);
@@ -546,7 +546,7 @@ absl::Status RedisRecords::Delete(const std::string& tenant,
   const std::string prefix = TenantPrefix(tenant);
   auto r = Eval(kDelete,
                 {SessionKey(tenant, id), absl::StrCat(prefix, "ids"),
-                 absl::StrCat(options_.key_prefix, "all")},
+                 absl::StrCat(prefix_, "all")},
                 {id});
   if (!r.ok()) return r.status();
   return Int((*r)->reply) > 0 ? absl::OkStatus() : SessionNotFound(id);

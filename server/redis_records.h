@@ -21,9 +21,10 @@ namespace meshgauge::server {
 struct RedisOptions {
   std::string host = "127.0.0.1";
   int port = 6379;
-  double ttl_seconds = 3600;       // idle time before a session expires.
-  double timeout_seconds = 5;      // connect and per command.
-  std::string key_prefix = "mg:";  // namespace of every key.
+  double ttl_seconds = 3600;   // idle time before a session expires.
+  double timeout_seconds = 5;  // connect and per command.
+  // Namespace of every key; the records' format follows it ("mg:r2:...").
+  std::string key_prefix = "mg:";
 };
 
 // Parses "redis://host[:port]" (port 6379 by default) into host and port.
@@ -89,6 +90,7 @@ class RedisRecords : public SessionRecords {
   double IdleSeconds(int64_t pttl_ms) const;
 
   const RedisOptions options_;
+  const std::string prefix_;  // key_prefix and the records' format.
   Metrics* const metrics_;
   std::mutex mu_;
   std::vector<redisContext*> idle_;

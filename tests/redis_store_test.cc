@@ -13,11 +13,12 @@
 #include <random>
 #include <thread>
 
+#include "absl/strings/str_cat.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/shapes.h"
 #include "lib/io/mesh_io.h"
 #include "server/auth.h"
-#include "server/record_codec.h"
+#include "server/record/record_convert.h"
 #include "server/redis_records.h"
 #include "server/server.h"
 #include "tests/redis_test_util.h"
@@ -99,8 +100,6 @@ class RedisStoreTest : public ::testing::Test {
     r.mutable_header()->set_num_faces(nf);
     return r;
   }
-  // Generation 0 -> 1 of session `id` through `writer` and the in-memory
-  // server: vertices `idx` of `mesh` scaled by `scale`.
   // Moves vertices idx of `mesh` to `scale` times their first positions
   // through `writer` and on the in-memory server, both at `generation`.
   void MoveSubset(Replica& writer, const std::string& id, const Mesh& mesh,
@@ -605,6 +604,34 @@ TEST_F(RedisStoreTest, TenantsDoNotSeeEachOthersStoredSessions) {
   std::remove(tokens.c_str());
 }
 
+// In a rolling upgrade, replicas of two record formats share one Redis.
+// Every key carries the format, so a replica never reads (DATA_LOSS) nor
+// lists another format's records: here a record of this format renamed to
+// another format's keys, and a record left by a release before formats were
+// in the keys (hand-written bytes under the bare prefix).
+TEST_F(RedisStoreTest, ARecordOfAnotherFormatIsNeverRead) {
+  ASSERT_TRUE(a_->client->Upload(Knight(), "k").ok());
+  const std::string current = absl::StrCat("mg:r", server::kRecordFormat, ":");
+  const std::vector<std::string> keys = redis_.Command({"KEYS", "*"});
+  ASSERT_FALSE(keys.empty());
+  for (const std::string& key : keys) {
+    ASSERT_TRUE(key.starts_with(current)) << key;
+    const std::string rest = key.substr(current.size());
+    redis_.Command({"COPY", key, "mg:" + rest});  // the bare layout.
+    redis_.Command({"RENAME", key, absl::StrCat("mg:r", 1000, ":", rest)});
+  }
+  for (const std::string& key : redis_.Command({"KEYS", "mg:t*:s:k"})) {
+    redis_.Command({"HSET", key, "info", std::string("\3\0\0\0\xff", 5)});
+  }
+  EXPECT_EQ(Code(b_->client->Get("k")), absl::StatusCode::kNotFound);
+  EXPECT_EQ(Code(b_->client->ComputeSdf("k", SdfParams{})),
+            absl::StatusCode::kNotFound);
+  auto listed = b_->client->List();
+  ASSERT_TRUE(listed.ok()) << listed.status();
+  EXPECT_TRUE(listed->empty());
+  EXPECT_TRUE(b_->client->Upload(Knight(), "k").ok());
+}
+
 TEST_F(RedisStoreTest, MalformedStoreUrlIsRejectedAtStart) {
   server::ServerOptions o;
   o.address = "127.0.0.1:0";
@@ -619,27 +646,39 @@ TEST_F(RedisStoreTest, MalformedStoreUrlIsRejectedAtStart) {
   }
 }
 
-TEST(RecordCodecTest, RoundTripsExactlyAndRejectsCorruptBytes) {
+TEST(RecordConvertTest, RoundTripsExactly) {
   Mesh mesh = Knight();
   mesh.face_regions.assign(mesh.num_faces(), 0);
   mesh.face_regions[5] = 7;
   mesh.region_directions[7] = ConeDirection::kOutward;
+  mesh.region_directions[0] = ConeDirection::kInward;
   mesh.positions[0].x = 0.1 + 1e-17;  // not a float32 value.
-  wire::SessionInfo info{.session_id = "x",
-                         .dimension = 3,
-                         .num_vertices = 502,
-                         .num_faces = mesh.num_faces(),
-                         .memory_bytes = 99,
-                         .signed_volume = -2.5,
-                         .closed = true,
-                         .warnings = {"w1", "w2"}};
+  const wire::SessionInfo info{.session_id = "x",
+                               .dimension = 3,
+                               .num_vertices = 502,
+                               .num_faces = mesh.num_faces(),
+                               .memory_bytes = 99,
+                               .signed_volume = -2.5,
+                               .closed = true,
+                               .warnings = {"w1", "w2"}};
   wire::SessionInfo info2;
   ASSERT_TRUE(server::DecodeInfo(server::EncodeInfo(info), &info2).ok());
-  EXPECT_EQ(info2.warnings, info.warnings);
+  EXPECT_EQ(info2.dimension, 3);
+  EXPECT_EQ(info2.num_vertices, 502);
+  EXPECT_EQ(info2.num_faces, mesh.num_faces());
+  EXPECT_EQ(info2.memory_bytes, 99);
   EXPECT_EQ(info2.signed_volume, -2.5);
+  EXPECT_TRUE(info2.closed);
+  EXPECT_EQ(info2.warnings, info.warnings);
   Mesh topo;
-  const std::string t = server::EncodeTopology(mesh);
-  ASSERT_TRUE(server::DecodeTopology(t, &topo).ok());
+  ASSERT_TRUE(
+      server::DecodeTopology(server::EncodeTopology(mesh), 502, &topo).ok());
+  EXPECT_EQ(topo.dimension, 3);
+  ASSERT_EQ(topo.num_faces(), mesh.num_faces());
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    EXPECT_EQ(topo.faces[f].size, mesh.faces[f].size);
+    EXPECT_EQ(topo.faces[f].v, mesh.faces[f].v);
+  }
   EXPECT_EQ(topo.face_regions, mesh.face_regions);
   EXPECT_EQ(topo.region_directions, mesh.region_directions);
   auto p =
@@ -647,25 +686,55 @@ TEST(RecordCodecTest, RoundTripsExactlyAndRejectsCorruptBytes) {
   ASSERT_TRUE(p.ok());
   EXPECT_EQ(std::memcmp(p->data(), mesh.positions.data(), 502 * sizeof(Vec3)),
             0);
-  // Every truncation and a forged huge count: DATA_LOSS, never a crash.
-  const std::string i = server::EncodeInfo(info);
-  for (size_t n = 0; n < i.size(); ++n) {
-    wire::SessionInfo out;
-    EXPECT_EQ(server::DecodeInfo(i.substr(0, n), &out).code(),
-              absl::StatusCode::kDataLoss);
-  }
-  for (size_t n = 0; n < t.size(); n += 97) {
+  // A newer replica's added field is skipped (rolling upgrades): field 99,
+  // varint 1.
+  const std::string added("\x98\x06\x01", 3);
+  ASSERT_TRUE(
+      server::DecodeInfo(server::EncodeInfo(info) + added, &info2).ok());
+  EXPECT_EQ(info2.warnings, info.warnings);
+  ASSERT_TRUE(
+      server::DecodeTopology(server::EncodeTopology(mesh) + added, 502, &topo)
+          .ok());
+  EXPECT_EQ(topo.face_regions, mesh.face_regions);
+}
+
+// Corrupt records: DATA_LOSS, never a crash (and never a mesh whose faces
+// index past its vertices).
+TEST(RecordConvertTest, CorruptBytesAreDataLoss) {
+  const Mesh mesh = MakeIcosphere(1.0, 1);
+  const int64_t nv = mesh.num_vertices();
+  const std::string t = server::EncodeTopology(mesh);
+  for (size_t n = 1; n < t.size(); ++n) {  // no cut leaves whole faces.
     Mesh out;
-    EXPECT_EQ(server::DecodeTopology(t.substr(0, n), &out).code(),
+    EXPECT_EQ(server::DecodeTopology(t.substr(0, n), nv, &out).code(),
+              absl::StatusCode::kDataLoss)
+        << n;
+  }
+  Mesh out;
+  EXPECT_EQ(server::DecodeTopology(t, nv - 1, &out).code(),
+            absl::StatusCode::kDataLoss);  // an index out of range.
+  Mesh quads = mesh;
+  quads.dimension = 2;  // triangles in 2D.
+  EXPECT_EQ(
+      server::DecodeTopology(server::EncodeTopology(quads), nv, &out).code(),
+      absl::StatusCode::kDataLoss);
+  Mesh regions = mesh;
+  regions.face_regions.assign(3, 0);  // not one per face.
+  EXPECT_EQ(
+      server::DecodeTopology(server::EncodeTopology(regions), nv, &out).code(),
+      absl::StatusCode::kDataLoss);
+  const std::string p = server::EncodePositions(mesh.positions);
+  for (size_t n = 0; n < p.size(); n += 7) {
+    EXPECT_EQ(server::DecodePositions(p.substr(0, n), nv).status().code(),
               absl::StatusCode::kDataLoss);
   }
-  std::string forged = t;
-  forged[5] = '\xff';  // face count high bytes.
-  Mesh out;
-  EXPECT_EQ(server::DecodeTopology(forged, &out).code(),
+  EXPECT_EQ(server::DecodePositions(p, nv + 1).status().code(),
             absl::StatusCode::kDataLoss);
-  EXPECT_EQ(server::DecodePositions("abc", 1).status().code(),
-            absl::StatusCode::kDataLoss);
+  wire::SessionInfo info;
+  for (const std::string& bad : {std::string("\xff\xff"), std::string()}) {
+    EXPECT_EQ(server::DecodeInfo(bad, &info).code(),
+              absl::StatusCode::kDataLoss);
+  }
 }
 
 }  // namespace

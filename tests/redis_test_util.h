@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace meshgauge::testing {
 
@@ -72,38 +73,53 @@ class RedisProcess {
     pid_ = -1;
   }
   bool Ping() const {
-    timeval tv{0, 200000};
-    redisContext* c = redisConnectWithTimeout("127.0.0.1", port_, tv);
-    bool ok = false;
-    if (c && !c->err) {
-      auto* r = static_cast<redisReply*>(redisCommand(c, "PING"));
-      ok = r && r->type == REDIS_REPLY_STATUS;
-      if (r) freeReplyObject(r);
-    }
-    if (c) redisFree(c);
-    return ok;
+    const std::vector<std::string> r = Command({"PING"});
+    return r.size() == 1 && r[0] == "PONG";
   }
   // Calls of EVAL and EVALSHA so far (INFO commandstats): the store's round
   // trips, each a script.
   int64_t ScriptCalls() const {
+    const std::vector<std::string> r = Command({"INFO", "commandstats"});
+    int64_t n = 0;
+    for (const std::string key :
+         {"cmdstat_eval:calls=", "cmdstat_evalsha:calls="}) {
+      if (r.empty()) break;
+      if (auto at = r[0].find(key); at != std::string::npos) {
+        n += std::stoll(r[0].substr(at + key.size()));
+      }
+    }
+    return n;
+  }
+  // Runs one command on a new connection and returns the strings of its
+  // reply (an array's elements, or the one string or status); nothing when
+  // Redis cannot be reached.
+  std::vector<std::string> Command(const std::vector<std::string>& argv) const {
     timeval tv{1, 0};
     redisContext* c = redisConnectWithTimeout("127.0.0.1", port_, tv);
-    int64_t n = 0;
+    std::vector<std::string> out;
     if (c && !c->err) {
-      auto* r = static_cast<redisReply*>(redisCommand(c, "INFO commandstats"));
-      if (r && r->type == REDIS_REPLY_STRING) {
-        const std::string info(r->str, r->len);
-        for (const std::string key :
-             {"cmdstat_eval:calls=", "cmdstat_evalsha:calls="}) {
-          if (auto at = info.find(key); at != std::string::npos) {
-            n += std::stoll(info.substr(at + key.size()));
-          }
+      std::vector<const char*> args;
+      std::vector<size_t> lengths;
+      for (const std::string& a : argv) {
+        args.push_back(a.data());
+        lengths.push_back(a.size());
+      }
+      auto* r = static_cast<redisReply*>(redisCommandArgv(
+          c, static_cast<int>(args.size()), args.data(), lengths.data()));
+      auto put = [&out](const redisReply* e) {
+        if (e->type == REDIS_REPLY_STRING || e->type == REDIS_REPLY_STATUS) {
+          out.emplace_back(e->str, e->len);
         }
+      };
+      if (r && r->type == REDIS_REPLY_ARRAY) {
+        for (size_t i = 0; i < r->elements; ++i) put(r->element[i]);
+      } else if (r) {
+        put(r);
       }
       if (r) freeReplyObject(r);
     }
     if (c) redisFree(c);
-    return n;
+    return out;
   }
 
  private:
