@@ -14,7 +14,8 @@
 // a replica died) re-creates it at the current iteration and continues.
 // At the end every client checks that its session is still there at its
 // last generation (else it was lost). Prints "concurrent phase: started"
-// when the clients start (a chaos test injects its faults after it),
+// when the clients start and, with --progress_every K, "iterations: N" after
+// every K-th iteration (tests inject their faults while calls flow),
 // throughput, p50/p95/p99 latency per RPC, errors by status code,
 // mismatches and lost sessions; exits 0 iff there were no mismatches, no
 // lost sessions and (without --recreate) no errors, or (with --recreate)
@@ -45,6 +46,9 @@ ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
 ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
 ABSL_FLAG(bool, recreate, false, "re-create lost sessions and continue");
 ABSL_FLAG(std::string, session_prefix, "load", "session ids: PREFIX-<n>");
+ABSL_FLAG(int, progress_every, 0,
+          "print \"iterations: N\" after every K-th concurrent iteration "
+          "(K; 0: never)");
 ABSL_FLAG(std::string, tls_ca_file, "", "connect with TLS, trusting this CA");
 ABSL_FLAG(std::string, token_file, "",
           "bearer token file (default: MESHGAUGE_TOKEN)");
@@ -190,6 +194,12 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     Reply reply{sdf->result.values, std::move(gradient)};
     std::lock_guard<std::mutex> l(stats.mu);
     ++stats.iterations;
+    if (const int every = absl::GetFlag(FLAGS_progress_every);
+        reference != nullptr && every > 0 && stats.iterations % every == 0) {
+      std::printf("iterations: %lld\n",
+                  static_cast<long long>(stats.iterations));
+      std::fflush(stdout);
+    }
     if (reference == nullptr) {
       replies->push_back(std::move(reply));
     } else if (!SameBits(reply.values, (*reference)[it].values) ||

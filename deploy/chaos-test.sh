@@ -19,9 +19,10 @@
 # Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end.
 set -euo pipefail
 cd "$(dirname "$0")"
-VERSION=$(cat ../VERSION)
+source ../scripts/lib.sh
 COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
-export MESHGAUGE_VERSION="$VERSION"
+MESHGAUGE_VERSION=$(meshgauge_version)
+export MESHGAUGE_VERSION
 PROM=http://127.0.0.1:9090
 ITERATIONS=${CHAOS_ITERATIONS:-30}
 RESTARTS=${CHAOS_RESTARTS:-2}
@@ -41,9 +42,8 @@ replica() {  # the Nth running replica's container id
     --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
 }
 retried() {  # retried attempts over the last $1 seconds, all replicas
-  curl -sf "$PROM/api/v1/query" --data-urlencode \
-    "query=round(sum(increase(meshgauge_rpc_retried_attempts_total[${1}s])))" |
-    grep -o '"value":\[[^]]*\]' | grep -o '"[0-9.e+-]*"\]' | tr -d '"]' || true
+  prom_query "$PROM" \
+    "round(sum(increase(meshgauge_rpc_retried_attempts_total[${1}s])))"
 }
 
 /usr/bin/python3 plain_client.py --target 127.0.0.1:50051 --ca secrets/ca.crt \
@@ -66,25 +66,26 @@ phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
   local name=$1 fault=$2
   local out="$REPORT/$name.txt"
   docker run --rm --no-healthcheck --network host -v "$PWD/secrets:/secrets:ro" \
-    --entrypoint meshgauge-load "meshgauge:$VERSION" \
+    --entrypoint meshgauge-load "meshgauge:$MESHGAUGE_VERSION" \
     --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
     --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
     --frequency 16 --session_prefix "chaos-$name" --time_limit_seconds 600 \
-    >"$out" 2>&1 &
+    --progress_every 6 >"$out" 2>&1 &
   local load=$!
-  for _ in $(seq 1 600); do
-    grep -q "concurrent phase: started" "$out" && break
-    sleep 0.2
-  done
+  # The fault comes once the clients have made calls (6 iterations).
+  await_lines "$out" '^iterations:' 0 1200 ||
+    { echo "FAIL: the clients made no progress"; failed=1; }
   local start=$SECONDS
-  sleep 2
   echo "== phase $name: $fault"
   eval "$fault" || { echo "FAIL: the fault command failed"; failed=1; }
   kill -0 "$load" 2>/dev/null ||
     { echo "FAIL: the clients finished before the fault was over"; failed=1; }
   local rc=0
   wait "$load" || rc=$?
-  sleep 3  # a scrape after the phase
+  local end
+  end=$(date +%s)
+  await_prom "$PROM" "max(timestamp(up{job=\"meshgauge\"})) > $end" 300 ||
+    echo "   (no scrape after the phase within 30 s)"
   local retries
   retries=$(retried $((SECONDS - start + 5)))
   echo "-- $name: $(grep -E '^calls:' "$out"), retried attempts ${retries:-0}"

@@ -8,7 +8,8 @@
 # 127.0.0.1 only. Needs a Docker engine: deploy/ensure-docker.sh.
 set -euo pipefail
 cd "$(dirname "$0")"
-VERSION=$(cat ../VERSION)
+source ../scripts/lib.sh
+VERSION=$(meshgauge_version)
 FRONT=127.0.0.1:50051
 PROM=http://127.0.0.1:9090
 
@@ -50,9 +51,10 @@ tool meshgauge-load --target "$FRONT" --tls_ca_file /secrets/ca.crt \
   --time_limit_seconds 300 | tee /tmp/meshgauge-load-stack.txt
 
 echo "== Prometheus"
-sleep 8  # DNS refresh and two scrapes
-q() { curl -sf "$PROM/api/v1/query" --data-urlencode "query=$1" |
-      grep -o '"value":\[[^]]*\]' | grep -o '"[0-9.e+-]*"\]' | tr -d '"]'; }
+q() { prom_query "$PROM" "$1"; }
+# Both replicas found by DNS, and a scrape after the load's 42 ComputeSdf.
+await_prom "$PROM" 'count(up{job="meshgauge"} == 1) == 2' 300 || true
+await_prom "$PROM" 'sum(meshgauge_rpc_requests_total{method="ComputeSdf"}) >= 42' 300 || true
 up=$(q 'count(up{job="meshgauge"} == 1)')
 echo "replicas up: ${up:-0}"
 [ "${up:-0}" = "2" ] || { echo "FAIL: Prometheus does not see both replicas up"; exit 1; }

@@ -20,7 +20,8 @@ if [ -n "${MESHGAUGE_PREBUILT_FROM:-}" ]; then
   MESHGAUGE_PREBUILT_FROM=$(realpath "$MESHGAUGE_PREBUILT_FROM")
 fi
 cd "$(dirname "$0")"
-VERSION=$(cat ../VERSION)
+source ../scripts/lib.sh
+VERSION=$(meshgauge_version)
 export MESHGAUGE_VERSION="$VERSION"
 COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 

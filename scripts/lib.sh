@@ -41,3 +41,36 @@ start_redis() {
   pids+=($!)
   await_tcp "$redis_port"
 }
+
+# Waits up to $4 tenths of a second for file $1 to hold more than $3 lines
+# matching the extended regular expression $2.
+await_lines() {
+  for _ in $(seq 1 "$4"); do
+    [ "$(grep -cE "$2" "$1" 2>/dev/null)" -gt "$3" ] && return 0
+    sleep 0.1
+  done
+  return 1
+}
+
+# The first value of the instant PromQL query $2 on the Prometheus at URL $1
+# (empty when the result is empty or Prometheus cannot be reached).
+prom_query() {
+  curl -sf "$1/api/v1/query" --data-urlencode "query=$2" |
+    grep -o '"value":\[[^]]*\]' | head -1 | grep -o '"[0-9.e+-]*"\]' |
+    tr -d '"]' || true
+}
+
+# Waits up to $3 tenths of a second until the query $2 on the Prometheus at
+# URL $1 has a result (a PromQL comparison filters it to none until true).
+await_prom() {
+  for _ in $(seq 1 "$3"); do
+    [ -n "$(prom_query "$1" "$2")" ] && return 0
+    sleep 0.1
+  done
+  return 1
+}
+
+# The release (the one line of VERSION at the repository's root).
+meshgauge_version() {
+  head -1 "$(dirname "${BASH_SOURCE[0]}")/../VERSION"
+}

@@ -29,13 +29,7 @@ fail() {
 }
 # Waits up to $2 tenths of a second for the balancer's log to hold more
 # than $3 lines matching $1.
-await_log() {
-  for _ in $(seq 1 "$2"); do
-    [ "$(grep -c "$1" "$tmp/haproxy.log")" -gt "$3" ] && return 0
-    sleep 0.1
-  done
-  return 1
-}
+await_log() { await_lines "$tmp/haproxy.log" "$1" "$3" "$2"; }
 
 start_redis "$tmp"
 
@@ -65,15 +59,15 @@ pids+=($!)
 await_tcp "$hp"
 
 "$load" --target "127.0.0.1:$hp" --clients 4 --iterations $((cycles * 150)) \
-  --frequency 4 --session_prefix drain --time_limit_seconds 120 >"$tmp/load.txt" 2>&1 &
+  --frequency 4 --session_prefix drain --time_limit_seconds 120 \
+  --progress_every 4 >"$tmp/load.txt" 2>&1 &
 load_pid=$!
-for _ in $(seq 1 100); do
-  grep -q "concurrent phase: started" "$tmp/load.txt" && break
-  sleep 0.1
-done
 for c in $(seq 1 "$cycles"); do
   r=$((c % 2))
-  sleep 1
+  # Each stop comes after 12 more iterations through both replicas.
+  done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
+  await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
+    fail "the load made no progress before stop $c"
   downs=$(grep -c "meshgauge/r$r is DOWN" "$tmp/haproxy.log" || true)
   ups=$(grep -c "meshgauge/r$r is UP" "$tmp/haproxy.log" || true)
   kill -0 "$load_pid" 2>/dev/null || fail "the load ended before stop $c"
