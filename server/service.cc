@@ -600,17 +600,19 @@ grpc::Status MeshGaugeService::GetServerInfo(
     v1::GetServerInfoResponse* response) {
   return Instrumented(
       "GetServerInfo", ctx, [&](const std::string&) -> absl::Status {
-        response->set_version(MESHGAUGE_VERSION);
-        response->set_api("meshgauge.v1");
-        response->set_max_rays(options_.max_rays);
-        response->set_max_vertices(options_.max_vertices);
-        response->set_max_faces(options_.max_faces);
-        response->set_max_message_bytes(options_.max_message_bytes);
-        response->set_max_upload_message_bytes(
-            options_.max_upload_message_bytes);
-        response->set_max_upload_file_bytes(MaxUploadFileBytes(options_));
-        response->set_max_sessions(options_.SessionsPerTenant());
-        response->set_memory_budget_bytes(options_.BudgetPerTenant());
+        wire::ToWire(
+            wire::ServerInfo{
+                .version = MESHGAUGE_VERSION,
+                .api = "meshgauge.v1",
+                .max_rays = options_.max_rays,
+                .max_vertices = options_.max_vertices,
+                .max_faces = options_.max_faces,
+                .max_message_bytes = options_.max_message_bytes,
+                .max_upload_message_bytes = options_.max_upload_message_bytes,
+                .max_upload_file_bytes = MaxUploadFileBytes(options_),
+                .max_sessions = options_.SessionsPerTenant(),
+                .memory_budget_bytes = options_.BudgetPerTenant()},
+            response);
         return absl::OkStatus();
       });
 }

@@ -229,5 +229,35 @@ TEST_F(CliRemoteTest, TemporarySessionsAreDeletedNamedOnesKeptAndChecked) {
   EXPECT_THAT(other.out, HasSubstr("not the given mesh"));
 }
 
+// remote server-info prints GetServerInfo: the release and the limits the
+// caller's tenant meets, here set apart from their defaults.
+TEST_F(CliRemoteTest, ServerInfoPrintsTheLimitsTheCallerMeets) {
+  server::ServerOptions o;
+  o.max_rays = 77;
+  o.max_vertices = 123456;
+  o.max_faces = 234567;
+  o.max_sessions = 9;
+  o.max_sessions_per_tenant = 5;
+  o.memory_budget_bytes_per_tenant = 3 << 20;
+  RestartServer(o);
+  const auto got = RunCli("remote server-info --json --server " + target_);
+  ASSERT_EQ(got.exit_code, 0) << got.out;
+  const nlohmann::json j = nlohmann::json::parse(got.out);
+  EXPECT_THAT(j["version"].get<std::string>(),
+              ::testing::MatchesRegex("[0-9]+\\.[0-9]+\\.[0-9]+"));
+  EXPECT_EQ(j["api"], "meshgauge.v1");
+  EXPECT_EQ(j["max_rays"], 77);
+  EXPECT_EQ(j["max_vertices"], 123456);
+  EXPECT_EQ(j["max_faces"], 234567);
+  EXPECT_EQ(j["max_sessions"], 5);
+  EXPECT_EQ(j["memory_budget_bytes"], 3 << 20);
+  EXPECT_EQ(j["max_message_bytes"], options_.max_message_bytes);
+  EXPECT_EQ(j["max_upload_message_bytes"], options_.max_upload_message_bytes);
+  EXPECT_GT(j["max_upload_file_bytes"], 0);
+  EXPECT_LE(j["max_upload_file_bytes"], 3 << 20);
+  const auto text = RunCli("remote server-info --server " + target_);
+  EXPECT_THAT(text.out, HasSubstr("max_rays: 77\n"));
+}
+
 }  // namespace
 }  // namespace meshgauge

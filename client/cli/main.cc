@@ -204,6 +204,9 @@ int Main(int argc, char** argv) {
   AddMeshFlags(up, &r.mesh_flags);
   SessionVerb(remote, "list", "the caller's sessions", &r, false, &run);
   SessionVerb(remote, "health", "exit 0 only while SERVING", &r, false, &run);
+  SessionVerb(remote, "server-info",
+              "the server's release and the limits the caller meets", &r, false,
+              &run);
   SessionVerb(remote, "info", "every SessionInfo field", &r, true, &run);
   SessionVerb(remote, "delete", "delete a session", &r, true, &run);
   CLI::App* upd =

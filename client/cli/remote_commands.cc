@@ -1,5 +1,5 @@
-// meshgauge remote upload|list|health|info|delete|update: the sessions of a
-// meshgauge-server.
+// meshgauge remote upload|list|health|server-info|info|delete|update: the
+// sessions of a meshgauge-server and its limits.
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -27,6 +27,19 @@ nlohmann::json InfoJson(const wire::SessionInfo& s) {
           {"signed_volume", s.signed_volume},
           {"closed", s.closed},
           {"warnings", s.warnings}};
+}
+
+nlohmann::json ServerJson(const wire::ServerInfo& s) {
+  return {{"version", s.version},
+          {"api", s.api},
+          {"max_rays", s.max_rays},
+          {"max_vertices", s.max_vertices},
+          {"max_faces", s.max_faces},
+          {"max_message_bytes", s.max_message_bytes},
+          {"max_upload_message_bytes", s.max_upload_message_bytes},
+          {"max_upload_file_bytes", s.max_upload_file_bytes},
+          {"max_sessions", s.max_sessions},
+          {"memory_budget_bytes", s.memory_budget_bytes}};
 }
 
 void Print(const nlohmann::json& j, bool json) {
@@ -96,6 +109,12 @@ absl::Status RunRemote(const RemoteInput& in) {
                                      s.generation);
       }
     }
+    return absl::OkStatus();
+  }
+  if (verb == "server-info") {
+    auto info = c.GetServerInfo();
+    if (!info.ok()) return info.status();
+    Print(ServerJson(*info), json);
     return absl::OkStatus();
   }
   if (verb == "info") {

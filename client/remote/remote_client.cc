@@ -127,6 +127,18 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
   return wire::FromWire(response.session());
 }
 
+absl::StatusOr<wire::ServerInfo> RemoteClient::GetServerInfo() {
+  auto ctx = Context("");
+  v1::GetServerInfoRequest req;
+  v1::GetServerInfoResponse resp;
+  if (absl::Status s =
+          wire::FromGrpc(stub_->GetServerInfo(ctx.get(), req, &resp));
+      !s.ok()) {
+    return s;
+  }
+  return wire::FromWire(resp);
+}
+
 absl::StatusOr<bool> RemoteClient::Serving() {
   // The health protocol as bytes (no generated health stubs): the request
   // is empty.

@@ -126,6 +126,9 @@ class RemoteClient {
       const GradCheckOptions& options,
       std::function<void(int64_t done, int64_t total)> progress = nullptr);
 
+  // The server's release and the limits the caller meets (GetServerInfo).
+  absl::StatusOr<wire::ServerInfo> GetServerInfo();
+
   // grpc.health.v1.Health/Check for the whole server: true when SERVING,
   // false when NOT_SERVING (draining). Errors: the call's status.
   absl::StatusOr<bool> Serving();

@@ -20,6 +20,32 @@ absl::StatusOr<std::vector<Vec3>> Gradient(
 
 }  // namespace
 
+void ToWire(const ServerInfo& r, v1::GetServerInfoResponse* out) {
+  out->set_version(r.version);
+  out->set_api(r.api);
+  out->set_max_rays(r.max_rays);
+  out->set_max_vertices(r.max_vertices);
+  out->set_max_faces(r.max_faces);
+  out->set_max_message_bytes(r.max_message_bytes);
+  out->set_max_upload_message_bytes(r.max_upload_message_bytes);
+  out->set_max_upload_file_bytes(r.max_upload_file_bytes);
+  out->set_max_sessions(r.max_sessions);
+  out->set_memory_budget_bytes(r.memory_budget_bytes);
+}
+
+ServerInfo FromWire(const v1::GetServerInfoResponse& r) {
+  return {.version = r.version(),
+          .api = r.api(),
+          .max_rays = r.max_rays(),
+          .max_vertices = r.max_vertices(),
+          .max_faces = r.max_faces(),
+          .max_message_bytes = r.max_message_bytes(),
+          .max_upload_message_bytes = r.max_upload_message_bytes(),
+          .max_upload_file_bytes = r.max_upload_file_bytes(),
+          .max_sessions = r.max_sessions(),
+          .memory_budget_bytes = r.memory_budget_bytes()};
+}
+
 void ToWire(const UpdateResult& r, v1::UpdatePositionsResponse* out) {
   out->set_generation(r.generation);
   out->set_refit(r.refit);

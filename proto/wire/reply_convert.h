@@ -1,6 +1,6 @@
-// The unary replies both sides use (UpdatePositions, ComputeVjp,
-// ComputePenalty) and the health response, part of the conversion layer of
-// convert.h.
+// The unary replies both sides use (GetServerInfo, UpdatePositions,
+// ComputeVjp, ComputePenalty) and the health response, part of the conversion
+// layer of convert.h.
 #pragma once
 
 #include <string>
@@ -10,6 +10,9 @@
 #include "proto/wire/types.h"
 
 namespace meshgauge::wire {
+
+void ToWire(const ServerInfo& r, v1::GetServerInfoResponse* out);
+ServerInfo FromWire(const v1::GetServerInfoResponse& r);
 
 void ToWire(const UpdateResult& r, v1::UpdatePositionsResponse* out);
 UpdateResult FromWire(const v1::UpdatePositionsResponse& r);

@@ -30,6 +30,20 @@ struct SessionInfo {
   std::vector<std::string> warnings;
 };
 
+// Every field of v1::GetServerInfoResponse: the release and the limits a
+// caller meets (per-tenant ones for the caller's tenant).
+struct ServerInfo {
+  std::string version;   // the release (the repository's VERSION).
+  std::string api;       // "meshgauge.v1".
+  int32_t max_rays = 0;  // per vertex.
+  int64_t max_vertices = 0, max_faces = 0;
+  int64_t max_message_bytes = 0;         // per gRPC message, both ways.
+  int64_t max_upload_message_bytes = 0;  // per CreateSession message.
+  int64_t max_upload_file_bytes = 0;     // a CreateSession file upload.
+  int64_t max_sessions = 0;              // for the caller's tenant.
+  int64_t memory_budget_bytes = 0;       // for the caller's tenant.
+};
+
 struct UpdateResult {
   int64_t generation = 0;  // the new generation.
   bool refit = false;      // false: the BVH was rebuilt.
