@@ -492,8 +492,10 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   if (v->type != REDIS_REPLY_ARRAY || v->elements < 8)
     return SessionNotFound(id);
   SessionRecord rec;
+  auto info = DecodeInfo(Str(At(v, 0)));
+  if (!info.ok()) return info.status();
+  rec.info = std::move(*info);
   rec.info.session_id = id;
-  if (absl::Status s = DecodeInfo(Str(At(v, 0)), &rec.info); !s.ok()) return s;
   if (absl::Status s =
           DecodeTopology(Str(At(v, 1)), rec.info.num_vertices, &rec.mesh);
       !s.ok()) {
@@ -569,9 +571,10 @@ absl::StatusOr<std::vector<RecordSummary>> RedisRecords::List(
     }
     const redisReply* e = v->element[i];
     RecordSummary listed;
-    wire::SessionInfo& info = listed.info;
+    auto decoded = DecodeInfo(Str(At(e, 1)));
+    if (!decoded.ok()) return decoded.status();
+    wire::SessionInfo& info = listed.info = std::move(*decoded);
     info.session_id = Str(At(e, 0));
-    if (absl::Status s = DecodeInfo(Str(At(e, 1)), &info); !s.ok()) return s;
     info.generation = Int(At(e, 2));
     info.idle_seconds = IdleSeconds(Int(At(e, 3)));
     listed.incarnation = Str(At(e, 4));

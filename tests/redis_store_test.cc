@@ -657,12 +657,16 @@ TEST(RecordConvertTest, RoundTripsExactly) {
                                .dimension = 3,
                                .num_vertices = 502,
                                .num_faces = mesh.num_faces(),
+                               .generation = 7,
                                .memory_bytes = 99,
                                .signed_volume = -2.5,
                                .closed = true,
                                .warnings = {"w1", "w2"}};
-  wire::SessionInfo info2;
-  ASSERT_TRUE(server::DecodeInfo(server::EncodeInfo(info), &info2).ok());
+  auto decoded = server::DecodeInfo(server::EncodeInfo(info));
+  ASSERT_TRUE(decoded.ok()) << decoded.status();
+  const wire::SessionInfo& info2 = *decoded;
+  EXPECT_EQ(info2.session_id, "");  // kept apart by the store.
+  EXPECT_EQ(info2.generation, 0);
   EXPECT_EQ(info2.dimension, 3);
   EXPECT_EQ(info2.num_vertices, 502);
   EXPECT_EQ(info2.num_faces, mesh.num_faces());
@@ -689,9 +693,9 @@ TEST(RecordConvertTest, RoundTripsExactly) {
   // A newer replica's added field is skipped (rolling upgrades): field 99,
   // varint 1.
   const std::string added("\x98\x06\x01", 3);
-  ASSERT_TRUE(
-      server::DecodeInfo(server::EncodeInfo(info) + added, &info2).ok());
-  EXPECT_EQ(info2.warnings, info.warnings);
+  decoded = server::DecodeInfo(server::EncodeInfo(info) + added);
+  ASSERT_TRUE(decoded.ok());
+  EXPECT_EQ(decoded->warnings, info.warnings);
   ASSERT_TRUE(
       server::DecodeTopology(server::EncodeTopology(mesh) + added, 502, &topo)
           .ok());
@@ -730,9 +734,8 @@ TEST(RecordConvertTest, CorruptBytesAreDataLoss) {
   }
   EXPECT_EQ(server::DecodePositions(p, nv + 1).status().code(),
             absl::StatusCode::kDataLoss);
-  wire::SessionInfo info;
   for (const std::string& bad : {std::string("\xff\xff"), std::string()}) {
-    EXPECT_EQ(server::DecodeInfo(bad, &info).code(),
+    EXPECT_EQ(server::DecodeInfo(bad).status().code(),
               absl::StatusCode::kDataLoss);
   }
 }

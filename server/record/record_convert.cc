@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
+#include "proto/wire/convert.h"
 #include "server/record/session_record.pb.h"
 
 namespace meshgauge::server {
@@ -18,31 +19,22 @@ absl::Status Corrupt(const char* what) {
 }  // namespace
 
 std::string EncodeInfo(const wire::SessionInfo& info) {
-  record::Info m;
-  m.set_dimension(info.dimension);
-  m.set_num_vertices(info.num_vertices);
-  m.set_num_faces(info.num_faces);
-  m.set_memory_bytes(info.memory_bytes);
-  m.set_signed_volume(info.signed_volume);
-  m.set_closed(info.closed);
-  for (const std::string& w : info.warnings) m.add_warnings(w);
+  wire::SessionInfo fixed = info;
+  fixed.session_id.clear();
+  fixed.generation = fixed.bvh_builds = fixed.bvh_refits = 0;
+  fixed.idle_seconds = 0;
+  v1::SessionInfo m;
+  wire::ToWire(fixed, &m);
   return m.SerializeAsString();
 }
 
-absl::Status DecodeInfo(const std::string& bytes, wire::SessionInfo* info) {
-  record::Info m;
+absl::StatusOr<wire::SessionInfo> DecodeInfo(const std::string& bytes) {
+  v1::SessionInfo m;
   if (!m.ParseFromString(bytes) || (m.dimension() != 2 && m.dimension() != 3) ||
       m.num_vertices() < 1 || m.num_faces() < 1 || m.memory_bytes() < 0) {
     return Corrupt("info");
   }
-  info->dimension = m.dimension();
-  info->num_vertices = m.num_vertices();
-  info->num_faces = m.num_faces();
-  info->memory_bytes = m.memory_bytes();
-  info->signed_volume = m.signed_volume();
-  info->closed = m.closed();
-  info->warnings.assign(m.warnings().begin(), m.warnings().end());
-  return absl::OkStatus();
+  return wire::FromWire(m);
 }
 
 std::string EncodeTopology(const Mesh& mesh) {

@@ -1,7 +1,8 @@
-// Conversions between a SessionRecord's parts and their stored bytes, the
-// private messages of session_record.proto. Positions are float64 (exact).
-// Decoding checks everything a replica relies on (dimension, counts, face
-// arity, indices in range): corrupt bytes are DATA_LOSS, never a crash.
+// Conversions between a SessionRecord's parts and their stored bytes: the
+// session's facts as a public v1::SessionInfo (through the wire layer), the
+// rest as the private messages of session_record.proto. Positions are float64
+// (exact). Decoding checks everything a replica relies on (dimension, counts,
+// face arity, indices in range): corrupt bytes are DATA_LOSS, never a crash.
 #pragma once
 
 #include <string>
@@ -16,10 +17,11 @@ namespace meshgauge::server {
 // session_record.proto that an older replica would misread.
 inline constexpr int kRecordFormat = 2;
 
+// The facts of a session fixed at its creation: dimension, counts, memory,
+// signed volume, closedness and warnings (the id, generation, idle time and
+// BVH counts are the store's to keep apart, and are not stored).
 std::string EncodeInfo(const wire::SessionInfo& info);
-// Sets every field of `info` the record holds (not the id, generation or
-// idle time, which the store keeps apart).
-absl::Status DecodeInfo(const std::string& bytes, wire::SessionInfo* info);
+absl::StatusOr<wire::SessionInfo> DecodeInfo(const std::string& bytes);
 
 // Faces, regions and region directions (everything of a mesh but positions).
 std::string EncodeTopology(const Mesh& mesh);
