@@ -37,10 +37,6 @@ cleanup() {
 }
 trap cleanup EXIT
 
-replica() {  # the Nth running replica's container id
-  docker ps -q --filter label=com.docker.compose.project=meshgauge \
-    --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
-}
 retried() {  # retried attempts over the last $1 seconds, all replicas
   prom_query "$PROM" \
     "round(sum(increase(meshgauge_rpc_retried_attempts_total[${1}s])))"
@@ -100,13 +96,13 @@ phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
 healthy 2
 # A crash: SIGKILL from outside the engine (`docker kill` would count as a
 # manual stop and suspend the restart policy).
-phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(replica 1)")"'
+phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(stack_replica 1)")"'
 healthy 2  # the restart policy brought it back
 restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
   for i in $(seq 1 "$RESTARTS"); do
     local r=$((2 - (i + 1) % 2))
     echo "   restart $i of $RESTARTS: replica $r"
-    docker restart -t 30 "$(replica "$r")" >/dev/null
+    docker restart -t 30 "$(stack_replica "$r")" >/dev/null
     healthy 2
   done
 }
@@ -114,7 +110,7 @@ phase restart restarts
 healthy 2
 phase scale './stack.sh scale 3'
 healthy 3
-phase stop 'docker stop -t 30 "$(replica 1)" >/dev/null'
+phase stop 'docker stop -t 30 "$(stack_replica 1)" >/dev/null'
 phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)" >/dev/null'
 
 kill -TERM "$PLAIN_PID"

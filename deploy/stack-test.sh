@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
-# One command: brings the stack up (deploy/stack.sh up 2: Redis, two
+# One command: checks that `up` refuses a taken port before it starts
+# anything, brings the stack up (deploy/stack.sh up 2: Redis, two
 # replicas, HAProxy, Prometheus), runs the smoke test with the CLI, checks
 # that calls without the token or without TLS are refused, runs the load
 # test through the balancer, checks Prometheus (replicas found by DNS, both
-# serving, Redis up, the alert rules loaded) and brings the stack down (also
-# on failure). The faults are deploy/chaos-test.sh's. Traffic goes to
+# serving, Redis up, the alert rules loaded), kills one replica and
+# restarts the other three times and waits for the alerts
+# MeshgaugeReplicasBelowDesired and MeshgaugeReplicaRestarting to fire, and
+# brings the stack down (also on failure). The faults are deploy/chaos-test.sh's. Traffic goes to
 # 127.0.0.1 only. Needs a Docker engine: deploy/ensure-docker.sh.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -13,9 +16,21 @@ VERSION=$(meshgauge_version)
 FRONT=127.0.0.1:50051
 PROM=http://127.0.0.1:9090
 
+echo "== up with port 9090 taken fails before it starts anything"
+/usr/bin/python3 -c 'import socket,time; s=socket.socket(); s.bind(("127.0.0.1",9090)); s.listen(); time.sleep(60)' &
+squatter=$!
+await_tcp 9090
+if ./stack.sh up 2 >/tmp/meshgauge-stack-taken.txt 2>&1; then
+  echo "FAIL: up succeeded with 9090 taken"; exit 1; fi
+kill "$squatter"; wait "$squatter" 2>/dev/null || true
+grep -q "port(s) 9090 already in use" /tmp/meshgauge-stack-taken.txt ||
+  { cat /tmp/meshgauge-stack-taken.txt; echo "FAIL: up did not name the port"; exit 1; }
+[ -z "$(docker ps -aq --filter label=com.docker.compose.project=meshgauge)" ] ||
+  { echo "FAIL: up left containers behind"; exit 1; }
+
 ./stack.sh up 2
 # The chaos test (next in .ci/run) reuses the build cache.
-cleanup() { KEEP_BUILD_CACHE=1 ./stack.sh down --volumes >/dev/null 2>&1 || true; }
+cleanup() { ./stack.sh down --volumes >/dev/null 2>&1 || true; }
 trap cleanup EXIT
 
 # Tools run from the meshgauge image on the host network (loopback only),
@@ -67,4 +82,19 @@ echo "replicas that served ComputeSdf: ${serving:-0} of 2"
 rules=$(curl -sf "$PROM/api/v1/rules" | grep -o '"name":"Meshgauge[A-Za-z0-9]*"' | sort -u | wc -l)
 echo "alert rules loaded: $rules"
 [ "$rules" -ge 5 ] || { echo "FAIL: alert rules not loaded"; exit 1; }
+
+echo "== alerts: replica 2 killed (it stays down), replica 1 restarting in a loop"
+docker kill "$(stack_replica 2)" >/dev/null
+for i in 1 2 3; do
+  docker restart -t 0 "$(stack_replica 1)" >/dev/null
+  await_prom "$PROM" "changes(process_start_time_seconds{job=\"meshgauge\"}[15m]) >= $i" 300 ||
+    { echo "FAIL: Prometheus did not see restart $i of replica 1"; exit 1; }
+done
+firing() { await_prom "$PROM" "ALERTS{alertname=\"$1\",alertstate=\"firing\"}" 600; }
+firing MeshgaugeReplicaRestarting ||
+  { echo "FAIL: MeshgaugeReplicaRestarting did not fire"; exit 1; }
+echo "MeshgaugeReplicaRestarting: firing"
+firing MeshgaugeReplicasBelowDesired ||
+  { echo "FAIL: MeshgaugeReplicasBelowDesired did not fire within 60 s"; exit 1; }
+echo "MeshgaugeReplicasBelowDesired: firing ($(q 'count(up{job="meshgauge"} == 1)') of $(q 'meshgauge:replicas_desired') up)"
 echo "stack test: PASS"

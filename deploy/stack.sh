@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
 # The operator's commands for the meshgauge stack (docs/deployment.md):
-#   deploy/stack.sh up [REPLICAS]   build the images, start everything with
-#                                   REPLICAS replicas (default 2), wait until
-#                                   the balancer serves
+#   deploy/stack.sh up [REPLICAS]   check that ports 50051 and 9090 are free
+#                                   (before anything starts), build the
+#                                   images, start everything with REPLICAS
+#                                   replicas (default 2), wait until the
+#                                   balancer serves
 #   deploy/stack.sh scale N         N replicas; the balancer and Prometheus
 #                                   find them by DNS, sessions stay in Redis
-#   deploy/stack.sh down [--volumes]  stop and remove the containers (and
-#                                   the Redis and Prometheus data) and the
-#                                   build stage's image (KEEP_BUILD_CACHE=1
-#                                   keeps it for a faster next `up`)
+#   deploy/stack.sh down [--volumes] [--prune]  stop and remove the
+#                                   containers (--volumes: and the Redis and
+#                                   Prometheus data; --prune: and the build
+#                                   stage's image, the cache of the next
+#                                   `up`'s compile)
 #   deploy/stack.sh swarm-up [REPLICAS] | swarm-down [--leave]   the same
 #                                   services as a Swarm stack (deploy/stack.yml;
 #                                   swarm-up makes this node a one-node swarm
@@ -56,30 +59,77 @@ build() {
   $COMPOSE build
 }
 
-# The multi-stage build's compiler stage (kept while the stack runs, as the
-# build cache of the next `up`) is not needed once it is down.
+# The multi-stage build's compiler stage: the build cache of the next `up`.
 prune_build_stage() {
   docker image prune -f --filter label=meshgauge.stage=build >/dev/null
 }
 
+# Fails, naming them, when 127.0.0.1's ports 50051 and 9090 are taken by
+# anything but this stack (checked before anything is built or started).
+check_ports() {
+  [ -n "$($COMPOSE ps -q balancer 2>/dev/null)" ] && return 0
+  [ -n "$(docker service ls -q --filter name=meshgauge_balancer 2>/dev/null)" ] &&
+    return 0
+  local taken=()
+  for port in 50051 9090; do
+    (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null && taken+=("$port")
+  done
+  [ ${#taken[@]} -eq 0 ] && return 0
+  echo "stack: 127.0.0.1 port(s) ${taken[*]} already in use; free them first (nothing was started)" >&2
+  return 1
+}
+
+# The operator's desired replica count, for the alert
+# MeshgaugeReplicasBelowDesired: a rule file in .desired/ (mounted into
+# Prometheus), re-read by a running Prometheus on SIGHUP.
+set_desired() {  # N
+  mkdir -p .desired
+  cat >.desired/replicas.yml <<RULES
+# Written by deploy/stack.sh: the stack's desired replica count.
+groups:
+  - name: meshgauge-desired
+    rules:
+      - record: meshgauge:replicas_desired
+        expr: vector($1)
+RULES
+  local p
+  for p in $(docker ps -q --filter label=com.docker.compose.project=meshgauge \
+               --filter label=com.docker.compose.service=prometheus) \
+           $(docker ps -q --filter label=com.docker.swarm.service.name=meshgauge_prometheus); do
+    docker kill -s HUP "$p" >/dev/null
+  done
+}
+
 case "${1:-}" in
   up)
+    check_ports
     build
+    set_desired "${2:-2}"
     $COMPOSE up -d --scale meshgauge="${2:-2}"
     wait_serving
     echo "stack: up, ${2:-2} replicas, gRPC 127.0.0.1:50051, Prometheus 127.0.0.1:9090"
     ;;
   scale)
     [ -n "${2:-}" ] || { echo "usage: stack.sh scale N" >&2; exit 2; }
+    set_desired "$2"
     $COMPOSE up -d --no-recreate --scale meshgauge="$2" meshgauge
     ;;
   down)
-    if [ "${2:-}" = "--volumes" ]; then $COMPOSE down -v --remove-orphans
-    else $COMPOSE down --remove-orphans; fi
-    [ "${KEEP_BUILD_CACHE:-0}" = 1 ] || prune_build_stage
+    volumes=() prune=0
+    for a in "${@:2}"; do
+      case "$a" in
+        --volumes) volumes=(-v) ;;
+        --prune) prune=1 ;;
+        *) echo "usage: stack.sh down [--volumes] [--prune]" >&2; exit 2 ;;
+      esac
+    done
+    $COMPOSE down "${volumes[@]}" --remove-orphans
+    [ "$prune" = 1 ] && prune_build_stage
     ;;
   swarm-up)
+    check_ports
     build
+    set_desired "${2:-2}"
     docker info --format '{{.Swarm.LocalNodeState}}' | grep -qx active ||
       docker swarm init --advertise-addr 127.0.0.1 >/dev/null
     REPLICAS="${2:-2}" docker stack deploy -c stack.yml meshgauge
@@ -91,7 +141,7 @@ case "${1:-}" in
     [ "${2:-}" = "--leave" ] && docker swarm leave --force
     ;;
   *)
-    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
+    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
     exit 2
     ;;
 esac

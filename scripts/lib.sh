@@ -70,6 +70,13 @@ await_prom() {
   return 1
 }
 
+# The Nth running replica's container id in the compose stack
+# (deploy/stack.sh up).
+stack_replica() {
+  docker ps -q --filter label=com.docker.compose.project=meshgauge \
+    --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
+}
+
 # The release (the one line of VERSION at the repository's root).
 meshgauge_version() {
   head -1 "$(dirname "${BASH_SOURCE[0]}")/../VERSION"

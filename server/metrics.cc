@@ -2,6 +2,8 @@
 
 #include <prometheus/text_serializer.h>
 
+#include <chrono>
+
 namespace meshgauge::server {
 namespace {
 
@@ -97,6 +99,16 @@ Metrics::Metrics()
                     "failed because it was unreachable or refused them")
               .Register(*registry_)
               .Add({})) {
+  // The conventional gauge of Prometheus' client libraries: a replica
+  // restarting in a loop shows as its changes (deploy/prometheus/alerts.yml).
+  prometheus::BuildGauge()
+      .Name("process_start_time_seconds")
+      .Help("Start time of the process since the Unix epoch, in seconds")
+      .Register(*registry_)
+      .Add({})
+      .Set(std::chrono::duration<double>(
+               std::chrono::system_clock::now().time_since_epoch())
+               .count());
   // Every method's retry counter exists from the start, so that a rate or
   // increase over a window sees the first retries too.
   for (const char* method :

@@ -32,10 +32,17 @@ def exported():
     return names | {n + s for n in names for s in ("_bucket", "_sum", "_count")}
 
 
+def recorded():
+    """Recording rules deploy/stack.sh writes (the desired replica count)."""
+    return set(re.findall(r"record: ([a-z_:]+)", read("deploy", "stack.sh")))
+
+
 def metrics_in(expr):
-    words = set(re.findall(r"\b([a-z_][a-z0-9_]*)\b(?=\s*[{\[)]|\s*$|\s*[=<>])",
-                           expr))
-    return {w for w in words if w.startswith(("meshgauge_", "redis_")) or w == "up"}
+    words = set(re.findall(
+        r"(?<![\w:])([a-z_][a-z0-9_:]*)\b(?=\s*[{\[)]|\s*$|\s*[=<>])", expr))
+    return {w for w in words
+            if w.startswith(("meshgauge_", "meshgauge:", "redis_", "process_"))
+            or w == "up"}
 
 
 class DeployConfigTest(unittest.TestCase):
@@ -43,13 +50,16 @@ class DeployConfigTest(unittest.TestCase):
         text = read("deploy", "prometheus", "alerts.yml")
         exprs = re.findall(r"expr: \|?\n?((?:.+\n)+?)\s+for:", text)
         self.assertGreaterEqual(len(exprs), 5)
-        known = exported() | EXTERNAL
+        known = exported() | EXTERNAL | recorded()
+        self.assertIn("meshgauge:replicas_desired", recorded())
         for e in exprs:
             used = metrics_in(e)
             self.assertTrue(used, e)
             self.assertLessEqual(used, known, e)
-        for alert in ("MeshgaugeReplicaDown", "MeshgaugeErrorRatio",
-                      "MeshgaugeLatencyP95", "MeshgaugeRedisDown"):
+        for alert in ("MeshgaugeReplicasBelowDesired",
+                      "MeshgaugeReplicaRestarting", "MeshgaugeReplicaDown",
+                      "MeshgaugeErrorRatio", "MeshgaugeLatencyP95",
+                      "MeshgaugeRedisDown"):
             self.assertIn(f"alert: {alert}", text)
 
     def test_dashboard_is_grafana_json_with_exported_metrics(self):

@@ -106,6 +106,26 @@ TEST_F(LifecycleTest, MetricsUseBaseUnitsAndNoSessionIds) {
   EXPECT_THAT(text, Not(HasSubstr("secret-session-name")));
 }
 
+// process_start_time_seconds (a restart loop's alert counts its changes) is
+// when the process's metrics were made, in seconds since the Unix epoch.
+TEST(MetricsTest, StartTimeIsTheWallClockAtCreation) {
+  auto now = [] {
+    return std::chrono::duration<double>(
+               std::chrono::system_clock::now().time_since_epoch())
+        .count();
+  };
+  const double before = now();
+  server::Metrics metrics;
+  const double after = now();
+  const std::string text = metrics.Text();
+  const std::string key = "\nprocess_start_time_seconds ";
+  const size_t at = text.find(key);
+  ASSERT_NE(at, std::string::npos) << text;
+  const double start = std::strtod(text.c_str() + at + key.size(), nullptr);
+  EXPECT_GE(start, before - 1e-3);  // the text has millisecond precision.
+  EXPECT_LE(start, after + 1e-3);
+}
+
 TEST_F(LifecycleTest, GracefulShutdownFinishesTheCallInFlight) {
   server::ServerOptions o;
   o.drain_notice_seconds = 0.5;
