@@ -46,6 +46,9 @@ ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
 ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
 ABSL_FLAG(bool, recreate, false, "re-create lost sessions and continue");
 ABSL_FLAG(std::string, session_prefix, "load", "session ids: PREFIX-<n>");
+ABSL_FLAG(bool, retry, true,
+          "the clients' gRPC retry policy (false: every UNAVAILABLE is an "
+          "error)");
 ABSL_FLAG(int, progress_every, 0,
           "print \"iterations: N\" after every K-th concurrent iteration "
           "(K; 0: never)");
@@ -227,6 +230,7 @@ double Percentile(std::vector<double> v, double q) {
 int Run() {
   const std::string target = absl::GetFlag(FLAGS_target);
   client::ClientOptions options;
+  options.retry = absl::GetFlag(FLAGS_retry);
   if (absl::Status s =
           client::LoadClientSecrets(absl::GetFlag(FLAGS_tls_ca_file), "", "",
                                     absl::GetFlag(FLAGS_token_file), &options);

@@ -7,6 +7,9 @@
 #                                   balancer serves
 #   deploy/stack.sh scale N         N replicas; the balancer and Prometheus
 #                                   find them by DNS, sessions stay in Redis
+#   deploy/stack.sh reload-balancer  re-read the balancer's configuration and
+#                                   certificate (SIGUSR2: a new HAProxy
+#                                   worker; calls in flight finish)
 #   deploy/stack.sh down [--volumes] [--prune]  stop and remove the
 #                                   containers (--volumes: and the Redis and
 #                                   Prometheus data; --prune: and the build
@@ -114,6 +117,9 @@ case "${1:-}" in
     set_desired "$2"
     $COMPOSE up -d --no-recreate --scale meshgauge="$2" meshgauge
     ;;
+  reload-balancer)
+    $COMPOSE kill -s SIGUSR2 balancer
+    ;;
   down)
     volumes=() prune=0
     for a in "${@:2}"; do
@@ -141,7 +147,7 @@ case "${1:-}" in
     [ "${2:-}" = "--leave" ] && docker swarm leave --force
     ;;
   *)
-    echo "usage: stack.sh up [REPLICAS] | scale N | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
+    echo "usage: stack.sh up [REPLICAS] | scale N | reload-balancer | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
     exit 2
     ;;
 esac

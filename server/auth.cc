@@ -2,8 +2,6 @@
 
 #include <openssl/evp.h>
 
-#include <set>
-
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
@@ -30,8 +28,7 @@ bool ValidTenantName(const std::string& name) { return ValidSessionId(name); }
 
 absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
                                                       const std::string& name) {
-  Authenticator a;
-  std::set<std::string> tenants;
+  auto table = std::make_shared<HashToTenant>();
   int line_no = 0;
   for (absl::string_view raw : absl::StrSplit(text, '\n')) {
     ++line_no;
@@ -54,18 +51,35 @@ absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
       return bad(
           "the token hash must be 64 hex digits (sha256sum of the token)");
     }
-    if (!tenants.insert(fields[0]).second) {
-      return bad(absl::StrCat("tenant '", fields[0], "' is listed twice"));
-    }
-    if (!a.by_hash_.emplace(hash, fields[0]).second) {
-      return bad("this token hash is already given to another tenant");
+    if (!table->emplace(hash, fields[0]).second) {
+      return bad("this token hash is already listed");
     }
   }
-  if (a.by_hash_.empty()) {
+  if (table->empty()) {
     return absl::InvalidArgumentError(
         absl::StrCat(name, ": no tenants (one 'TENANT SHA256HEX' per line)"));
   }
+  Authenticator a;
+  a.by_hash_ = std::move(table);
   return a;
+}
+
+absl::Status Authenticator::Reload(const std::string& path) {
+  if (!has_tokens()) {
+    return absl::FailedPreconditionError(
+        "open mode (no tokens file at the start) cannot load tokens");
+  }
+  auto loaded = FromFile(path);
+  if (!loaded.ok()) return loaded.status();
+  std::lock_guard<std::mutex> lock(*mu_);
+  by_hash_ = std::move(loaded->by_hash_);
+  return absl::OkStatus();
+}
+
+std::shared_ptr<const Authenticator::HashToTenant> Authenticator::Table()
+    const {
+  std::lock_guard<std::mutex> lock(*mu_);
+  return by_hash_;
 }
 
 absl::StatusOr<Authenticator> Authenticator::FromFile(const std::string& path) {
@@ -81,7 +95,8 @@ absl::StatusOr<std::string> Authenticator::Authenticate(
 
 absl::StatusOr<std::string> Authenticator::AuthenticateMetadata(
     const std::multimap<grpc::string_ref, grpc::string_ref>& md) const {
-  if (by_hash_.empty()) return std::string();  // open mode.
+  const std::shared_ptr<const HashToTenant> table = Table();
+  if (table == nullptr) return std::string();  // open mode.
   const auto it = md.find("authorization");
   if (it == md.end()) {
     return absl::UnauthenticatedError(
@@ -98,8 +113,8 @@ absl::StatusOr<std::string> Authenticator::AuthenticateMetadata(
         "the authorization metadata must be 'Bearer <token>'");
   }
   const auto tenant =
-      by_hash_.find(Sha256Hex(std::string(value.substr(kBearer.size()))));
-  if (tenant == by_hash_.end()) {
+      table->find(Sha256Hex(std::string(value.substr(kBearer.size()))));
+  if (tenant == table->end()) {
     return absl::UnauthenticatedError("unknown token");
   }
   return tenant->second;

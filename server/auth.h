@@ -2,6 +2,8 @@
 //
 // The tokens file holds one `TENANT SHA256HEX` per line (the hex SHA-256 of
 // the token, never the token itself; `#` comments and blank lines allowed).
+// A tenant may have several tokens (a rotation lists the old and the new
+// one, then the new one alone); Reload re-reads the file (SIGHUP).
 // A call authenticates with the metadata `authorization: Bearer TOKEN`;
 // the token is hashed and looked up, and is never logged or echoed.
 #pragma once
@@ -9,6 +11,8 @@
 #include <grpcpp/grpcpp.h>
 
 #include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 
 #include "absl/status/statusor.h"
@@ -20,15 +24,21 @@ class Authenticator {
   // Open mode: every caller is the tenant "" (no authentication).
   Authenticator() = default;
   // Parses a tokens file. Errors: NotFound (unreadable), InvalidArgument
-  // naming the line (bad tenant name, not 64 hex digits, repeated hash or
-  // tenant), or an empty file.
+  // naming the line (bad tenant name, not 64 hex digits, repeated hash), or
+  // an empty file.
   static absl::StatusOr<Authenticator> FromFile(const std::string& path);
   // The same from the file's text (tests).
   static absl::StatusOr<Authenticator> FromText(const std::string& text,
                                                 const std::string& name);
 
-  // 0 in open mode; a tokens file holds at least one.
-  int64_t tenants() const { return std::ssize(by_hash_); }
+  // Replaces the tokens with the file's at `path`; calls authenticate with
+  // the old or the new tokens, never a mix. Thread-safe. Errors: as
+  // FromFile's, and then the current tokens stay; FAILED_PRECONDITION in
+  // open mode (a server started without tokens stays open).
+  absl::Status Reload(const std::string& path);
+
+  // False in open mode.
+  bool has_tokens() const { return Table() != nullptr; }
   // The caller's tenant. Errors: UNAUTHENTICATED (no or malformed
   // authorization metadata, unknown token) without echoing the token.
   absl::StatusOr<std::string> Authenticate(
@@ -39,7 +49,11 @@ class Authenticator {
       const std::multimap<grpc::string_ref, grpc::string_ref>& md) const;
 
  private:
-  std::map<std::string, std::string> by_hash_;  // hex sha256 -> tenant.
+  using HashToTenant = std::map<std::string, std::string>;  // hex sha256.
+  std::shared_ptr<const HashToTenant> Table() const;
+
+  std::unique_ptr<std::mutex> mu_ = std::make_unique<std::mutex>();
+  std::shared_ptr<const HashToTenant> by_hash_;  // null: open mode.
 };
 
 // Lower-case hex SHA-256 of `data`.

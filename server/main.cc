@@ -28,7 +28,8 @@ ABSL_FLAG(std::string, tls_client_ca_file, "",
           "PEM CA: require client certificates signed by it (mutual TLS)");
 ABSL_FLAG(std::string, auth_tokens_file, "",
           "lines 'TENANT SHA256HEX': every RPC but health needs "
-          "'authorization: Bearer TOKEN'; empty: open mode");
+          "'authorization: Bearer TOKEN' (a tenant may have several); "
+          "SIGHUP re-reads the file; empty: open mode");
 ABSL_FLAG(std::string, session_store, "",
           "redis://HOST[:PORT]: sessions live in Redis and any replica "
           "serves any session; empty: in this process's memory");
@@ -191,11 +192,13 @@ int main(int argc, char** argv) {
     std::cerr << "meshgauge-server: " << s.message() << "\n";
     return 2;
   }
-  // Block the termination signals in every thread; one thread waits for them.
+  // Block the signals in every thread; one thread waits for them: SIGHUP
+  // re-reads the tokens file, SIGTERM and SIGINT drain and stop.
   sigset_t signals;
   sigemptyset(&signals);
   sigaddset(&signals, SIGTERM);
   sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   meshgauge::server::Metrics metrics;
@@ -223,7 +226,13 @@ int main(int argc, char** argv) {
   }
   std::thread signal_waiter([&] {
     int sig = 0;
-    sigwait(&signals, &sig);
+    while (sigwait(&signals, &sig) == 0 && sig == SIGHUP) {
+      const absl::Status s = (*server)->ReloadTokens();
+      std::cerr << "meshgauge-server: SIGHUP: "
+                << (s.ok() ? "tokens file re-read"
+                           : absl::StrCat("tokens kept: ", s.message()))
+                << std::endl;
+    }
     std::cerr << "meshgauge-server: signal " << sig << ", draining (grace "
               << options.shutdown_grace_seconds << " s)" << std::endl;
     (*server)->Shutdown();

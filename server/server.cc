@@ -167,7 +167,7 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   // A second server on a taken port must fail, not split the clients.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&s->service_);
-  if (options.reflection && s->auth_.tenants() > 0) {
+  if (options.reflection && s->auth_.has_tokens()) {
     std::vector<
         std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
         guards;
@@ -217,6 +217,14 @@ void MeshGaugeServer::SweepLoop() {
     }
     lock.lock();
   }
+}
+
+absl::Status MeshGaugeServer::ReloadTokens() {
+  if (options_.auth_tokens_file.empty()) {
+    return absl::FailedPreconditionError(
+        "no --auth_tokens_file: the server is in open mode");
+  }
+  return auth_.Reload(options_.auth_tokens_file);
 }
 
 void MeshGaugeServer::Shutdown() {

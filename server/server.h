@@ -46,6 +46,8 @@ class MeshGaugeServer {
   void Shutdown();
   // Blocks until the server has shut down.
   void Wait();
+  // Re-reads --auth_tokens_file (SIGHUP): see Authenticator::Reload.
+  absl::Status ReloadTokens();
 
  private:
   MeshGaugeServer(const ServerOptions& options, Authenticator auth,

@@ -9,7 +9,10 @@
 # Pass, per stop: the balancer marks the replica DOWN within 3.5 s, while
 # it still serves (so no call can reach it as gRPC shuts down, where it
 # would end CANCELLED), and UP again after its restart; at the end the load
-# client saw 0 errors, 0 mismatches, 0 lost sessions.
+# client saw 0 errors, 0 mismatches, 0 lost sessions. Then the balancer
+# itself is reloaded (SIGUSR2 to its master process, as
+# `deploy/stack.sh reload-balancer` does) three times under a load whose
+# clients do not retry: 0 errors.
 #   balancer_drain_test.sh SERVER LOAD CFG [CYCLES]
 set -euo pipefail
 server=$1 load=$2 cfg=$3 cycles=${4:-2}
@@ -50,13 +53,18 @@ start_replica() {  # INDEX
 start_replica 0
 start_replica 1
 
-hp=$(free_port)
-sed -e "s|^ *bind .*|  bind 127.0.0.1:$hp proto h2|" \
+hp=$(free_port) health_port=$(free_port)
+sed -e "s|^ *bind :50051 .*|  bind 127.0.0.1:$hp proto h2|" \
+    -e "s|^ *bind 127.0.0.1:8404|  bind 127.0.0.1:$health_port|" \
     -e "s|^ *server-template .*|  server r0 127.0.0.1:${ports[0]}\n  server r1 127.0.0.1:${ports[1]}|" \
     "$cfg" >"$tmp/haproxy.cfg"
-haproxy -db -f "$tmp/haproxy.cfg" 2>"$tmp/haproxy.log" &
+haproxy -W -db -f "$tmp/haproxy.cfg" 2>"$tmp/haproxy.log" &
+haproxy_pid=$!
 pids+=($!)
 await_tcp "$hp"
+# The balancer's own health: plain HTTP 200 on its health port, not logged.
+curl -sf "http://127.0.0.1:$health_port/healthz" >/dev/null ||
+  fail "the balancer's health frontend did not answer 200"
 
 "$load" --target "127.0.0.1:$hp" --clients 4 --iterations $((cycles * 150)) \
   --frequency 4 --session_prefix drain --time_limit_seconds 120 \
@@ -89,3 +97,27 @@ sed -n '/^errors:/,$p' "$tmp/load.txt"
 [ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" ||
   fail "a graceful stop cost the clients calls"
 echo "PASS: $cycles graceful stops, each replica left the balancer before it stopped, no client saw an error"
+
+"$load" --target "127.0.0.1:$hp" --clients 4 --iterations 60 --retry=false \
+  --frequency 4 --session_prefix reload --time_limit_seconds 120 \
+  --progress_every 4 >"$tmp/load.txt" 2>&1 &
+load_pid=$!
+for c in 1 2 3; do
+  done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
+  await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
+    fail "the load made no progress before reload $c"
+  kill -0 "$load_pid" 2>/dev/null || fail "the load ended before reload $c"
+  kill -USR2 "$haproxy_pid"
+  echo "reload $c of the balancer"
+done
+done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
+await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
+  fail "the load made no progress after the reloads"
+kill -0 "$load_pid" 2>/dev/null || fail "the load ended during the reloads"
+rc=0
+wait "$load_pid" || rc=$?
+sed -n '/^errors:/,$p' "$tmp/load.txt"
+[ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" ||
+  fail "a reload of the balancer cost a client without retries a call"
+grep -q "healthz" "$tmp/haproxy.log" && fail "the health check was logged"
+echo "PASS: 3 reloads of the balancer, no client (without retries) saw an error"

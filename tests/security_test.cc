@@ -4,6 +4,7 @@
 // what the attacker and the victim see.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -263,13 +264,48 @@ TEST(AuthenticatorTest, RejectsMalformedTokenFiles) {
                               "a " + h + "\nb " + h + "\n", "f")
                               .status()
                               .message()),
-              HasSubstr("line 2: this token hash is already given"));
+              HasSubstr("line 2: this token hash is already listed"));
   EXPECT_THAT(
       std::string(
           server::Authenticator::FromText("# none\n", "f").status().message()),
       HasSubstr("no tenants"));
   EXPECT_EQ(server::Sha256Hex("abc"),
             "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+}
+
+// A rotation lists a tenant's old and new token; Reload swaps the whole
+// table and keeps it when the new file is malformed.
+TEST(AuthenticatorTest, ReloadRotatesATenantsTokenAndKeepsTheOldTableOnError) {
+  auto as = [](const server::Authenticator& a, const std::string& token) {
+    const std::string value = "Bearer " + token;
+    std::multimap<grpc::string_ref, grpc::string_ref> md;
+    md.emplace("authorization", value);
+    return a.AuthenticateMetadata(md);
+  };
+  const std::string path =
+      ::testing::TempDir() + "/meshgauge-tokens-" + std::to_string(::getpid());
+  auto write = [&](const std::string& text) { std::ofstream(path) << text; };
+  write("alice " + server::Sha256Hex("old") + "\n");
+  auto auth = server::Authenticator::FromFile(path);
+  ASSERT_TRUE(auth.ok()) << auth.status();
+  EXPECT_EQ(as(*auth, "new").status().code(),
+            absl::StatusCode::kUnauthenticated);
+  write("alice " + server::Sha256Hex("old") + "\nalice " +
+        server::Sha256Hex("new") + "\n");
+  ASSERT_TRUE(auth->Reload(path).ok());
+  EXPECT_EQ(*as(*auth, "old"), "alice");
+  EXPECT_EQ(*as(*auth, "new"), "alice");
+  write("alice " + server::Sha256Hex("new") + "\n");
+  ASSERT_TRUE(auth->Reload(path).ok());
+  EXPECT_EQ(as(*auth, "old").status().code(),
+            absl::StatusCode::kUnauthenticated);
+  write("alice nothex\n");
+  EXPECT_EQ(auth->Reload(path).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(*as(*auth, "new"), "alice");
+  server::Authenticator open;
+  EXPECT_EQ(open.Reload(path).code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_EQ(*as(open, "anything"), "");
+  std::remove(path.c_str());
 }
 
 // Raw CreateSession streams, as an attacker writes them.
