@@ -1,18 +1,108 @@
 #!/usr/bin/env bash
-# Makes the stack's secrets in deploy/secrets (not committed): a CA and a
-# server certificate for 127.0.0.1 / localhost (tests/make_test_pki.sh), a
-# random bearer token for the tenant "stack" (secrets/token) and the
-# replicas' tokens file with its SHA-256 (secrets/tokens), and the
-# balancer's secrets/server.pem (certificate + key). Idempotent.
+# The stack's secrets in deploy/secrets (not committed):
+#   ca.key, ca.crt            the stack's CA (MESHGAUGE_CA_DAYS, default 3650)
+#   server.key, server.crt    the balancer's certificate for 127.0.0.1 and
+#                             localhost, signed by the CA (MESHGAUGE_CERT_DAYS,
+#                             default 365)
+#   server.pem                certificate and key in one file, for HAProxy
+#   token                     the bearer token of the tenant "stack"
+#   balancer/server.pem       the copy the balancer container reads (owned by
+#                             its user, uid 10080)
+#   replicas/tokens           the replicas' tokens file: the SHA-256 of each
+#                             valid token (no secret; mode 0644)
+# Keys, the token and the PEMs are mode 0600. The containers mount the
+# directories balancer/ and replicas/, so a file replaced there is seen.
+#   make-secrets.sh           make what is missing; renew a certificate (the
+#                             CA's: and the server's) when under 30 days
+#                             remain
+#   make-secrets.sh rotate    a new server key and certificate (same CA: the
+#                             clients' trust holds) and a new token; the
+#                             tokens file lists the new and the previous one
+#   make-secrets.sh finish    the tokens file lists the current token alone
 # Production: bring your own certificate and tokens instead.
 set -euo pipefail
 cd "$(dirname "$0")"
-mkdir -p secrets
-[ -f secrets/ca.crt ] || ../tests/make_test_pki.sh secrets
-if [ ! -f secrets/token ]; then
-  head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' >secrets/token
-fi
-echo "stack $(tr -d '\n' <secrets/token | sha256sum | cut -d' ' -f1)" >secrets/tokens
-# HAProxy reads the certificate and its key from one file.
-cat secrets/server.crt secrets/server.key >secrets/server.pem
-chmod 0644 secrets/*
+umask 077
+mkdir -p secrets/balancer secrets/replicas
+chmod 0755 secrets secrets/balancer secrets/replicas
+cd secrets
+BALANCER_UID=10080
+key=(-newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes)
+
+new_ca() {
+  openssl req -x509 "${key[@]}" -keyout ca.key -out ca.crt \
+    -days "${MESHGAUGE_CA_DAYS:-3650}" -subj /CN=meshgauge-stack-ca 2>/dev/null
+  chmod 0644 ca.crt
+}
+
+new_server_certificate() {
+  openssl req "${key[@]}" -keyout server.key -out server.csr \
+    -subj /CN=meshgauge-balancer 2>/dev/null
+  printf 'subjectAltName=IP:127.0.0.1,DNS:localhost\n' >server.ext
+  openssl x509 -req -in server.csr -CA ca.crt -CAkey ca.key -CAcreateserial \
+    -days "${MESHGAUGE_CERT_DAYS:-365}" -extfile server.ext -out server.crt \
+    2>/dev/null
+  chmod 0644 server.crt
+  rm -f server.csr server.ext
+  cat server.crt server.key >server.pem
+  # The balancer's copy, replaced in one rename (the old one serves until
+  # the balancer reloads).
+  cp server.pem balancer/.server.pem.new
+  if [ "$(id -u)" -eq 0 ]; then
+    chown "$BALANCER_UID:$BALANCER_UID" balancer/.server.pem.new
+  else  # the operator may not chown; a container may.
+    docker run --rm --user 0 --network none -v "$PWD/balancer:/s" \
+      --entrypoint chown meshgauge/bookworm-base:latest \
+      "$BALANCER_UID:$BALANCER_UID" /s/.server.pem.new
+  fi
+  mv -f balancer/.server.pem.new balancer/server.pem
+}
+
+lasts_a_month() {  # CERTIFICATE
+  openssl x509 -checkend $((30 * 86400)) -noout -in "$1" >/dev/null 2>&1
+}
+
+new_token() {
+  [ -f token ] && mv -f token token.previous
+  head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' >token
+}
+
+# The tokens file: the current token and, during a rotation, the previous.
+write_tokens() {  # TOKEN_FILES...
+  local f
+  for f in "$@"; do
+    echo "stack $(tr -d '\n' <"$f" | sha256sum | cut -d' ' -f1)"
+  done >replicas/.tokens.new
+  chmod 0644 replicas/.tokens.new
+  mv -f replicas/.tokens.new replicas/tokens
+}
+
+case "${1:-}" in
+  "")
+    renew=0
+    if [ ! -f ca.key ] || ! lasts_a_month ca.crt; then new_ca; renew=1; fi
+    if [ "$renew" = 1 ] || [ ! -f balancer/server.pem ] ||
+       ! lasts_a_month server.crt; then
+      new_server_certificate
+    fi
+    [ -f token ] || new_token
+    [ -f replicas/tokens ] || write_tokens token
+    ;;
+  rotate)
+    new_server_certificate
+    new_token
+    write_tokens token token.previous
+    ;;
+  finish)
+    write_tokens token
+    rm -f token.previous
+    ;;
+  *)
+    echo "usage: make-secrets.sh [rotate | finish]" >&2
+    exit 2
+    ;;
+esac
+# Files written over keep their mode, and earlier releases made them 0644.
+for f in ca.key server.key server.pem token token.previous; do
+  [ ! -f "$f" ] || chmod 0600 "$f"
+done

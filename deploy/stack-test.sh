@@ -2,8 +2,9 @@
 # One command: checks that `up` refuses a taken port before it starts
 # anything, brings the stack up (deploy/stack.sh up 2: Redis, two
 # replicas, HAProxy, Prometheus), runs the smoke test with the CLI, checks
-# that calls without the token or without TLS are refused, runs the load
-# test through the balancer, checks Prometheus (replicas found by DNS, both
+# that calls without the token or without TLS are refused, checks the
+# secrets' validity and modes, runs the load test through the balancer while
+# the secrets are rotated (stack.sh rotate-secrets, then --finish), checks Prometheus (replicas found by DNS, both
 # serving, Redis up, the alert rules loaded), kills one replica and
 # restarts the other three times and waits for the alerts
 # MeshgaugeReplicasBelowDesired and MeshgaugeReplicaRestarting to fire, and
@@ -38,10 +39,12 @@ trap cleanup EXIT
 # replicas.
 SECRETS=(-v "$PWD/secrets:/secrets:ro")
 TLS=(--tls-ca-file /secrets/ca.crt --token-file /secrets/token)
-tool() { docker run --rm --no-healthcheck --network host "${SECRETS[@]}" --entrypoint "$1" "meshgauge:$VERSION" "${@:2}"; }
+# As the operator's user: the token is theirs, mode 0600.
+AS_ME=(--user "$(id -u):$(id -g)")
+tool() { docker run --rm --no-healthcheck --network host "${AS_ME[@]}" "${SECRETS[@]}" --entrypoint "$1" "meshgauge:$VERSION" "${@:2}"; }
 
 echo "== smoke test through the balancer ($FRONT)"
-docker run --rm --network host "${SECRETS[@]}" --entrypoint sh "meshgauge:$VERSION" -c "
+docker run --rm --network host "${AS_ME[@]}" "${SECRETS[@]}" --entrypoint sh "meshgauge:$VERSION" -c "
   set -e
   R='--server $FRONT ${TLS[*]}'
   meshgauge shape sphere --radius 0.5 --size 0.05 --out /tmp/s.obj
@@ -60,10 +63,49 @@ if tool meshgauge remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/
 if tool meshgauge remote list --server "$FRONT" >/dev/null 2>&1; then
   echo "FAIL: a plaintext call was served"; exit 1; fi
 
-echo "== load test through the balancer"
+echo "== secrets: the certificate valid for a year, keys and token 0600"
+end=$(openssl x509 -enddate -noout -in secrets/server.crt | cut -d= -f2)
+days=$(( ($(date -d "$end" +%s) - $(date +%s)) / 86400 ))
+echo "server certificate: $days days left"
+[ "$days" -ge 364 ] || { echo "FAIL: the certificate expires in $days days"; exit 1; }
+for f in ca.key server.key server.pem token balancer/server.pem; do
+  [ "$(stat -c %a "secrets/$f")" = 600 ] ||
+    { echo "FAIL: secrets/$f is mode $(stat -c %a "secrets/$f")"; exit 1; }
+done
+
+echo "== load test through the balancer; the secrets are rotated meanwhile"
+served() {  # the fingerprint of the certificate the balancer serves
+  openssl s_client -connect "$FRONT" </dev/null 2>/dev/null |
+    openssl x509 -noout -fingerprint -sha256 2>/dev/null
+}
+listed_with() {  # TOKEN: exit status of a ListSessions call with it
+  docker run --rm --no-healthcheck --network host "${AS_ME[@]}" "${SECRETS[@]}" \
+    -e MESHGAUGE_TOKEN="$1" --entrypoint meshgauge "meshgauge:$VERSION" \
+    remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/dev/null 2>&1
+}
+old_token=$(cat secrets/token)
 tool meshgauge-load --target "$FRONT" --tls_ca_file /secrets/ca.crt \
   --token_file /secrets/token --clients 6 --iterations 6 --frequency 16 \
-  --time_limit_seconds 300 | tee /tmp/meshgauge-load-stack.txt
+  --time_limit_seconds 300 --progress_every 6 >/tmp/meshgauge-load-stack.txt 2>&1 &
+load=$!
+await_lines /tmp/meshgauge-load-stack.txt '^iterations:' 0 1200 ||
+  { cat /tmp/meshgauge-load-stack.txt; echo "FAIL: the load made no progress"; exit 1; }
+./stack.sh rotate-secrets
+new_fp=$(openssl x509 -noout -fingerprint -sha256 -in secrets/server.crt)
+for _ in $(seq 1 100); do [ "$(served)" = "$new_fp" ] && break; sleep 0.1; done
+[ "$(served)" = "$new_fp" ] || { echo "FAIL: the balancer serves the old certificate"; exit 1; }
+listed_with "$(cat secrets/token)" || { echo "FAIL: the new token is refused"; exit 1; }
+rc=0
+wait "$load" || rc=$?
+grep -v '^iterations:' /tmp/meshgauge-load-stack.txt
+[ "$rc" -eq 0 ] && grep -q "^errors: 0" /tmp/meshgauge-load-stack.txt ||
+  { echo "FAIL: the rotation cost the load client calls"; exit 1; }
+listed_with "$old_token" || { echo "FAIL: the old token was refused before --finish"; exit 1; }
+./stack.sh rotate-secrets --finish
+for _ in $(seq 1 100); do listed_with "$old_token" || break; sleep 0.1; done
+if listed_with "$old_token"; then echo "FAIL: the old token still works after --finish"; exit 1; fi
+listed_with "$(cat secrets/token)" || { echo "FAIL: the new token is refused after --finish"; exit 1; }
+echo "rotation: new certificate served, new token accepted, old token refused after --finish, 0 client errors"
 
 echo "== Prometheus"
 q() { prom_query "$PROM" "$1"; }

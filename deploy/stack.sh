@@ -7,6 +7,11 @@
 #                                   balancer serves
 #   deploy/stack.sh scale N         N replicas; the balancer and Prometheus
 #                                   find them by DNS, sessions stay in Redis
+#   deploy/stack.sh rotate-secrets [--finish]  a new server certificate (same
+#                                   CA) served after a balancer reload, and a
+#                                   new token accepted beside the old one;
+#                                   --finish, once the clients use the new
+#                                   token: the old one is refused
 #   deploy/stack.sh reload-balancer  re-read the balancer's configuration and
 #                                   certificate (SIGUSR2: a new HAProxy
 #                                   worker; calls in flight finish)
@@ -118,7 +123,19 @@ case "${1:-}" in
     $COMPOSE up -d --no-recreate --scale meshgauge="$2" meshgauge
     ;;
   reload-balancer)
-    $COMPOSE kill -s SIGUSR2 balancer
+    $COMPOSE kill -s SIGUSR2 balancer 2>/dev/null
+    ;;
+  rotate-secrets)
+    if [ "${2:-}" = --finish ]; then
+      ./make-secrets.sh finish
+      $COMPOSE kill -s SIGHUP meshgauge 2>/dev/null
+      echo "stack: only the token in deploy/secrets/token is accepted now"
+    else
+      ./make-secrets.sh rotate
+      $COMPOSE kill -s SIGHUP meshgauge 2>/dev/null
+      $COMPOSE kill -s SIGUSR2 balancer 2>/dev/null
+      echo "stack: new certificate served; deploy/secrets/token is new and the old token still works. Move the clients to it, then: deploy/stack.sh rotate-secrets --finish"
+    fi
     ;;
   down)
     volumes=() prune=0
@@ -147,7 +164,7 @@ case "${1:-}" in
     [ "${2:-}" = "--leave" ] && docker swarm leave --force
     ;;
   *)
-    echo "usage: stack.sh up [REPLICAS] | scale N | reload-balancer | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
+    echo "usage: stack.sh up [REPLICAS] | scale N | rotate-secrets [--finish] | reload-balancer | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
     exit 2
     ;;
 esac
