@@ -16,9 +16,12 @@
 #                             CA's: and the server's) when under 30 days
 #                             remain
 #   make-secrets.sh rotate    a new server key and certificate (same CA: the
-#                             clients' trust holds) and a new token; the
-#                             tokens file lists the new and the previous one
+#                             clients' trust holds) and a new token in
+#                             token.next; the tokens file lists both tokens
+#   make-secrets.sh publish   token.next becomes token (the old one is kept
+#                             as token.previous, still valid)
 #   make-secrets.sh finish    the tokens file lists the current token alone
+# (deploy/stack.sh rotate-secrets runs these and reloads the stack between.)
 # Production: bring your own certificate and tokens instead.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -47,6 +50,7 @@ new_server_certificate() {
   cat server.crt server.key >server.pem
   # The balancer's copy, replaced in one rename (the old one serves until
   # the balancer reloads).
+  rm -f balancer/.server.pem.new  # a leftover of an interrupted run.
   cp server.pem balancer/.server.pem.new
   if [ "$(id -u)" -eq 0 ]; then
     chown "$BALANCER_UID:$BALANCER_UID" balancer/.server.pem.new
@@ -62,9 +66,8 @@ lasts_a_month() {  # CERTIFICATE
   openssl x509 -checkend $((30 * 86400)) -noout -in "$1" >/dev/null 2>&1
 }
 
-new_token() {
-  [ -f token ] && mv -f token token.previous
-  head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' >token
+new_token() {  # FILE
+  head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \n' >"$1"
 }
 
 # The tokens file: the current token and, during a rotation, the previous.
@@ -85,24 +88,33 @@ case "${1:-}" in
        ! lasts_a_month server.crt; then
       new_server_certificate
     fi
-    [ -f token ] || new_token
+    [ -f token ] || new_token token
     [ -f replicas/tokens ] || write_tokens token
     ;;
   rotate)
+    if [ -f token.next ] || [ -f token.previous ]; then
+      echo "make-secrets: a rotation is under way; finish it first (deploy/stack.sh rotate-secrets --finish)" >&2
+      exit 1
+    fi
     new_server_certificate
-    new_token
-    write_tokens token token.previous
+    new_token token.next
+    write_tokens token token.next
+    ;;
+  publish)
+    [ -f token.next ] || { echo "make-secrets: no token.next to publish" >&2; exit 1; }
+    mv -f token token.previous
+    mv -f token.next token
     ;;
   finish)
     write_tokens token
-    rm -f token.previous
+    rm -f token.previous token.next
     ;;
   *)
-    echo "usage: make-secrets.sh [rotate | finish]" >&2
+    echo "usage: make-secrets.sh [rotate | publish | finish]" >&2
     exit 2
     ;;
 esac
 # Files written over keep their mode, and earlier releases made them 0644.
-for f in ca.key server.key server.pem token token.previous; do
+for f in ca.key server.key server.pem token token.next token.previous; do
   [ ! -f "$f" ] || chmod 0600 "$f"
 done

@@ -12,6 +12,10 @@
 #                                   new token accepted beside the old one;
 #                                   --finish, once the clients use the new
 #                                   token: the old one is refused
+#   deploy/stack.sh backup-redis FILE   Redis's data (append-only file) into
+#                                   the tarball FILE while it runs
+#   deploy/stack.sh restore-redis FILE  stop Redis, replace its data with
+#                                   FILE's, start it
 #   deploy/stack.sh reload-balancer  re-read the balancer's configuration and
 #                                   certificate (SIGUSR2: a new HAProxy
 #                                   worker; calls in flight finish)
@@ -54,7 +58,11 @@ wait_serving() {
 # image takes DIR's binaries instead of compiling them.
 build() {
   ./make-base-image.sh
+  local cert_before
+  cert_before=$(cat secrets/server.crt 2>/dev/null || true)
   ./make-secrets.sh
+  # A renewed certificate is served after a reload of a running balancer.
+  [ "$(cat secrets/server.crt)" = "$cert_before" ] || RELOAD_BALANCER=1
   rm -rf .prebuilt
   export MESHGAUGE_PREBUILT=
   if [ -n "${MESHGAUGE_PREBUILT_FROM:-}" ]; then
@@ -108,32 +116,104 @@ RULES
   done
 }
 
+# Succeeds when a ListSessions call with token $1 passes (waits up to 10 s).
+token_accepted() {
+  for _ in $(seq 1 20); do
+    docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
+      -v "$PWD/secrets:/secrets:ro" -e MESHGAUGE_TOKEN="$1" \
+      --entrypoint meshgauge "meshgauge:$VERSION" remote list \
+      --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1 &&
+      return 0
+    sleep 0.5
+  done
+  return 1
+}
+
+# SIGHUP to every replica; waits until each logs that it re-read its tokens
+# file (fails naming one that kept its tokens or did not answer in 10 s).
+reload_replicas_tokens() {
+  local c n
+  declare -A seen
+  for c in $($COMPOSE ps -q meshgauge); do
+    seen[$c]=$(docker logs "$c" 2>&1 | grep -c 'SIGHUP:' || true)
+  done
+  $COMPOSE kill -s SIGHUP meshgauge 2>/dev/null
+  for c in "${!seen[@]}"; do
+    for _ in $(seq 1 50); do
+      n=$(docker logs "$c" 2>&1 | grep -c 'SIGHUP:' || true)
+      [ "$n" -gt "${seen[$c]}" ] && break
+      sleep 0.2
+    done
+    docker logs "$c" 2>&1 | grep 'SIGHUP:' | tail -1 | grep -q 're-read' || {
+      echo "stack: replica $c did not re-read its tokens file:" >&2
+      docker logs "$c" 2>&1 | grep 'SIGHUP:' | tail -1 >&2
+      return 1
+    }
+  done
+}
+
+count_or_die() {  # the argument must be a replica count
+  [[ "${1:-}" =~ ^[0-9]+$ ]] || { echo "stack: '${1:-}' is not a replica count" >&2; exit 2; }
+}
+
 case "${1:-}" in
   up)
+    count_or_die "${2:-2}"
     check_ports
+    RELOAD_BALANCER=0
     build
     set_desired "${2:-2}"
     $COMPOSE up -d --scale meshgauge="${2:-2}"
+    if [ "$RELOAD_BALANCER" = 1 ]; then
+      $COMPOSE kill -s SIGUSR2 balancer 2>/dev/null
+    fi
     wait_serving
     echo "stack: up, ${2:-2} replicas, gRPC 127.0.0.1:50051, Prometheus 127.0.0.1:9090"
     ;;
   scale)
-    [ -n "${2:-}" ] || { echo "usage: stack.sh scale N" >&2; exit 2; }
+    count_or_die "${2:-}"
     set_desired "$2"
     $COMPOSE up -d --no-recreate --scale meshgauge="$2" meshgauge
+    ;;
+  backup-redis | restore-redis)
+    [ -n "${2:-}" ] || { echo "usage: stack.sh $1 FILE" >&2; exit 2; }
+    dir=$(realpath "$(dirname "$2")") file=$(basename "$2")
+    if [ "$1" = backup-redis ]; then
+      docker run --rm --network none --user "$(id -u):$(id -g)" \
+        -v meshgauge_redis-data:/data:ro -v "$dir:/backup" \
+        --entrypoint tar "meshgauge-redis:$VERSION" czf "/backup/$file" -C /data .
+    else
+      [ -f "$2" ] || { echo "stack: no file $2" >&2; exit 1; }
+      $COMPOSE stop redis 2>/dev/null
+      docker run --rm --network none --user 0 -v meshgauge_redis-data:/data \
+        -v "$dir:/backup:ro" --entrypoint sh "meshgauge-redis:$VERSION" -c \
+        "find /data -mindepth 1 -delete && tar xzf '/backup/$file' -C /data && chown -R redis:redis /data"
+      $COMPOSE start redis 2>/dev/null
+    fi
     ;;
   reload-balancer)
     $COMPOSE kill -s SIGUSR2 balancer 2>/dev/null
     ;;
   rotate-secrets)
+    if [ -n "$(docker service ls -q --filter name=meshgauge_balancer 2>/dev/null)" ]; then
+      echo "stack: the Swarm stack's secrets are Swarm secrets; rotate them with docker service update (docs/deployment.md)" >&2
+      exit 1
+    fi
     if [ "${2:-}" = --finish ]; then
       ./make-secrets.sh finish
-      $COMPOSE kill -s SIGHUP meshgauge 2>/dev/null
+      reload_replicas_tokens || exit 1
       echo "stack: only the token in deploy/secrets/token is accepted now"
     else
+      # The new token is published only once every replica re-read the
+      # tokens file and it passes through the balancer.
       ./make-secrets.sh rotate
-      $COMPOSE kill -s SIGHUP meshgauge 2>/dev/null
+      reload_replicas_tokens || exit 1
       $COMPOSE kill -s SIGUSR2 balancer 2>/dev/null
+      token_accepted "$(cat secrets/token.next)" || {
+        echo "stack: the new token is refused; the old token stays in use" >&2
+        exit 1
+      }
+      ./make-secrets.sh publish
       echo "stack: new certificate served; deploy/secrets/token is new and the old token still works. Move the clients to it, then: deploy/stack.sh rotate-secrets --finish"
     fi
     ;;
@@ -147,7 +227,7 @@ case "${1:-}" in
       esac
     done
     $COMPOSE down "${volumes[@]}" --remove-orphans
-    [ "$prune" = 1 ] && prune_build_stage
+    if [ "$prune" = 1 ]; then prune_build_stage; fi
     ;;
   swarm-up)
     check_ports
@@ -161,10 +241,10 @@ case "${1:-}" in
     ;;
   swarm-down)
     docker stack rm meshgauge
-    [ "${2:-}" = "--leave" ] && docker swarm leave --force
+    if [ "${2:-}" = "--leave" ]; then docker swarm leave --force; fi
     ;;
   *)
-    echo "usage: stack.sh up [REPLICAS] | scale N | rotate-secrets [--finish] | reload-balancer | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
+    echo "usage: stack.sh up [REPLICAS] | scale N | rotate-secrets [--finish] | backup-redis FILE | restore-redis FILE | reload-balancer | down [--volumes] [--prune] | swarm-up [REPLICAS] | swarm-down [--leave]" >&2
     exit 2
     ;;
 esac

@@ -71,14 +71,25 @@ absl::Status Authenticator::Reload(const std::string& path) {
   }
   auto loaded = FromFile(path);
   if (!loaded.ok()) return loaded.status();
-  std::lock_guard<std::mutex> lock(*mu_);
-  by_hash_ = std::move(loaded->by_hash_);
+  std::shared_ptr<const HashToTenant> table = loaded->Table();
+  std::lock_guard<std::mutex> lock(mu_);
+  by_hash_ = std::move(table);
   return absl::OkStatus();
+}
+
+Authenticator::Authenticator(Authenticator&& other) noexcept
+    : by_hash_(other.Table()) {}
+
+Authenticator& Authenticator::operator=(Authenticator&& other) noexcept {
+  std::shared_ptr<const HashToTenant> table = other.Table();
+  std::lock_guard<std::mutex> lock(mu_);
+  by_hash_ = std::move(table);
+  return *this;
 }
 
 std::shared_ptr<const Authenticator::HashToTenant> Authenticator::Table()
     const {
-  std::lock_guard<std::mutex> lock(*mu_);
+  std::lock_guard<std::mutex> lock(mu_);
   return by_hash_;
 }
 

@@ -23,6 +23,9 @@ class Authenticator {
  public:
   // Open mode: every caller is the tenant "" (no authentication).
   Authenticator() = default;
+  // Takes `other`'s tokens (which it keeps too).
+  Authenticator(Authenticator&& other) noexcept;
+  Authenticator& operator=(Authenticator&& other) noexcept;
   // Parses a tokens file. Errors: NotFound (unreadable), InvalidArgument
   // naming the line (bad tenant name, not 64 hex digits, repeated hash), or
   // an empty file.
@@ -52,7 +55,7 @@ class Authenticator {
   using HashToTenant = std::map<std::string, std::string>;  // hex sha256.
   std::shared_ptr<const HashToTenant> Table() const;
 
-  std::unique_ptr<std::mutex> mu_ = std::make_unique<std::mutex>();
+  mutable std::mutex mu_;
   std::shared_ptr<const HashToTenant> by_hash_;  // null: open mode.
 };
 

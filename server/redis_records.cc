@@ -513,7 +513,8 @@ absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
   rec.base_generation = Int(At(v, 5));
   rec.incarnation = Str(At(v, 6));
   rec.info.idle_seconds = IdleSeconds(Int(At(v, 7)));
-  if (rec.mesh.num_faces() != rec.info.num_faces) {
+  if (rec.mesh.num_faces() != rec.info.num_faces ||
+      rec.mesh.dimension != rec.info.dimension) {
     return absl::DataLossError("the session store holds a corrupt record");
   }
   return rec;

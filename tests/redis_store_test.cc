@@ -496,6 +496,17 @@ TEST_F(RedisStoreTest, ALiveUploadRenewsItsClaim) {
   w->Finish();
 }
 
+// A record whose facts and mesh disagree (a 2D session with triangles) is
+// DATA_LOSS when loaded, never a session.
+TEST_F(RedisStoreTest, ARecordWhoseFactsAndMeshDisagreeIsDataLoss) {
+  server::RedisRecords records(RecordsOptions());
+  server::SessionRecord rec = SmallRecord("odd", "one");
+  rec.info.dimension = 2;
+  ASSERT_TRUE(records.Create("", rec, kRoomy, "").ok());
+  EXPECT_EQ(records.Load("", "odd").status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
 // A creation retried after its reply was lost (same incarnation) succeeds
 // again instead of leaving an orphan; another incarnation is ALREADY_EXISTS.
 TEST_F(RedisStoreTest, RetriedCreateIsIdempotent) {
@@ -733,6 +744,17 @@ TEST(RecordConvertTest, CorruptBytesAreDataLoss) {
               absl::StatusCode::kDataLoss);
   }
   EXPECT_EQ(server::DecodePositions(p, nv + 1).status().code(),
+            absl::StatusCode::kDataLoss);
+  // A forged count whose triple wraps around to the doubles present.
+  const std::string two_doubles =
+      std::string("\x0a\x10", 2) + std::string(16, '\0');
+  EXPECT_EQ(
+      server::DecodePositions(two_doubles, 0x5555555555555556).status().code(),
+      absl::StatusCode::kDataLoss);
+  wire::SessionInfo huge;
+  huge.num_vertices = 1ll << 40;
+  huge.num_faces = 1;
+  EXPECT_EQ(server::DecodeInfo(server::EncodeInfo(huge)).status().code(),
             absl::StatusCode::kDataLoss);
   for (const std::string& bad : {std::string("\xff\xff"), std::string()}) {
     EXPECT_EQ(server::DecodeInfo(bad).status().code(),

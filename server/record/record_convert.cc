@@ -1,5 +1,6 @@
 #include "server/record/record_convert.h"
 
+#include <cstdint>
 #include <cstring>
 
 #include "absl/strings/str_cat.h"
@@ -31,7 +32,8 @@ std::string EncodeInfo(const wire::SessionInfo& info) {
 absl::StatusOr<wire::SessionInfo> DecodeInfo(const std::string& bytes) {
   v1::SessionInfo m;
   if (!m.ParseFromString(bytes) || (m.dimension() != 2 && m.dimension() != 3) ||
-      m.num_vertices() < 1 || m.num_faces() < 1 || m.memory_bytes() < 0) {
+      m.num_vertices() < 1 || m.num_vertices() > INT32_MAX ||
+      m.num_faces() < 1 || m.num_faces() > INT32_MAX || m.memory_bytes() < 0) {
     return Corrupt("info");
   }
   return wire::FromWire(m);
@@ -105,7 +107,8 @@ std::string EncodePositions(const std::vector<Vec3>& positions) {
 absl::StatusOr<std::vector<Vec3>> DecodePositions(const std::string& bytes,
                                                   int64_t expected_count) {
   record::Positions m;
-  if (!m.ParseFromString(bytes) || m.xyz_size() != 3 * expected_count) {
+  if (!m.ParseFromString(bytes) || m.xyz_size() % 3 != 0 ||
+      m.xyz_size() / 3 != expected_count) {
     return Corrupt("positions");
   }
   std::vector<Vec3> out(expected_count);

@@ -296,8 +296,8 @@ class UploadMemory(unittest.TestCase):
 
 class TokenRotation(unittest.TestCase):
     """SIGHUP re-reads the tokens file: a rotation lists the old and the new
-    token, then the new one alone; calls in between work with either, a
-    malformed file keeps the tokens, and no call sees another tenant."""
+    token, then the new one alone; calls in between work with either (and
+    see the tenant's sessions), a malformed file keeps the tokens."""
 
     @staticmethod
     def write(path, *lines):
