@@ -66,19 +66,32 @@ await_tcp "$hp"
 curl -sf "http://127.0.0.1:$health_port/healthz" >/dev/null ||
   fail "the balancer's health frontend did not answer 200"
 
+# Waits for 12 more iterations of the load (3 progress lines); $1 names the
+# moment for the failure message.
+await_progress() {
+  local before
+  before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
+  await_lines "$tmp/load.txt" '^iterations:' $((before + 2)) 300 ||
+    fail "the load made no progress $1"
+  kill -0 "$load_pid" 2>/dev/null || fail "the load ended $1"
+}
+# Waits for the load to end; fails with $1 unless it saw no error.
+finish_load() {
+  local rc=0
+  wait "$load_pid" || rc=$?
+  sed -n '/^errors:/,$p' "$tmp/load.txt"
+  [ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" || fail "$1"
+}
+
 "$load" --target "127.0.0.1:$hp" --clients 4 --iterations $((cycles * 150)) \
   --frequency 4 --session_prefix drain --time_limit_seconds 120 \
   --progress_every 4 >"$tmp/load.txt" 2>&1 &
 load_pid=$!
 for c in $(seq 1 "$cycles"); do
   r=$((c % 2))
-  # Each stop comes after 12 more iterations through both replicas.
-  done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
-  await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
-    fail "the load made no progress before stop $c"
+  await_progress "before stop $c"  # through both replicas.
   downs=$(grep -c "meshgauge/r$r is DOWN" "$tmp/haproxy.log" || true)
   ups=$(grep -c "meshgauge/r$r is UP" "$tmp/haproxy.log" || true)
-  kill -0 "$load_pid" 2>/dev/null || fail "the load ended before stop $c"
   t0=$(date +%s.%N)
   kill -TERM "${replica_pid[$r]}"
   await_log "meshgauge/r$r is DOWN" 35 "$downs" ||
@@ -91,11 +104,7 @@ for c in $(seq 1 "$cycles"); do
   await_log "meshgauge/r$r is UP" 100 "$ups" ||
     fail "the balancer did not take replica $r back within 10 s"
 done
-rc=0
-wait "$load_pid" || rc=$?
-sed -n '/^errors:/,$p' "$tmp/load.txt"
-[ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" ||
-  fail "a graceful stop cost the clients calls"
+finish_load "a graceful stop cost the clients calls"
 echo "PASS: $cycles graceful stops, each replica left the balancer before it stopped, no client saw an error"
 
 "$load" --target "127.0.0.1:$hp" --clients 4 --iterations 60 --retry=false \
@@ -103,20 +112,10 @@ echo "PASS: $cycles graceful stops, each replica left the balancer before it sto
   --progress_every 4 >"$tmp/load.txt" 2>&1 &
 load_pid=$!
 for c in 1 2 3; do
-  done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
-  await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
-    fail "the load made no progress before reload $c"
-  kill -0 "$load_pid" 2>/dev/null || fail "the load ended before reload $c"
+  await_progress "before reload $c"
   kill -USR2 "$haproxy_pid"
   echo "reload $c of the balancer"
 done
-done_before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
-await_lines "$tmp/load.txt" '^iterations:' $((done_before + 2)) 300 ||
-  fail "the load made no progress after the reloads"
-kill -0 "$load_pid" 2>/dev/null || fail "the load ended during the reloads"
-rc=0
-wait "$load_pid" || rc=$?
-sed -n '/^errors:/,$p' "$tmp/load.txt"
-[ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" ||
-  fail "a reload of the balancer cost a client without retries a call"
+await_progress "after the reloads"
+finish_load "a reload of the balancer cost a client without retries a call"
 echo "PASS: 3 reloads of the balancer, no client (without retries) saw an error"

@@ -223,6 +223,25 @@ absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
 absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
                                                         const SdfParams& params,
                                                         const SdfCall& call) {
+  // The channel's retry policy retries a call until its reply has started;
+  // a stream cut after that (its replica died: UNAVAILABLE, or UNKNOWN
+  // "Stream removed" through the balancer) is asked again, a read being
+  // safe to repeat.
+  for (int attempt = 1;; ++attempt) {
+    bool started = false;
+    auto reply = ComputeSdfOnce(id, params, call, &started);
+    const absl::StatusCode code = reply.status().code();
+    if (reply.ok() || !options_.retry || !started || attempt == 3 ||
+        (code != absl::StatusCode::kUnavailable &&
+         code != absl::StatusCode::kUnknown)) {
+      return reply;
+    }
+  }
+}
+
+absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdfOnce(
+    const std::string& id, const SdfParams& params, const SdfCall& call,
+    bool* started) {
   auto ctx = Context(id);
   v1::ComputeSdfRequest req;
   req.set_session_id(id);
@@ -240,6 +259,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
   bool summary = false;
   v1::ComputeSdfResponse msg;
   while (reader->Read(&msg)) {
+    *started = true;
     if (!parsed.ok()) continue;  // drain the stream, keep the first error.
     if (msg.has_summary()) {
       parsed = wire::FinishReply(msg.summary(), params, &out);

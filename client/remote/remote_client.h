@@ -99,7 +99,10 @@ class RemoteClient {
       const std::vector<Vec3>& positions,
       const std::vector<int32_t>& indices = {});
   // The SDF of the session's current positions (params.threads is not
-  // sent). Errors: the server's, DATA_LOSS for a malformed stream.
+  // sent). A stream cut after it started (UNAVAILABLE, UNKNOWN: its
+  // replica died) is asked again, three attempts in all, with
+  // options.retry; progress then starts again. Errors: the server's,
+  // DATA_LOSS for a malformed stream.
   absl::StatusOr<wire::SdfReply> ComputeSdf(const std::string& session_id,
                                             const SdfParams& params,
                                             const SdfCall& call = {});
@@ -141,6 +144,12 @@ class RemoteClient {
       const std::string& session_id) const;
 
  private:
+  // One ComputeSdf call; *started is set once a reply message arrived.
+  absl::StatusOr<wire::SdfReply> ComputeSdfOnce(const std::string& session_id,
+                                                const SdfParams& params,
+                                                const SdfCall& call,
+                                                bool* started);
+
   ClientOptions options_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MeshGauge::Stub> stub_;
