@@ -61,10 +61,7 @@ failed=0
 phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
   local name=$1 fault=$2
   local out="$REPORT/$name.txt"
-  docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
-    -v "$PWD/secrets:/secrets:ro" \
-    --entrypoint meshgauge-load "meshgauge:$MESHGAUGE_VERSION" \
-    --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
+  stack_tool meshgauge-load --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
     --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
     --frequency 16 --session_prefix "chaos-$name" --time_limit_seconds 600 \
     --progress_every 6 >"$out" 2>&1 &

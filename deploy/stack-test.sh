@@ -14,7 +14,6 @@
 set -euo pipefail
 cd "$(dirname "$0")"
 source ../scripts/lib.sh
-VERSION=$(meshgauge_version)
 FRONT=127.0.0.1:50051
 PROM=http://127.0.0.1:9090
 
@@ -36,16 +35,12 @@ cleanup() { ./stack.sh down --volumes >/dev/null 2>&1 || true; }
 trap cleanup EXIT
 
 # Tools run from the meshgauge image on the host network (loopback only),
-# with the stack's CA and token: TLS to the balancer, the token to the
-# replicas.
-SECRETS=(-v "$PWD/secrets:/secrets:ro")
+# as the operator's user (the token is theirs, mode 0600), with the stack's
+# CA and token: TLS to the balancer, the token to the replicas.
 TLS=(--tls-ca-file /secrets/ca.crt --token-file /secrets/token)
-# As the operator's user: the token is theirs, mode 0600.
-AS_ME=(--user "$(id -u):$(id -g)")
-tool() { docker run --rm --no-healthcheck --network host "${AS_ME[@]}" "${SECRETS[@]}" --entrypoint "$1" "meshgauge:$VERSION" "${@:2}"; }
 
 echo "== smoke test through the balancer ($FRONT)"
-docker run --rm --network host "${AS_ME[@]}" "${SECRETS[@]}" --entrypoint sh "meshgauge:$VERSION" -c "
+stack_tool sh -c "
   set -e
   R='--server $FRONT ${TLS[*]}'
   meshgauge shape sphere --radius 0.5 --size 0.05 --out /tmp/s.obj
@@ -59,9 +54,9 @@ docker run --rm --network host "${AS_ME[@]}" "${SECRETS[@]}" --entrypoint sh "me
   meshgauge remote delete smoke \$R"
 
 echo "== without the token, or without TLS, the stack refuses"
-if tool meshgauge remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
+if stack_tool meshgauge remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
   echo "FAIL: a call without a token was served"; exit 1; fi
-if tool meshgauge remote list --server "$FRONT" >/dev/null 2>&1; then
+if stack_tool meshgauge remote list --server "$FRONT" >/dev/null 2>&1; then
   echo "FAIL: a plaintext call was served"; exit 1; fi
 
 echo "== secrets: the certificate valid for a year, keys and token 0600"
@@ -79,13 +74,8 @@ served() {  # the fingerprint of the certificate the balancer serves
   openssl s_client -connect "$FRONT" </dev/null 2>/dev/null |
     openssl x509 -noout -fingerprint -sha256 2>/dev/null
 }
-listed_with() {  # TOKEN: exit status of a ListSessions call with it
-  docker run --rm --no-healthcheck --network host "${AS_ME[@]}" "${SECRETS[@]}" \
-    -e MESHGAUGE_TOKEN="$1" --entrypoint meshgauge "meshgauge:$VERSION" \
-    remote list --server "$FRONT" --tls-ca-file /secrets/ca.crt >/dev/null 2>&1
-}
 old_token=$(cat secrets/token)
-tool meshgauge-load --target "$FRONT" --tls_ca_file /secrets/ca.crt \
+stack_tool meshgauge-load --target "$FRONT" --tls_ca_file /secrets/ca.crt \
   --token_file /secrets/token --clients 6 --iterations 16 --frequency 16 \
   --time_limit_seconds 300 --progress_every 6 >/tmp/meshgauge-load-stack.txt 2>&1 &
 load=$!
@@ -97,17 +87,17 @@ kill -0 "$load" 2>/dev/null ||
 new_fp=$(openssl x509 -noout -fingerprint -sha256 -in secrets/server.crt)
 for _ in $(seq 1 100); do [ "$(served)" = "$new_fp" ] && break; sleep 0.1; done
 [ "$(served)" = "$new_fp" ] || { echo "FAIL: the balancer serves the old certificate"; exit 1; }
-listed_with "$(cat secrets/token)" || { echo "FAIL: the new token is refused"; exit 1; }
+stack_accepts_token "$(cat secrets/token)" || { echo "FAIL: the new token is refused"; exit 1; }
 rc=0
 wait "$load" || rc=$?
 grep -v '^iterations:' /tmp/meshgauge-load-stack.txt
 [ "$rc" -eq 0 ] && grep -q "^errors: 0" /tmp/meshgauge-load-stack.txt ||
   { echo "FAIL: the rotation cost the load client calls"; exit 1; }
-listed_with "$old_token" || { echo "FAIL: the old token was refused before --finish"; exit 1; }
+stack_accepts_token "$old_token" || { echo "FAIL: the old token was refused before --finish"; exit 1; }
 ./stack.sh rotate-secrets --finish
-for _ in $(seq 1 100); do listed_with "$old_token" || break; sleep 0.1; done
-if listed_with "$old_token"; then echo "FAIL: the old token still works after --finish"; exit 1; fi
-listed_with "$(cat secrets/token)" || { echo "FAIL: the new token is refused after --finish"; exit 1; }
+for _ in $(seq 1 100); do stack_accepts_token "$old_token" || break; sleep 0.1; done
+if stack_accepts_token "$old_token"; then echo "FAIL: the old token still works after --finish"; exit 1; fi
+stack_accepts_token "$(cat secrets/token)" || { echo "FAIL: the new token is refused after --finish"; exit 1; }
 echo "rotation: new certificate served, new token accepted, old token refused after --finish, 0 client errors"
 
 echo "== Prometheus"
@@ -129,12 +119,12 @@ echo "alert rules loaded: $rules"
 [ "$rules" -ge 5 ] || { echo "FAIL: alert rules not loaded"; exit 1; }
 
 echo "== Redis: a backup restored brings back a deleted session"
-tool sh -c "meshgauge shape sphere --radius 0.5 --size 0.1 --out /tmp/s.obj >/dev/null &&
+stack_tool sh -c "meshgauge shape sphere --radius 0.5 --size 0.1 --out /tmp/s.obj >/dev/null &&
   meshgauge remote upload /tmp/s.obj --session-id kept --server $FRONT ${TLS[*]} >/dev/null"
-listed() { tool meshgauge remote list --server "$FRONT" "${TLS[@]}" 2>/dev/null || true; }
+listed() { stack_tool meshgauge remote list --server "$FRONT" "${TLS[@]}" 2>/dev/null || true; }
 backup=$(mktemp -d)/redis.tgz
 ./stack.sh backup-redis "$backup"
-tool meshgauge remote delete kept --server "$FRONT" "${TLS[@]}"
+stack_tool meshgauge remote delete kept --server "$FRONT" "${TLS[@]}"
 listed | grep -q '^kept ' && { echo "FAIL: the session was not deleted"; exit 1; }
 ./stack.sh restore-redis "$backup"
 for _ in $(seq 1 20); do listed | grep -q '^kept ' && break; sleep 0.5; done

@@ -43,9 +43,8 @@ COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 # Waits until a health call through the balancer answers SERVING.
 wait_serving() {
   for _ in $(seq 1 90); do
-    if docker run --rm --network host -v "$PWD/secrets:/secrets:ro" \
-         --entrypoint meshgauge "meshgauge:$VERSION" remote health \
-         --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
+    if stack_tool meshgauge remote health --server 127.0.0.1:50051 \
+         --tls-ca-file /secrets/ca.crt >/dev/null 2>&1; then
       return 0
     fi
     sleep 1
@@ -119,11 +118,7 @@ RULES
 # Succeeds when a ListSessions call with token $1 passes (waits up to 10 s).
 token_accepted() {
   for _ in $(seq 1 20); do
-    docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
-      -v "$PWD/secrets:/secrets:ro" -e MESHGAUGE_TOKEN="$1" \
-      --entrypoint meshgauge "meshgauge:$VERSION" remote list \
-      --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1 &&
-      return 0
+    stack_accepts_token "$1" && return 0
     sleep 0.5
   done
   return 1

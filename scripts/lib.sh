@@ -77,6 +77,22 @@ stack_replica() {
     --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
 }
 
+# Runs the meshgauge image's program $1 with arguments $2... on the host
+# network as the caller's user, with the stack's secrets (./secrets, run
+# from deploy/) at /secrets and MESHGAUGE_TOKEN passed on when set.
+stack_tool() {
+  docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
+    -v "$PWD/secrets:/secrets:ro" ${MESHGAUGE_TOKEN:+-e MESHGAUGE_TOKEN} \
+    --entrypoint "$1" "meshgauge:$(meshgauge_version)" "${@:2}"
+}
+
+# Succeeds when a ListSessions call through the stack's balancer with token
+# $1 passes.
+stack_accepts_token() {
+  MESHGAUGE_TOKEN="$1" stack_tool meshgauge remote list \
+    --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1
+}
+
 # The release (the one line of VERSION at the repository's root).
 meshgauge_version() {
   head -1 "$(dirname "${BASH_SOURCE[0]}")/../VERSION"

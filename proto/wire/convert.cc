@@ -392,15 +392,22 @@ void AppendFlattened(absl::Span<const Vec3> v, int dimension,
   }
 }
 
+void AppendFaces(absl::Span<const Face> faces,
+                 google::protobuf::RepeatedField<int32_t>* sizes,
+                 google::protobuf::RepeatedField<int32_t>* indices) {
+  sizes->Reserve(sizes->size() + static_cast<int>(faces.size()));
+  for (const Face& f : faces) {
+    sizes->AddAlreadyReserved(f.size);
+    indices->Add(f.v.begin(), f.v.begin() + f.size);
+  }
+}
+
 void ToWire(const Mesh& mesh, int64_t generation, v1::GetMeshResponse* out) {
   out->set_dimension(mesh.dimension);
   out->set_generation(generation);
   AppendFlattened(mesh.positions, mesh.dimension, out->mutable_positions());
-  out->mutable_face_sizes()->Reserve(static_cast<int>(mesh.faces.size()));
-  for (const Face& f : mesh.faces) {
-    out->add_face_sizes(f.size);
-    for (int k = 0; k < f.size; ++k) out->add_face_indices(f.v[k]);
-  }
+  AppendFaces(mesh.faces, out->mutable_face_sizes(),
+              out->mutable_face_indices());
   out->mutable_face_regions()->Add(mesh.face_regions.begin(),
                                    mesh.face_regions.end());
 }

@@ -63,6 +63,10 @@ CalibrationReport FromWire(const v1::CalibrateResponse& r);
 // `dimension` doubles per vertex.
 void AppendFlattened(absl::Span<const Vec3> v, int dimension,
                      google::protobuf::RepeatedField<double>* out);
+// Each face's vertex count to `sizes`, its vertices to `indices`.
+void AppendFaces(absl::Span<const Face> faces,
+                 google::protobuf::RepeatedField<int32_t>* sizes,
+                 google::protobuf::RepeatedField<int32_t>* indices);
 // Errors: INVALID_ARGUMENT when the count is not a multiple of dimension or
 // a value is not finite.
 absl::StatusOr<std::vector<Vec3>> ToPoints(

@@ -67,11 +67,15 @@ bool WriteUpload(
                           .subspan(begin, static_cast<size_t>(step)),
                       mesh.dimension, c->mutable_positions());
     }
-    for (int64_t f = begin; f < std::min(begin + step, mesh.num_faces()); ++f) {
-      const Face& face = mesh.faces[f];
-      c->add_face_sizes(face.size);
-      for (int k = 0; k < face.size; ++k) c->add_face_indices(face.v[k]);
-      if (!mesh.face_regions.empty()) c->add_face_regions(mesh.face_regions[f]);
+    if (begin < mesh.num_faces()) {
+      const size_t end =
+          static_cast<size_t>(std::min(begin + step, mesh.num_faces()));
+      AppendFaces(absl::MakeConstSpan(mesh.faces).subspan(begin, end - begin),
+                  c->mutable_face_sizes(), c->mutable_face_indices());
+      if (!mesh.face_regions.empty()) {
+        c->mutable_face_regions()->Add(mesh.face_regions.begin() + begin,
+                                       mesh.face_regions.begin() + end);
+      }
     }
     crc.Add(*c);
     if (!write(req)) return false;

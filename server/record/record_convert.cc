@@ -42,11 +42,8 @@ absl::StatusOr<wire::SessionInfo> DecodeInfo(const std::string& bytes) {
 std::string EncodeTopology(const Mesh& mesh) {
   record::Topology m;
   m.set_dimension(mesh.dimension);
-  m.mutable_face_sizes()->Reserve(mesh.num_faces());
-  for (const Face& f : mesh.faces) {
-    m.add_face_sizes(f.size);
-    for (int k = 0; k < f.size; ++k) m.add_face_vertices(f.v[k]);
-  }
+  wire::AppendFaces(mesh.faces, m.mutable_face_sizes(),
+                    m.mutable_face_vertices());
   m.mutable_face_regions()->Add(mesh.face_regions.begin(),
                                 mesh.face_regions.end());
   for (const auto& [region, dir] : mesh.region_directions) {
