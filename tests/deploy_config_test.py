@@ -1,4 +1,4 @@
-"""The deployment's monitoring files name only metrics the server exports.
+"""The deployment's files: monitoring, balancer health check, stack.sh.
 
 Every metric in the alert rules and the Grafana dashboard must be one that
 server/metrics.cc registers (or Prometheus' own `up`, or the Redis
@@ -6,7 +6,9 @@ exporter's `redis_up`), the dashboard must be Grafana JSON with a Prometheus
 target per panel, and the rules must cover replica down, error ratio, p95
 latency and Redis down. The balancer's health check, raw HTTP/2 frames in
 hex, must be deploy/haproxy/health_check.py's output and decode to a
-grpc.health.v1.Health/Check call that passes only on SERVING.
+grpc.health.v1.Health/Check call that passes only on SERVING. Swarm and
+compose name their volumes apart, and stack.sh refuses bad arguments before
+it calls Docker.
 """
 
 import json
@@ -84,6 +86,40 @@ class DeployConfigTest(unittest.TestCase):
              os.path.join(ROOT, "deploy", "haproxy", "health_check.py")],
             check=True, capture_output=True, text=True).stdout
         self.assertEqual(block.group(1), generated.rstrip("\n"))
+
+    def test_swarm_and_compose_volumes_are_named_apart(self):
+        compose = re.search(r"\nvolumes:\n((?:  .*\n)+)",
+                            read("deploy", "docker-compose.yml")).group(1)
+        swarm = re.search(r"\nvolumes:\n((?:  .*\n)+)",
+                          read("deploy", "stack.yml")).group(1)
+        # Compose prefixes its project name: meshgauge_redis-data.
+        compose_names = {f"meshgauge_{v}"
+                         for v in re.findall(r"^  ([\w-]+):", compose, re.M)}
+        swarm_names = set(re.findall(r"name: ([\w-]+)", swarm))
+        self.assertEqual(len(swarm_names), 2, swarm)
+        self.assertFalse(compose_names & swarm_names)
+
+    def test_stack_refuses_bad_arguments_before_docker(self):
+        """stack.sh exits 2 on a count that is not a number and an unknown
+        `down` flag, before it calls Docker (the docker commands on PATH
+        here only say they were called)."""
+        env = dict(os.environ)
+        bin_dir = subprocess.run(["mktemp", "-d"], capture_output=True,
+                                 text=True, check=True).stdout.strip()
+        for tool in ("docker", "docker-compose"):
+            path = os.path.join(bin_dir, tool)
+            with open(path, "w") as f:
+                f.write("#!/bin/sh\necho called >&2\nexit 99\n")
+            os.chmod(path, 0o755)
+        env["PATH"] = bin_dir + ":/usr/bin:/bin"
+        for args in (["scale", "two"], ["scale", "-1"], ["up", "2x"],
+                     ["down", "--bogus"]):
+            r = subprocess.run(["bash", os.path.join(ROOT, "deploy", "stack.sh"),
+                                *args],
+                               capture_output=True, text=True, env=env,
+                               timeout=60)
+            self.assertEqual(r.returncode, 2, (args, r.stderr))
+            self.assertNotIn("called", r.stderr, args)
 
     def test_balancer_health_check_is_a_grpc_health_call(self):
         cfg = read("deploy", "haproxy", "haproxy.cfg")
