@@ -16,10 +16,11 @@
 // last generation (else it was lost). Prints "concurrent phase: started"
 // when the clients start and, with --progress_every K, "iterations: N" after
 // every K-th iteration (tests inject their faults while calls flow),
-// throughput, p50/p95/p99 latency per RPC, errors by status code,
+// throughput, p50/p95/p99/max latency per RPC, errors by status code,
 // mismatches and lost sessions; exits 0 iff there were no mismatches, no
-// lost sessions and (without --recreate) no errors, or (with --recreate)
-// every client finished.
+// lost sessions, no call slower than --max_latency_seconds (when given) and
+// (without --recreate) no errors, or (with --recreate) every client
+// finished.
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -52,6 +53,8 @@ ABSL_FLAG(bool, retry, true,
 ABSL_FLAG(int, progress_every, 0,
           "print \"iterations: N\" after every K-th concurrent iteration "
           "(K; 0: never)");
+ABSL_FLAG(double, max_latency_seconds, 0,
+          "fail if any call took longer, retries included (0: no bound)");
 ABSL_FLAG(std::string, tls_ca_file, "", "connect with TLS, trusting this CA");
 ABSL_FLAG(std::string, token_file, "",
           "bearer token file (default: MESHGAUGE_TOKEN)");
@@ -283,12 +286,22 @@ int Run() {
       stats.iterations / wall, static_cast<long long>(stats.iterations),
       finished.load(), clients, static_cast<long long>(stats.recreated));
   std::printf(
-      "| RPC | calls | p50 ms | p95 ms | p99 ms |\n| --- | --- | --- | --- | "
-      "--- |\n");
+      "| RPC | calls | p50 ms | p95 ms | p99 ms | max ms |\n| --- | --- | --- "
+      "| --- | --- | --- |\n");
+  const double bound = absl::GetFlag(FLAGS_max_latency_seconds);
+  int64_t over_bound = 0;
   for (const auto& [rpc, v] : stats.latency) {
-    std::printf("| %s | %zu | %.1f | %.1f | %.1f |\n", rpc.c_str(), v.size(),
-                1e3 * Percentile(v, 0.5), 1e3 * Percentile(v, 0.95),
-                1e3 * Percentile(v, 0.99));
+    std::printf("| %s | %zu | %.1f | %.1f | %.1f | %.1f |\n", rpc.c_str(),
+                v.size(), 1e3 * Percentile(v, 0.5), 1e3 * Percentile(v, 0.95),
+                1e3 * Percentile(v, 0.99), 1e3 * Percentile(v, 1.0));
+    if (bound > 0) {
+      over_bound +=
+          std::ranges::count_if(v, [&](double t) { return t > bound; });
+    }
+  }
+  if (bound > 0) {
+    std::printf("calls slower than %.1f s: %lld\n", bound,
+                static_cast<long long>(over_bound));
   }
   std::printf("errors: %lld\n", static_cast<long long>(errors));
   stats.PrintErrors();
@@ -305,7 +318,7 @@ int Run() {
               static_cast<long long>(calls), static_cast<long long>(errors),
               static_cast<long long>(stats.lost));
   const bool pass =
-      stats.mismatches == 0 && stats.lost == 0 &&
+      stats.mismatches == 0 && stats.lost == 0 && over_bound == 0 &&
       (absl::GetFlag(FLAGS_recreate) ? finished == clients
                                      : errors == 0 && finished == clients);
   std::printf("%s\n", pass ? "PASS" : "FAIL");

@@ -9,12 +9,19 @@
 #   restart  the replicas in turn are restarted (graceful stop, start;
 #            CHAOS_RESTARTS times, default 2: each once)
 #   scale    a third replica is added (deploy/stack.sh scale 3)
+#   pause    a replica's server process is stopped (SIGSTOP) for
+#            CHAOS_PAUSE_SECONDS (default 20), then continued: a hung
+#            replica, which still accepts connections. No call may take
+#            longer than CHAOS_MAX_LATENCY (default 10 s): the balancer
+#            ends the calls of a replica that stops answering its health
+#            checks (haproxy.cfg), and they are retried elsewhere.
 #   stop     a replica is stopped gracefully (drain) and stays down
 #   redis    Redis is restarted (its AOF keeps the sessions)
 # A plain gRPC client written from the proto (deploy/plain_client.py, only
 # gRPC's UNAVAILABLE retry policy) runs through all phases.
 # Pass: every phase with 0 client-visible errors, 0 mismatches, 0 sessions
-# lost; the plain client with 0 NOT_FOUND. Per phase it reports calls,
+# lost, and in the pause phase no call over the bound; the plain client
+# with 0 NOT_FOUND. Per phase it reports calls,
 # retried attempts (the replicas' meshgauge_rpc_retried_attempts_total in
 # Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end.
 set -euo pipefail
@@ -26,6 +33,8 @@ export MESHGAUGE_VERSION
 PROM=http://127.0.0.1:9090
 ITERATIONS=${CHAOS_ITERATIONS:-30}
 RESTARTS=${CHAOS_RESTARTS:-2}
+PAUSE_SECONDS=${CHAOS_PAUSE_SECONDS:-20}
+MAX_LATENCY=${CHAOS_MAX_LATENCY:-10}
 REPORT=/tmp/meshgauge-chaos
 mkdir -p "$REPORT"
 
@@ -58,13 +67,14 @@ healthy() {  # waits until N replicas report healthy
 }
 
 failed=0
-phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
+phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clients run)
   local name=$1 fault=$2
+  shift 2
   local out="$REPORT/$name.txt"
   stack_tool meshgauge-load --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
     --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
     --frequency 16 --session_prefix "chaos-$name" --time_limit_seconds 600 \
-    --progress_every 6 >"$out" 2>&1 &
+    --progress_every 6 "$@" >"$out" 2>&1 &
   local load=$!
   # The fault comes once the clients have made calls (6 iterations).
   await_lines "$out" '^iterations:' 0 1200 ||
@@ -83,7 +93,8 @@ phase() {  # NAME "FAULT COMMAND" (evaluated once the clients run)
   local retries
   retries=$(retried $((SECONDS - start + 5)))
   echo "-- $name: $(grep -E '^calls:' "$out"), retried attempts ${retries:-0}"
-  grep -E '^\| |^errors:|^  |mismatches|^PASS|^FAIL' "$out" | sed 's/^/   /'
+  grep -E '^\| |^errors:|^  |mismatches|slower than|^PASS|^FAIL' "$out" |
+    sed 's/^/   /'
   if [ "$rc" -ne 0 ] || ! grep -q "^errors: 0" "$out" ||
      ! grep -q "sessions lost: 0" "$out"; then
     echo "FAIL: phase $name"
@@ -107,6 +118,15 @@ restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
 phase restart restarts
 healthy 2
 phase scale './stack.sh scale 3'
+healthy 3
+hang() {  # replica $1's server process stops for PAUSE_SECONDS, then goes on
+  local pid
+  pid=$(docker inspect -f '{{.State.Pid}}' "$(stack_replica "$1")")
+  kill -STOP "$pid"
+  sleep "$PAUSE_SECONDS"
+  kill -CONT "$pid"
+}
+phase pause 'hang 2' --max_latency_seconds "$MAX_LATENCY"
 healthy 3
 phase stop 'docker stop -t 30 "$(stack_replica 1)" >/dev/null'
 phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)" >/dev/null'

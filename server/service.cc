@@ -223,22 +223,36 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
 grpc::Status MeshGaugeService::BoundedCreateSession(
     grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     v1::CreateSessionResponse* response) {
-  return Instrumented(
+  UploadProgress progress;
+  grpc::Status status = Instrumented(
       "CreateSession", ctx, [&](const std::string& tenant) -> absl::Status {
         auto upload = uploads_->Start(ctx);
         if (!upload.ok()) return upload.status();
-        int64_t received = 0;
         absl::Status s =
-            ReceiveUpload(ctx, reader, tenant, *upload, response, &received);
+            ReceiveUpload(ctx, reader, tenant, *upload, response, &progress);
         if (absl::Status aborted = uploads_->Finish(*upload); !aborted.ok()) {
           s = aborted;
         }
         // A refused upload that received over 1 MiB: give the freed pages
         // back to the system (trimming takes every arena's lock, so not for
         // small ones).
-        if (!s.ok() && received > kTrimAfterBytes) malloc_trim(0);
+        if (!s.ok() && progress.received > kTrimAfterBytes) malloc_trim(0);
         return s;
       });
+  if (!status.ok() && !progress.ended) DiscardRest(ctx, reader);
+  return status;
+}
+
+void MeshGaugeService::DiscardRest(grpc::ServerContext* ctx,
+                                   grpc::ServerReader<UploadMessage>* reader) {
+  if (ctx->IsCancelled()) return;
+  auto discard = uploads_->StartDiscard(ctx);
+  if (!discard.ok()) return;
+  UploadMessage message(/*limit=*/0);  // no message is parsed.
+  while (reader->Read(&message) &&
+         uploads_->Touch(*discard, message.received_bytes).ok()) {
+  }
+  (void)uploads_->Finish(*discard);
 }
 
 absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(
@@ -276,13 +290,13 @@ absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(
 absl::Status MeshGaugeService::ReceiveUpload(
     grpc::ServerContext* ctx, grpc::ServerReader<UploadMessage>* reader,
     const std::string& tenant, int64_t upload,
-    v1::CreateSessionResponse* response, int64_t* received) {
+    v1::CreateSessionResponse* response, UploadProgress* progress) {
   MeshAssembler assembler(options_);
   UploadReservation ticket;
   bool reserved = false;
   UploadMessage message(options_.max_upload_message_bytes);
   while (reader->Read(&message)) {
-    *received += message.received_bytes;
+    progress->received += message.received_bytes;
     if (!message.refused.empty()) {
       return absl::ResourceExhaustedError(message.refused);
     }
@@ -303,6 +317,7 @@ absl::Status MeshGaugeService::ReceiveUpload(
       reserved = true;
     }
   }
+  progress->ended = true;
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
   auto mesh = BuildUploadedMesh(ctx, assembler, ticket);
   if (!mesh.ok()) return mesh.status();

@@ -107,13 +107,26 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   template <typename Body>
   grpc::Status Instrumented(const char* method, const grpc::ServerContext* ctx,
                             Body body);
-  // The CreateSession stream after its upload slot was taken; *received
-  // counts the bytes of its messages.
+  struct UploadProgress {
+    int64_t received = 0;  // bytes of the messages read.
+    bool ended = false;    // the client's stream was read to its end.
+  };
+  // The CreateSession stream after its upload slot was taken.
   absl::Status ReceiveUpload(grpc::ServerContext* ctx,
                              grpc::ServerReader<UploadMessage>* reader,
                              const std::string& tenant, int64_t upload,
                              v1::CreateSessionResponse* response,
-                             int64_t* received);
+                             UploadProgress* progress);
+  // Reads and drops the rest of an upload refused before its client
+  // finished sending, so that the refusal ends a complete request: an
+  // HTTP/2 proxy such as HAProxy 2.6 (haproxy issue 1219) loses a reply that
+  // closes a stream the client still sends on, together with the
+  // RST_STREAM(NO_ERROR) that follows it, and gives the client CANCELLED
+  // instead of the status. Bounded by UploadWatch::StartDiscard (at most
+  // kMaxDiscards at once, kMaxDiscardBytes, kMaxDiscardSeconds, and the idle
+  // abort); past a bound the refusal is sent at once.
+  void DiscardRest(grpc::ServerContext* ctx,
+                   grpc::ServerReader<UploadMessage>* reader);
   // The mesh of a received upload (its footer arrived): read or built
   // within the server's limits and `ticket`, repaired and diagnosed.
   absl::StatusOr<RepairedMesh> BuildUploadedMesh(

@@ -5,16 +5,34 @@
 namespace meshgauge::server {
 
 absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContext* ctx) {
+  return Add(ctx, /*discard=*/false);
+}
+
+absl::StatusOr<int64_t> UploadWatch::StartDiscard(grpc::ServerContext* ctx) {
+  return Add(ctx, /*discard=*/true);
+}
+
+absl::StatusOr<int64_t> UploadWatch::Add(grpc::ServerContext* ctx,
+                                         bool discard) {
   std::lock_guard<std::mutex> lock(mu_);
-  if (std::ssize(uploads_) >= options_.max_concurrent_uploads) {
-    return absl::ResourceExhaustedError(absl::StrCat(
-        options_.max_concurrent_uploads,
-        " uploads are already in flight (--max_concurrent_uploads); "
-        "retry later"));
+  if (discard ? discards_ >= kMaxDiscards
+              : std::ssize(uploads_) - discards_ >=
+                    options_.max_concurrent_uploads) {
+    return absl::ResourceExhaustedError(
+        discard ? absl::StrCat(kMaxDiscards, " refused uploads are being read")
+                : absl::StrCat(options_.max_concurrent_uploads,
+                               " uploads are already in flight "
+                               "(--max_concurrent_uploads); retry later"));
   }
   const int64_t id = next_++;
   const double now = clock_->NowSeconds();
-  uploads_.emplace(id, Entry{ctx, now, now});
+  uploads_.emplace(id, Entry{.ctx = ctx,
+                             .start = now,
+                             .last = now,
+                             .bytes = 0,
+                             .aborted = false,
+                             .discard = discard});
+  discards_ += discard;
   return id;
 }
 
@@ -27,6 +45,14 @@ absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
   e.last = now;
   e.bytes += bytes;
   const double elapsed = now - e.start;
+  if (e.discard) {
+    if (e.bytes <= kMaxDiscardBytes && elapsed <= kMaxDiscardSeconds) {
+      return absl::OkStatus();
+    }
+    return absl::OutOfRangeError(
+        absl::StrCat("a refused upload's remainder reached ", e.bytes,
+                     " bytes in ", elapsed, " s"));
+  }
   if (elapsed > options_.upload_deadline_seconds) {
     return absl::DeadlineExceededError(absl::StrCat(
         "CreateSession: the upload is still running after ",
@@ -47,6 +73,7 @@ absl::Status UploadWatch::Finish(int64_t id) {
   auto it = uploads_.find(id);
   if (it == uploads_.end()) return absl::OkStatus();
   const bool aborted = it->second.aborted;
+  discards_ -= it->second.discard;
   uploads_.erase(it);
   if (!aborted) return absl::OkStatus();
   return absl::DeadlineExceededError(

@@ -4,7 +4,8 @@
 // than --upload_deadline_seconds or, after its first --upload_idle_seconds,
 // averaging fewer than --upload_min_bytes_per_second (DEADLINE_EXCEEDED);
 // so a client that opens an upload and goes silent, or trickles bytes,
-// holds neither a thread nor its reservation for long.
+// holds neither a thread nor its reservation for long. It also bounds the
+// reading of refused uploads' remainders (StartDiscard).
 #pragma once
 
 #include <grpcpp/grpcpp.h>
@@ -20,6 +21,13 @@
 
 namespace meshgauge::server {
 
+// Bounds on the remainder of a refused upload read and dropped before the
+// refusal is sent (StartDiscard): at most kMaxDiscards at once, each at
+// most kMaxDiscardBytes and kMaxDiscardSeconds.
+inline constexpr int kMaxDiscards = 4;
+inline constexpr int64_t kMaxDiscardBytes = int64_t{64} << 20;
+inline constexpr double kMaxDiscardSeconds = 5;
+
 class UploadWatch {
  public:
   // options and clock must outlive the watch.
@@ -28,8 +36,14 @@ class UploadWatch {
 
   // Registers an upload; RESOURCE_EXHAUSTED when max_concurrent are running.
   absl::StatusOr<int64_t> Start(grpc::ServerContext* ctx);
+  // Registers the remainder of a refused upload, to be read and dropped
+  // (see MeshGaugeService::DiscardRest); RESOURCE_EXHAUSTED when
+  // kMaxDiscards are running. Discards do not count against
+  // max_concurrent_uploads, so refused callers take no upload slot.
+  absl::StatusOr<int64_t> StartDiscard(grpc::ServerContext* ctx);
   // A message of `bytes` arrived. DEADLINE_EXCEEDED, naming the flag, when
-  // the upload is past its deadline or below the minimum rate.
+  // the upload is past its deadline or below the minimum rate; for a
+  // discard, OUT_OF_RANGE past kMaxDiscardBytes or kMaxDiscardSeconds.
   absl::Status Touch(int64_t id, int64_t bytes);
   // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
   absl::Status Finish(int64_t id);
@@ -42,13 +56,16 @@ class UploadWatch {
     double start, last;
     int64_t bytes = 0;
     bool aborted = false;
+    bool discard = false;
   };
+  absl::StatusOr<int64_t> Add(grpc::ServerContext* ctx, bool discard);
 
   const ServerOptions& options_;
   const Clock* clock_;
   std::mutex mu_;
   int64_t next_ = 0;
   std::map<int64_t, Entry> uploads_;
+  int64_t discards_ = 0;  // entries of uploads_ that are discards.
 };
 
 }  // namespace meshgauge::server

@@ -142,13 +142,17 @@ class DeployConfigTest(unittest.TestCase):
         # Healthy: a 2-byte HealthCheckResponse, status (field 1, varint) =
         # SERVING (1). The first expect waits for the reply up to the
         # status value (HAProxy matches rbinary on upper-case hex, from a
-        # byte boundary); the second decides.
+        # byte boundary); the second decides: NOT_SERVING (draining) is a
+        # conditional pass (out of the rotation, calls in flight go on).
         serving = b"\0" + (2).to_bytes(4, "big") + bytes([1 << 3 | 0, 1])
         expects = re.findall(r"^\s*tcp-check expect (.+?) comment", cfg, re.M)
         self.assertEqual(expects, [
             "rbinary ^([0-9A-F]{2})*" + serving[:-1].hex().upper(),
-            "min-recv 0 binary " + serving.hex()])
-        self.assertRegex(cfg, r"default-server proto h2 check check-proto none ")
+            "min-recv 0 error-status L7OKC binary " + serving.hex()])
+        server = re.search(r"^\s*default-server (.*)$", cfg, re.M).group(1)
+        self.assertTrue(server.startswith("proto h2 check check-proto none "))
+        # A replica marked DOWN (no answer: hung) has its calls ended.
+        self.assertIn("on-marked-down shutdown-sessions", server)
         self.assertRegex(cfg, r"\n\s*option tcp-check\n\s*tcp-check connect\n")
 
 

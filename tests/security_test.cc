@@ -11,11 +11,14 @@
 #include <fstream>
 #include <functional>
 #include <thread>
+#include <vector>
 
 #include "absl/strings/str_replace.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/gradcheck.h"
 #include "server/auth.h"
+#include "server/upload_watch.h"
+#include "tests/fake_clock.h"
 #include "tests/server_test_util.h"
 #include "tests/tls_test_util.h"
 
@@ -308,6 +311,33 @@ TEST(AuthenticatorTest, ReloadRotatesATenantsTokenAndKeepsTheOldTableOnError) {
   std::remove(path.c_str());
 }
 
+// Refused callers' remainders: a cap of their own (they take no upload
+// slot), and bounds on bytes and time.
+TEST(UploadWatchTest, DiscardsAreCappedApartFromUploadsAndBounded) {
+  server::ServerOptions o;
+  o.max_concurrent_uploads = 1;
+  testing::FakeClock clock;
+  server::UploadWatch watch(o, &clock);
+  std::vector<int64_t> discards;
+  for (int i = 0; i < server::kMaxDiscards; ++i) {
+    auto d = watch.StartDiscard(nullptr);
+    ASSERT_TRUE(d.ok()) << d.status();
+    discards.push_back(*d);
+  }
+  EXPECT_EQ(watch.StartDiscard(nullptr).status().code(),
+            absl::StatusCode::kResourceExhausted);
+  auto upload = watch.Start(nullptr);
+  ASSERT_TRUE(upload.ok()) << upload.status();
+  EXPECT_EQ(watch.Start(nullptr).status().code(),
+            absl::StatusCode::kResourceExhausted);
+  EXPECT_TRUE(watch.Touch(discards[0], server::kMaxDiscardBytes).ok());
+  EXPECT_EQ(watch.Touch(discards[0], 1).code(), absl::StatusCode::kOutOfRange);
+  clock.Advance(server::kMaxDiscardSeconds + 0.1);
+  EXPECT_EQ(watch.Touch(discards[1], 1).code(), absl::StatusCode::kOutOfRange);
+  EXPECT_TRUE(watch.Finish(discards[0]).ok());
+  EXPECT_TRUE(watch.StartDiscard(nullptr).ok());
+}
+
 // Raw CreateSession streams, as an attacker writes them.
 class UploadAttackTest : public testing::ServerFixture {
  protected:
@@ -315,6 +345,12 @@ class UploadAttackTest : public testing::ServerFixture {
   std::unique_ptr<Writer> Open(grpc::ClientContext* ctx,
                                v1::CreateSessionResponse* resp) {
     return client_->stub().CreateSession(ctx, resp);
+  }
+  // Ends the stream as clients do (a refusal waits for the client's end of
+  // stream: see MeshGaugeService::DiscardRest) and returns the status.
+  static grpc::Status Close(Writer& w) {
+    w.WritesDone();
+    return w.Finish();
   }
   static v1::CreateSessionRequest Header(int64_t nv, int64_t nf,
                                          const std::string& id = "") {
@@ -333,7 +369,7 @@ class UploadAttackTest : public testing::ServerFixture {
     grpc::ClientContext ctx;
     v1::CreateSessionResponse resp;
     auto w = Open(&ctx, &resp);
-    if (!w->Write(Header(1000, 1000))) return w->Finish();
+    if (!w->Write(Header(1000, 1000))) return Close(*w);
     v1::CreateSessionRequest vertex;
     for (int i = 0; i < 3; ++i) vertex.mutable_chunk()->add_positions(0.5);
     for (int i = 0; i < 20; ++i) {
@@ -341,7 +377,7 @@ class UploadAttackTest : public testing::ServerFixture {
       if (!w->Write(vertex)) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(60));
     }
-    return w->Finish();
+    return Close(*w);
   }
 };
 
@@ -354,9 +390,51 @@ TEST_F(UploadAttackTest, DeclaredSizeOverTheBudgetIsRefusedAtTheHeader) {
   auto w = Open(&ctx, &resp);
   ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
   // The server answers without waiting for any data.
-  const grpc::Status s = w->Finish();
+  const grpc::Status s = Close(*w);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(s.error_message(), HasSubstr("memory budget"));
+}
+
+// A refusal before the client finished sending is sent after its stream
+// ends (a proxy such as HAProxy 2.6 would give the client CANCELLED
+// instead): every write of a 16 MiB remainder is taken, then the status.
+// Without the discard, the writes fail once the server's reply resets the
+// stream.
+TEST_F(UploadAttackTest, ARefusedUploadIsReadToItsEndBeforeTheRefusal) {
+  server::ServerOptions o;
+  o.memory_budget_bytes = 64 << 20;
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
+  v1::CreateSessionRequest chunk;
+  for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
+  int written = 0;
+  while (written < 16 && w->Write(chunk)) ++written;
+  EXPECT_EQ(written, 16);
+  const grpc::Status s = Close(*w);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  EXPECT_THAT(s.error_message(), HasSubstr("memory budget"));
+}
+
+// The remainder read is bounded: past kMaxDiscardBytes the refusal goes out
+// and the writes fail.
+TEST_F(UploadAttackTest, ARefusedUploadsRemainderIsReadOnlyToItsBound) {
+  server::ServerOptions o;
+  o.memory_budget_bytes = 64 << 20;
+  RestartServer(o);
+  grpc::ClientContext ctx;
+  v1::CreateSessionResponse resp;
+  auto w = Open(&ctx, &resp);
+  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
+  v1::CreateSessionRequest chunk;
+  for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
+  const int64_t limit = server::kMaxDiscardBytes / chunk.ByteSizeLong() + 16;
+  int64_t written = 0;
+  while (written < limit && w->Write(chunk)) ++written;
+  EXPECT_LT(written, limit);
+  EXPECT_EQ(Close(*w).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
 }
 
 TEST_F(UploadAttackTest, IndicesWithoutSizesStopAtTheFirstExcessChunk) {
@@ -368,7 +446,7 @@ TEST_F(UploadAttackTest, IndicesWithoutSizesStopAtTheFirstExcessChunk) {
   for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
   int written = 0;
   while (written < 25 && w->Write(chunk)) ++written;
-  const grpc::Status s = w->Finish();
+  const grpc::Status s = Close(*w);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(s.error_message(),
               HasSubstr("more face indices than the declared 1"));
@@ -427,7 +505,7 @@ TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
   testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   ASSERT_EQ(server_->store().reserved_uploads(), 1);
   clock_.Advance(1);  // the upload is now idle on the server's clock.
-  const grpc::Status s = w->Finish();
+  const grpc::Status s = Close(*w);
   EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
   testing::WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
@@ -482,7 +560,7 @@ TEST_F(UploadAttackTest, AChunkOverTheDeclaredCountsIsRefusedWhole) {
     v1::CreateSessionRequest chunk;
     k.fill(chunk.mutable_chunk());
     w->Write(chunk);
-    const grpc::Status s = w->Finish();
+    const grpc::Status s = Close(*w);
     EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT) << k.field;
     EXPECT_THAT(s.error_message(), HasSubstr(k.field));
     EXPECT_THAT(s.error_message(), HasSubstr("declared 4"));
@@ -509,7 +587,7 @@ TEST_F(UploadAttackTest, AHeaderAloneEvictsNothing) {
   EXPECT_TRUE(client_->Get("victim").ok());
   auto w2 = Open(&c2, &r2);
   w2->Write(Header(nv, nf));
-  const grpc::Status refused = w2->Finish();
+  const grpc::Status refused = Close(*w2);
   EXPECT_EQ(refused.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(refused.error_message(), HasSubstr("uploads in flight"));
   EXPECT_TRUE(client_->Get("victim").ok());
@@ -533,7 +611,7 @@ TEST_F(UploadAttackTest, DuplicateRegionDirectionsAreRejected) {
                              : v1::CONE_DIRECTION_OUTWARD);
   }
   w->Write(h);
-  const grpc::Status s = w->Finish();
+  const grpc::Status s = Close(*w);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_THAT(s.error_message(), HasSubstr("region 4 is listed twice"));
 }
@@ -601,6 +679,7 @@ TEST_F(LimitsTest, AHeaderOfManyRegionDirectionsIsRefusedUnparsed) {
   h.mutable_header()->set_num_faces(1);
   for (int i = 0; i < 600'000; ++i) h.mutable_header()->add_region_directions();
   w->Write(h);
+  w->WritesDone();
   const grpc::Status s = w->Finish();
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(s.error_message(), HasSubstr("region directions"));

@@ -1,6 +1,7 @@
 // meshgauge: shape diameter function of surface meshes from the command line.
-// Usage errors exit 2, runtime errors 1 (one line "meshgauge: error: ..."),
-// --help and --version 0.
+// Usage errors exit 2, runtime errors 1 (one line "meshgauge: error: ...";
+// under `remote`, the server's gRPC status code first), --help and
+// --version 0.
 #include <malloc.h>
 
 #include <CLI/CLI.hpp>
@@ -8,6 +9,7 @@
 #include <iostream>
 #include <string>
 
+#include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "client/cli/backend.h"
@@ -243,7 +245,14 @@ int Main(int argc, char** argv) {
   }
   const absl::Status status = run();
   if (!status.ok()) {
-    std::cerr << "meshgauge: error: " << status.message() << "\n";
+    // A remote caller tells a refusal (UNAUTHENTICATED, RESOURCE_EXHAUSTED)
+    // from a server gone (UNAVAILABLE) by its code.
+    std::cerr << "meshgauge: error: "
+              << (remote->parsed()
+                      ? status.ToString(
+                            absl::StatusToStringMode::kWithNoExtraData)
+                      : std::string(status.message()))
+              << "\n";
     return 1;
   }
   return 0;

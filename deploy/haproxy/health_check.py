@@ -75,12 +75,15 @@ def lines():
     out = [f"  tcp-check send-binary {data.hex()} comment \"{what}\""
            for data, what in sends]
     # The first expect waits for the reply up to the status value (HAProxy
-    # matches rbinary on upper-case hex, from a byte boundary); the second
-    # decides, so NOT_SERVING fails at once.
+    # matches rbinary on upper-case hex, from a byte boundary): no reply
+    # (a hung replica: timeout) or no connection marks the replica DOWN,
+    # which ends its calls (on-marked-down). The second decides at once:
+    # NOT_SERVING (a draining replica) is a conditional pass, L7OKC, which
+    # takes the replica out of the rotation (NOLB) while its calls finish.
     out.append("  tcp-check expect rbinary ^([0-9A-F]{2})*" +
                serving[:-1].hex().upper() + " comment \"no HealthCheckResponse\"")
-    out.append("  tcp-check expect min-recv 0 binary " + serving.hex() +
-               " comment \"not SERVING\"")
+    out.append("  tcp-check expect min-recv 0 error-status L7OKC binary " +
+               serving.hex() + " comment \"not SERVING\"")
     return out
 
 
