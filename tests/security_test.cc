@@ -362,6 +362,28 @@ class UploadAttackTest : public testing::ServerFixture {
     h->set_num_faces(nf);
     return r;
   }
+  // With a 64 MiB budget, sends a header declaring more, then up to
+  // `chunks` chunks of about 1 MiB while the writes succeed, and closes.
+  // Returns the chunks written; *status, the call's.
+  int64_t WritesAfterARefusedHeader(int64_t chunks, grpc::Status* status) {
+    server::ServerOptions o;
+    o.memory_budget_bytes = 64 << 20;
+    RestartServer(o);
+    grpc::ClientContext ctx;
+    v1::CreateSessionResponse resp;
+    auto w = Open(&ctx, &resp);
+    int64_t written = -1;
+    if (w->Write(Header(4'000'000, 8'000'000))) {
+      v1::CreateSessionRequest chunk;
+      for (int i = 0; i < 1 << 20; ++i) {
+        chunk.mutable_chunk()->add_face_indices(0);
+      }
+      written = 0;
+      while (written < chunks && w->Write(chunk)) ++written;
+    }
+    *status = Close(*w);
+    return written;
+  }
   // Sends one vertex every 0.15 s of the server's clock (never idle for
   // the 0.2 s allowed, about 100 bytes/s) until the server refuses; its
   // status.
@@ -382,15 +404,9 @@ class UploadAttackTest : public testing::ServerFixture {
 };
 
 TEST_F(UploadAttackTest, DeclaredSizeOverTheBudgetIsRefusedAtTheHeader) {
-  server::ServerOptions o;
-  o.memory_budget_bytes = 64 << 20;
-  RestartServer(o);
-  grpc::ClientContext ctx;
-  v1::CreateSessionResponse resp;
-  auto w = Open(&ctx, &resp);
-  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
   // The server answers without waiting for any data.
-  const grpc::Status s = Close(*w);
+  grpc::Status s;
+  EXPECT_EQ(WritesAfterARefusedHeader(0, &s), 0);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(s.error_message(), HasSubstr("memory budget"));
 }
@@ -401,19 +417,8 @@ TEST_F(UploadAttackTest, DeclaredSizeOverTheBudgetIsRefusedAtTheHeader) {
 // Without the discard, the writes fail once the server's reply resets the
 // stream.
 TEST_F(UploadAttackTest, ARefusedUploadIsReadToItsEndBeforeTheRefusal) {
-  server::ServerOptions o;
-  o.memory_budget_bytes = 64 << 20;
-  RestartServer(o);
-  grpc::ClientContext ctx;
-  v1::CreateSessionResponse resp;
-  auto w = Open(&ctx, &resp);
-  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
-  v1::CreateSessionRequest chunk;
-  for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
-  int written = 0;
-  while (written < 16 && w->Write(chunk)) ++written;
-  EXPECT_EQ(written, 16);
-  const grpc::Status s = Close(*w);
+  grpc::Status s;
+  EXPECT_EQ(WritesAfterARefusedHeader(16, &s), 16);
   EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
   EXPECT_THAT(s.error_message(), HasSubstr("memory budget"));
 }
@@ -421,20 +426,10 @@ TEST_F(UploadAttackTest, ARefusedUploadIsReadToItsEndBeforeTheRefusal) {
 // The remainder read is bounded: past kMaxDiscardBytes the refusal goes out
 // and the writes fail.
 TEST_F(UploadAttackTest, ARefusedUploadsRemainderIsReadOnlyToItsBound) {
-  server::ServerOptions o;
-  o.memory_budget_bytes = 64 << 20;
-  RestartServer(o);
-  grpc::ClientContext ctx;
-  v1::CreateSessionResponse resp;
-  auto w = Open(&ctx, &resp);
-  ASSERT_TRUE(w->Write(Header(4'000'000, 8'000'000)));
-  v1::CreateSessionRequest chunk;
-  for (int i = 0; i < 1 << 20; ++i) chunk.mutable_chunk()->add_face_indices(0);
-  const int64_t limit = server::kMaxDiscardBytes / chunk.ByteSizeLong() + 16;
-  int64_t written = 0;
-  while (written < limit && w->Write(chunk)) ++written;
-  EXPECT_LT(written, limit);
-  EXPECT_EQ(Close(*w).error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
+  const int64_t limit = (server::kMaxDiscardBytes >> 20) + 16;
+  grpc::Status s;
+  EXPECT_LT(WritesAfterARefusedHeader(limit, &s), limit);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::RESOURCE_EXHAUSTED);
 }
 
 TEST_F(UploadAttackTest, IndicesWithoutSizesStopAtTheFirstExcessChunk) {
