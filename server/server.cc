@@ -200,9 +200,10 @@ MeshGaugeServer::~MeshGaugeServer() {
 }
 
 void MeshGaugeServer::SweepLoop() {
-  // Idle uploads are checked four times per allowed idle time.
-  const double period = std::min(options_.sweep_interval_seconds,
-                                 options_.upload_idle_seconds / 4);
+  // Idle uploads are checked four times per allowed idle time, and
+  // discards (kMaxDiscardSeconds) at least once a second.
+  const double period = std::min(
+      {options_.sweep_interval_seconds, options_.upload_idle_seconds / 4, 1.0});
   double since_sweep = 0;
   std::unique_lock<std::mutex> lock(mu_);
   while (!stopping_) {

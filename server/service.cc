@@ -248,11 +248,20 @@ void MeshGaugeService::DiscardRest(grpc::ServerContext* ctx,
   if (ctx->IsCancelled()) return;
   auto discard = uploads_->StartDiscard(ctx);
   if (!discard.ok()) return;
+  {  // A drain waits for it like a call.
+    std::lock_guard<std::mutex> lock(drain_mu_);
+    ++in_flight_;
+  }
   UploadMessage message(/*limit=*/0);  // no message is parsed.
   while (reader->Read(&message) &&
          uploads_->Touch(*discard, message.received_bytes).ok()) {
   }
   (void)uploads_->Finish(*discard);
+  {
+    std::lock_guard<std::mutex> lock(drain_mu_);
+    --in_flight_;
+  }
+  drain_cv_.notify_all();
 }
 
 absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(

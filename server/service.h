@@ -122,9 +122,11 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   // HTTP/2 proxy such as HAProxy 2.6 (haproxy issue 1219) loses a reply that
   // closes a stream the client still sends on, together with the
   // RST_STREAM(NO_ERROR) that follows it, and gives the client CANCELLED
-  // instead of the status. Bounded by UploadWatch::StartDiscard (at most
-  // kMaxDiscards at once, kMaxDiscardBytes, kMaxDiscardSeconds, and the idle
-  // abort); past a bound the refusal is sent at once.
+  // instead of the status. Bounded by UploadWatch (at most kMaxDiscards at
+  // once, kMaxDiscardBytes, kMaxDiscardSeconds; the sweeper cancels a
+  // discard past its time, silent or not, within a second): past the bytes
+  // the refusal is sent at once, past the time the call is cancelled. A
+  // drain waits for discards as for calls.
   void DiscardRest(grpc::ServerContext* ctx,
                    grpc::ServerReader<UploadMessage>* reader);
   // The mesh of a received upload (its footer arrived): read or built

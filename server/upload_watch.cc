@@ -86,7 +86,9 @@ int UploadWatch::AbortIdle() {
   const double now = clock_->NowSeconds();
   int n = 0;
   for (auto& [id, e] : uploads_) {
-    if (!e.aborted && now - e.last > options_.upload_idle_seconds) {
+    const bool over = now - e.last > options_.upload_idle_seconds ||
+                      (e.discard && now - e.start > kMaxDiscardSeconds);
+    if (!e.aborted && over) {
       e.aborted = true;
       e.ctx->TryCancel();
       ++n;

@@ -47,7 +47,8 @@ class UploadWatch {
   absl::Status Touch(int64_t id, int64_t bytes);
   // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
   absl::Status Finish(int64_t id);
-  // Cancels every upload idle longer than the limit; returns how many.
+  // Cancels every upload idle longer than the limit, and every discard older
+  // than kMaxDiscardSeconds (silent or not); returns how many.
   int AbortIdle();
 
  private:
