@@ -59,6 +59,20 @@ if stack_tool meshgauge remote list --server "$FRONT" --tls-ca-file /secrets/ca.
 if stack_tool meshgauge remote list --server "$FRONT" >/dev/null 2>&1; then
   echo "FAIL: a plaintext call was served"; exit 1; fi
 
+echo "== refused uploads end UNAUTHENTICATED through the balancer"
+# A mesh of about 2 MB: the refusal comes while the client still sends,
+# which HAProxy 2.6 alone would turn into CANCELLED.
+refused=$(stack_tool sh -c "
+  meshgauge shape sphere --radius 0.5 --size 0.01 --out /tmp/big.obj >/dev/null
+  echo wrong-token >/tmp/wrong
+  for i in 1 2 3 4 5 6 7 8 9 10; do
+    meshgauge remote upload /tmp/big.obj --server $FRONT --tls-ca-file /secrets/ca.crt 2>&1 | tail -1
+    meshgauge remote upload /tmp/big.obj --server $FRONT --tls-ca-file /secrets/ca.crt --token-file /tmp/wrong 2>&1 | tail -1
+  done")
+n=$(grep -c "^meshgauge: error: UNAUTHENTICATED: " <<<"$refused" || true)
+echo "uploads without a token or with an unknown one: $n of 20 UNAUTHENTICATED"
+[ "$n" -eq 20 ] || { sort <<<"$refused" | uniq -c; echo "FAIL: a refused upload did not end UNAUTHENTICATED"; exit 1; }
+
 echo "== secrets: the certificate valid for a year, keys and token 0600"
 date_of() { date -d "$(openssl x509 -noout "-$1" -in secrets/server.crt | cut -d= -f2)" +%s; }
 days=$(( ($(date_of enddate) - $(date_of startdate)) / 86400 ))
