@@ -128,12 +128,16 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
   grpc::Status status =
       wire::ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
   metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
+  LeaveInFlight();
+  return status;
+}
+
+void MeshGaugeService::LeaveInFlight() {
   {
     std::lock_guard<std::mutex> lock(drain_mu_);
     --in_flight_;
   }
   drain_cv_.notify_all();
-  return status;
 }
 
 void MeshGaugeService::Drain(std::chrono::system_clock::time_point deadline) {
@@ -257,11 +261,7 @@ void MeshGaugeService::DiscardRest(grpc::ServerContext* ctx,
          uploads_->Touch(*discard, message.received_bytes).ok()) {
   }
   (void)uploads_->Finish(*discard);
-  {
-    std::lock_guard<std::mutex> lock(drain_mu_);
-    --in_flight_;
-  }
-  drain_cv_.notify_all();
+  LeaveInFlight();
 }
 
 absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(

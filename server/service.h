@@ -129,6 +129,8 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   // drain waits for discards as for calls.
   void DiscardRest(grpc::ServerContext* ctx,
                    grpc::ServerReader<UploadMessage>* reader);
+  // A call (or discard) counted in in_flight_ ended: wakes Drain.
+  void LeaveInFlight();
   // The mesh of a received upload (its footer arrived): read or built
   // within the server's limits and `ticket`, repaired and diagnosed.
   absl::StatusOr<RepairedMesh> BuildUploadedMesh(

@@ -1,8 +1,7 @@
 // meshgauge: shape diameter function of surface meshes from the command line.
 // Usage errors exit 2, runtime errors 1 (one line "meshgauge: error: ...";
-// under `remote`, the status code first: the server's, for a refusal), --help
-// and
-// --version 0.
+// under `remote`, the status code first: the server's, for a refusal),
+// --help and --version 0.
 #include <malloc.h>
 
 #include <CLI/CLI.hpp>
