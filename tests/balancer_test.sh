@@ -78,10 +78,13 @@ await_tcp "$hp"
 curl -sf "http://127.0.0.1:$health_port/healthz" >/dev/null ||
   fail "the balancer's health frontend did not answer 200"
 
-# Waits for 12 more iterations of the load (3 progress lines); $1 names the
-# moment for the failure message.
+# Waits for the load's clients to start (after its single-client reference
+# run, which takes long on a busy or sanitized build), then for 8 more
+# iterations (2 progress lines); $1 names the moment for the failure message.
 await_progress() {
   local before
+  await_lines "$tmp/load.txt" '^concurrent phase: started' 0 1800 ||
+    fail "the load's clients had not started $1"
   before=$(grep -c '^iterations:' "$tmp/load.txt" || true)
   await_lines "$tmp/load.txt" '^iterations:' $((before + 2)) 300 ||
     fail "the load made no progress $1"
