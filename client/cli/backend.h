@@ -44,6 +44,8 @@ struct MemoryBytes {
 class Backend {
  public:
   virtual ~Backend() = default;
+  // The mesh the backend was made from (the CLI keeps no other copy).
+  virtual const Mesh& mesh() const = 0;
   // What this process holds for the session; nullopt for a remote one.
   virtual std::optional<MemoryBytes> Memory() const { return std::nullopt; }
   // The ray pass at the mesh's positions, kept for the calls below.
@@ -54,10 +56,11 @@ class Backend {
   // After Sdf(params, kVjp or kJacobian): g^T J for per-vertex weights (#V).
   virtual absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) = 0;
-  // After Sdf: the penalty (or KS constraint) of that pass, its gradient
-  // when asked (after kVjp or kJacobian; PenaltyResult::dp_dt is not filled
-  // remotely).
-  virtual absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
+  // After Sdf: the penalty (or KS constraint) of that pass (`pass`, the
+  // result Sdf returned), its gradient when asked (after kVjp or kJacobian;
+  // PenaltyResult::dp_dt is not filled remotely).
+  virtual absl::StatusOr<PenaltyResult> Penalty(const SdfResult& pass,
+                                                const PenaltyParams& params,
                                                 bool with_gradient) = 0;
   // Both passes of SPEC §8 (the report's per-vertex arrays may be empty).
   virtual absl::StatusOr<CalibrationReport> Calibrate(
@@ -71,7 +74,7 @@ class Backend {
 
 // Makes the backend of a loaded, validated mesh.
 using BackendFactory =
-    std::function<absl::StatusOr<std::unique_ptr<Backend>>(const Mesh& mesh)>;
+    std::function<absl::StatusOr<std::unique_ptr<Backend>>(Mesh mesh)>;
 
 // An SdfEvaluator here (with progress bars as `progress` says).
 BackendFactory LocalBackend(ProgressMode progress);

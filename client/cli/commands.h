@@ -25,10 +25,11 @@ struct MeshInput {
 // A verb's mesh, its backend and its parameters; the mesh's warnings go to
 // stderr with print_warnings (sdf puts them in its summary instead).
 struct Opened {
-  LoadedMesh loaded;
+  LoadedMesh loaded;  // its mesh moved into the backend: use mesh().
   std::unique_ptr<Backend> backend;
   SdfParams params;
   double setup_seconds = 0;  // making the backend: topology and BVH, or upload
+  const Mesh& mesh() const { return backend->mesh(); }
 };
 absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
                             bool print_warnings);

@@ -18,7 +18,7 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   auto opened = Open(in, make, /*print_warnings=*/true);
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
-  const int64_t nv = opened->loaded.mesh.num_vertices();
+  const int64_t nv = opened->mesh().num_vertices();
   auto weights = ReadWeights(grad.weights, nv);
   if (!weights.ok()) return weights.status();
   auto result = backend.Sdf(opened->params, grad.jacobian.empty()
@@ -79,7 +79,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
       backend.Sdf(opened->params,
                   grad_path.empty() ? Derivatives::kNone : Derivatives::kVjp);
   if (!result.ok()) return result.status();
-  auto pen = backend.Penalty(pp, !grad_path.empty());
+  auto pen = backend.Penalty(*result, pp, !grad_path.empty());
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok())
@@ -101,10 +101,10 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   j["world_frame_vertices"] = result->world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
   auto thin =
-      FindThinRegions(opened->loaded.mesh, result->values, {.t_min = pp.t_min});
+      FindThinRegions(opened->mesh(), result->values, {.t_min = pp.t_min});
   if (!thin.ok()) return thin.status();
   const std::string sentence =
-      ThinSentence(*thin, opened->loaded.mesh.dimension == 2);
+      ThinSentence(*thin, opened->mesh().dimension == 2);
   j["thin"] = ThinJson(*thin);
   j["thin"].erase("regions");
   j["thin_regions"] = thin->regions.size();

@@ -59,7 +59,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   }
   auto opened = Open(in, make, /*print_warnings=*/true);
   if (!opened.ok()) return opened.status();
-  const Mesh& mesh = opened->loaded.mesh;
+  const Mesh& mesh = opened->mesh();
   const int64_t rays = ResolveParams(opened->params, mesh.dimension).rays;
   ProgressBar bar(
       absl::StrCat("gradcheck: ", GradCheckPasses(mesh, options), " passes of ",

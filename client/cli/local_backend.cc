@@ -14,6 +14,8 @@ class Local : public Backend {
   Local(std::unique_ptr<SdfEvaluator> ev, ProgressMode progress)
       : ev_(std::move(ev)), progress_(progress) {}
 
+  const Mesh& mesh() const override { return ev_->mesh(); }
+
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
     const int64_t rays = ResolveParams(params, ev_->mesh().dimension).rays;
@@ -25,7 +27,6 @@ class Local : public Backend {
         ev_->Compute(params, bar.Control(),
                      derivatives == Derivatives::kNone ? nullptr : &hits_);
     bar.Finish();
-    if (result.ok()) result_ = *result;
     return result;
   }
   std::optional<MemoryBytes> Memory() const override {
@@ -43,11 +44,12 @@ class Local : public Backend {
     ProgressBar bar("derivatives (g^T J)", progress_);
     return ComputeVjp(*ev_, hits_, weights, bar.Control());
   }
-  absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
+  absl::StatusOr<PenaltyResult> Penalty(const SdfResult& pass,
+                                        const PenaltyParams& params,
                                         bool with_gradient) override {
     ProgressBar bar("penalty gradient", progress_);
-    return ComputePenalty(*ev_, result_, params,
-                          with_gradient ? &hits_ : nullptr, bar.Control());
+    return ComputePenalty(*ev_, pass, params, with_gradient ? &hits_ : nullptr,
+                          bar.Control());
   }
   absl::StatusOr<CalibrationReport> Calibrate(
       const CalibrationParams& params) override {
@@ -63,18 +65,16 @@ class Local : public Backend {
   std::unique_ptr<SdfEvaluator> ev_;
   const ProgressMode progress_;
   HitTable hits_;
-  SdfResult result_;
 };
 
 }  // namespace
 
 BackendFactory LocalBackend(ProgressMode progress) {
-  return
-      [progress](const Mesh& mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
-        auto ev = SdfEvaluator::Create(mesh);
-        if (!ev.ok()) return ev.status();
-        return std::make_unique<Local>(std::move(*ev), progress);
-      };
+  return [progress](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+    auto ev = SdfEvaluator::Create(std::move(mesh));
+    if (!ev.ok()) return ev.status();
+    return std::make_unique<Local>(std::move(*ev), progress);
+  };
 }
 
 }  // namespace meshgauge::cli

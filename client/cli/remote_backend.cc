@@ -9,24 +9,25 @@ namespace {
 class Remote : public Backend {
  public:
   Remote(std::shared_ptr<client::RemoteClient> c, std::string id,
-         bool temporary, const Mesh& mesh, ProgressMode progress)
+         bool temporary, Mesh mesh, ProgressMode progress)
       : c_(std::move(c)),
         id_(std::move(id)),
         temporary_(temporary),
-        num_vertices_(mesh.num_vertices()),
-        dimension_(mesh.dimension),
+        mesh_(std::move(mesh)),
         progress_(progress) {}
   ~Remote() override {
     if (temporary_) (void)c_->Delete(id_);
   }
 
+  const Mesh& mesh() const override { return mesh_; }
+
   absl::StatusOr<SdfResult> Sdf(const SdfParams& params,
                                 Derivatives derivatives) override {
     params_ = params;
-    const int64_t rays = ResolveParams(params, dimension_).rays;
-    ProgressBar bar(
-        absl::StrCat("tracing ", num_vertices_ * rays, " rays on the server"),
-        progress_);
+    const int64_t rays = ResolveParams(params, mesh_.dimension).rays;
+    ProgressBar bar(absl::StrCat("tracing ", mesh_.num_vertices() * rays,
+                                 " rays on the server"),
+                    progress_);
     client::SdfCall call{.include_jacobian =
                              derivatives == Derivatives::kJacobian};
     if (bar.enabled()) {
@@ -50,7 +51,9 @@ class Remote : public Backend {
     if (!r.ok()) return r.status();
     return std::move(r->gradient);
   }
-  absl::StatusOr<PenaltyResult> Penalty(const PenaltyParams& params,
+  // The server holds the pass.
+  absl::StatusOr<PenaltyResult> Penalty(const SdfResult& /*pass*/,
+                                        const PenaltyParams& params,
                                         bool with_gradient) override {
     auto r = c_->ComputePenalty(id_, params_, params, with_gradient);
     if (!r.ok()) return r.status();
@@ -72,8 +75,7 @@ class Remote : public Backend {
   std::shared_ptr<client::RemoteClient> c_;
   const std::string id_;
   const bool temporary_;
-  const int64_t num_vertices_;
-  const int dimension_;
+  const Mesh mesh_;
   const ProgressMode progress_;
   SdfParams params_;
   std::optional<SparseJacobian> jacobian_;
@@ -117,23 +119,25 @@ absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
   auto connected = Connect(remote);
   if (!connected.ok()) return connected.status();
   std::shared_ptr<client::RemoteClient> c = std::move(*connected);
-  return BackendFactory([c, session_id, progress](const Mesh& mesh)
-                            -> absl::StatusOr<std::unique_ptr<Backend>> {
-    if (!session_id.empty()) {
-      auto info = c->Get(session_id);
-      if (info.ok()) {
-        if (absl::Status s = CheckSession(*info, mesh); !s.ok()) return s;
-        return std::make_unique<Remote>(c, session_id, false, mesh, progress);
-      }
-      if (info.status().code() != absl::StatusCode::kNotFound) {
-        return info.status();
-      }
-    }
-    auto up = c->Upload(mesh, session_id);
-    if (!up.ok()) return up.status();
-    return std::make_unique<Remote>(c, up->session_id, session_id.empty(), mesh,
-                                    progress);
-  });
+  return BackendFactory(
+      [c, session_id,
+       progress](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+        if (!session_id.empty()) {
+          auto info = c->Get(session_id);
+          if (info.ok()) {
+            if (absl::Status s = CheckSession(*info, mesh); !s.ok()) return s;
+            return std::make_unique<Remote>(c, session_id, false,
+                                            std::move(mesh), progress);
+          }
+          if (info.status().code() != absl::StatusCode::kNotFound) {
+            return info.status();
+          }
+        }
+        auto up = c->Upload(mesh, session_id);
+        if (!up.ok()) return up.status();
+        return std::make_unique<Remote>(c, up->session_id, session_id.empty(),
+                                        std::move(mesh), progress);
+      });
 }
 
 }  // namespace meshgauge::cli

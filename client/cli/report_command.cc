@@ -94,7 +94,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   auto start = std::chrono::steady_clock::now();
   auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
   if (!opened.ok()) return opened.status();
-  const Mesh& mesh = opened->loaded.mesh;
+  const Mesh& mesh = opened->mesh();
   auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
   const double sdf_seconds = Since(start);

@@ -18,7 +18,7 @@ absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
     if (print_warnings) std::cerr << "meshgauge: warning: " << w << "\n";
   }
   const Stopwatch setup;
-  auto backend = make(loaded->mesh);
+  auto backend = make(std::move(loaded->mesh));
   if (!backend.ok()) return backend.status();
   return Opened{std::move(*loaded), std::move(*backend), *params,
                 setup.Seconds()};
@@ -31,7 +31,7 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
   auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
   const double seconds = watch.Seconds();
-  const Mesh& mesh = opened->loaded.mesh;
+  const Mesh& mesh = opened->mesh();
   if (const std::string& csv = in.out.csv; !csv.empty()) {
     if (absl::Status s = WriteSdfCsv(csv, mesh, *result); !s.ok()) return s;
   }

@@ -19,9 +19,9 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
                            double seconds, double warn_fraction) {
   const LoadedMesh& loaded = opened.loaded;
   nlohmann::json j;
-  j["vertices"] = loaded.mesh.num_vertices();
-  j["faces"] = loaded.mesh.num_faces();
-  j["dimension"] = loaded.mesh.dimension;
+  j["vertices"] = opened.mesh().num_vertices();
+  j["faces"] = opened.mesh().num_faces();
+  j["dimension"] = opened.mesh().dimension;
   j["method"] =
       result.resolved.params.method == SdfMethod::kCone ? "cone" : "normal";
   j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
@@ -41,7 +41,7 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
     j["sdf_median"] = stats.median;
     j["sdf_mean"] = stats.mean;
   }
-  const IntegralResult integral = IntegrateNodal(loaded.mesh, result.values);
+  const IntegralResult integral = IntegrateNodal(opened.mesh(), result.values);
   j["integral"] = integral.value;
   j["integral_skipped_faces"] = integral.skipped_faces;
   j["rays"] = result.rays_traced;
@@ -64,7 +64,7 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   getrusage(RUSAGE_SELF, &usage);
   memory["peak_rss"] = int64_t{usage.ru_maxrss} * 1024;
   j["closed"] = loaded.closed;
-  j[loaded.mesh.dimension == 3 ? "signed_volume" : "signed_area"] =
+  j[opened.mesh().dimension == 3 ? "signed_volume" : "signed_area"] =
       loaded.signed_volume;
   j["format"] = loaded.format;
   j["polygons_triangulated"] = loaded.polygons_triangulated;
@@ -82,7 +82,7 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["missing_faces"] = result.missing.faces;
   j["missing_area_fraction"] = result.missing.area_fraction;
   std::vector<std::string> warnings = loaded.warnings;
-  for (std::string& w : MissingValueWarnings(loaded.mesh, result.values,
+  for (std::string& w : MissingValueWarnings(opened.mesh(), result.values,
                                              result.status, warn_fraction)) {
     warnings.push_back(std::move(w));
   }

@@ -30,8 +30,7 @@ int64_t MeshGeometry::MeshBytes() const {
 
 int64_t MeshGeometry::DerivedBytes() const {
   return Bytes(topo_.primitives) + Bytes(topo_.vertex_faces) +
-         Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_neighbors) +
-         Bytes(topo_.vertex_direction);
+         Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_direction);
 }
 
 void MeshGeometry::RefreshDerivedGeometry() {

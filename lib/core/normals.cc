@@ -33,30 +33,35 @@ void PrimitiveNormalVjp(const Mesh& mesh, const Primitive& prim, const Vec3& g,
   grad_out[2] = dc;
 }
 
+Vec3 UnnormalizedNormal(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+                        NormalWeighting weighting) {
+  const bool angle =
+      weighting == NormalWeighting::kAngle && mesh.dimension == 3;
+  Vec3 sum;
+  for (int32_t prim_id : topo.PrimitivesOf(p)) {
+    const Primitive& prim = topo.primitives[prim_id];
+    const Vec3 n = PrimitiveNormal(mesh, prim);
+    if (!angle) {
+      sum += n;
+      continue;
+    }
+    int corner = 0;
+    while (prim.v[corner] != p) ++corner;
+    const Vec3& x = mesh.positions[p];
+    const Vec3 e1 = mesh.positions[prim.v[(corner + 1) % 3]] - x;
+    const Vec3 e2 = mesh.positions[prim.v[(corner + 2) % 3]] - x;
+    const double theta = std::atan2(Norm(Cross(e1, e2)), Dot(e1, e2));
+    sum += n * (theta / Norm(n));
+  }
+  return sum;
+}
+
 std::vector<Vec3> UnnormalizedNormals(const Mesh& mesh,
                                       const MeshTopology& topo,
                                       NormalWeighting weighting) {
   std::vector<Vec3> normals(mesh.positions.size());
-  const bool angle =
-      weighting == NormalWeighting::kAngle && mesh.dimension == 3;
   for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
-    Vec3 sum;
-    for (int32_t prim_id : topo.vertex_primitives.Of(p)) {
-      const Primitive& prim = topo.primitives[prim_id];
-      const Vec3 n = PrimitiveNormal(mesh, prim);
-      if (!angle) {
-        sum += n;
-        continue;
-      }
-      int corner = 0;
-      while (prim.v[corner] != p) ++corner;
-      const Vec3& x = mesh.positions[p];
-      const Vec3 e1 = mesh.positions[prim.v[(corner + 1) % 3]] - x;
-      const Vec3 e2 = mesh.positions[prim.v[(corner + 2) % 3]] - x;
-      const double theta = std::atan2(Norm(Cross(e1, e2)), Dot(e1, e2));
-      sum += n * (theta / Norm(n));
-    }
-    normals[p] = sum;
+    normals[p] = UnnormalizedNormal(mesh, topo, p, weighting);
   }
   return normals;
 }

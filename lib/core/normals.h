@@ -22,6 +22,10 @@ enum class NormalWeighting {
 std::vector<Vec3> UnnormalizedNormals(const Mesh& mesh,
                                       const MeshTopology& topo,
                                       NormalWeighting weighting);
+// The same for vertex `p` alone (bit-identical to UnnormalizedNormals()[p]),
+// for a pass that needs each normal once and need not hold #V of them.
+Vec3 UnnormalizedNormal(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+                        NormalWeighting weighting);
 
 // The contribution of one primitive to N_p (area weighting) and its
 // vector-Jacobian product: for a covector g on N_p's contribution, adds

@@ -91,7 +91,7 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const Vec3 g_n = g_axis * vc.sign;
   const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
   Vec3 grad[3];
-  for (int32_t prim_id : topo.vertex_primitives.Of(p)) {
+  for (int32_t prim_id : topo.PrimitivesOf(p)) {
     const Primitive& prim = topo.primitives[prim_id];
     PrimitiveNormalVjp(mesh, prim, g_big_n, grad);
     for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {

@@ -21,41 +21,13 @@ Incidence BuildIncidence(int64_t num_vertices, ForEachPair for_each_pair) {
   return inc;
 }
 
-// Both directions of every face edge, then each vertex's list sorted and
-// made unique.
-Incidence BuildNeighbors(const Mesh& mesh) {
-  const int64_t nv = mesh.num_vertices();
-  Incidence inc = BuildIncidence(nv, [&](auto&& emit) {
-    for (const Face& face : mesh.faces) {
-      const int edges = face.size == 2 ? 1 : face.size;
-      for (int k = 0; k < edges; ++k) {
-        const int32_t a = face.v[k], b = face.v[(k + 1) % face.size];
-        emit(a, b);
-        emit(b, a);
-      }
-    }
-  });
-  int32_t out = 0;
-  for (int64_t v = 0; v < nv; ++v) {
-    auto begin = inc.items.begin() + inc.offsets[v];
-    auto end = inc.items.begin() + inc.offsets[v + 1];
-    std::sort(begin, end);
-    end = std::unique(begin, end);
-    const int32_t start = out;
-    out = static_cast<int32_t>(std::copy(begin, end, inc.items.begin() + out) -
-                               inc.items.begin());
-    inc.offsets[v] = start;
-  }
-  inc.offsets[nv] = out;
-  inc.items.resize(out);
-  return inc;
-}
-
 }  // namespace
 
 MeshTopology MeshTopology::Build(const Mesh& mesh) {
   MeshTopology topo;
-  topo.primitives.reserve(mesh.faces.size() * 2);
+  int64_t quads = 0;
+  for (const Face& face : mesh.faces) quads += face.size == 4;
+  topo.primitives.reserve(mesh.faces.size() + quads);
   for (int32_t f = 0; f < static_cast<int32_t>(mesh.faces.size()); ++f) {
     const Face& face = mesh.faces[f];
     if (face.size == 2) {
@@ -74,14 +46,18 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
       for (int k = 0; k < face.size; ++k) emit(face.v[k], f);
     }
   });
-  topo.vertex_primitives = BuildIncidence(nv, [&](auto&& emit) {
-    for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size()); ++p) {
-      for (int32_t v : topo.primitives[p].v) {
-        if (v >= 0) emit(v, p);
+  // Segments and triangles are their own primitives: the lists are
+  // vertex_faces' (PrimitivesOf).
+  if (quads > 0) {
+    topo.vertex_primitives = BuildIncidence(nv, [&](auto&& emit) {
+      for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size());
+           ++p) {
+        for (int32_t v : topo.primitives[p].v) {
+          if (v >= 0) emit(v, p);
+        }
       }
-    }
-  });
-  topo.vertex_neighbors = BuildNeighbors(mesh);
+    });
+  }
   topo.vertex_direction.assign(nv, ConeDirection::kInward);
   for (int64_t f = 0; f < mesh.num_faces(); ++f) {
     const ConeDirection dir = mesh.DirectionOfRegion(mesh.RegionOf(f));
@@ -91,11 +67,29 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
   return topo;
 }
 
+void VertexNeighbors(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+                     std::vector<int32_t>* out) {
+  out->clear();
+  for (int32_t f : topo.vertex_faces.Of(p)) {
+    const Face& face = mesh.faces[f];
+    int k = 0;  // p's corner (a face repeats no vertex).
+    while (face.v[k] != p) ++k;
+    if (face.size == 2) {
+      out->push_back(face.v[1 - k]);
+      continue;
+    }
+    out->push_back(face.v[(k + 1) % face.size]);
+    out->push_back(face.v[(k + face.size - 1) % face.size]);
+  }
+  std::sort(out->begin(), out->end());
+  out->erase(std::unique(out->begin(), out->end()), out->end());
+}
+
 void OneRingPrimitives(const MeshTopology& topo, int64_t p,
                        std::vector<int32_t>* out) {
   out->clear();
   const auto& prims = topo.primitives;
-  for (int32_t q : topo.vertex_primitives.Of(p)) {
+  for (int32_t q : topo.PrimitivesOf(p)) {
     out->push_back(q);
     // A quad's two triangles are consecutive primitives.
     if (q > 0 && prims[q - 1].face == prims[q].face) out->push_back(q - 1);

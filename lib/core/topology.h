@@ -33,12 +33,15 @@ struct MeshTopology {
   // Faces incident to each vertex, ascending: the one-ring a ray ignores.
   Incidence vertex_faces;
   // Primitives containing each vertex, ascending: the sums of SPEC §2.
+  // When every face is a triangle, primitive i is face i and these lists
+  // are vertex_faces' (then vertex_primitives stays empty and is not
+  // stored twice).
+  absl::Span<const int32_t> PrimitivesOf(int64_t vertex) const {
+    return (vertex_primitives.offsets.empty() ? vertex_faces
+                                              : vertex_primitives)
+        .Of(vertex);
+  }
   Incidence vertex_primitives;
-  // Edge-neighbours of each vertex, ascending and unique: vertices joined to
-  // it by a face edge (a quad's four sides, not its split diagonal; a
-  // segment's other end). The frame of SPEC v2 §3 takes the first that
-  // qualifies.
-  Incidence vertex_neighbors;
   // Cone direction of each vertex (from its faces; kInward if it has none).
   std::vector<ConeDirection> vertex_direction;
 
@@ -46,8 +49,15 @@ struct MeshTopology {
   static MeshTopology Build(const Mesh& mesh);
 };
 
+// The edge-neighbours of vertex `p`, ascending and unique: the vertices
+// joined to it by a face edge (a quad's four sides, not its split diagonal;
+// a segment's other end). The frame of SPEC v2 §3 takes the first that
+// qualifies. Reads only p's faces (not stored: #V x valence entries).
+void VertexNeighbors(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+                     std::vector<int32_t>* out);
+
 // The primitives of the faces incident to vertex `p` (SPEC §4's one-ring,
-// which a ray from p ignores), ascending: vertex_primitives.Of(p) and, for a
+// which a ray from p ignores), ascending: PrimitivesOf(p) and, for a
 // quad, its other triangle. Reads only the one-ring's entries.
 void OneRingPrimitives(const MeshTopology& topo, int64_t p,
                        std::vector<int32_t>* out);

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "lib/core/cone.h"
 #include "lib/core/mesh.h"
@@ -35,8 +36,10 @@ inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
   if (mesh.dimension == 2) {
     vc.frame = MakeWorldFrame(2, axis);
   } else {
-    vc.frame = MakeAttachedFrame(axis, mesh.positions[p],
-                                 topo.vertex_neighbors.Of(p), mesh.positions);
+    thread_local std::vector<int32_t> neighbors;
+    VertexNeighbors(mesh, topo, p, &neighbors);
+    vc.frame =
+        MakeAttachedFrame(axis, mesh.positions[p], neighbors, mesh.positions);
     vc.world_frame = vc.frame.reference < 0;
   }
   return vc;

@@ -16,6 +16,7 @@
 #include "lib/core/estimator.h"
 #include "lib/core/hit.h"
 #include "lib/core/normalized_sdf.h"
+#include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/moved_boxes.h"
@@ -139,7 +140,7 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
     if (!c[i].edge) continue;
     for (int32_t v : g.topology().primitives[c[i].prim].v) {
       if (v < 0) continue;
-      for (int32_t q : g.topology().vertex_primitives.Of(v)) {
+      for (int32_t q : g.topology().PrimitivesOf(v)) {
         around->push_back(q);
       }
     }
@@ -259,7 +260,7 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
       const Face& face = mesh_.faces[f];
       for (int k = 0; k < face.size; ++k) plan->dirty[face.v[k]] = 1;
     }
-    for (int32_t q : topo_.vertex_primitives.Of(v)) {
+    for (int32_t q : topo_.PrimitivesOf(v)) {
       plan->moved_primitive[q] = 1;
     }
   }
@@ -368,8 +369,6 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   const double t_min = params.self_hit_epsilon * mean_edge_length_;
   const double t_max =
       params.max_distance > 0 ? params.max_distance : bbox_diagonal_;
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh_, topo_, params.normal_weighting);
   RayScene::FanLimits limits;
   limits.t_min = static_cast<float>(t_min);
   limits.t_near = PowerOfTwoBelow(limits.t_min);
@@ -426,7 +425,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
-      const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals[p]);
+      const VertexCone vc = MakeVertexCone(
+          mesh_, topo_, p,
+          UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting));
       if (!vc.valid) {
         result.status[p] = VertexStatus::kDegenerateNormal;
         continue;

@@ -1,0 +1,93 @@
+// MeshTopology's incidences against brute-force definitions, and what it
+// stores (issue 27: no list held twice, no unused capacity).
+#include "lib/core/topology.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+#include "lib/core/normals.h"
+#include "lib/core/shapes.h"
+#include "lib/embree/sdf_evaluator.h"
+
+namespace meshgauge {
+namespace {
+
+// A triangle mesh, a quad mesh and a 2D curve with a hole.
+std::vector<Mesh> Meshes() {
+  return {MakeIcosphere(1.0, 3), MakeBox(1.0, 2.0, 0.5, 0.25, /*quads=*/true),
+          MakeHollowSquare(2.0, 0.5, 0.1)};
+}
+
+TEST(TopologyTest, PrimitivesOfAVertexAreThoseContainingIt) {
+  for (const Mesh& mesh : Meshes()) {
+    const MeshTopology topo = MeshTopology::Build(mesh);
+    for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+      std::vector<int32_t> want;
+      for (size_t q = 0; q < topo.primitives.size(); ++q) {
+        const auto& v = topo.primitives[q].v;
+        if (std::find(v.begin(), v.end(), p) != v.end()) {
+          want.push_back(static_cast<int32_t>(q));
+        }
+      }
+      const auto got = topo.PrimitivesOf(p);
+      ASSERT_EQ(std::vector<int32_t>(got.begin(), got.end()), want)
+          << "vertex " << p;
+    }
+  }
+}
+
+TEST(TopologyTest, NeighborsAreTheOtherEndsOfTheFaceEdges) {
+  for (const Mesh& mesh : Meshes()) {
+    const MeshTopology topo = MeshTopology::Build(mesh);
+    std::vector<std::vector<int32_t>> want(mesh.num_vertices());
+    for (const Face& f : mesh.faces) {
+      const int edges = f.size == 2 ? 1 : f.size;  // a quad's four sides.
+      for (int k = 0; k < edges; ++k) {
+        const int32_t a = f.v[k], b = f.v[(k + 1) % f.size];
+        want[a].push_back(b);
+        want[b].push_back(a);
+      }
+    }
+    std::vector<int32_t> got;
+    for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+      std::sort(want[p].begin(), want[p].end());
+      want[p].erase(std::unique(want[p].begin(), want[p].end()), want[p].end());
+      VertexNeighbors(mesh, topo, p, &got);
+      ASSERT_EQ(got, want[p]) << "vertex " << p;
+    }
+  }
+}
+
+TEST(TopologyTest, ATriangleMeshStoresEachListOnceWithoutSpareCapacity) {
+  const Mesh mesh = MakeIcosphere(1.0, 8);
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(ev.ok()) << ev.status();
+  const int64_t nv = mesh.num_vertices(), nf = mesh.num_faces();
+  // One primitive per face, each face's three corners listed once by
+  // vertex, one cone direction per vertex: nothing else.
+  const int64_t want = nf * sizeof(Primitive) +
+                       (nv + 1 + 3 * nf) * sizeof(int32_t) +
+                       nv * sizeof(ConeDirection);
+  EXPECT_EQ((*ev)->DerivedBytes(), want);
+}
+
+TEST(TopologyTest, OneVertexNormalIsBitIdenticalToTheArrays) {
+  for (const Mesh& mesh : Meshes()) {
+    const MeshTopology topo = MeshTopology::Build(mesh);
+    for (NormalWeighting w :
+         {NormalWeighting::kArea, NormalWeighting::kAngle}) {
+      const std::vector<Vec3> all = UnnormalizedNormals(mesh, topo, w);
+      for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+        const Vec3 one = UnnormalizedNormal(mesh, topo, p, w);
+        ASSERT_EQ(std::memcmp(&one, &all[p], sizeof(Vec3)), 0)
+            << "vertex " << p;
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace meshgauge
