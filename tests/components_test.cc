@@ -72,6 +72,65 @@ TEST(ComponentsTest, ReversedQuadKeepsItsDiagonal) {
   EXPECT_EQ(s.v[1], 1);
 }
 
+// Faces with a face of the same corners in the opposite cyclic order, by
+// comparing every pair.
+int64_t BruteForceDoubleSided(const Mesh& m) {
+  auto same_cycle = [](const Face& a, const Face& b) {
+    if (a.size != b.size) return false;
+    for (int shift = 0; shift < a.size; ++shift) {
+      bool all = true;
+      for (int k = 0; k < a.size; ++k) {
+        all &= a.v[k] == b.v[(k + shift) % b.size];
+      }
+      if (all) return true;
+    }
+    return false;
+  };
+  int64_t count = 0;
+  for (size_t i = 0; i < m.faces.size(); ++i) {
+    Face reversed = m.faces[i];
+    ReverseFace(reversed);
+    for (size_t j = 0; j < m.faces.size(); ++j) {
+      if (j != i && same_cycle(reversed, m.faces[j])) {
+        ++count;
+        break;
+      }
+    }
+  }
+  return count;
+}
+
+TEST(ComponentsTest, DoubleSidedFacesMatchAPairwiseCountInLargeFans) {
+  // A fan of 60 triangles and 20 quads around vertex 0 (more than the 32 a
+  // vertex's group sorts by insertion), some repeated in either
+  // orientation and rotation, and faces whose smallest corner is elsewhere.
+  Mesh m;
+  for (int i = 0; i < 64; ++i) m.positions.push_back({1.0 * i, 1.0 * i * i, 0});
+  uint32_t state = 12345;
+  auto next = [&state](int n) {
+    state = state * 1664525u + 1013904223u;
+    return static_cast<int32_t>((state >> 8) % n);
+  };
+  for (int i = 0; i < 80; ++i) {
+    const int32_t a = 1 + next(30), b = 31 + next(30);
+    Face f = i < 60 ? Face::Triangle(0, a, b) : Face::Quad(0, a, b, 62);
+    if (i % 3 == 0) ReverseFace(f);
+    if (i % 5 == 0)
+      std::rotate(f.v.begin(), f.v.begin() + 1, f.v.begin() + f.size);
+    m.faces.push_back(f);
+    if (i % 4 == 0) {
+      Face g = f;
+      if (i % 8 == 0) ReverseFace(g);
+      m.faces.push_back(g);
+    }
+  }
+  m.faces.push_back(Face::Triangle(5, 6, 7));
+  m.faces.push_back(Face::Triangle(6, 5, 7));
+  const int64_t want = BruteForceDoubleSided(m);
+  EXPECT_GT(want, 10);
+  EXPECT_EQ(DiagnoseMesh(m).double_sided_faces, want);
+}
+
 TEST(ComponentsTest, CountsDoubleSidedFacesAndBoundaryEdges) {
   Mesh m;
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};

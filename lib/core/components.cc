@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "lib/core/bucket_sort.h"
 #include "lib/core/disjoint_sets.h"
 
 namespace meshgauge {
@@ -69,24 +70,42 @@ CyclicKey Cyclic(const Face& f) {
 }
 
 // Faces that have another face with the same corners in the opposite
-// cyclic order (double-sided), by one sort of the faces' cyclic keys.
+// cyclic order (double-sided), by one sort: each face's key and its
+// reverse's share the smaller of the two (`canonical`), so a face's
+// opposites are the other orientation in its run of equal canonical keys.
 int64_t CountDoubleSidedFaces(const Mesh& mesh) {
-  std::vector<CyclicKey> keys;
-  keys.reserve(mesh.faces.size());
-  for (const Face& f : mesh.faces) {
-    if (f.size > 2) keys.push_back(Cyclic(f));
-  }
-  std::sort(keys.begin(), keys.end());
+  // kOwnReverse: a face whose reverse is itself (a corner repeats): its
+  // opposites are the other faces of that orientation.
+  enum Orientation : int8_t { kForward, kBackward, kOwnReverse };
+  struct Keyed {
+    CyclicKey canonical;
+    Orientation orientation;
+  };
+  // Grouped by the canonical key's first (smallest) corner, then sorted.
+  const std::vector<Keyed> keys = BucketSorted<Keyed>(
+      mesh.num_vertices(),
+      [&mesh](auto&& emit) {
+        for (const Face& f : mesh.faces) {
+          if (f.size == 2) continue;
+          Face reversed = f;
+          ReverseFace(reversed);
+          const CyclicKey k = Cyclic(f), r = Cyclic(reversed);
+          const Keyed keyed = k < r   ? Keyed{k, kForward}
+                              : r < k ? Keyed{r, kBackward}
+                                      : Keyed{k, kOwnReverse};
+          emit(keyed.canonical[0], keyed);
+        }
+      },
+      [](const Keyed& a, const Keyed& b) { return a.canonical < b.canonical; });
   int64_t count = 0;
-  for (const Face& f : mesh.faces) {
-    if (f.size == 2) continue;
-    Face reversed = f;
-    ReverseFace(reversed);
-    const CyclicKey want = Cyclic(reversed);
-    auto [lo, hi] = std::equal_range(keys.begin(), keys.end(), want);
-    // A face is never its own reverse unless a corner repeats.
-    const int64_t others = (hi - lo) - (want == Cyclic(f) ? 1 : 0);
-    count += others > 0;
+  for (size_t i = 0, j = 0; i < keys.size(); i = j) {
+    int64_t n[3] = {0, 0, 0};
+    for (; j < keys.size() && keys[j].canonical == keys[i].canonical; ++j) {
+      ++n[keys[j].orientation];
+    }
+    count += (n[kBackward] > 0 ? n[kForward] : 0) +
+             (n[kForward] > 0 ? n[kBackward] : 0) +
+             (n[kOwnReverse] > 1 ? n[kOwnReverse] : 0);
   }
   return count;
 }

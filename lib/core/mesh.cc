@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
+#include "lib/core/bucket_sort.h"
 
 namespace meshgauge {
 namespace {
@@ -272,33 +273,10 @@ std::vector<EdgeUse> SortedEdgeUses(const Mesh& mesh) {
       }
     }
   };
-  std::vector<int64_t> start(nv + 1, 0);
-  for_each_use([&](int32_t v, const EdgeUse&) { ++start[v + 1]; });
-  for (int64_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<EdgeUse> uses(start[nv]);
-  {
-    std::vector<int64_t> next(start.begin(), start.end() - 1);
-    for_each_use([&](int32_t v, const EdgeUse& u) { uses[next[v]++] = u; });
-  }
   // Each vertex's uses by key; stable, so one edge's uses stay in face order.
-  auto by_key = [](const EdgeUse& a, const EdgeUse& b) {
-    return a.key < b.key;
-  };
-  for (int64_t v = 0; v < nv; ++v) {
-    EdgeUse* const first = uses.data() + start[v];
-    EdgeUse* const last = uses.data() + start[v + 1];
-    if (last - first > 32) {
-      std::stable_sort(first, last, by_key);
-      continue;
-    }
-    for (EdgeUse* i = first + 1; i < last; ++i) {  // insertion sort
-      const EdgeUse u = *i;
-      EdgeUse* j = i;
-      for (; j > first && u.key < (j - 1)->key; --j) *j = *(j - 1);
-      *j = u;
-    }
-  }
-  return uses;
+  return BucketSorted<EdgeUse>(
+      nv, for_each_use,
+      [](const EdgeUse& a, const EdgeUse& b) { return a.key < b.key; });
 }
 
 bool IsClosed(const Mesh& mesh) {
