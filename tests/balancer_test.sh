@@ -79,7 +79,7 @@ curl -sf "http://127.0.0.1:$health_port/healthz" >/dev/null ||
   fail "the balancer's health frontend did not answer 200"
 
 # Waits for the load's clients to start (after its single-client reference
-# run, which takes long on a busy or sanitized build), then for 8 more
+# run, which takes long on a busy machine), then for 8 more
 # iterations (2 progress lines); $1 names the moment for the failure message.
 await_progress() {
   local before
@@ -101,6 +101,7 @@ finish_load() {
 start_load() {  # ITERATIONS PREFIX [FLAG...]: meshgauge-load through the balancer
   local iterations=$1 prefix=$2
   shift 2
+  : >"$tmp/load.txt"  # no line of the previous load is counted.
   "$load" --target "127.0.0.1:$hp" --clients 4 --iterations "$iterations" \
     --frequency 4 --session_prefix "$prefix" --time_limit_seconds 120 \
     --token_file "$tmp/token" --progress_every 4 "$@" >"$tmp/load.txt" 2>&1 &

@@ -73,10 +73,10 @@ CyclicKey Cyclic(const Face& f) {
 // cyclic order (double-sided), by one sort: each face's key and its
 // reverse's share the smaller of the two (`canonical`), so a face's
 // opposites are the other orientation in its run of equal canonical keys.
+// Precondition: no face repeats a vertex (ValidateMesh), so a face's key
+// and its reverse's differ.
 int64_t CountDoubleSidedFaces(const Mesh& mesh) {
-  // kOwnReverse: a face whose reverse is itself (a corner repeats): its
-  // opposites are the other faces of that orientation.
-  enum Orientation : int8_t { kForward, kBackward, kOwnReverse };
+  enum Orientation : int8_t { kForward, kBackward };
   struct Keyed {
     CyclicKey canonical;
     Orientation orientation;
@@ -90,22 +90,19 @@ int64_t CountDoubleSidedFaces(const Mesh& mesh) {
           Face reversed = f;
           ReverseFace(reversed);
           const CyclicKey k = Cyclic(f), r = Cyclic(reversed);
-          const Keyed keyed = k < r   ? Keyed{k, kForward}
-                              : r < k ? Keyed{r, kBackward}
-                                      : Keyed{k, kOwnReverse};
+          const Keyed keyed = k < r ? Keyed{k, kForward} : Keyed{r, kBackward};
           emit(keyed.canonical[0], keyed);
         }
       },
       [](const Keyed& a, const Keyed& b) { return a.canonical < b.canonical; });
   int64_t count = 0;
   for (size_t i = 0, j = 0; i < keys.size(); i = j) {
-    int64_t n[3] = {0, 0, 0};
+    int64_t n[2] = {0, 0};
     for (; j < keys.size() && keys[j].canonical == keys[i].canonical; ++j) {
       ++n[keys[j].orientation];
     }
     count += (n[kBackward] > 0 ? n[kForward] : 0) +
-             (n[kForward] > 0 ? n[kBackward] : 0) +
-             (n[kOwnReverse] > 1 ? n[kOwnReverse] : 0);
+             (n[kForward] > 0 ? n[kBackward] : 0);
   }
   return count;
 }

@@ -33,7 +33,8 @@ struct MeshTopology {
   // Faces incident to each vertex, ascending: the one-ring a ray ignores.
   Incidence vertex_faces;
   // Primitives containing each vertex, ascending: the sums of SPEC §2.
-  // When every face is a triangle, primitive i is face i and these lists
+  // When every face is a segment or a triangle, primitive i is face i and
+  // these lists
   // are vertex_faces' (then vertex_primitives stays empty and is not
   // stored twice).
   absl::Span<const int32_t> PrimitivesOf(int64_t vertex) const {
