@@ -131,6 +131,13 @@ TEST(ComponentsTest, DoubleSidedFacesMatchAPairwiseCountInLargeFans) {
   EXPECT_EQ(DiagnoseMesh(m).double_sided_faces, want);
 }
 
+// A curve has no face to compare (the face-key grouping gets no items).
+TEST(ComponentsTest, ACurveHasNoDoubleSidedFaces) {
+  const MeshDiagnostics d = DiagnoseMesh(MakeCircle(1.0, 12));
+  EXPECT_EQ(d.double_sided_faces, 0);
+  EXPECT_TRUE(d.closed);
+}
+
 TEST(ComponentsTest, CountsDoubleSidedFacesAndBoundaryEdges) {
   Mesh m;
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};

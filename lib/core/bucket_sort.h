@@ -28,6 +28,7 @@ std::vector<T> BucketSorted(int64_t num_buckets, ForEach for_each, Less less) {
   for (int64_t b = 0; b < num_buckets; ++b) {
     T* const first = items.data() + start[b];
     T* const last = items.data() + start[b + 1];
+    if (last - first < 2) continue;  // (items.data() may be null.)
     if (last - first > 32) {
       std::stable_sort(first, last, less);
       continue;
