@@ -12,6 +12,8 @@
 //    fastest raw configuration;
 //  * a values-only pass vs a values pass keeping the hit table followed by
 //    the VJP (all-ones g): best times and their ratio;
+//  * the inscribed-ball (SPHERE) pass: best time, its ratio to the values
+//    pass;
 //  * with --cli, the whole `meshgauge sdf FILE --json` run (read, checks,
 //    BVH, rays, estimator, summary): best wall time, its ratio to the
 //    fastest raw pass over the same rays, its stages, and its peak RSS
@@ -182,7 +184,9 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
   double best_sdf = 0, best_values = 1e300;
-  double best_with_vjp = 1e300, best_vjp = 1e300;
+  double best_with_vjp = 1e300, best_vjp = 1e300, best_sphere = 1e300;
+  SdfParams sphere = params;
+  sphere.method = SdfMethod::kSphere;
   int64_t rays = 0;
   for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
     if (!raw.Round(mesh, params)) {
@@ -209,6 +213,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
     }
     best_vjp = std::min(best_vjp, vjp_alone.Seconds());
     best_with_vjp = std::min(best_with_vjp, with_vjp.Seconds());
+    const Stopwatch sphere_watch;
+    if (!(*evaluator)->Compute(sphere).ok()) {
+      std::fprintf(stderr, "sphere pass failed\n");
+      return 1;
+    }
+    best_sphere = std::min(best_sphere, sphere_watch.Seconds());
     auto refit_pass = (*refit_evaluator)->Compute(params);
     best_refit = std::max(best_refit,
                           refit_pass->rays_traced / refit_pass->trace_seconds);
@@ -244,6 +254,10 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       "", best_values, best_with_vjp, best_vjp, best_with_vjp / best_values);
   std::printf("%-28s render 1000x800 view %.3f s, %.3f of the values pass\n",
               "", best_render, best_render / best_values);
+  std::printf(
+      "%-28s inscribed-ball (SPHERE) pass %.3f s, %.3f of the cone values "
+      "pass\n",
+      "", best_sphere, best_sphere / best_values);
   if (!absl::GetFlag(FLAGS_cli).empty()) {
     BenchCli(name, file, params, best_raw);
   }

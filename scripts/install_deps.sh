@@ -13,6 +13,7 @@ PACKAGES=(
   clang-14 libfuzzer-14-dev openssl libssl-dev
   python3-venv python3-pip python3-wheel python3-setuptools mypy libcli11-dev
   redis-server libhiredis-dev haproxy libpng-dev chromium
+  libeigen3-dev
 )
 
 missing=()

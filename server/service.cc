@@ -52,7 +52,8 @@ const char* CodeName(grpc::StatusCode code) {
 }
 
 int64_t PassBytes(const CachedPass& p) {
-  return p.hits.Bytes() + std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4);
+  return p.hits.Bytes() + std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4) +
+         std::ssize(p.result.opposite) * static_cast<int64_t>(sizeof(Vec3));
 }
 
 int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {

@@ -121,6 +121,12 @@ TEST_F(CliRemoteTest, SdfSummaryJsonCsvAndPlyAreTheLocalOnes) {
   EXPECT_THAT(text, HasSubstr("502 ok"));
   ExpectSameOutputs("sdf", knight, "--rays 30 --json", {"csv"});
   ExpectSameOutputs("sdf", knight, "--method normal --json", {"csv"});
+  // The inscribed ball and the opposite points of every method.
+  ExpectSameOutputs("sdf", knight, "--method sphere --opposite --json",
+                    {"csv"});
+  ExpectSameOutputs("sdf", knight, "--method sphere --contact-angle 45",
+                    {"csv"});
+  ExpectSameOutputs("sdf", knight, "--rays 30 --opposite", {"csv"});
   ExpectSameOutputs("sdf", knight,
                     "--cone-angle 60 --kappa 0.5 --normals angle", {"csv"});
   // Missing values and warnings: the inward horse, few rays.
@@ -143,6 +149,7 @@ TEST_F(CliRemoteTest, GradVjpAndJacobianAreTheLocalOnes) {
     for (int i = 0; i < 502; ++i) w << std::sin(0.3 * i) << "\n";
   }
   ExpectSameOutputs("grad", knight, "--rays 20", {"vjp", "jacobian"});
+  ExpectSameOutputs("grad", knight, "--method sphere", {"vjp", "jacobian"});
   ExpectSameOutputs("grad", knight, "--rays 20 --json --weights " + weights,
                     {"vjp"});
   std::remove(weights.c_str());
@@ -156,6 +163,8 @@ TEST_F(CliRemoteTest, PenaltyAndConstraintAreTheLocalOnes) {
                     {"grad"});
   ExpectSameOutputs("penalty", knight, "--t-min 0.3 --form thesis --power 3",
                     {});
+  ExpectSameOutputs("penalty", knight,
+                    "--method sphere --t-min 0.05 --form ks --json", {"grad"});
 }
 
 // The server runs the probes (GradCheck): the same table, counts and

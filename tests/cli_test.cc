@@ -12,6 +12,8 @@
 #include <sstream>
 #include <string>
 
+#include "absl/strings/str_split.h"
+#include "lib/core/vec3.h"
 #include "lib/io/png_file.h"
 #include "tests/cli_test_util.h"
 #include "tests/test_util.h"
@@ -101,6 +103,38 @@ TEST(CliTest, WritesCsvAndPly) {
   EXPECT_GT(std::filesystem::file_size(ply), 502u * 16);
   std::filesystem::remove(csv);
   std::filesystem::remove(ply);
+}
+
+// --method sphere --opposite: the touching point of each vertex's ball is
+// at distance `value` / 2 from the ball's centre, so its distance to the
+// vertex is at most the value (the ball's diameter); columns ox,oy,oz.
+TEST(CliTest, SphereWritesOppositePointsWithinItsDiameter) {
+  const std::string csv = Tmp("sphere.csv");
+  const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") +
+                          " --method sphere --opposite --csv " + csv);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("inscribed ball, contact cone 60 deg"));
+  EXPECT_THAT(r.out, HasSubstr("502 ok"));
+  std::ifstream in(csv);
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "vertex,x,y,z,sdf,normalized,hits,kept,status,ox,oy,oz");
+  int rows = 0;
+  for (std::string line; std::getline(in, line); ++rows) {
+    const std::vector<std::string> f = absl::StrSplit(line, ',');
+    ASSERT_EQ(f.size(), 12u) << line;
+    const Vec3 x(std::stod(f[1]), std::stod(f[2]), std::stod(f[3]));
+    const Vec3 q(std::stod(f[9]), std::stod(f[10]), std::stod(f[11]));
+    const double value = std::stod(f[4]);
+    EXPECT_GT(Norm(q - x), 0) << line;
+    EXPECT_LE(Norm(q - x), value * (1 + 1e-12)) << line;
+  }
+  EXPECT_EQ(rows, 502);
+  const CliRun bad = RunCli("sdf " + SharedMesh("decimated-knight.off") +
+                            " --method sphere --contact-angle 90");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.out, HasSubstr("--contact-angle"));
+  std::filesystem::remove(csv);
 }
 
 TEST(CliTest, HorseWarnsAndReorientsOnRequest) {

@@ -192,8 +192,8 @@ namespace {
 // values).
 TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
   [[maybe_unused]] const auto& [method, cone_angle, rays, min_weight, kappa,
-                                epsilon, max_distance, threads, weighting] =
-      SdfParams{};
+                                epsilon, max_distance, threads, weighting,
+                                opposite, contact_angle] = SdfParams{};
   const std::vector<std::function<void(SdfParams&)>> changes = {
       [](SdfParams& p) { p.method = SdfMethod::kNormalRay; },
       [](SdfParams& p) { p.cone_angle_degrees = 31; },
@@ -204,6 +204,8 @@ TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
       [](SdfParams& p) { p.max_distance = 3; },
       [](SdfParams& p) { p.threads = 1; },
       [](SdfParams& p) { p.normal_weighting = NormalWeighting::kAngle; },
+      [](SdfParams& p) { p.opposite_points = true; },
+      [](SdfParams& p) { p.contact_angle_degrees = 45; },
   };
   for (size_t i = 0; i < changes.size(); ++i) {
     SdfParams p;

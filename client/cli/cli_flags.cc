@@ -41,14 +41,23 @@ CLI::Validator NonNegative() { return Interval(0, kInf, false, true); }
 
 void AddSdfFlags(CLI::App* app, SdfFlags* f) {
   app->add_option("--method", f->method,
-                  "cone (Shapira et al.) or normal (one ray along the axis: "
-                  "physical thickness)")
-      ->check(CLI::IsMember({"cone", "normal"}))
+                  "cone (Shapira et al.), normal (one ray along the axis: "
+                  "physical thickness) or sphere (the inscribed ball "
+                  "tangent at the vertex, SPEC v2 §5b)")
+      ->check(CLI::IsMember({"cone", "normal", "sphere"}))
       ->capture_default_str();
   app->add_option("--cone-angle", f->cone_angle,
                   "full cone opening angle in degrees, (0, 180)")
       ->check(Interval(0, 180, true, true))
       ->capture_default_str();
+  app->add_option("--contact-angle", f->contact_angle,
+                  "sphere: half-angle in degrees of the cone around the axis "
+                  "in which the ball may touch the surface, (0, 90)")
+      ->check(Interval(0, 90, true, true))
+      ->capture_default_str();
+  app->add_flag("--opposite", f->opposite,
+                "also report per vertex the point measured against (SPEC "
+                "v2 §5c): CSV columns ox,oy,oz");
   app->add_option("--rays", f->rays,
                   "rays per vertex, 1..4096 (default 100 in 3D, 32 in 2D)")
       ->check(CLI::Range(1, 4096));
@@ -212,7 +221,11 @@ void AddRemoteFlags(CLI::App* app, RemoteFlags* f) {
 
 absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {
   SdfParams p;
-  p.method = f.method == "normal" ? SdfMethod::kNormalRay : SdfMethod::kCone;
+  p.method = f.method == "normal"   ? SdfMethod::kNormalRay
+             : f.method == "sphere" ? SdfMethod::kSphere
+                                    : SdfMethod::kCone;
+  p.contact_angle_degrees = f.contact_angle;
+  p.opposite_points = f.opposite;
   p.normal_weighting =
       f.normals == "angle" ? NormalWeighting::kAngle : NormalWeighting::kArea;
   p.cone_angle_degrees = f.cone_angle;

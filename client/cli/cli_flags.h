@@ -18,10 +18,13 @@
 
 namespace meshgauge::cli {
 
-// --method --cone-angle --rays --kappa --threads --max-distance --normals.
+// --method --cone-angle --contact-angle --rays --kappa --threads
+// --max-distance --normals --opposite.
 struct SdfFlags {
   std::string method = "cone";
   double cone_angle = 30;
+  double contact_angle = 60;
+  bool opposite = false;
   int rays = 0;  // 0: not given (100 in 3D, 32 in 2D).
   double kappa = 1.0;
   int threads = 0;

@@ -22,9 +22,12 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["vertices"] = opened.mesh().num_vertices();
   j["faces"] = opened.mesh().num_faces();
   j["dimension"] = opened.mesh().dimension;
-  j["method"] =
-      result.resolved.params.method == SdfMethod::kCone ? "cone" : "normal";
+  const SdfMethod method = result.resolved.params.method;
+  j["method"] = method == SdfMethod::kCone        ? "cone"
+                : method == SdfMethod::kNormalRay ? "normal"
+                                                  : "sphere";
   j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
+  j["contact_angle_degrees"] = result.resolved.params.contact_angle_degrees;
   j["rays_per_vertex"] = result.resolved.rays;
   j["ok"] = result.CountStatus(VertexStatus::kOk);
   j["no_hit"] = result.CountStatus(VertexStatus::kNoHit);
@@ -126,8 +129,10 @@ std::string SummaryText(const nlohmann::json& j) {
       j["faces"].get<int64_t>(), j["closed"].get<bool>() ? "closed" : "open",
       j["components"].get<int64_t>(), j["polygons_triangulated"].get<int64_t>(),
       j["format"].get<std::string>(),
-      j["method"] == "normal"
-          ? std::string("normal ray (physical thickness)")
+      j["method"] == "normal" ? std::string("normal ray (physical thickness)")
+      : j["method"] == "sphere"
+          ? absl::StrFormat("inscribed ball, contact cone %g deg",
+                            j["contact_angle_degrees"].get<double>())
           : absl::StrFormat("cone, %g deg, %d rays per vertex",
                             j["cone_angle_degrees"].get<double>(),
                             j["rays_per_vertex"].get<int>()),
@@ -154,7 +159,9 @@ absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
   std::ofstream out(path);
   if (!out)
     return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
-  out << "vertex,x,y,z,sdf,normalized,hits,kept,status\n";
+  const bool opposite = !result.opposite.empty();
+  out << "vertex,x,y,z,sdf,normalized,hits,kept,status"
+      << (opposite ? ",ox,oy,oz\n" : "\n");
   for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
     const Vec3& p = mesh.positions[i];
     const bool ok = result.status[i] == VertexStatus::kOk;
@@ -165,8 +172,15 @@ absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
     } else {
       out << ",";
     }
-    out << absl::StrFormat(",%d,%d,%s\n", result.hits[i], result.kept[i],
+    out << absl::StrFormat(",%d,%d,%s", result.hits[i], result.kept[i],
                            VertexStatusName(result.status[i]));
+    if (opposite && ok) {
+      const Vec3& q = result.opposite[i];
+      out << absl::StrFormat(",%.17g,%.17g,%.17g", q.x, q.y, q.z);
+    } else if (opposite) {
+      out << ",,,";
+    }
+    out << "\n";
   }
   if (!out)
     return absl::InternalError(absl::StrCat("error writing '", path, "'"));

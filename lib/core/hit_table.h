@@ -19,7 +19,10 @@ struct HitTable {
   ResolvedParams resolved;
   std::vector<ConeRay> cone;
   std::vector<int32_t> primitives;
-  std::vector<uint8_t> kept;  // #V x K: 1 where the ray passed the filter.
+  // #V x K: 1 where the ray passed the filter. kSphere (K = 1): the
+  // touching primitive's closed form + 1 (BallContact::kind), 0 for none,
+  // so that a change of form counts as an event like a change of hit.
+  std::vector<uint8_t> kept;
   double t_min = 0;           // self-hit threshold, mesh units.
   double t_max = 0;           // miss distance, mesh units.
   int64_t generation = -1;

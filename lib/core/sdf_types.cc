@@ -35,6 +35,11 @@ absl::Status ValidateParams(const SdfParams& p) {
         "max distance must be >= 0 (0 = bounding-box diagonal), got ",
         p.max_distance));
   }
+  if (!(p.contact_angle_degrees > 0 && p.contact_angle_degrees < 90)) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("contact angle must be in (0, 90) degrees, got ",
+                     p.contact_angle_degrees));
+  }
   if (p.threads < 0 || p.threads > 1024) {
     return absl::InvalidArgumentError(absl::StrCat(
         "threads must be in [0, 1024] (0 = all cores), got ", p.threads));
@@ -46,11 +51,13 @@ ResolvedParams ResolveParams(const SdfParams& params, int dimension) {
   ResolvedParams r;
   r.params = params;
   r.aperture_radians = params.cone_angle_degrees * std::numbers::pi / 180;
-  if (params.method == SdfMethod::kNormalRay) {
+  if (params.method != SdfMethod::kCone) {
     r.rays = 1;
   } else {
     r.rays = params.rays > 0 ? params.rays : (dimension == 2 ? 32 : 100);
   }
+  r.contact_cosine =
+      std::cos(params.contact_angle_degrees * std::numbers::pi / 180);
   r.min_weight_angle = params.min_weight_angle > 0
                            ? params.min_weight_angle
                            : r.aperture_radians / (2.0 * r.rays);

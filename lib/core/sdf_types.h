@@ -9,6 +9,7 @@
 #include "absl/status/statusor.h"
 #include "lib/core/missing_values.h"
 #include "lib/core/normals.h"
+#include "lib/core/vec3.h"
 
 namespace meshgauge {
 
@@ -16,6 +17,7 @@ enum class SdfMethod {
   kCone,       // Shapira et al.: cone of rays, median +- kappa sigma filter,
                // 1/angle weights (SPEC §5).
   kNormalRay,  // one ray along the cone axis: physical thickness.
+  kSphere,     // the inscribed ball tangent at the vertex (SPEC v2 §5b).
 };
 
 struct SdfParams {
@@ -23,7 +25,7 @@ struct SdfParams {
   // Full opening angle alpha in degrees, in (0, 180).
   double cone_angle_degrees = 30;
   // Ray count K in [1, 4096]; 0 selects the default (100 in 3D, 32 in 2D).
-  // Ignored (always 1) for kNormalRay.
+  // Ignored (always 1) for kNormalRay and kSphere.
   int rays = 0;
   // theta_min in radians, > 0; 0 selects alpha / (2 K).
   double min_weight_angle = 0;
@@ -38,6 +40,11 @@ struct SdfParams {
   // on it (bit for bit).
   int threads = 0;
   NormalWeighting normal_weighting = NormalWeighting::kArea;
+  // Fill SdfResult::opposite (SPEC v2 §5c).
+  bool opposite_points = false;
+  // kSphere: the contact cone's half-angle beta in degrees, in (0, 90): a
+  // touching point is seen from the vertex at most beta off the axis.
+  double contact_angle_degrees = 60;
 
   // Every field: a cached pass is reused only for equal parameters (threads
   // included, although results do not depend on them).
@@ -53,12 +60,14 @@ struct ResolvedParams {
   int rays = 0;
   double aperture_radians = 0;
   double min_weight_angle = 0;
+  double contact_cosine = 0;  // cos(contact_angle_degrees).
 };
 ResolvedParams ResolveParams(const SdfParams& params, int dimension);
 
 enum class VertexStatus : uint8_t {
   kOk = 0,
-  kNoHit = 1,             // no ray hit (or, rarely, none passed the filter).
+  kNoHit = 1,             // no ray hit (or, rarely, none passed the filter;
+                          // kSphere: no admissible point within the cap).
   kNoFaces = 2,           // the vertex is on no face.
   kDegenerateNormal = 3,  // N_p = 0 (e.g. a fold): no cone axis.
 };
@@ -73,6 +82,10 @@ struct SdfResult {
   std::vector<VertexStatus> status;
   std::vector<int32_t> hits;  // rays that hit, per vertex.
   std::vector<int32_t> kept;  // rays kept by the filter, per vertex.
+  // With SdfParams::opposite_points, per vertex, what was measured against
+  // (SPEC v2 §5c): kNormalRay's hit point, kCone's weighted mean of the kept
+  // rays' hit points, kSphere's touching point; NaN unless kOk. Else empty.
+  std::vector<Vec3> opposite;
   int64_t rays_traced = 0;
   // 3D vertices with a value whose one-ring gave no frame edge, so their
   // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D.

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/hit.h"
+#include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
 #include "lib/core/vertex_cone.h"
 
@@ -31,6 +32,12 @@ struct Context {
   std::vector<Vec3> normals;
 };
 
+void AxisTerms(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+               const VertexCone& vc, const Vec3& g_axis,
+               std::vector<Term>& terms);
+void SphereTerms(const Context& ctx, int64_t p, const VertexCone& vc,
+                 std::vector<Term>& terms);
+
 // Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for vertex p.
 // Leaves `terms` empty when p has no value.
 void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
@@ -44,6 +51,10 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   if (topo.vertex_faces.Of(p).empty()) return;
   const VertexCone vc = MakeVertexCone(mesh, topo, p, ctx.normals[p]);
   if (!vc.valid) return;
+  if (ctx.hits.resolved.params.method == SdfMethod::kSphere) {
+    SphereTerms(ctx, p, vc, terms);
+    return;
+  }
   const Vec3& x = mesh.positions[p];
   const auto row = ctx.hits.Row(p);
   // The kept set is frozen in the hit table (SPEC §6): only kept rays are
@@ -87,7 +98,37 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     terms.push_back({vc.frame.reference, gf.edge});
   }
   terms.push_back({static_cast<int32_t>(p), d_origin});
-  const Vec3 g_axis = g_a + gf.axis;
+  AxisTerms(mesh, topo, p, vc, g_a + gf.axis, terms);
+}
+
+// The terms of the inscribed ball (SPEC v2 §5b): T_p = 2 r with r the
+// touching primitive's closed form, differentiated through x_p, the axis
+// and the primitive's corners.
+void SphereTerms(const Context& ctx, int64_t p, const VertexCone& vc,
+                 std::vector<Term>& terms) {
+  const int32_t prim = ctx.hits.Row(p)[0];
+  if (prim < 0) return;
+  const MeshGeometry& ev = ctx.ev;
+  const Vec3& x = ev.mesh().positions[p];
+  const double cos_beta = ctx.hits.resolved.contact_cosine;
+  const PrimitiveCorners pc = ev.Corners(prim);
+  const BallContact contact =
+      MinimumTangentBall(pc, x, vc.frame.axis, cos_beta);
+  const BallGradient g =
+      TangentBallGradient(pc, x, vc.frame.axis, cos_beta, contact.kind);
+  terms.push_back({static_cast<int32_t>(p), g.x * 2});
+  const Primitive& corners = ev.topology().primitives[prim];
+  for (int j = 0; j < 3 && corners.v[j] >= 0; ++j) {
+    terms.push_back({corners.v[j], g.corner[j] * 2});
+  }
+  AxisTerms(ev.mesh(), ev.topology(), p, vc, g.axis * 2, terms);
+}
+
+// Appends the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
+// N the sum over p's primitives (SPEC §2).
+void AxisTerms(const Mesh& mesh, const MeshTopology& topo, int64_t p,
+               const VertexCone& vc, const Vec3& g_axis,
+               std::vector<Term>& terms) {
   const Vec3 g_n = g_axis * vc.sign;
   const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
   Vec3 grad[3];

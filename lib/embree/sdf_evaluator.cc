@@ -19,6 +19,7 @@
 #include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
 #include "lib/core/vertex_cone.h"
+#include "lib/embree/inscribed_ball_query.h"
 #include "lib/embree/moved_boxes.h"
 
 namespace meshgauge {
@@ -356,7 +357,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
   const ResolvedParams resolved = ResolveParams(params, mesh_.dimension);
   std::vector<ConeRay> cone;
-  if (params.method == SdfMethod::kNormalRay) {
+  const bool sphere = params.method == SdfMethod::kSphere;
+  if (params.method != SdfMethod::kCone) {
     cone.push_back({Vec3(0, 0, 1), 0.0, 1.0});
   } else {
     auto made = MakeCone(mesh_.dimension, resolved.aperture_radians,
@@ -379,7 +381,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
 
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
-      previous->result != nullptr) {
+      previous->result != nullptr && !sphere) {
     auto planned = PlanReuse(*previous, cone, resolved, limits.t_near,
                              limits.t_min, t_max);
     if (!planned.ok()) return planned.status();
@@ -392,6 +394,19 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.status.assign(nv, VertexStatus::kOk);
   result.hits.assign(nv, 0);
   result.kept.assign(nv, 0);
+  if (params.opposite_points)
+    result.opposite.assign(nv, Vec3(kNaN, kNaN, kNaN));
+  BallLimits ball;
+  ball.cap = t_max / 2;
+  ball.min_radius = t_min / 2;
+  ball.cos_beta = resolved.contact_cosine;
+  ball.fan = limits;
+  std::unique_ptr<BallTree> ball_tree;
+  if (sphere) {
+    auto made = BallTree::Create(mesh_, topo_);
+    if (!made.ok()) return made.status();
+    ball_tree = std::move(*made);
+  }
   std::vector<int32_t> table;
   std::vector<uint8_t> kept_table, near;
   if (keep_hits) {
@@ -434,6 +449,29 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       }
       world_frames += vc.world_frame;
       const Vec3& x = mesh_.positions[p];
+      if (sphere) {
+        OneRingPrimitives(topo_, p, &excluded);
+        const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
+                                           vc.frame.axis, excluded, ball);
+        ++traced;
+        if (!table.empty()) {  // one "ray" per vertex.
+          table[p] = b.prim;
+          kept_table[p] = static_cast<uint8_t>(b.contact.kind + 1);
+        }
+        if (b.prim < 0) {
+          result.status[p] = VertexStatus::kNoHit;
+          continue;
+        }
+        result.values[p] = 2 * b.contact.radius;
+        result.hits[p] = result.kept[p] = 1;
+        if (params.opposite_points) {
+          const PrimitiveCorners pc = Corners(b.prim);
+          result.opposite[p] =
+              pc.a * b.contact.lambda[0] + pc.b * b.contact.lambda[1] +
+              (pc.segment ? Vec3() : pc.c * b.contact.lambda[2]);
+        }
+        continue;
+      }
       const double reach = MaxAbs(x - scene_->origin());
       // The directions, computed only when a ray needs them.
       bool have_dirs = false;
@@ -460,6 +498,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
           result.status[p] = r.status[p];
           result.hits[p] = r.hits[p];
           result.kept[p] = r.kept[p];
+          if (params.opposite_points) result.opposite[p] = r.opposite[p];
           if (row) {
             std::copy_n(old_row, num_rays, row);
             std::copy_n(plan->hits->KeptRow(p).data(), num_rays, kept_row);
@@ -513,6 +552,16 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         result.status[p] = VertexStatus::kNoHit;
       } else {
         result.values[p] = est.value;
+        if (params.opposite_points) {
+          Vec3 sum;
+          double weights = 0;
+          for (int k = 0; k < num_rays; ++k) {
+            if (!kept[k]) continue;
+            sum += (x + dirs[k] * t[k]) * cone[k].weight;
+            weights += cone[k].weight;
+          }
+          result.opposite[p] = sum / weights;
+        }
       }
     }
     rays_traced += traced;

@@ -66,8 +66,19 @@ absl::StatusOr<PenaltyParams> PenaltyFromMessage(const Message& r) {
 
 v1::SdfParameters ToWire(const SdfParams& p) {
   v1::SdfParameters w;
-  w.set_method(p.method == SdfMethod::kNormalRay ? v1::SDF_METHOD_NORMAL_RAY
-                                                 : v1::SDF_METHOD_CONE);
+  switch (p.method) {
+    case SdfMethod::kCone:
+      w.set_method(v1::SDF_METHOD_CONE);
+      break;
+    case SdfMethod::kNormalRay:
+      w.set_method(v1::SDF_METHOD_NORMAL_RAY);
+      break;
+    case SdfMethod::kSphere:
+      w.set_method(v1::SDF_METHOD_SPHERE);
+      break;
+  }
+  w.set_contact_angle_degrees(p.contact_angle_degrees);
+  w.set_opposite_points(p.opposite_points);
   w.set_cone_angle_degrees(p.cone_angle_degrees);
   w.set_rays(p.rays);
   w.set_kappa(p.kappa);
@@ -91,6 +102,9 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
     case v1::SDF_METHOD_NORMAL_RAY:
       out.method = SdfMethod::kNormalRay;
       break;
+    case v1::SDF_METHOD_SPHERE:
+      out.method = SdfMethod::kSphere;
+      break;
     default:
       return absl::InvalidArgumentError(
           absl::StrCat("params.method ", static_cast<int>(p.method()),
@@ -111,6 +125,10 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
   }
   if (p.cone_angle_degrees() != 0)
     out.cone_angle_degrees = p.cone_angle_degrees();
+  if (p.contact_angle_degrees() != 0) {
+    out.contact_angle_degrees = p.contact_angle_degrees();
+  }
+  out.opposite_points = p.opposite_points();
   out.rays = p.rays();
   if (p.has_kappa()) out.kappa = p.kappa();
   out.min_weight_angle = p.min_weight_angle();
@@ -441,6 +459,11 @@ void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
   c->mutable_kept()->Add(r.kept.begin() + begin, r.kept.begin() + end);
   c->mutable_normalized()->Add(r.normalized.begin() + begin,
                                r.normalized.begin() + end);
+  if (!r.opposite.empty()) {
+    for (int64_t p = begin; p < end; ++p) {
+      for (int k = 0; k < 3; ++k) c->add_opposite(r.opposite[p][k]);
+    }
+  }
   if (!jacobian) return;
   const SparseJacobian& j = *jacobian;
   const int64_t base = j.row_offsets[begin];
@@ -480,7 +503,9 @@ absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply) {
   const int64_t n = c.vertex_end() - c.vertex_begin();
   if (c.vertex_begin() != std::ssize(r.values) || n < 0 ||
       c.values_size() != n || c.status_size() != n || c.hits_size() != n ||
-      c.kept_size() != n || c.normalized_size() != n) {
+      c.kept_size() != n || c.normalized_size() != n ||
+      (c.opposite_size() != 0 && c.opposite_size() != 3 * n) ||
+      (!r.values.empty() && (c.opposite_size() > 0) != !r.opposite.empty())) {
     return Malformed(absl::StrCat("chunk [", c.vertex_begin(), ", ",
                                   c.vertex_end(), ") does not continue ",
                                   r.values.size(), " vertices"));
@@ -495,6 +520,10 @@ absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply) {
   r.kept.insert(r.kept.end(), c.kept().begin(), c.kept().end());
   r.normalized.insert(r.normalized.end(), c.normalized().begin(),
                       c.normalized().end());
+  for (int i = 0; i + 2 < c.opposite_size(); i += 3) {
+    r.opposite.push_back(
+        Vec3(c.opposite(i), c.opposite(i + 1), c.opposite(i + 2)));
+  }
   if (!reply->jacobian) return absl::OkStatus();
   SparseJacobian& j = *reply->jacobian;
   if (j.row_offsets.empty()) j.row_offsets.push_back(0);

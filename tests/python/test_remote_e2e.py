@@ -71,6 +71,27 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertEqual(pen.gradient.shape, (6, 3))
         self.assertIn("octa", [s.session_id for s in self.client.list()])
 
+    def test_1b_sphere_values_vjp_and_opposite_points(self):
+        v, f = octahedron()
+        sid = self.client.upload(v, f).session_id
+        r = self.client.sdf(sid, method="sphere", opposite_points=True)
+        self.assertEqual(r.summary.ok, 6)
+        self.assertEqual(r.opposite.shape, (6, 3))
+        # The touching point is on the ball: |q - x| <= its diameter.
+        dist = np.linalg.norm(r.opposite - v, axis=1)
+        self.assertTrue(np.all((dist > 0) & (dist <= r.values * (1 + 1e-12))))
+        self.assertIsNone(self.client.sdf(sid, method="sphere").opposite)
+        # Degree-1 homogeneity through the RPC's sphere derivative.
+        g = self.client.vjp(sid, np.ones(6), method="sphere")
+        self.assertAlmostEqual(float(np.sum(g * v)), float(np.sum(r.values)),
+                               places=9)
+        narrow = self.client.sdf(sid, method="sphere", contact_angle=30.0)
+        self.assertEqual(narrow.summary.ok, 6)
+        with self.assertRaises(ValueError):
+            self.client.sdf(sid, method="sphere", contact_angle=90.0)
+        with self.assertRaises(TypeError):
+            self.client.sdf(sid, opposite_points="yes")
+
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:
             self.client.info("missing")

@@ -15,7 +15,8 @@ from meshgauge_client.results import (Calibration, FloatArray,
                                       SdfSummary, SessionInfo, ThinRegion,
                                       ThinSurface)
 
-METHODS = {"cone": pb.SDF_METHOD_CONE, "normal": pb.SDF_METHOD_NORMAL_RAY}
+METHODS = {"cone": pb.SDF_METHOD_CONE, "normal": pb.SDF_METHOD_NORMAL_RAY,
+           "sphere": pb.SDF_METHOD_SPHERE}
 NORMALS = {"area": pb.NORMAL_WEIGHTING_AREA, "angle": pb.NORMAL_WEIGHTING_ANGLE}
 FORMS = {"one-sided": pb.PENALTY_FORM_ONE_SIDED,
          "thesis": pb.PENALTY_FORM_THESIS, "ks": pb.PENALTY_FORM_KS}
@@ -40,13 +41,21 @@ def _number(name: str, value: float, lo: float, hi: float,
     return v
 
 
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__}")
+    return bool(value)
+
+
 def sdf_params(method: str = "cone", cone_angle: float = 30.0, rays: int = 0,
                kappa: float = 1.0, max_distance: float = 0.0,
-               normals: str = "area") -> Any:
+               normals: str = "area", contact_angle: float = 60.0,
+               opposite_points: bool = False) -> Any:
     """SdfParameters from the CLI's flag names and defaults: method
-    cone|normal, cone_angle in (0, 180) degrees, rays 1..4096 (0: 100 in 3D,
-    32 in 2D), kappa >= 0, max_distance >= 0 (0: bounding-box diagonal),
-    normals area|angle."""
+    cone|normal|sphere, cone_angle in (0, 180) degrees, rays 1..4096 (0: 100
+    in 3D, 32 in 2D), kappa >= 0, max_distance >= 0 (0: bounding-box
+    diagonal), normals area|angle, contact_angle (sphere) in (0, 90)
+    degrees, opposite_points a bool."""
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)):
         raise TypeError(f"rays must be an int, got {type(rays).__name__}")
     if not 0 <= int(rays) <= 4096:
@@ -54,12 +63,17 @@ def sdf_params(method: str = "cone", cone_angle: float = 30.0, rays: int = 0,
     angle = _number("cone_angle", cone_angle, 0, 180, lo_open=True)
     if angle == 180:
         raise ValueError("cone_angle must be below 180 degrees")
+    contact = _number("contact_angle", contact_angle, 0, 90, lo_open=True)
+    if contact == 90:
+        raise ValueError("contact_angle must be below 90 degrees")
     return pb.SdfParameters(
         method=_choice("method", method, METHODS),
         cone_angle_degrees=angle, rays=int(rays),
         kappa=_number("kappa", kappa, 0, math.inf),
         max_distance=_number("max_distance", max_distance, 0, math.inf),
-        normal_weighting=_choice("normals", normals, NORMALS))
+        normal_weighting=_choice("normals", normals, NORMALS),
+        contact_angle_degrees=contact,
+        opposite_points=_flag("opposite_points", opposite_points))
 
 
 def points(array: Any, name: str, rows: Optional[int] = None) -> FloatArray:

@@ -464,6 +464,7 @@ class MeshGaugeClient:
             hits: List[int] = []
             kept: List[int] = []
             normalized: List[float] = []
+            opposite: List[float] = []
             rows: List[int] = [0]
             cols: List[int] = []
             data: List[float] = []
@@ -478,6 +479,7 @@ class MeshGaugeClient:
                 hits.extend(c.hits)
                 kept.extend(c.kept)
                 normalized.extend(c.normalized)
+                opposite.extend(c.opposite)
                 if jacobian:
                     base = rows[-1]
                     rows.extend(base + o for o in list(c.row_offsets)[1:])
@@ -499,7 +501,9 @@ class MeshGaugeClient:
                                np.asarray(hits, dtype=np.int64),
                                np.asarray(kept, dtype=np.int64),
                                np.asarray(normalized, dtype=np.float64),
-                               _wire.summary(summary), jac)
+                               _wire.summary(summary), jac,
+                               np.asarray(opposite, dtype=np.float64)
+                               .reshape(-1, 3) if opposite else None)
             for w in result.summary.warnings:
                 warnings.warn(w, MissingValuesWarning, stacklevel=6)
             return result

@@ -10,8 +10,11 @@ from meshgauge_client import _wire
 
 @dataclass(frozen=True)
 class SdfOptions:
-    """method: "cone" (Shapira et al.) or "normal" (one ray along the axis:
-    physical thickness); cone_angle_degrees: full opening angle in (0, 180);
+    """method: "cone" (Shapira et al.), "normal" (one ray along the axis:
+    physical thickness) or "sphere" (the inscribed ball tangent at the vertex,
+    SPEC v2 §5b); contact_angle_degrees: the sphere's contact cone
+    half-angle in (0, 90); opposite_points: also return each vertex's
+    opposite point (SdfResult.opposite); cone_angle_degrees: full opening angle in (0, 180);
     rays: per vertex, 1..4096 (0: 100 in 3D, 32 in 2D; the server may allow
     fewer, see MeshGaugeClient.server_info); kappa >= 0: keep rays with
     |t - median| <= kappa sigma; max_distance >= 0 (0: the bounding-box
@@ -26,6 +29,8 @@ class SdfOptions:
     kappa: float = 1.0
     max_distance: float = 0.0
     normals: str = "area"
+    contact_angle_degrees: float = 60.0
+    opposite_points: bool = False
 
     def __post_init__(self) -> None:
         self.to_wire()  # validates.
@@ -34,13 +39,15 @@ class SdfOptions:
         """The SdfParameters message."""
         return _wire.sdf_params(self.method, self.cone_angle_degrees,
                                 self.rays, self.kappa, self.max_distance,
-                                self.normals)
+                                self.normals, self.contact_angle_degrees,
+                                self.opposite_points)
 
     @staticmethod
     def of(options: Optional["SdfOptions"], params: Dict[str, Any]
            ) -> "SdfOptions":
         """`options`, or SdfOptions from keyword arguments named as its
-        fields (cone_angle is accepted for cone_angle_degrees). TypeError
+        fields (cone_angle and contact_angle are accepted for the _degrees
+        fields). TypeError
         names an unknown keyword and lists the known ones."""
         if options is not None:
             if params:
@@ -52,8 +59,9 @@ class SdfOptions:
             return options
         names = {f.name for f in dataclasses.fields(SdfOptions)}
         given = dict(params)
-        if "cone_angle" in given:
-            given["cone_angle_degrees"] = given.pop("cone_angle")
+        for short in ("cone_angle", "contact_angle"):
+            if short in given:
+                given[short + "_degrees"] = given.pop(short)
         for key in given:
             if key not in names:
                 raise TypeError(f"unknown SDF option {key!r}; options are "

@@ -56,6 +56,10 @@ class SdfResult:
     normalized: (N,) Shapira's normalised SDF in [0, 1], NaN unless OK.
     jacobian: scipy.sparse.csr_matrix (N, N*d) of dSDF_p/dx_j (column
     j*d + c) when asked for, else None.
+    opposite: (N, 3) with opposite_points=True, what each vertex was
+    measured against (SPEC v2 §5c: the normal ray's hit point, the cone's
+    weighted mean hit point, the sphere's touching point; z = 0 in 2D), NaN
+    unless OK; else None.
     """
 
     values: FloatArray
@@ -65,6 +69,7 @@ class SdfResult:
     normalized: FloatArray
     summary: SdfSummary
     jacobian: Optional[Any] = None
+    opposite: Optional[FloatArray] = None
 
     def status_names(self) -> List[str]:
         return [VertexStatus(int(s)).name for s in self.status]

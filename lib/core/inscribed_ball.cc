@@ -1,0 +1,305 @@
+#include "lib/core/inscribed_ball.h"
+
+#include <algorithm>
+#include <cmath>
+
+// clang-format off: AutoDiff needs Eigen/Core first.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <unsupported/Eigen/AutoDiff>
+// clang-format on
+
+namespace meshgauge {
+namespace {
+
+// Variables of the derivative: x, axis, three corners.
+constexpr int kVariables = 15;
+using Ad = Eigen::AutoDiffScalar<Eigen::Matrix<double, kVariables, 1>>;
+
+template <typename S>
+using V = Eigen::Matrix<S, 3, 1>;
+
+inline double Val(double v) { return v; }
+inline double Val(const Ad& v) { return v.value(); }
+
+// The closed forms, numbered for BallContact::kind.
+constexpr int kPlane = 0;           // the minimum over the triangle's plane.
+constexpr int kCorner = 1;          // + corner (0..2).
+constexpr int kEdgeStationary = 4;  // + 2 edge + root.
+constexpr int kEdgeCone = 10;       // + 2 edge + root.
+constexpr int kConic = 16;          // + root.
+constexpr int kKinds = 18;
+
+// Slack of the feasibility tests (barycentric coordinates, edge parameter,
+// cone angle): a candidate this close to its piece's boundary still counts.
+constexpr double kSlack = 1e-12;
+
+// Root `which` of a2 t^2 + b t + c2 = 0 in the stable form q / a2 (0) or
+// c2 / q (1), q = -(b + sign(b) sqrt(b^2 - 4 a2 c2)) / 2; a linear equation
+// (a2 = 0) has its root as 1. False when the root does not exist.
+template <typename S>
+bool Root(const S& a2, const S& b, const S& c2, int which, S* t) {
+  const S disc = b * b - 4.0 * a2 * c2;
+  if (!(Val(disc) >= 0)) return false;
+  const S sq = sqrt(disc);
+  const S q = Val(b) >= 0 ? S(-(b + sq) / 2.0) : S(-(b - sq) / 2.0);
+  if (which == 0) {
+    if (Val(a2) == 0) return false;
+    *t = q / a2;
+  } else {
+    if (Val(q) == 0) return false;
+    *t = c2 / q;
+  }
+  return std::isfinite(Val(*t));
+}
+
+template <typename S>
+struct Inputs {
+  V<S> x, a, corner[3];
+  int corners;  // 3 for a triangle, 2 for a segment.
+  double cos_beta;
+};
+
+// The touching point of closed form `kind` and its barycentric
+// coordinates; false when the form does not apply or its point lies outside
+// its piece (the triangle, the edge).
+template <typename S>
+bool KindPoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
+  const double c = in.cos_beta;
+  for (int j = 0; j < 3; ++j) lambda[j] = S(0.0);
+  if (kind >= kCorner && kind < kEdgeStationary) {
+    const int j = kind - kCorner;
+    if (j >= in.corners) return false;
+    *s = in.corner[j];
+    lambda[j] = S(1.0);
+    return true;
+  }
+  if (kind >= kEdgeStationary && kind < kConic) {
+    const bool cone = kind >= kEdgeCone;
+    const int e = (kind - (cone ? kEdgeCone : kEdgeStationary)) / 2;
+    const int root = (kind - (cone ? kEdgeCone : kEdgeStationary)) % 2;
+    if (e >= (in.corners == 2 ? 1 : 3)) return false;
+    const int e1 = (e + 1) % in.corners;
+    const V<S>& p = in.corner[e];
+    const V<S> edge = in.corner[e1] - p;
+    const V<S> w0 = p - in.x;
+    // |s - x|^2 = A t^2 + B t + C, a.(s - x) = D t + E along s = p + t edge.
+    const S A = edge.dot(edge), B = 2.0 * w0.dot(edge), C = w0.dot(w0);
+    const S D = in.a.dot(edge), E = in.a.dot(w0);
+    S t;
+    const bool found =
+        cone ? Root(S(D * D - c * c * A), S(2.0 * D * E - c * c * B),
+                    S(E * E - c * c * C), root, &t)
+             : Root(S(A * D), S(2.0 * A * E), S(B * E - C * D), root, &t);
+    if (!found || !(Val(t) >= -kSlack && Val(t) <= 1 + kSlack)) return false;
+    *s = p + edge * t;
+    lambda[e] = 1.0 - t;
+    lambda[e1] = t;
+    return true;
+  }
+  if (in.corners != 3) return false;
+  // The triangle's plane: x0 the foot of x, h its signed height, g the
+  // axis' component in the plane, alpha0 = a.(x0 - x).
+  const V<S> ab = in.corner[1] - in.corner[0];
+  const V<S> ac = in.corner[2] - in.corner[0];
+  const V<S> m = ab.cross(ac);
+  const S mm = m.dot(m);
+  const V<S> unit = m / sqrt(mm);
+  const S h = (in.x - in.corner[0]).dot(unit);
+  const V<S> x0 = in.x - unit * h;
+  const S an = in.a.dot(unit);
+  const V<S> g = in.a - unit * an;
+  const S alpha0 = -h * an;
+  const S g2 = g.dot(g);
+  if (kind == kPlane) {
+    // The disc {rho < r} of the plane shrinks to a point at
+    // r = h^2 / (alpha0 + sqrt(alpha0^2 + |g|^2 h^2)).
+    const S den = alpha0 + sqrt(alpha0 * alpha0 + g2 * h * h);
+    if (!(Val(den) > 0)) return false;
+    *s = x0 + g * (h * h / den);
+  } else {
+    // The conic psi = beta of the plane: a.(s - x) = (alpha0 + |g| eta) on
+    // the line s = x0 + eta g/|g|, whose extreme points solve
+    // (|g|^2 - c^2) eta^2 + 2 alpha0 |g| eta + alpha0^2 - c^2 h^2 = 0.
+    V<S> dir;
+    S gl;
+    if (Val(g2) > 1e-24) {
+      gl = sqrt(g2);
+      dir = g / gl;
+    } else {  // the plane is normal to the axis: any direction will do.
+      gl = S(0.0);
+      dir = ab / sqrt(ab.dot(ab));
+    }
+    S eta;
+    if (!Root(S(g2 - c * c), S(2.0 * alpha0 * gl),
+              S(alpha0 * alpha0 - c * c * h * h), kind - kConic, &eta)) {
+      return false;
+    }
+    *s = x0 + dir * eta;
+  }
+  const V<S> as = *s - in.corner[0];
+  const S beta = as.cross(ac).dot(m) / mm;
+  const S gamma = ab.cross(as).dot(m) / mm;
+  lambda[0] = 1.0 - beta - gamma;
+  lambda[1] = beta;
+  lambda[2] = gamma;
+  for (int j = 0; j < 3; ++j) {
+    if (!(Val(lambda[j]) >= -kSlack)) return false;
+  }
+  return true;
+}
+
+// rho(s), or false when s is at x or behind the tangent plane. `inside`
+// tells whether s is in the contact cone.
+template <typename S>
+bool Rho(const Inputs<S>& in, const V<S>& s, S* rho, bool* inside) {
+  const V<S> w = s - in.x;
+  const S w2 = w.dot(w);
+  const S aw = in.a.dot(w);
+  if (!(Val(aw) > 0) || !(Val(w2) > 0)) return false;
+  *inside = Val(aw) >= in.cos_beta * std::sqrt(Val(w2)) * (1 - kSlack);
+  *rho = w2 / (2.0 * aw);
+  return std::isfinite(Val(*rho));
+}
+
+Inputs<double> DoubleInputs(const PrimitiveCorners& pc, const Vec3& x,
+                            const Vec3& axis, double cos_beta) {
+  auto v = [](const Vec3& p) { return V<double>(p.x, p.y, p.z); };
+  Inputs<double> in;
+  in.x = v(x);
+  in.a = v(axis);
+  in.corner[0] = v(pc.a);
+  in.corner[1] = v(pc.b);
+  in.corner[2] = pc.segment ? V<double>::Zero() : v(pc.c);
+  in.corners = pc.segment ? 2 : 3;
+  in.cos_beta = cos_beta;
+  return in;
+}
+
+}  // namespace
+
+BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
+                               const Vec3& axis, double cos_beta) {
+  const Inputs<double> in = DoubleInputs(pc, x, axis, cos_beta);
+  // The smallest rho of the kinds in [begin, end), over the points in the
+  // cone only (`cone`) or over all; `inside` tells whether the winner is in
+  // the cone.
+  auto smallest = [&](int begin, int end, bool cone, bool* inside) {
+    BallContact best;
+    for (int kind = begin; kind < end; ++kind) {
+      V<double> s;
+      double lambda[3], rho;
+      bool in_cone;
+      if (!KindPoint(in, kind, &s, lambda) || !Rho(in, s, &rho, &in_cone) ||
+          (cone && !in_cone) || !(rho < best.radius)) {
+        continue;
+      }
+      best.radius = rho;
+      best.kind = kind;
+      for (int j = 0; j < 3; ++j) best.lambda[j] = lambda[j];
+      *inside = in_cone;
+    }
+    return best;
+  };
+  // The minimum over the whole primitive is the minimum over its admissible
+  // part when it lies in the cone: first the plane's minimum (when inside
+  // the triangle, it is the triangle's), then the boundary's; otherwise
+  // every form, in the cone only.
+  bool inside = false;
+  BallContact best = smallest(kPlane, kPlane + 1, false, &inside);
+  if (best.kind >= 0) {
+    return inside ? best : smallest(0, kKinds, true, &inside);
+  }
+  best = smallest(kCorner, kEdgeCone, false, &inside);
+  if (best.kind >= 0 && inside) return best;
+  return smallest(0, kKinds, true, &inside);
+}
+
+bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x, const Vec3& axis,
+                  double cos_beta, double radius) {
+  // Outside the contact cone: the plane through x with normal
+  // nu = e cos(beta) - axis sin(beta), e the direction of the primitive's
+  // first corner across the axis, leaves the cone on its side nu.w <= 0.
+  const Vec3 w0 = pc.a - x;
+  const Vec3 across = w0 - axis * Dot(axis, w0);
+  const double across_length = Norm(across);
+  if (across_length > 0) {
+    const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
+    const Vec3 nu = across * (cos_beta / across_length) - axis * sin_beta;
+    const double reach = 1e-12 * (Norm(w0) + Norm(pc.b - pc.a));
+    if (Dot(nu, w0) > reach && Dot(nu, pc.b - x) > reach &&
+        (pc.segment || Dot(nu, pc.c - x) > reach)) {
+      return false;
+    }
+  }
+  const Vec3 centre = x + axis * radius;
+  // The closest point of the primitive to the centre (Ericson, Real-Time
+  // Collision Detection, 5.1.5), by its Voronoi regions.
+  const Vec3 ab = pc.b - pc.a, ap = centre - pc.a;
+  Vec3 closest;
+  if (pc.segment) {
+    const double t = std::clamp(Dot(ap, ab) / Dot(ab, ab), 0.0, 1.0);
+    closest = pc.a + ab * t;
+  } else {
+    const Vec3 ac = pc.c - pc.a;
+    const double d1 = Dot(ab, ap), d2 = Dot(ac, ap);
+    const Vec3 bp = centre - pc.b, cp = centre - pc.c;
+    const double d3 = Dot(ab, bp), d4 = Dot(ac, bp);
+    const double d5 = Dot(ab, cp), d6 = Dot(ac, cp);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
+                 va = d3 * d6 - d5 * d4;
+    if (d1 <= 0 && d2 <= 0) {
+      closest = pc.a;
+    } else if (d3 >= 0 && d4 <= d3) {
+      closest = pc.b;
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      closest = pc.a + ab * (d1 / (d1 - d3));
+    } else if (d6 >= 0 && d5 <= d6) {
+      closest = pc.c;
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      closest = pc.a + ac * (d2 / (d2 - d6));
+    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+      closest = pc.b + (pc.c - pc.b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    } else {
+      const double denom = 1 / (va + vb + vc);
+      closest = pc.a + ab * (vb * denom) + ac * (vc * denom);
+    }
+  }
+  const Vec3 d = closest - centre;
+  // Rounding of the closest point: a relative 1e-9 of the sizes involved.
+  const double slack = 1e-9 * (radius + Norm(ap) + Norm(ab));
+  return Dot(d, d) <= (radius + slack) * (radius + slack);
+}
+
+BallGradient TangentBallGradient(const PrimitiveCorners& pc, const Vec3& x,
+                                 const Vec3& axis, double cos_beta, int kind) {
+  BallGradient out;
+  if (kind < 0) return out;
+  const Inputs<double> d = DoubleInputs(pc, x, axis, cos_beta);
+  Inputs<Ad> in;
+  in.corners = d.corners;
+  in.cos_beta = cos_beta;
+  V<Ad>* vars[5] = {&in.x, &in.a, &in.corner[0], &in.corner[1], &in.corner[2]};
+  const V<double>* values[5] = {&d.x, &d.a, &d.corner[0], &d.corner[1],
+                                &d.corner[2]};
+  for (int v = 0; v < 5; ++v) {
+    for (int i = 0; i < 3; ++i) {
+      (*vars[v])(i) = Ad((*values[v])(i), kVariables, 3 * v + i);
+    }
+  }
+  V<Ad> s;
+  Ad lambda[3], rho;
+  bool inside;
+  if (!KindPoint(in, kind, &s, lambda) || !Rho(in, s, &rho, &inside)) {
+    return out;
+  }
+  const auto& g = rho.derivatives();
+  Vec3* slots[5] = {&out.x, &out.axis, &out.corner[0], &out.corner[1],
+                    &out.corner[2]};
+  for (int v = 0; v < 5; ++v) {
+    *slots[v] = Vec3(g(3 * v), g(3 * v + 1), g(3 * v + 2));
+  }
+  return out;
+}
+
+}  // namespace meshgauge

@@ -1,0 +1,58 @@
+// The inscribed-ball thickness of one vertex against one primitive (SPEC v2
+// §5b): the smallest ball tangent at x to the plane normal to the axis that
+// touches the primitive's admissible part, and its exact derivative.
+//
+// For a point s, rho(s) = |s - x|^2 / (2 a.(s - x)) is the radius of the
+// ball tangent at x (centre x + rho a) whose sphere passes through s; s is
+// admissible when the angle psi between a and s - x is at most beta. The
+// balls are nested (rho < r exactly when s lies inside the ball of radius r),
+// so rho is quasiconvex and its minimum over the convex admissible part of a
+// triangle is one of a few closed forms: the minimum over the triangle's
+// plane, a corner, a stationary point on an edge, an edge's crossing of the
+// cone psi = beta, or the extreme point of the plane's conic psi = beta.
+// MinimumTangentBall tries them all; TangentBallGradient differentiates the
+// one that won (the case is piecewise constant in the positions, SPEC §6).
+#pragma once
+
+#include <limits>
+
+#include "lib/core/hit.h"
+#include "lib/core/vec3.h"
+
+namespace meshgauge {
+
+struct BallContact {
+  // min rho over the primitive's admissible part (mesh units); +infinity
+  // when no point is admissible.
+  double radius = std::numeric_limits<double>::infinity();
+  // Which closed form gives the minimiser (for TangentBallGradient); -1
+  // when none.
+  int kind = -1;
+  // Barycentric coordinates of the touching point on the primitive (a
+  // segment's third is 0).
+  double lambda[3] = {};
+};
+
+// `axis` is a unit vector; cos_beta = cos(beta) with beta in (0, 90)
+// degrees. Points closer to x than 1e-12 x |a - x| count as x itself and
+// are not admissible.
+BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
+                               const Vec3& axis, double cos_beta);
+
+// False when no admissible point of the primitive lies in the closed ball
+// of `radius` tangent at x (centre x + radius axis): the primitive is
+// outside the ball or outside the contact cone. Conservative: rounding
+// never makes it false for a primitive that has such a point.
+bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x, const Vec3& axis,
+                  double cos_beta, double radius);
+
+// d radius / d (x, axis, corners) of contact `kind` (from
+// MinimumTangentBall at the same arguments), by forward-mode automatic
+// differentiation of its closed form. All zero for kind -1.
+struct BallGradient {
+  Vec3 x, axis, corner[3];
+};
+BallGradient TangentBallGradient(const PrimitiveCorners& pc, const Vec3& x,
+                                 const Vec3& axis, double cos_beta, int kind);
+
+}  // namespace meshgauge

@@ -1,0 +1,43 @@
+// A bounding-volume hierarchy for the inscribed-ball queries (SPEC v2 §5b):
+// Embree's SAH builder (rtcBuildBVH) over the primitives' boxes, traversed
+// here, because a shrinking tangent ball moves its centre and its contact
+// cone culls whole subtrees, neither of which Embree's point query can do.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "absl/functional/function_ref.h"
+#include "absl/status/statusor.h"
+#include "lib/core/mesh.h"
+#include "lib/core/topology.h"
+
+struct RTCBVHTy;
+
+namespace meshgauge {
+
+class BallTree {
+ public:
+  // Boxes of topo.primitives at mesh.positions, rounded outward to single
+  // precision. Errors: Internal from Embree.
+  static absl::StatusOr<std::unique_ptr<BallTree>> Create(
+      const Mesh& mesh, const MeshTopology& topo);
+  ~BallTree();
+  BallTree(const BallTree&) = delete;
+  BallTree& operator=(const BallTree&) = delete;
+
+  // Calls visit(prim) for every primitive whose box may hold a point within
+  // the ball of radius r tangent at x (centre x + r axis) and within the
+  // contact cone {w : axis.w >= cos_beta |w|} around x, nearer boxes first;
+  // r starts at `radius` and is what visit returns after each call (it may
+  // only shrink). `axis` is a unit vector. Thread-safe.
+  void Visit(const Vec3& x, const Vec3& axis, double cos_beta, double radius,
+             absl::FunctionRef<double(int32_t prim)> visit) const;
+
+ private:
+  BallTree() = default;
+  RTCBVHTy* bvh_ = nullptr;
+  const void* root_ = nullptr;
+};
+
+}  // namespace meshgauge
