@@ -246,6 +246,84 @@ TEST(InscribedBallTest, SlabIsExactAndLimitedBySideWalls) {
   EXPECT_GT(near_wall, 20);
 }
 
+// The same slab far from the origin (CAD coordinates) and turned: the same
+// values (the closed forms work relative to the vertex). Near a side wall at
+// distance d the ball touches the wall 45 deg off the axis: a contact cone
+// of 50 deg gives 2d, one of 40 deg sees only the wall's lower part and
+// gives 2d / sin(80 deg).
+TEST(InscribedBallTest, PoseAndContactAngle) {
+  const Mesh slab = MakeBox(3, 3, 1, 0.125);
+  Mesh moved = slab;
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  for (Vec3& p : moved.positions) {
+    p = Vec3(c * p.x - s * p.z, p.y, s * p.x + c * p.z) + Vec3(1e5, -2e5, 3e5);
+  }
+  auto a = SdfEvaluator::Create(slab);
+  auto b = SdfEvaluator::Create(moved);
+  ASSERT_TRUE(a.ok() && b.ok());
+  auto ra = (*a)->Compute(Sphere());
+  auto rb = (*b)->Compute(Sphere());
+  ASSERT_TRUE(ra.ok() && rb.ok());
+  for (int64_t p = 0; p < slab.num_vertices(); ++p) {
+    ASSERT_EQ(ra->status[p], rb->status[p]) << p;
+    if (ra->status[p] != VertexStatus::kOk) continue;
+    EXPECT_NEAR(ra->values[p], rb->values[p], 1e-9 * ra->values[p]) << p;
+  }
+  SdfParams narrow = Sphere(), wide = Sphere();
+  narrow.contact_angle_degrees = 40;
+  wide.contact_angle_degrees = 50;
+  auto rn = (*a)->Compute(narrow);
+  auto rw = (*a)->Compute(wide);
+  ASSERT_TRUE(rn.ok() && rw.ok());
+  EXPECT_EQ(rw->resolved.contact_cosine, std::cos(50 * std::numbers::pi / 180));
+  int compared = 0;
+  for (int64_t p = 0; p < slab.num_vertices(); ++p) {
+    const Vec3& x = slab.positions[p];
+    const double d = std::min({x.x, x.y, 3 - x.x, 3 - x.y});
+    if (x.z != 1 || d < 0.1 || d > 0.4) continue;
+    // The wall is touched at 45 deg from the axis, the bottom face at 0.
+    EXPECT_NEAR(rw->values[p], 2 * d, 1e-12) << p;
+    // beta < 45 deg: the wall's admissible points start at psi = beta,
+    // z = d cot(beta) below the top, rho = d / sin(2 beta) there.
+    EXPECT_NEAR(rn->values[p], 2 * d / std::sin(80 * std::numbers::pi / 180),
+                1e-12)
+        << p;
+    ++compared;
+  }
+  EXPECT_GT(compared, 20);
+}
+
+// Opposite points of the ray methods (SPEC v2 §5c) on the slab: the normal
+// ray's hit point straight below a top vertex, the cone's weighted mean of
+// its kept hit points on the bottom face, near the vertex's foot.
+TEST(InscribedBallTest, RayMethodsOppositePointsOnASlab) {
+  const Mesh slab = MakeBox(6, 6, 1, 0.25);
+  auto ev = SdfEvaluator::Create(slab);
+  ASSERT_TRUE(ev.ok()) << ev.status();
+  SdfParams normal;
+  normal.method = SdfMethod::kNormalRay;
+  normal.opposite_points = true;
+  SdfParams cone;
+  cone.opposite_points = true;
+  auto by_normal = (*ev)->Compute(normal);
+  auto by_cone = (*ev)->Compute(cone);
+  ASSERT_TRUE(by_normal.ok() && by_cone.ok());
+  EXPECT_TRUE((*ev)->Compute(SdfParams{})->opposite.empty());
+  int checked = 0;
+  for (int64_t p = 0; p < slab.num_vertices(); ++p) {
+    const Vec3& x = slab.positions[p];
+    if (x.z != 1 || std::min({x.x, x.y, 6 - x.x, 6 - x.y}) < 1.5) continue;
+    const Vec3& qn = by_normal->opposite[p];
+    EXPECT_NEAR(Norm(qn - Vec3(x.x, x.y, 0)), 0, 1e-12) << p;
+    const Vec3& qc = by_cone->opposite[p];
+    EXPECT_NEAR(qc.z, 0, 1e-12) << p;
+    // Within the cone's footprint on the bottom face: tan(15 deg).
+    EXPECT_LT(std::hypot(qc.x - x.x, qc.y - x.y), std::tan(0.2618)) << p;
+    ++checked;
+  }
+  EXPECT_GT(checked, 50);
+}
+
 // A torus of tube radius r: every value tends to 2r from below as the mesh
 // is refined (its faces lie inside the smooth surface); the error and the
 // rate per refinement are printed.
@@ -421,8 +499,8 @@ TEST(InscribedBallTest, DerivativesMatchFiniteDifferences) {
   ExpectFdAgreement(CheckJacobian(Jitter(MakeBox(2, 1, 0.5, 0.25), 0.01),
                                   Sphere(), 40, "box sphere"));
   // Inside a tube the ball nearly touches a ring of faces: events are
-  // frequent on a coarse or symmetric torus.
-  ExpectFdAgreement(CheckJacobian(Jitter(MakeTorus(1, 0.25, 72, 24), 0.03),
+  // frequent on a torus (8-12 % of the samples on the tori tried).
+  ExpectFdAgreement(CheckJacobian(Jitter(MakeTorus(1, 0.4, 72, 24), 0.1),
                                   Sphere(), 30, "torus sphere"));
   ExpectFdAgreement(CheckJacobian(Jitter(PlateWithHoles(), 0.01), Sphere(), 40,
                                   "plate with holes sphere"));

@@ -155,8 +155,28 @@ TEST(WireTest, ParametersRoundTrip) {
               back->self_hit_epsilon == 1e-7 &&
               back->normal_weighting == NormalWeighting::kAngle &&
               back->threads == 3);
-  EXPECT_EQ(wire::FromWire(wire::ToWire(p), 32, 0).status().code(),
-            absl::StatusCode::kInvalidArgument);  // over the server's limit.
+  // Over the server's limit: refused for the cone, ignored by the methods
+  // that trace no more than one ray.
+  EXPECT_TRUE(wire::FromWire(wire::ToWire(p), 32, 0).ok());
+  SdfParams cone = p;
+  cone.method = SdfMethod::kCone;
+  EXPECT_EQ(wire::FromWire(wire::ToWire(cone), 32, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  SdfParams sphere;
+  sphere.method = SdfMethod::kSphere;
+  sphere.contact_angle_degrees = 37.5;
+  sphere.opposite_points = true;
+  auto sphere_back = wire::FromWire(wire::ToWire(sphere), 4096, 0);
+  ASSERT_TRUE(sphere_back.ok()) << sphere_back.status();
+  EXPECT_TRUE(*sphere_back == sphere);
+  v1::SdfParameters defaults;
+  defaults.set_method(v1::SDF_METHOD_SPHERE);
+  auto defaulted = wire::FromWire(defaults, 4096, 0);
+  ASSERT_TRUE(defaulted.ok());
+  EXPECT_EQ(defaulted->contact_angle_degrees, 60);  // 0 on the wire.
+  defaults.set_contact_angle_degrees(90);
+  EXPECT_EQ(wire::FromWire(defaults, 4096, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
 
   const PenaltyParams pp{.t_min = 0.3,
                          .form = PenaltyForm::kKs,

@@ -13,7 +13,8 @@ namespace meshgauge {
 
 // The frozen result of a ray pass: for every vertex p and ray k, the hit
 // primitive (index into MeshTopology::primitives) or -1, and whether the ray
-// was kept by the filter. Row-major #V x K.
+// was kept by the filter. Row-major #V x K. kSphere (K = 1): the touching
+// primitive and its closed form.
 // Sensitivities (SPEC §6) hold these fixed and differentiate the rest.
 struct HitTable {
   ResolvedParams resolved;

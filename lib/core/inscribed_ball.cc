@@ -25,7 +25,7 @@ inline double Val(const Ad& v) { return v.value(); }
 // The closed forms, numbered for BallContact::kind.
 constexpr int kPlane = 0;           // the minimum over the triangle's plane.
 constexpr int kCorner = 1;          // + corner (0..2).
-constexpr int kEdgeStationary = 4;  // + 2 edge + root.
+constexpr int kEdgeStationary = 4;  // + 2 edge (root slot 1 unused).
 constexpr int kEdgeCone = 10;       // + 2 edge + root.
 constexpr int kConic = 16;          // + root.
 constexpr int kKinds = 18;
@@ -34,21 +34,23 @@ constexpr int kKinds = 18;
 // cone angle): a candidate this close to its piece's boundary still counts.
 constexpr double kSlack = 1e-12;
 
-// Root `which` of a2 t^2 + b t + c2 = 0 in the stable form q / a2 (0) or
-// c2 / q (1), q = -(b + sign(b) sqrt(b^2 - 4 a2 c2)) / 2; a linear equation
-// (a2 = 0) has its root as 1. False when the root does not exist.
+// Root `which` (0: the smaller, 1: the larger) of a2 t^2 + b t + c2 = 0,
+// each computed in the stable form q / a2 or c2 / q with
+// q = -(b + sign(b) sqrt(b^2 - 4 a2 c2)) / 2; a linear equation (a2 = 0)
+// has one root, both 0 and 1. False when the root does not exist.
 template <typename S>
 bool Root(const S& a2, const S& b, const S& c2, int which, S* t) {
   const S disc = b * b - 4.0 * a2 * c2;
   if (!(Val(disc) >= 0)) return false;
   const S sq = sqrt(disc);
   const S q = Val(b) >= 0 ? S(-(b + sq) / 2.0) : S(-(b - sq) / 2.0);
-  if (which == 0) {
-    if (Val(a2) == 0) return false;
-    *t = q / a2;
+  if (Val(q) == 0) return false;
+  const S r1 = c2 / q;
+  if (Val(a2) == 0) {
+    *t = r1;
   } else {
-    if (Val(q) == 0) return false;
-    *t = c2 / q;
+    const S r0 = q / a2;
+    *t = (Val(r0) < Val(r1)) == (which == 0) ? r0 : r1;
   }
   return std::isfinite(Val(*t));
 }
@@ -87,10 +89,24 @@ bool KindPoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
     const S A = edge.dot(edge), B = 2.0 * w0.dot(edge), C = w0.dot(w0);
     const S D = in.a.dot(edge), E = in.a.dot(w0);
     S t;
-    const bool found =
-        cone ? Root(S(D * D - c * c * A), S(2.0 * D * E - c * c * B),
-                    S(E * E - c * c * C), root, &t)
-             : Root(S(A * D), S(2.0 * A * E), S(B * E - C * D), root, &t);
+    bool found;
+    if (cone) {
+      found = Root(S(D * D - c * c * A), S(2.0 * D * E - c * c * B),
+                   S(E * E - c * c * C), root, &t);
+    } else {
+      // rho is convex along the line where a.(s - x) = D t + E > 0, so one
+      // root is its minimum there and the other lies where D t + E < 0:
+      // one form per edge (slot root 0), whichever root that is.
+      if (root != 0) return false;
+      const S a2 = A * D, b = 2.0 * A * E, c2 = B * E - C * D;
+      S other;
+      found = Root(a2, b, c2, 0, &t);
+      if (Root(a2, b, c2, 1, &other) && (!found || !(Val(D * t + E) > 0))) {
+        t = other;
+        found = true;
+      }
+      found = found && Val(D * t + E) > 0;
+    }
     if (!found || !(Val(t) >= -kSlack && Val(t) <= 1 + kSlack)) return false;
     *s = p + edge * t;
     lambda[e] = 1.0 - t;
@@ -162,15 +178,60 @@ bool Rho(const Inputs<S>& in, const V<S>& s, S* rho, bool* inside) {
   return std::isfinite(Val(*rho));
 }
 
+// True when the primitive meets the closed ball (centre, radius), up to
+// rounding.
+bool ClosestPointWithin(const PrimitiveCorners& pc, const Vec3& centre,
+                        double radius) {
+  // The closest point of the primitive to the centre (Ericson, Real-Time
+  // Collision Detection, 5.1.5), by its Voronoi regions.
+  const Vec3 ab = pc.b - pc.a, ap = centre - pc.a;
+  Vec3 closest;
+  if (pc.segment) {
+    const double t = std::clamp(Dot(ap, ab) / Dot(ab, ab), 0.0, 1.0);
+    closest = pc.a + ab * t;
+  } else {
+    const Vec3 ac = pc.c - pc.a;
+    const double d1 = Dot(ab, ap), d2 = Dot(ac, ap);
+    const Vec3 bp = centre - pc.b, cp = centre - pc.c;
+    const double d3 = Dot(ab, bp), d4 = Dot(ac, bp);
+    const double d5 = Dot(ab, cp), d6 = Dot(ac, cp);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
+                 va = d3 * d6 - d5 * d4;
+    if (d1 <= 0 && d2 <= 0) {
+      closest = pc.a;
+    } else if (d3 >= 0 && d4 <= d3) {
+      closest = pc.b;
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      closest = pc.a + ab * (d1 / (d1 - d3));
+    } else if (d6 >= 0 && d5 <= d6) {
+      closest = pc.c;
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      closest = pc.a + ac * (d2 / (d2 - d6));
+    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+      closest = pc.b + (pc.c - pc.b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    } else {
+      const double denom = 1 / (va + vb + vc);
+      closest = pc.a + ab * (vb * denom) + ac * (vc * denom);
+    }
+  }
+  const Vec3 d = closest - centre;
+  // Rounding of the closest point: a relative 1e-9 of the sizes involved.
+  const double slack = 1e-9 * (radius + Norm(ap) + Norm(ab));
+  return Dot(d, d) <= (radius + slack) * (radius + slack);
+}
+
+// The corners relative to x (x is the origin of the computation, so that
+// rounding scales with the primitive's distance, not with where the part
+// sits).
 Inputs<double> DoubleInputs(const PrimitiveCorners& pc, const Vec3& x,
                             const Vec3& axis, double cos_beta) {
   auto v = [](const Vec3& p) { return V<double>(p.x, p.y, p.z); };
   Inputs<double> in;
-  in.x = v(x);
+  in.x = V<double>::Zero();
   in.a = v(axis);
-  in.corner[0] = v(pc.a);
-  in.corner[1] = v(pc.b);
-  in.corner[2] = pc.segment ? V<double>::Zero() : v(pc.c);
+  in.corner[0] = v(pc.a - x);
+  in.corner[1] = v(pc.b - x);
+  in.corner[2] = pc.segment ? V<double>::Zero() : v(pc.c - x);
   in.corners = pc.segment ? 2 : 3;
   in.cos_beta = cos_beta;
   return in;
@@ -215,78 +276,56 @@ BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
   return smallest(0, kKinds, true, &inside);
 }
 
+double ConeCullSlack(double cos_beta) {
+  // Rho admits a.w >= cos(beta) |w| (1 - kSlack), angles up to
+  // kSlack cot(beta) beyond beta: nu.w <= |w| sin(that angle).
+  const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
+  return 4 * kSlack * cos_beta / sin_beta + 1e-15;
+}
+
 bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x, const Vec3& axis,
                   double cos_beta, double radius) {
   // Outside the contact cone: the plane through x with normal
   // nu = e cos(beta) - axis sin(beta), e the direction of the primitive's
   // first corner across the axis, leaves the cone on its side nu.w <= 0.
-  const Vec3 w0 = pc.a - x;
-  const Vec3 across = w0 - axis * Dot(axis, w0);
+  // In coordinates relative to x.
+  PrimitiveCorners rel = pc;
+  rel.a = pc.a - x;
+  rel.b = pc.b - x;
+  rel.c = pc.c - x;
+  const Vec3 across = rel.a - axis * Dot(axis, rel.a);
   const double across_length = Norm(across);
   if (across_length > 0) {
     const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
     const Vec3 nu = across * (cos_beta / across_length) - axis * sin_beta;
-    const double reach = 1e-12 * (Norm(w0) + Norm(pc.b - pc.a));
-    if (Dot(nu, w0) > reach && Dot(nu, pc.b - x) > reach &&
-        (pc.segment || Dot(nu, pc.c - x) > reach)) {
+    const double slack = ConeCullSlack(cos_beta);
+    auto beyond = [&](const Vec3& w) { return Dot(nu, w) > slack * Norm(w); };
+    if (beyond(rel.a) && beyond(rel.b) && (pc.segment || beyond(rel.c))) {
       return false;
     }
   }
-  const Vec3 centre = x + axis * radius;
-  // The closest point of the primitive to the centre (Ericson, Real-Time
-  // Collision Detection, 5.1.5), by its Voronoi regions.
-  const Vec3 ab = pc.b - pc.a, ap = centre - pc.a;
-  Vec3 closest;
-  if (pc.segment) {
-    const double t = std::clamp(Dot(ap, ab) / Dot(ab, ab), 0.0, 1.0);
-    closest = pc.a + ab * t;
-  } else {
-    const Vec3 ac = pc.c - pc.a;
-    const double d1 = Dot(ab, ap), d2 = Dot(ac, ap);
-    const Vec3 bp = centre - pc.b, cp = centre - pc.c;
-    const double d3 = Dot(ab, bp), d4 = Dot(ac, bp);
-    const double d5 = Dot(ab, cp), d6 = Dot(ac, cp);
-    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
-                 va = d3 * d6 - d5 * d4;
-    if (d1 <= 0 && d2 <= 0) {
-      closest = pc.a;
-    } else if (d3 >= 0 && d4 <= d3) {
-      closest = pc.b;
-    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-      closest = pc.a + ab * (d1 / (d1 - d3));
-    } else if (d6 >= 0 && d5 <= d6) {
-      closest = pc.c;
-    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-      closest = pc.a + ac * (d2 / (d2 - d6));
-    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-      closest = pc.b + (pc.c - pc.b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    } else {
-      const double denom = 1 / (va + vb + vc);
-      closest = pc.a + ab * (vb * denom) + ac * (vc * denom);
-    }
-  }
-  const Vec3 d = closest - centre;
-  // Rounding of the closest point: a relative 1e-9 of the sizes involved.
-  const double slack = 1e-9 * (radius + Norm(ap) + Norm(ab));
-  return Dot(d, d) <= (radius + slack) * (radius + slack);
+  return ClosestPointWithin(rel, axis * radius, radius);
 }
 
 BallGradient TangentBallGradient(const PrimitiveCorners& pc, const Vec3& x,
                                  const Vec3& axis, double cos_beta, int kind) {
   BallGradient out;
   if (kind < 0) return out;
-  const Inputs<double> d = DoubleInputs(pc, x, axis, cos_beta);
-  Inputs<Ad> in;
-  in.corners = d.corners;
-  in.cos_beta = cos_beta;
-  V<Ad>* vars[5] = {&in.x, &in.a, &in.corner[0], &in.corner[1], &in.corner[2]};
-  const V<double>* values[5] = {&d.x, &d.a, &d.corner[0], &d.corner[1],
-                                &d.corner[2]};
-  for (int v = 0; v < 5; ++v) {
+  auto v = [](const Vec3& p) { return V<double>(p.x, p.y, p.z); };
+  const V<double> values[5] = {v(x), v(axis), v(pc.a), v(pc.b),
+                               pc.segment ? V<double>::Zero() : v(pc.c)};
+  V<Ad> vars[5];
+  for (int k = 0; k < 5; ++k) {
     for (int i = 0; i < 3; ++i) {
-      (*vars[v])(i) = Ad((*values[v])(i), kVariables, 3 * v + i);
+      vars[k](i) = Ad(values[k](i), kVariables, 3 * k + i);
     }
   }
+  Inputs<Ad> in;
+  in.corners = pc.segment ? 2 : 3;
+  in.cos_beta = cos_beta;
+  in.x = V<Ad>::Zero();
+  in.a = vars[1];
+  for (int j = 0; j < 3; ++j) in.corner[j] = vars[2 + j] - vars[0];
   V<Ad> s;
   Ad lambda[3], rho;
   bool inside;

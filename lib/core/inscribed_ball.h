@@ -34,10 +34,15 @@ struct BallContact {
 };
 
 // `axis` is a unit vector; cos_beta = cos(beta) with beta in (0, 90)
-// degrees. Points closer to x than 1e-12 x |a - x| count as x itself and
-// are not admissible.
+// degrees. x itself is not admissible. Computed relative to x: the result
+// does not depend on where the part sits.
 BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
                                const Vec3& axis, double cos_beta);
+
+// The relative margin by which a point must lie beyond a plane through x
+// that leaves the contact cone on its other side before it can be culled:
+// MinimumTangentBall admits points a relative 1e-12 outside the cone.
+double ConeCullSlack(double cos_beta);
 
 // False when no admissible point of the primitive lies in the closed ball
 // of `radius` tangent at x (centre x + radius axis): the primitive is

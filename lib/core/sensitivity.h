@@ -6,6 +6,9 @@
 //   dt/dx_p = -m/(d.m),  dt/dd = -t m/(d.m),  dt/dx_j = lambda_j m/(d.m)
 //   d_k = l_x u + l_y v + l_z a,  a = +-n,  n = N/|N|,
 //   dn/dN = (I - n n^T)/|N|,  N = sum over primitives containing p.
+// kSphere: T_p = 2 rho of the touching primitive's closed form, frozen with
+// the primitive (lib/core/inscribed_ball.h), through x_p, the axis and the
+// primitive's corners.
 // docs/sensitivities.md derives the chain and says what is frozen.
 #pragma once
 

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "lib/core/inscribed_ball.h"
 #include "lib/embree/ray_hit.h"
 
 namespace meshgauge {
@@ -103,10 +104,12 @@ bool OutsideCone(const Box& b, const Vec3& x, const Vec3& axis, double cos_beta,
   const double length = Norm(across);
   if (!(length > 0)) return false;
   const Vec3 nu = across * (cos_beta / length) - axis * sin_beta;
-  // The corner of the box least far along nu.
+  // The corner of the box least far along nu, beyond the plane by more
+  // than the slack of the farthest corner.
   const Vec3 corner(nu.x >= 0 ? b.lo.x : b.hi.x, nu.y >= 0 ? b.lo.y : b.hi.y,
                     nu.z >= 0 ? b.lo.z : b.hi.z);
-  return Dot(nu, corner - x) > 1e-12 * (MaxAbs(b.hi - b.lo) + MaxAbs(w));
+  return Dot(nu, corner - x) >
+         ConeCullSlack(cos_beta) * (Norm(w) + Norm(b.hi - b.lo));
 }
 
 }  // namespace

@@ -64,7 +64,8 @@ class SdfEvaluator : public MeshGeometry {
   // primitives and kept flags are the full pass's, bit for bit, and rays_traced
   // counts the rays traced. A previous pass that does not fit (other
   // parameters, another frame of the ray tracer, over half the vertices moved)
-  // gives a full pass. Errors: InvalidArgument for bad params; Cancelled when
+  // gives a full pass, as does every kSphere pass (the ball has no rays to
+  // reuse; it builds its own BVH, ball_tree.h). Errors: InvalidArgument for bad params; Cancelled when
   // control.cancelled() returned true; Internal from Embree.
   absl::StatusOr<SdfResult> Compute(
       const SdfParams& params, const ComputeControl& control = {},

@@ -135,7 +135,7 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
   out.max_distance = p.max_distance();
   if (p.self_hit_epsilon() != 0) out.self_hit_epsilon = p.self_hit_epsilon();
   out.threads = threads;
-  if (p.rays() > max_rays) {
+  if (out.method == SdfMethod::kCone && p.rays() > max_rays) {
     return absl::InvalidArgumentError(absl::StrCat(
         "params.rays ", p.rays(), " exceeds the server's limit of ", max_rays,
         " rays per vertex (--max_rays)"));

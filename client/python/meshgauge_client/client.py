@@ -486,6 +486,11 @@ class MeshGaugeClient:
                     cols.extend(c.columns)
                     data.extend(c.derivatives)
             n = len(values)
+            if opposite and len(opposite) != 3 * n:
+                raise DataLossError(
+                    grpc.StatusCode.DATA_LOSS,
+                    f"the server sent {len(opposite)} opposite coordinates "
+                    f"for {n} vertices")
             jac = None
             if jacobian:
                 d = len(data) // max(1, len(cols)) if cols else self._dim(session_id)
