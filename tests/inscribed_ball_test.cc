@@ -324,6 +324,21 @@ TEST(InscribedBallTest, RayMethodsOppositePointsOnASlab) {
   EXPECT_GT(checked, 50);
 }
 
+// Prints the largest error of one refinement, relative to `diameter`, and
+// the convergence rate since the previous one (log2 of the error ratio per
+// halving of the edge length); expects at least a factor 3 per halving.
+void ReportRefinement(const std::string& label, double diameter, double worst,
+                      double* previous_error) {
+  std::printf("%s: largest error %.3e (relative %.2e)", label.c_str(), worst,
+              worst / diameter);
+  if (*previous_error > 0) {
+    std::printf(", rate %.2f", std::log2(*previous_error / worst));
+    EXPECT_LT(worst, *previous_error / 3) << label;
+  }
+  std::printf("\n");
+  *previous_error = worst;
+}
+
 // A torus of tube radius r: every value tends to 2r from below as the mesh
 // is refined (its faces lie inside the smooth surface); the error and the
 // rate per refinement are printed.
@@ -342,17 +357,8 @@ TEST(InscribedBallTest, TorusConvergesToTheTubeDiameterFromBelow) {
       EXPECT_LE(r->values[p], 2 * tube * (1 + 1e-12)) << "n " << n;
       worst = std::max(worst, 2 * tube - r->values[p]);
     }
-    std::printf(
-        "torus %3d x %3d: largest error %.3e (relative %.2e)%s\n", 2 * n, n,
-        worst, worst / (2 * tube),
-        previous_error > 0
-            ? absl::StrFormat(", rate %.2f", std::log2(previous_error / worst))
-                  .c_str()
-            : "");
-    if (previous_error > 0) {
-      EXPECT_LT(worst, previous_error / 3) << n;
-    }
-    previous_error = worst;
+    ReportRefinement(absl::StrFormat("torus %3d x %3d", 2 * n, n), 2 * tube,
+                     worst, &previous_error);
   }
   EXPECT_LT(previous_error, 2e-3 * 2 * tube);
 }
@@ -408,17 +414,8 @@ TEST(InscribedBallTest, CylinderConvergesToItsDiameterFromBelow) {
       ++middle;
     }
     ASSERT_GT(middle, 0);
-    std::printf(
-        "cylinder n %3d: largest error %.3e (relative %.2e)%s\n", n, worst,
-        worst / (2 * radius),
-        previous_error > 0
-            ? absl::StrFormat(", rate %.2f", std::log2(previous_error / worst))
-                  .c_str()
-            : "");
-    if (previous_error > 0) {
-      EXPECT_LT(worst, previous_error / 3) << n;
-    }
-    previous_error = worst;
+    ReportRefinement(absl::StrFormat("cylinder n %3d", n), 2 * radius, worst,
+                     &previous_error);
   }
 }
 
