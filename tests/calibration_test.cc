@@ -48,6 +48,25 @@ TEST(CalibrationTest, TrayPlateThicknessAndAlphas) {
   for (int64_t c : rep->sdf_histogram.counts) total += c;
   EXPECT_EQ(total, mesh->num_vertices());
   EXPECT_EQ(rep->sdf_histogram.counts.size(), 20u);
+  // The third column: the inscribed ball is the plate's thickness inside
+  // the big faces (but near their walls, min(T, 2d)), and never above the
+  // normal ray's chord (the ball through its hit point has half its
+  // length); counted over the same range.
+  const std::vector<double>& b = rep->ball;
+  EXPECT_GE(std::count_if(b.begin(), b.end(),
+                          [](double x) { return std::abs(x - 3.175) < 1e-5; }),
+            300);
+  EXPECT_EQ(rep->ball_compared, mesh->num_vertices());
+  EXPECT_EQ(rep->ball_lower + rep->ball_equal + rep->ball_higher,
+            rep->ball_compared);
+  EXPECT_GE(rep->ball_equal, 300);
+  EXPECT_EQ(rep->ball_higher, 0);
+  EXPECT_DOUBLE_EQ(rep->ball_alpha,
+                   *std::min_element(b.begin(), b.end()) / t_min);
+  total = 0;
+  for (int64_t c : rep->ball_histogram.counts) total += c;
+  EXPECT_EQ(total, mesh->num_vertices());
+  EXPECT_EQ(rep->ball_histogram.lo, rep->sdf_histogram.lo);
 }
 
 TEST(CalibrationTest, CircleSdfEqualsThicknessWithinTolerance) {

@@ -226,6 +226,12 @@ TEST(WireTest, SessionInfoAndCalibrationReportRoundTrip) {
   rep.alpha2 = 0.5;
   rep.sdf_histogram = {0.1, 0.9, {1, 2, 3}};
   rep.thickness_histogram = {0.1, 0.9, {3, 2, 1}};
+  rep.ball_compared = 9;
+  rep.ball_lower = 5;
+  rep.ball_equal = 3;
+  rep.ball_higher = 1;
+  rep.ball_alpha = 0.25 + 1e-12;  // float32 would change it.
+  rep.ball_histogram = {0.1, 0.9, {2, 2, 5}};
   v1::CalibrateResponse cr;
   wire::ToWire(rep, &cr);
   const CalibrationReport rb = wire::FromWire(cr);
@@ -235,6 +241,11 @@ TEST(WireTest, SessionInfoAndCalibrationReportRoundTrip) {
   EXPECT_EQ(rb.sdf_histogram.counts, rep.sdf_histogram.counts);
   EXPECT_EQ(rb.thickness_histogram.counts, rep.thickness_histogram.counts);
   EXPECT_EQ(rb.thickness_histogram.hi, 0.9);
+  EXPECT_TRUE(rb.ball_compared == 9 && rb.ball_lower == 5 &&
+              rb.ball_equal == 3 && rb.ball_higher == 1 &&
+              rb.ball_alpha == rep.ball_alpha);
+  EXPECT_EQ(rb.ball_histogram.counts, rep.ball_histogram.counts);
+  EXPECT_EQ(rb.ball_histogram.lo, 0.1);
 }
 
 TEST(WireTest, ThinSurfaceRoundTripsBitForBitAndOnlyTheLargestAreSent) {

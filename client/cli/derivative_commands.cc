@@ -153,6 +153,12 @@ absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& flags,
   j["histogram_range"] = {rep->sdf_histogram.lo, rep->sdf_histogram.hi};
   j["sdf_histogram"] = rep->sdf_histogram.counts;
   j["thickness_histogram"] = rep->thickness_histogram.counts;
+  j["ball_compared"] = rep->ball_compared;
+  j["ball_lower"] = rep->ball_lower;
+  j["ball_equal"] = rep->ball_equal;
+  j["ball_higher"] = rep->ball_higher;
+  j["ball_alpha"] = rep->ball_alpha;
+  j["ball_histogram"] = rep->ball_histogram.counts;
   if (in.out.json) {
     std::cout << j.dump() << "\n";
     return absl::OkStatus();
@@ -160,16 +166,20 @@ absl::Status RunCalibrate(const MeshInput& in, const CalibrateFlags& flags,
   std::cout << absl::StrFormat(
       "vertices compared: %d\nSDF vs thickness (tolerance %g): %d lower, %d "
       "equal, %d higher\nalpha1 = max(thickness)/t_min = %.6g\nalpha2 = "
-      "min(SDF)/t_min = %.6g\n%-24s %8s %8s\n",
+      "min(SDF)/t_min = %.6g\ninscribed ball vs thickness (%d vertices): %d "
+      "lower, %d equal, %d higher; min(ball)/t_min = %.6g\n%-24s %8s %8s "
+      "%8s\n",
       rep->compared, cp.equal_tolerance, rep->lower, rep->equal, rep->higher,
-      rep->alpha1, rep->alpha2, "bin", "sdf", "thick");
+      rep->alpha1, rep->alpha2, rep->ball_compared, rep->ball_lower,
+      rep->ball_equal, rep->ball_higher, rep->ball_alpha, "bin", "sdf", "thick",
+      "ball");
   const Histogram& h = rep->sdf_histogram;
   for (size_t b = 0; b < h.counts.size(); ++b) {
     const double lo = h.lo + (h.hi - h.lo) * b / h.counts.size();
     const double hi = h.lo + (h.hi - h.lo) * (b + 1) / h.counts.size();
-    std::cout << absl::StrFormat("[%10.4g, %10.4g) %8d %8d\n", lo, hi,
-                                 h.counts[b],
-                                 rep->thickness_histogram.counts[b]);
+    std::cout << absl::StrFormat(
+        "[%10.4g, %10.4g) %8d %8d %8d\n", lo, hi, h.counts[b],
+        rep->thickness_histogram.counts[b], rep->ball_histogram.counts[b]);
   }
   return absl::OkStatus();
 }

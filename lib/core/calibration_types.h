@@ -1,5 +1,6 @@
 // Parameters and report of the calibration of SPEC §8 (thesis §3.3.5): the
-// SDF (CONE) against the physical thickness (NORMAL_RAY) per vertex. The
+// SDF (CONE) against the physical thickness (NORMAL_RAY) per vertex, and
+// the inscribed ball (SPHERE, SPEC v2 §5b) as a third column. The
 // computation is lib/embree/calibration.h; these plain types are shared
 // with the wire conversion (a remote report carries no per-vertex arrays).
 #pragma once
@@ -15,7 +16,7 @@ struct CalibrationParams {
   double t_min = 0;               // minimum thickness, mesh units, > 0.
   double equal_tolerance = 0.01;  // |SDF - t| <= tol * t counts as equal.
   int bins = 20;                  // histogram bins, 1..1000.
-  SdfParams sdf = {};             // cone parameters (method is ignored).
+  SdfParams sdf = {};  // cone and ball parameters (method is ignored).
 };
 
 struct Histogram {
@@ -30,7 +31,14 @@ struct CalibrationReport {
   int64_t lower = 0, equal = 0, higher = 0;  // SDF vs thickness.
   double alpha1 = 0;                         // max(thickness) / t_min.
   double alpha2 = 0;                         // min(SDF) / t_min.
-  Histogram sdf_histogram, thickness_histogram;
+  // The inscribed ball's diameter per vertex (NaN without value), against
+  // the thickness: vertices with both, lower / equal / higher, and
+  // min(ball) / t_min.
+  std::vector<double> ball;
+  int64_t ball_compared = 0, ball_lower = 0, ball_equal = 0, ball_higher = 0;
+  double ball_alpha = 0;
+  // Over one range for the three columns.
+  Histogram sdf_histogram, thickness_histogram, ball_histogram;
 };
 
 }  // namespace meshgauge

@@ -20,6 +20,19 @@ std::vector<int64_t> Bin(const std::vector<double>& v, double lo, double hi,
   return counts;
 }
 
+// Counts `value` as lower than, equal to (within tolerance * t) or higher
+// than the thickness t.
+void Tally(double value, double t, double tolerance, int64_t* lower,
+           int64_t* equal, int64_t* higher) {
+  if (std::abs(value - t) <= tolerance * t) {
+    ++*equal;
+  } else if (value < t) {
+    ++*lower;
+  } else {
+    ++*higher;
+  }
+}
+
 }  // namespace
 
 absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
@@ -46,26 +59,34 @@ absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
   if (!sdf.ok()) return sdf.status();
   auto thick = evaluator.Compute(normal, control);
   if (!thick.ok()) return thick.status();
+  SdfParams sphere = params.sdf;
+  sphere.method = SdfMethod::kSphere;
+  auto ball = evaluator.Compute(sphere, control);
+  if (!ball.ok()) return ball.status();
   CalibrationReport rep;
   rep.sdf = std::move(sdf->values);
   rep.thickness = std::move(thick->values);
+  rep.ball = std::move(ball->values);
   double max_t = 0, min_sdf = std::numeric_limits<double>::infinity();
+  double min_ball = min_sdf;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (size_t i = 0; i < rep.sdf.size(); ++i) {
-    const double s = rep.sdf[i], t = rep.thickness[i];
-    if (std::isfinite(s)) lo = std::min(lo, s), hi = std::max(hi, s);
-    if (std::isfinite(t)) lo = std::min(lo, t), hi = std::max(hi, t);
-    if (!std::isfinite(s) || !std::isfinite(t)) continue;
+    const double s = rep.sdf[i], t = rep.thickness[i], b = rep.ball[i];
+    for (double v : {s, t, b}) {
+      if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+    if (!std::isfinite(t)) continue;
+    if (std::isfinite(b)) {
+      ++rep.ball_compared;
+      min_ball = std::min(min_ball, b);
+      Tally(b, t, params.equal_tolerance, &rep.ball_lower, &rep.ball_equal,
+            &rep.ball_higher);
+    }
+    if (!std::isfinite(s)) continue;
     ++rep.compared;
     max_t = std::max(max_t, t);
     min_sdf = std::min(min_sdf, s);
-    if (std::abs(s - t) <= params.equal_tolerance * t) {
-      ++rep.equal;
-    } else if (s < t) {
-      ++rep.lower;
-    } else {
-      ++rep.higher;
-    }
+    Tally(s, t, params.equal_tolerance, &rep.lower, &rep.equal, &rep.higher);
   }
   if (rep.compared == 0) {
     return absl::FailedPreconditionError(
@@ -74,8 +95,12 @@ absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
   }
   rep.alpha1 = max_t / params.t_min;
   rep.alpha2 = min_sdf / params.t_min;
+  rep.ball_alpha = rep.ball_compared > 0
+                       ? min_ball / params.t_min
+                       : std::numeric_limits<double>::quiet_NaN();
   rep.sdf_histogram = {lo, hi, Bin(rep.sdf, lo, hi, params.bins)};
   rep.thickness_histogram = {lo, hi, Bin(rep.thickness, lo, hi, params.bins)};
+  rep.ball_histogram = {lo, hi, Bin(rep.ball, lo, hi, params.bins)};
   return rep;
 }
 

@@ -306,6 +306,13 @@ void ToWire(const CalibrationReport& r, v1::CalibrateResponse* out) {
                                     r.sdf_histogram.counts.end());
   out->mutable_thickness_histogram()->Add(r.thickness_histogram.counts.begin(),
                                           r.thickness_histogram.counts.end());
+  out->set_ball_compared(r.ball_compared);
+  out->set_ball_lower(r.ball_lower);
+  out->set_ball_equal(r.ball_equal);
+  out->set_ball_higher(r.ball_higher);
+  out->set_ball_alpha(r.ball_alpha);
+  out->mutable_ball_histogram()->Add(r.ball_histogram.counts.begin(),
+                                     r.ball_histogram.counts.end());
 }
 
 CalibrationReport FromWire(const v1::CalibrateResponse& r) {
@@ -316,7 +323,13 @@ CalibrationReport FromWire(const v1::CalibrateResponse& r) {
   out.higher = r.sdf_higher();
   out.alpha1 = r.alpha1();
   out.alpha2 = r.alpha2();
-  for (Histogram* h : {&out.sdf_histogram, &out.thickness_histogram}) {
+  out.ball_compared = r.ball_compared();
+  out.ball_lower = r.ball_lower();
+  out.ball_equal = r.ball_equal();
+  out.ball_higher = r.ball_higher();
+  out.ball_alpha = r.ball_alpha();
+  for (Histogram* h :
+       {&out.sdf_histogram, &out.thickness_histogram, &out.ball_histogram}) {
     h->lo = r.histogram_lo();
     h->hi = r.histogram_hi();
   }
@@ -324,6 +337,8 @@ CalibrationReport FromWire(const v1::CalibrateResponse& r) {
                                   r.sdf_histogram().end());
   out.thickness_histogram.counts.assign(r.thickness_histogram().begin(),
                                         r.thickness_histogram().end());
+  out.ball_histogram.counts.assign(r.ball_histogram().begin(),
+                                   r.ball_histogram().end());
   return out;
 }
 

@@ -92,6 +92,10 @@ class PackageTest(unittest.TestCase):
             self.assertGreater(g.value, 0)
             cal = s.calibrate(0.6)
             self.assertEqual(cal.compared, len(v))
+            # The inscribed ball never exceeds the normal ray's chord.
+            self.assertEqual(cal.ball_compared, len(v))
+            self.assertEqual(cal.ball_higher, 0)
+            self.assertEqual(int(cal.ball_histogram.sum()), len(v))
 
     def test_jacobian_is_a_sparse_matrix_consistent_with_the_vjp(self):
         v, f = thicken_dumbbell.dumbbell(neck=0.3, h=0.1)

@@ -251,4 +251,7 @@ def calibration(r: Any) -> Calibration:
     return Calibration(r.compared, r.sdf_lower, r.sdf_equal, r.sdf_higher,
                        r.alpha1, r.alpha2, (r.histogram_lo, r.histogram_hi),
                        np.asarray(r.sdf_histogram, dtype=np.int64),
-                       np.asarray(r.thickness_histogram, dtype=np.int64))
+                       np.asarray(r.thickness_histogram, dtype=np.int64),
+                       r.ball_compared, r.ball_lower, r.ball_equal,
+                       r.ball_higher, r.ball_alpha,
+                       np.asarray(r.ball_histogram, dtype=np.int64))

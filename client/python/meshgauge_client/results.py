@@ -186,7 +186,8 @@ class GradCheckReport:
 
 @dataclass(frozen=True)
 class Calibration:
-    """SPEC §8: SDF (cone) against physical thickness (normal ray)."""
+    """SPEC §8: SDF (cone) against physical thickness (normal ray), and the
+    inscribed ball (sphere, SPEC v2 §5b) as a third column (ball_*)."""
 
     compared: int
     lower: int
@@ -197,6 +198,12 @@ class Calibration:
     histogram_range: Tuple[float, float]
     sdf_histogram: IntArray
     thickness_histogram: IntArray
+    ball_compared: int
+    ball_lower: int
+    ball_equal: int
+    ball_higher: int
+    ball_alpha: float  # min(ball) / t_min.
+    ball_histogram: IntArray
 
 
 @dataclass(frozen=True)
