@@ -276,35 +276,43 @@ BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
   return smallest(0, kKinds, true, &inside);
 }
 
-double ConeCullSlack(double cos_beta) {
+ContactCone MakeContactCone(const Vec3& axis, double cos_beta) {
+  ContactCone cone;
+  cone.axis = axis;
+  cone.cos_beta = cos_beta;
+  cone.sin_beta = std::sqrt(1 - cos_beta * cos_beta);
   // Rho admits a.w >= cos(beta) |w| (1 - kSlack), angles up to
   // kSlack cot(beta) beyond beta: nu.w <= |w| sin(that angle).
-  const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
-  return 4 * kSlack * cos_beta / sin_beta + 1e-15;
+  cone.cull_slack = 4 * kSlack * cos_beta / cone.sin_beta + 1e-15;
+  return cone;
 }
 
-bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x, const Vec3& axis,
-                  double cos_beta, double radius) {
-  // Outside the contact cone: the plane through x with normal
-  // nu = e cos(beta) - axis sin(beta), e the direction of the primitive's
-  // first corner across the axis, leaves the cone on its side nu.w <= 0.
-  // In coordinates relative to x.
+bool SeparatingNormal(const ContactCone& cone, const Vec3& w, Vec3* nu) {
+  const Vec3 across = w - cone.axis * Dot(cone.axis, w);
+  const double length = Norm(across);
+  if (!(length > 0)) return false;
+  *nu = across * (cone.cos_beta / length) - cone.axis * cone.sin_beta;
+  return true;
+}
+
+bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x,
+                  const ContactCone& cone, double radius) {
+  // In coordinates relative to x. Outside the contact cone: beyond the
+  // separating plane towards the first corner (|w| <= sqrt(3) MaxAbs(w)).
   PrimitiveCorners rel = pc;
   rel.a = pc.a - x;
   rel.b = pc.b - x;
   rel.c = pc.c - x;
-  const Vec3 across = rel.a - axis * Dot(axis, rel.a);
-  const double across_length = Norm(across);
-  if (across_length > 0) {
-    const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
-    const Vec3 nu = across * (cos_beta / across_length) - axis * sin_beta;
-    const double slack = ConeCullSlack(cos_beta);
-    auto beyond = [&](const Vec3& w) { return Dot(nu, w) > slack * Norm(w); };
+  Vec3 nu;
+  if (SeparatingNormal(cone, rel.a, &nu)) {
+    auto beyond = [&](const Vec3& w) {
+      return BeyondCone(cone, nu, w, 1.75 * MaxAbs(w));
+    };
     if (beyond(rel.a) && beyond(rel.b) && (pc.segment || beyond(rel.c))) {
       return false;
     }
   }
-  return ClosestPointWithin(rel, axis * radius, radius);
+  return ClosestPointWithin(rel, cone.axis * radius, radius);
 }
 
 BallGradient TangentBallGradient(const PrimitiveCorners& pc, const Vec3& x,

@@ -39,17 +39,36 @@ struct BallContact {
 BallContact MinimumTangentBall(const PrimitiveCorners& pc, const Vec3& x,
                                const Vec3& axis, double cos_beta);
 
-// The relative margin by which a point must lie beyond a plane through x
-// that leaves the contact cone on its other side before it can be culled:
-// MinimumTangentBall admits points a relative 1e-12 outside the cone.
-double ConeCullSlack(double cos_beta);
+// The contact cone {w : axis.w >= cos_beta |w|} of one vertex, with what
+// culling against it needs.
+struct ContactCone {
+  Vec3 axis;  // unit.
+  double cos_beta = 0, sin_beta = 0;
+  // The relative margin by which a point must lie beyond a plane through x
+  // that leaves the cone on its other side before it can be culled:
+  // MinimumTangentBall admits points a relative 1e-12 outside the cone.
+  double cull_slack = 0;
+};
+ContactCone MakeContactCone(const Vec3& axis, double cos_beta);
+
+// True when a plane through the cone's apex with normal nu (unit) leaves
+// the cone on its side nu.w <= 0 and the point w (relative to the apex) lies
+// beyond it by more than the cone's cull slack of `extent` (>= |w|).
+inline bool BeyondCone(const ContactCone& cone, const Vec3& nu, const Vec3& w,
+                       double extent) {
+  return Dot(nu, w) > cone.cull_slack * extent;
+}
+
+// The normal nu = e cos(beta) - axis sin(beta) of such a plane, e the unit
+// direction of `w` across the axis; false when w is on the axis.
+bool SeparatingNormal(const ContactCone& cone, const Vec3& w, Vec3* nu);
 
 // False when no admissible point of the primitive lies in the closed ball
 // of `radius` tangent at x (centre x + radius axis): the primitive is
 // outside the ball or outside the contact cone. Conservative: rounding
 // never makes it false for a primitive that has such a point.
-bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x, const Vec3& axis,
-                  double cos_beta, double radius);
+bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x,
+                  const ContactCone& cone, double radius);
 
 // d radius / d (x, axis, corners) of contact `kind` (from
 // MinimumTangentBall at the same arguments), by forward-mode automatic

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <new>
 #include <utility>
 #include <vector>
 
@@ -27,13 +28,17 @@ struct Inner : Node {
   Box box[kArity];
   const Node* child[kArity];
 };
+// `count` primitive indices follow the struct in the same allocation.
 struct Leaf : Node {
   uint32_t count;
-  int32_t prims[1];  // `count` entries.
+  int32_t* prims() { return reinterpret_cast<int32_t*>(this + 1); }
+  const int32_t* prims() const {
+    return reinterpret_cast<const int32_t*>(this + 1);
+  }
 };
 
 void* CreateInner(RTCThreadLocalAllocator alloc, unsigned int, void*) {
-  auto* n = static_cast<Inner*>(rtcThreadLocalAlloc(alloc, sizeof(Inner), 16));
+  auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(Inner), 16)) Inner();
   n->leaf = false;
   return n;
 }
@@ -59,12 +64,12 @@ void SetBounds(void* node, const RTCBounds** bounds, unsigned int count,
 
 void* CreateLeaf(RTCThreadLocalAllocator alloc, const RTCBuildPrimitive* prims,
                  size_t count, void*) {
-  const size_t bytes = sizeof(Leaf) + (count - 1) * sizeof(int32_t);
-  auto* n = static_cast<Leaf*>(rtcThreadLocalAlloc(alloc, bytes, 16));
+  const size_t bytes = sizeof(Leaf) + count * sizeof(int32_t);
+  auto* n = new (rtcThreadLocalAlloc(alloc, bytes, 16)) Leaf();
   n->leaf = true;
   n->count = static_cast<uint32_t>(count);
   for (size_t i = 0; i < count; ++i) {
-    n->prims[i] = static_cast<int32_t>(prims[i].primID);
+    n->prims()[i] = static_cast<int32_t>(prims[i].primID);
   }
   return n;
 }
@@ -88,28 +93,24 @@ double DistanceSquared(const Box& b, const Vec3& p) {
   return d2;
 }
 
-// True when the box lies strictly outside the contact cone at x: the plane
-// through x with normal nu = e cos(beta) - axis sin(beta) (e the direction
-// of the box's centre across the axis) has the cone on its side nu.w <= 0
-// and every corner of the box beyond it.
-bool OutsideCone(const Box& b, const Vec3& x, const Vec3& axis, double cos_beta,
-                 double sin_beta) {
+// True when the box lies strictly outside the contact cone at x: every
+// corner beyond the separating plane towards the box's centre.
+bool OutsideCone(const Box& b, const Vec3& x, const ContactCone& cone) {
   const Vec3 w = (b.lo + b.hi) * 0.5 - x;
-  const double along = Dot(axis, w);
+  const double along = Dot(cone.axis, w);
   // A box whose centre is in the cone is not outside it.
-  if (along >= 0 && along * along >= cos_beta * cos_beta * Dot(w, w)) {
+  if (along >= 0 &&
+      along * along >= cone.cos_beta * cone.cos_beta * Dot(w, w)) {
     return false;
   }
-  const Vec3 across = w - axis * along;
-  const double length = Norm(across);
-  if (!(length > 0)) return false;
-  const Vec3 nu = across * (cos_beta / length) - axis * sin_beta;
-  // The corner of the box least far along nu, beyond the plane by more
-  // than the slack of the farthest corner.
+  Vec3 nu;
+  if (!SeparatingNormal(cone, w, &nu)) return false;
+  // The corner least far along nu; every corner is within
+  // sqrt(3) (MaxAbs(w) + MaxAbs(extent)) of x.
   const Vec3 corner(nu.x >= 0 ? b.lo.x : b.hi.x, nu.y >= 0 ? b.lo.y : b.hi.y,
                     nu.z >= 0 ? b.lo.z : b.hi.z);
-  return Dot(nu, corner - x) >
-         ConeCullSlack(cos_beta) * (Norm(w) + Norm(b.hi - b.lo));
+  return BeyondCone(cone, nu, corner - x,
+                    1.75 * (MaxAbs(w) + MaxAbs(b.hi - b.lo)));
 }
 
 }  // namespace
@@ -165,18 +166,17 @@ BallTree::~BallTree() {
   if (bvh_) rtcReleaseBVH(bvh_);
 }
 
-void BallTree::Visit(const Vec3& x, const Vec3& axis, double cos_beta,
-                     double radius,
+void BallTree::Visit(const Vec3& x, const ContactCone& cone, double radius,
                      absl::FunctionRef<double(int32_t prim)> visit) const {
   if (root_ == nullptr) return;
-  const double sin_beta = std::sqrt(1 - cos_beta * cos_beta);
+  const Vec3& axis = cone.axis;
   // Boxes hold single-precision bounds rounded outward; the slack covers
   // the rounding of the distances computed here.
   auto may_hold = [&](const Box& b, double r, double* d2) {
     const Vec3 centre = x + axis * r;
     *d2 = DistanceSquared(b, centre);
     const double reach = r * (1 + 1e-12) + 1e-12 * MaxAbs(centre);
-    return *d2 <= reach * reach && !OutsideCone(b, x, axis, cos_beta, sin_beta);
+    return *d2 <= reach * reach && !OutsideCone(b, x, cone);
   };
   double r = radius;
   // Boxes are tested when pushed and again when popped if the ball has
@@ -196,7 +196,7 @@ void BallTree::Visit(const Vec3& x, const Vec3& axis, double cos_beta,
     if (e.r != r && e.box != nullptr && !may_hold(*e.box, r, &d2)) continue;
     if (e.node->leaf) {
       const auto* leaf = static_cast<const Leaf*>(e.node);
-      for (uint32_t i = 0; i < leaf->count; ++i) r = visit(leaf->prims[i]);
+      for (uint32_t i = 0; i < leaf->count; ++i) r = visit(leaf->prims()[i]);
       continue;
     }
     const auto* inner = static_cast<const Inner*>(e.node);

@@ -9,6 +9,7 @@
 
 #include "absl/functional/function_ref.h"
 #include "absl/status/statusor.h"
+#include "lib/core/inscribed_ball.h"
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
 
@@ -27,11 +28,11 @@ class BallTree {
   BallTree& operator=(const BallTree&) = delete;
 
   // Calls visit(prim) for every primitive whose box may hold a point within
-  // the ball of radius r tangent at x (centre x + r axis) and within the
-  // contact cone {w : axis.w >= cos_beta |w|} around x, nearer boxes first;
-  // r starts at `radius` and is what visit returns after each call (it may
-  // only shrink). `axis` is a unit vector. Thread-safe.
-  void Visit(const Vec3& x, const Vec3& axis, double cos_beta, double radius,
+  // the ball of radius r tangent at x (centre x + r cone.axis) and within
+  // the contact cone around x, boxes nearer the centre first; r starts at
+  // `radius` and is what visit returns after each call (it may only
+  // shrink). Thread-safe.
+  void Visit(const Vec3& x, const ContactCone& cone, double radius,
              absl::FunctionRef<double(int32_t prim)> visit) const;
 
  private:

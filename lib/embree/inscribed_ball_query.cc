@@ -12,13 +12,14 @@ VertexBall InscribedBall(const MeshGeometry& geometry, const RayScene& scene,
                          const BallLimits& limits) {
   VertexBall best;
   best.contact.radius = limits.cap;
+  const ContactCone cone = MakeContactCone(axis, limits.cos_beta);
   auto consider = [&](int32_t prim) {
     if (std::binary_search(excluded.begin(), excluded.end(), prim)) {
       return best.contact.radius;
     }
     const PrimitiveCorners pc = geometry.Corners(prim);
     const double r = best.contact.radius;
-    if (!MayTouchBall(pc, x, axis, limits.cos_beta, r)) return r;
+    if (!MayTouchBall(pc, x, cone, r)) return r;
     const BallContact c = MinimumTangentBall(pc, x, axis, limits.cos_beta);
     if (!(c.radius >= limits.min_radius)) return r;
     if (c.radius < r ||
@@ -35,7 +36,7 @@ VertexBall InscribedBall(const MeshGeometry& geometry, const RayScene& scene,
   HitCandidates ray(static_cast<float>(MaxAbs(x - scene.origin())));
   scene.IntersectFan(x, dirs, limits.fan, excluded, absl::MakeSpan(&ray, 1));
   for (int i = 0; i < ray.count(); ++i) consider(ray[i].prim);
-  tree.Visit(x, axis, limits.cos_beta, best.contact.radius, consider);
+  tree.Visit(x, cone, best.contact.radius, consider);
   if (best.prim < 0) best.contact = BallContact();
   return best;
 }
