@@ -112,6 +112,26 @@ TEST(WireTest, SummaryCountingOtherVerticesIsDataLoss) {
             absl::StatusCode::kDataLoss);
 }
 
+// Opposite points round trip bit for bit when asked for; a stream without
+// them (an older server) or with them unasked is DATA_LOSS.
+TEST(WireTest, OppositePointsRoundTripAndMissingOnesAreDataLoss) {
+  SdfResult r = SmallResult();
+  r.opposite = {Vec3(0.1 + 1e-12, 2, 3), Vec3(NAN, NAN, NAN), Vec3(4, 5, 6),
+                Vec3(-1, -2, -3e-300)};
+  SdfParams asked;
+  asked.opposite_points = true;
+  auto back = RoundTrip(r, 3, asked);
+  ASSERT_TRUE(back.ok()) << back.status();
+  ASSERT_EQ(back->result.opposite.size(), 4u);
+  EXPECT_EQ(back->result.opposite[0], r.opposite[0]);
+  EXPECT_TRUE(std::isnan(back->result.opposite[1].x));
+  EXPECT_EQ(back->result.opposite[3], r.opposite[3]);
+  EXPECT_EQ(RoundTrip(r, 3, {}).status().code(), absl::StatusCode::kDataLoss);
+  r.opposite.clear();
+  EXPECT_EQ(RoundTrip(r, 3, asked).status().code(),
+            absl::StatusCode::kDataLoss);
+}
+
 TEST(WireTest, JacobianRowsRoundTripAndMismatchedRowsAreDataLoss) {
   const SdfResult r = SmallResult();
   SparseJacobian j;

@@ -570,6 +570,14 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                                   " values, the chunks carried ",
                                   r.CountStatus(VertexStatus::kOk)));
   }
+  if (std::ssize(r.opposite) !=
+      (params.opposite_points ? std::ssize(r.values) : 0)) {
+    return Malformed(absl::StrCat(
+        params.opposite_points ? "opposite points were asked for, "
+                               : "no opposite points were asked for, ",
+        "the chunks carried ", r.opposite.size(), " for ", r.values.size(),
+        " vertices (is the server older than SdfParameters.opposite_points?)"));
+  }
   r.rays_traced = s.rays();
   r.world_frame_vertices = s.world_frame_vertices();
   r.missing = FromWire(s.missing());

@@ -86,7 +86,7 @@ void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
 absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply);
 // Completes the reply with the summary; `params` are the ones sent.
 // Errors: DATA_LOSS when the summary's counts are not the vertices the
-// chunks carried.
+// chunks carried, or the opposite points are not the ones asked for.
 absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                          SdfReply* reply);
 
