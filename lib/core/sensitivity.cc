@@ -102,20 +102,19 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
 }
 
 // The terms of the inscribed ball (SPEC v2 §5b): T_p = 2 r with r the
-// touching primitive's closed form, differentiated through x_p, the axis
-// and the primitive's corners.
+// touching primitive's closed form (both frozen in the hit table: the
+// primitive, and the form + 1 as its kept flag), differentiated through
+// x_p, the axis and the primitive's corners.
 void SphereTerms(const Context& ctx, int64_t p, const VertexCone& vc,
                  std::vector<Term>& terms) {
   const int32_t prim = ctx.hits.Row(p)[0];
   if (prim < 0) return;
   const MeshGeometry& ev = ctx.ev;
   const Vec3& x = ev.mesh().positions[p];
-  const double cos_beta = ctx.hits.resolved.contact_cosine;
-  const PrimitiveCorners pc = ev.Corners(prim);
-  const BallContact contact =
-      MinimumTangentBall(pc, x, vc.frame.axis, cos_beta);
+  const int kind = ctx.hits.KeptRow(p)[0] - 1;
   const BallGradient g =
-      TangentBallGradient(pc, x, vc.frame.axis, cos_beta, contact.kind);
+      TangentBallGradient(ev.Corners(prim), x, vc.frame.axis,
+                          ctx.hits.resolved.contact_cosine, kind);
   terms.push_back({static_cast<int32_t>(p), g.x * 2});
   const Primitive& corners = ev.topology().primitives[prim];
   for (int j = 0; j < 3 && corners.v[j] >= 0; ++j) {

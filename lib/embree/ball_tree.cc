@@ -10,14 +10,11 @@
 #include <vector>
 
 #include "lib/core/inscribed_ball.h"
+#include "lib/embree/moved_boxes.h"
 #include "lib/embree/ray_hit.h"
 
 namespace meshgauge {
 namespace {
-
-struct Box {
-  Vec3 lo, hi;
-};
 
 struct Node {
   bool leaf;
@@ -122,21 +119,17 @@ absl::StatusOr<std::unique_ptr<BallTree>> BallTree::Create(
   std::vector<RTCBuildPrimitive> prims(n);
   for (int64_t i = 0; i < n; ++i) {
     const Primitive& p = topo.primitives[i];
-    Vec3 lo = mesh.positions[p.v[0]], hi = lo;
-    for (int j = 1; j < 3 && p.v[j] >= 0; ++j) {
-      const Vec3& q = mesh.positions[p.v[j]];
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], q[k]);
-        hi[k] = std::max(hi[k], q[k]);
-      }
+    Box box;
+    for (int j = 0; j < 3 && p.v[j] >= 0; ++j) {
+      box.Extend(mesh.positions[p.v[j]], mesh.positions[p.v[j]]);
     }
     RTCBuildPrimitive& b = prims[i];
-    b.lower_x = Down(lo.x);
-    b.lower_y = Down(lo.y);
-    b.lower_z = Down(lo.z);
-    b.upper_x = Up(hi.x);
-    b.upper_y = Up(hi.y);
-    b.upper_z = Up(hi.z);
+    b.lower_x = Down(box.lo.x);
+    b.lower_y = Down(box.lo.y);
+    b.lower_z = Down(box.lo.z);
+    b.upper_x = Up(box.hi.x);
+    b.upper_y = Up(box.hi.y);
+    b.upper_z = Up(box.hi.z);
     b.geomID = 0;
     b.primID = static_cast<unsigned>(i);
   }
