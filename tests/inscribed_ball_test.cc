@@ -212,6 +212,43 @@ TEST(InscribedBallTest, PassEqualsASearchOverEveryPrimitive) {
   }
 }
 
+// SPEC §3: values, statuses, touching points and hit tables do not depend
+// on the thread count nor on the computation's history (a moved and
+// refitted evaluator against a fresh one at the same positions).
+TEST(InscribedBallTest, SameForAnyThreadCountAndHistory) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok());
+  auto ev = SdfEvaluator::Create(*mesh);
+  ASSERT_TRUE(ev.ok());
+  SdfParams one = Sphere(), two = Sphere();
+  one.threads = 1;
+  two.threads = 2;
+  HitTable h1, h2;
+  auto r1 = (*ev)->Compute(one, {}, &h1);
+  auto r2 = (*ev)->Compute(two, {}, &h2);
+  ASSERT_TRUE(r1.ok() && r2.ok());
+  EXPECT_EQ(r1->values, r2->values);
+  EXPECT_EQ(r1->status, r2->status);
+  EXPECT_EQ(r1->opposite, r2->opposite);
+  EXPECT_EQ(h1.primitives, h2.primitives);
+  EXPECT_EQ(h1.kept, h2.kept);
+  std::vector<Vec3> moved = mesh->positions;
+  for (size_t i = 0; i < moved.size(); ++i) {
+    moved[i] *= 1 + 0.01 * std::sin(12.9898 * i);
+  }
+  ASSERT_TRUE((*ev)->UpdatePositions(moved).ok());
+  Mesh fresh_mesh = *mesh;
+  fresh_mesh.positions = moved;
+  auto fresh = SdfEvaluator::Create(fresh_mesh);
+  ASSERT_TRUE(fresh.ok());
+  auto refitted = (*ev)->Compute(two);
+  auto built = (*fresh)->Compute(two);
+  ASSERT_TRUE(refitted.ok() && built.ok());
+  EXPECT_EQ(refitted->values, built->values);
+  EXPECT_EQ(refitted->opposite, built->opposite);
+  EXPECT_NE(refitted->values, r2->values);  // the move changed them.
+}
+
 // A slab of thickness T: T exactly at vertices of its top face farther than
 // T/2 from the side walls (the ball touches the bottom face), 2d at
 // distance d < T/2 (it touches the side wall first: min(T, 2d)).
