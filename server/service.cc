@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/integrals.h"
 #include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
@@ -57,7 +58,7 @@ int64_t PassBytes(const CachedPass& p) {
 }
 
 int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
-  return ev.mesh().num_vertices() *
+  return NumSamples(ev.mesh(), params.samples) *
          int64_t{ResolveParams(params, ev.mesh().dimension).rays};
 }
 
@@ -450,9 +451,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
           if (!j.ok()) return Interrupted(ctx, j.status());
           jac = std::move(*j);
         }
-        const int64_t nv = ev.mesh().num_vertices();
+        const int64_t nv = std::ssize(r.values);  // samples: #V or #F.
         const int dim = ev.mesh().dimension;
-        // Per vertex about 30 bytes of values; per Jacobian entry 4 + 8 dim.
+        // Per sample about 30 bytes of values; per Jacobian entry 4 + 8 dim.
         const int64_t budget = options_.max_message_bytes / 2;
         auto vertex_bytes = [&](int64_t p) {
           return 40 + (jac ? (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
@@ -494,12 +495,12 @@ grpc::Status MeshGaugeService::ComputeSdf(
           }
         }
         v1::ComputeSdfResponse last;
-        wire::ToWireSummary(r, IntegrateNodal(ev.mesh(), r.values).value,
+        wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
-        if (r.missing.vertices > 0) {  // the diagnosis costs a topology pass.
-          for (std::string& w :
-               MissingValueWarnings(ev.mesh(), r.values, r.status)) {
+        // The diagnosis costs a topology pass.
+        if (r.missing.vertices > 0 || r.missing.faces > 0) {
+          for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
             last.mutable_summary()->add_warnings(std::move(w));
           }
         }
@@ -526,12 +527,13 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
             !s.ok()) {
           return s;
         }
-        if (request->weights_size() != ev.mesh().num_vertices()) {
-          return absl::InvalidArgumentError(
-              absl::StrCat("weights holds ", request->weights_size(),
-                           " values, expected one "
-                           "per vertex (",
-                           ev.mesh().num_vertices(), ")"));
+        const int64_t samples = NumSamples(ev.mesh(), prep->params.samples);
+        if (request->weights_size() != samples) {
+          return absl::InvalidArgumentError(absl::StrCat(
+              "weights holds ", request->weights_size(),
+              " values, expected one per ",
+              prep->params.samples == SampleSet::kFaces ? "face" : "vertex",
+              " (", samples, ")"));
         }
         auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
                                Control(ctx));
@@ -565,6 +567,11 @@ grpc::Status MeshGaugeService::ComputePenalty(
                             request->has_expected_generation(),
                             request->expected_generation());
         if (!prep.ok()) return prep.status();
+        if (prep->params.samples != SampleSet::kVertices) {
+          return absl::InvalidArgumentError(
+              "ComputePenalty integrates vertex values (SPEC §7): "
+              "params.samples must be VERTICES");
+        }
         const SdfEvaluator& ev = *prep->reader.evaluator;
         // A thin region is about 18 doubles on the wire (four points, five
         // scalars and their tags).

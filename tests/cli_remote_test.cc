@@ -127,6 +127,10 @@ TEST_F(CliRemoteTest, SdfSummaryJsonCsvAndPlyAreTheLocalOnes) {
   ExpectSameOutputs("sdf", knight, "--method sphere --contact-angle 45",
                     {"csv"});
   ExpectSameOutputs("sdf", knight, "--rays 30 --opposite", {"csv"});
+  // Face samples (SPEC v2 §5c), their PLY and segments.
+  ExpectSameOutputs("sdf", knight, "--rays 30 --samples faces --json",
+                    {"csv", "ply", "opposite-ply"});
+  ExpectSameOutputs("sdf", knight, "--method sphere --samples faces", {"csv"});
   ExpectSameOutputs("sdf", knight,
                     "--cone-angle 60 --kappa 0.5 --normals angle", {"csv"});
   // Missing values and warnings: the inward horse, few rays.
@@ -152,6 +156,13 @@ TEST_F(CliRemoteTest, GradVjpAndJacobianAreTheLocalOnes) {
   ExpectSameOutputs("grad", knight, "--method sphere", {"vjp", "jacobian"});
   ExpectSameOutputs("grad", knight, "--rays 20 --json --weights " + weights,
                     {"vjp"});
+  {
+    std::ofstream w(weights);
+    for (int i = 0; i < 1000; ++i) w << std::sin(0.3 * i) << "\n";
+  }
+  ExpectSameOutputs("grad", knight,
+                    "--rays 20 --samples faces --weights " + weights,
+                    {"vjp", "jacobian"});
   std::remove(weights.c_str());
 }
 
@@ -176,6 +187,9 @@ TEST_F(CliRemoteTest, GradcheckIsTheLocalOne) {
   EXPECT_THAT(text, HasSubstr("verdict: PASS"));
   ExpectSameOutputs("gradcheck", knight,
                     "--rays 20 --samples 3 --t-min 0.3 --form ks --json", {});
+  EXPECT_THAT(ExpectSameOutputs("gradcheck", knight,
+                                "--rays 20 --samples faces --probes 3", {}),
+              HasSubstr("verdict: PASS"));
   const CliRun refused = RunCliStderr("remote gradcheck " + knight +
                                       " --samples 1001 --server " + target_);
   EXPECT_EQ(refused.exit_code, 1);

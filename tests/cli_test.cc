@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -28,6 +29,11 @@ using testing::RunCli;
 using testing::RunCliStderr;
 using testing::SharedMesh;
 using testing::Tmp;
+
+std::string Slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
 
 TEST(CliTest, JsonSummaryHasAllKeys) {
   const CliRun r =
@@ -135,6 +141,108 @@ TEST(CliTest, SphereWritesOppositePointsWithinItsDiameter) {
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.out, HasSubstr("--contact-angle"));
   std::filesystem::remove(csv);
+}
+
+// The segment file holds, in double precision, exactly the CSV's vertex,
+// opposite point and value of every vertex with a value, and nothing else.
+TEST(CliTest, OppositePlyIsTheCsvsSegmentsBitForBit) {
+  const std::string csv = Tmp("segments.csv"), ply = Tmp("segments.ply");
+  const CliRun r = RunCli("sdf " + SharedMesh("decimated-knight.off") +
+                          " --rays 16 --opposite-ply " + ply + " --csv " + csv);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  std::map<int32_t, std::vector<double>> rows;  // vertex -> x y z o q
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  ASSERT_THAT(line, HasSubstr(",ox,oy,oz"));  // --opposite-ply implies it.
+  while (std::getline(in, line)) {
+    const std::vector<std::string> f = absl::StrSplit(line, ',');
+    if (f[8] != "OK") continue;
+    rows[std::stoi(f[0])] = {
+        std::stod(f[1]),  std::stod(f[2]),  std::stod(f[3]), std::stod(f[9]),
+        std::stod(f[10]), std::stod(f[11]), std::stod(f[4])};
+  }
+  ASSERT_GT(rows.size(), 400u);
+  std::ifstream bin(ply, std::ios::binary);
+  std::string header;
+  for (std::getline(bin, line); line != "end_header"; std::getline(bin, line)) {
+    ASSERT_TRUE(bin) << header;
+    header += line + "\n";
+  }
+  EXPECT_THAT(header, HasSubstr("element vertex " +
+                                std::to_string(2 * rows.size()) + "\n"));
+  EXPECT_THAT(header,
+              HasSubstr("element edge " + std::to_string(rows.size()) + "\n"));
+  EXPECT_THAT(header, HasSubstr("property double x\n"));
+  struct Point {
+    double x, y, z, quality;
+    int32_t sample;
+  };
+  std::vector<Point> points(2 * rows.size());
+  for (Point& p : points) {
+    bin.read(reinterpret_cast<char*>(&p), 4 * sizeof(double));
+    bin.read(reinterpret_cast<char*>(&p.sample), sizeof(int32_t));
+  }
+  const size_t edges = rows.size();
+  for (size_t e = 0; e < edges; ++e) {
+    int32_t ends[2];
+    bin.read(reinterpret_cast<char*>(ends), sizeof(ends));
+    ASSERT_TRUE(bin);
+    const Point& a = points[ends[0]];
+    const Point& b = points[ends[1]];
+    ASSERT_EQ(a.sample, b.sample);
+    ASSERT_EQ(rows.count(a.sample), 1u) << a.sample;
+    const std::vector<double>& row = rows[a.sample];
+    EXPECT_EQ(std::vector<double>({a.x, a.y, a.z, b.x, b.y, b.z, a.quality}),
+              row);
+    EXPECT_EQ(b.quality, a.quality);
+    rows.erase(a.sample);
+  }
+  EXPECT_TRUE(rows.empty());
+  bin.peek();
+  EXPECT_TRUE(bin.eof());
+  std::filesystem::remove(csv);
+  std::filesystem::remove(ply);
+}
+
+// Face samples (SPEC v2 §5c): one CSV row per face at its centroid, the
+// values per face in the PLY's face quality, the weights of grad one per
+// face; the verbs integrating vertex values do not take the flag.
+TEST(CliTest, FaceSamplesGiveOneValuePerFace) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  const std::string csv = Tmp("faces.csv"), ply = Tmp("faces.ply");
+  const CliRun r = RunCli("sdf " + knight + " --samples faces --method " +
+                          "normal --json --csv " + csv + " --ply " + ply);
+  ASSERT_EQ(r.exit_code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["samples"], "faces");
+  EXPECT_EQ(j["ok"].get<int64_t>() + j["no_hit"].get<int64_t>(), 1000);
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "face,x,y,z,sdf,normalized,hits,kept,status");
+  int rows = 0;
+  while (std::getline(in, line)) ++rows;
+  EXPECT_EQ(rows, 1000);
+  const std::string header = Slurp(ply).substr(0, 400);
+  EXPECT_THAT(header, HasSubstr("element face 1000\nproperty list uchar int "
+                                "vertex_indices\nproperty float quality\n"));
+  const std::string weights = Tmp("vertex_weights.txt");
+  {
+    std::ofstream w(weights);
+    for (int i = 0; i < 502; ++i) w << "1\n";
+  }
+  const CliRun wrong = RunCli("grad " + knight +
+                              " --samples faces --rays 8 --weights " + weights);
+  EXPECT_NE(wrong.exit_code, 0);
+  EXPECT_THAT(wrong.out, HasSubstr("502 weights but the mesh has 1000 faces"));
+  const CliRun penalty =
+      RunCli("penalty " + knight + " --samples faces --t-min 0.1");
+  EXPECT_NE(penalty.exit_code, 0);
+  EXPECT_THAT(penalty.out, HasSubstr("--samples"));
+  std::filesystem::remove(csv);
+  std::filesystem::remove(ply);
+  std::filesystem::remove(weights);
 }
 
 TEST(CliTest, HorseWarnsAndReorientsOnRequest) {
@@ -462,11 +570,6 @@ TEST(CliDerivativesTest, CalibrateReportsAlphas) {
 
 namespace meshgauge {
 namespace {
-
-std::string Slurp(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
 
 TEST(CliReportTest, WritesThePicturesTheTableThePageAndTheColouredPly) {
   const std::filesystem::path dir = Tmp("report");

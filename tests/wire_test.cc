@@ -132,6 +132,45 @@ TEST(WireTest, OppositePointsRoundTripAndMissingOnesAreDataLoss) {
             absl::StatusCode::kDataLoss);
 }
 
+// Face samples (SPEC v2 §5c): the sample set round-trips (unset meaning
+// vertices), an unknown one is refused, and a reply whose summary holds
+// another sample set than the one asked for (an older server ignores
+// SdfParameters.samples and sends vertices) is DATA_LOSS.
+TEST(WireTest, SampleSetRoundTripsAndAReplyOfOtherSamplesIsDataLoss) {
+  SdfParams faces;
+  faces.samples = SampleSet::kFaces;
+  auto back = wire::FromWire(wire::ToWire(faces), 4096, 0);
+  ASSERT_TRUE(back.ok()) << back.status();
+  EXPECT_EQ(back->samples, SampleSet::kFaces);
+  v1::SdfParameters unset;
+  EXPECT_EQ(wire::FromWire(unset, 4096, 0)->samples, SampleSet::kVertices);
+  unset.set_samples(static_cast<v1::SampleSet>(7));
+  EXPECT_EQ(wire::FromWire(unset, 4096, 0).status().code(),
+            absl::StatusCode::kInvalidArgument);
+
+  SdfResult r = SmallResult();
+  r.resolved.params.samples = SampleSet::kFaces;
+  EXPECT_TRUE(RoundTrip(r, 3, faces).ok());
+  const absl::Status vertices_sent =
+      RoundTrip(SmallResult(), 3, faces).status();
+  EXPECT_EQ(vertices_sent.code(), absl::StatusCode::kDataLoss);
+  EXPECT_THAT(std::string(vertices_sent.message()), HasSubstr("older"));
+  EXPECT_EQ(RoundTrip(r, 3, {}).status().code(), absl::StatusCode::kDataLoss);
+  // A server older than the field leaves the summary's set unset: fine for
+  // vertices, DATA_LOSS for faces.
+  wire::SdfReply reply;
+  v1::SdfChunk c;
+  wire::ToWireChunk(SmallResult(), nullptr, 3, 0, 4, &c);
+  ASSERT_TRUE(wire::AppendChunk(c, &reply).ok());
+  v1::SdfSummary old;
+  wire::ToWireSummary(SmallResult(), 0, {}, &old);
+  old.clear_samples();
+  wire::SdfReply copy = reply;
+  EXPECT_TRUE(wire::FinishReply(old, {}, &reply).ok());
+  EXPECT_EQ(wire::FinishReply(old, faces, &copy).code(),
+            absl::StatusCode::kDataLoss);
+}
+
 TEST(WireTest, JacobianRowsRoundTripAndMismatchedRowsAreDataLoss) {
   const SdfResult r = SmallResult();
   SparseJacobian j;

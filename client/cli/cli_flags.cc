@@ -101,6 +101,10 @@ void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
     app->add_option("--ply", f->ply,
                     "write binary PLY with the SDF in the per-vertex quality "
                     "property");
+    app->add_option("--opposite-ply", f->opposite_ply,
+                    "write the thickness segments (vertex -> opposite point, "
+                    "SPEC v2 §5c) as a PLY line set: double x y z, quality "
+                    "= the value, sample = the vertex; implies --opposite");
   }
   app->add_flag("--json", f->json, "print the summary as one JSON object");
   app->add_option("--progress", f->progress,
@@ -194,10 +198,31 @@ void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f) {
       ->capture_default_str();
 }
 
-void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f) {
-  app->add_option("--samples", f->samples, "vertices sampled, >= 1")
+void AddSamplesFlag(CLI::App* app, SdfFlags* f) {
+  app->add_option("--samples", f->samples,
+                  "where the values are: vertices, or faces (each face's "
+                  "centroid along its own normal, SPEC v2 §5c)")
+      ->check(CLI::IsMember({"vertices", "faces"}))
+      ->capture_default_str();
+}
+
+void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f, SdfFlags* sdf) {
+  app->add_option("--probes", f->probes, "vertices probed, >= 1")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
+  // --samples N, the count's name before --probes, still works.
+  app->add_option_function<std::string>(
+         "--samples",
+         [f, sdf](const std::string& v) {
+           if (v == "vertices" || v == "faces") {
+             sdf->samples = v;
+           } else {
+             f->probes = std::stoi(v);
+           }
+         },
+         "vertices or faces (as for sdf), or a count of probed vertices "
+         "(the older spelling of --probes)")
+      ->check(CLI::IsMember({"vertices", "faces"}) | CLI::Range(1, 1000000));
   app->add_option("--seed", f->seed, "sampling seed")->capture_default_str();
   app->add_option("--fd-tolerance", f->fd_tolerance,
                   "relative error allowed on clean samples, > 0")
@@ -233,6 +258,7 @@ absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {
   p.kappa = f.kappa;
   p.threads = f.threads;
   p.max_distance = f.max_distance;
+  p.samples = f.samples == "faces" ? SampleSet::kFaces : SampleSet::kVertices;
   if (absl::Status s = ValidateParams(p); !s.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("--cone-angle/--kappa/--max-distance: ", s.message()));

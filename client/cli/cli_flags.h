@@ -19,7 +19,8 @@
 namespace meshgauge::cli {
 
 // --method --cone-angle --contact-angle --rays --kappa --threads
-// --max-distance --normals --opposite.
+// --max-distance --normals --opposite (and, on the verbs that take it,
+// --samples vertices|faces).
 struct SdfFlags {
   std::string method = "cone";
   double cone_angle = 30;
@@ -30,6 +31,7 @@ struct SdfFlags {
   int threads = 0;
   double max_distance = 0;
   std::string normals = "area";
+  std::string samples = "vertices";  // vertices or faces (SPEC v2 §5c).
 };
 
 // --region-direction --reorient --drop-degenerate-faces.
@@ -39,9 +41,9 @@ struct MeshFlags {
   bool drop_degenerate_faces = false;
 };
 
-// --csv --ply --json --warn-missing-fraction.
+// --csv --ply --opposite-ply --json --warn-missing-fraction.
 struct OutputFlags {
-  std::string csv, ply;
+  std::string csv, ply, opposite_ply;
   bool json = false;
   double warn_missing_fraction = 0.01;
   std::string progress = "auto";  // auto, always or never
@@ -74,9 +76,11 @@ struct CalibrateFlags {
   int bins = 20;
 };
 
-// --samples --seed --fd-tolerance (and the penalty's with --t-min).
+// --probes --seed --fd-tolerance (and the penalty's with --t-min); its
+// --samples is SdfFlags' (vertices|faces) or, as before --probes existed, a
+// count of probed vertices.
 struct GradcheckFlags {
-  int samples = 12;
+  int probes = 12;
   uint64_t seed = 1;
   double fd_tolerance = 1e-5;
 };
@@ -103,13 +107,15 @@ CLI::Validator Positive();
 CLI::Validator NonNegative();
 
 void AddSdfFlags(CLI::App* app, SdfFlags* f);
+// --samples vertices|faces: where the values are (SPEC v2 §5c).
+void AddSamplesFlag(CLI::App* app, SdfFlags* f);
 void AddMeshFlags(CLI::App* app, MeshFlags* f);
 void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files);
 // t_min_required: --t-min is required (penalty) or optional (gradcheck).
 void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required);
 void AddGradFlags(CLI::App* app, GradFlags* f);
 void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f);
-void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f);
+void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f, SdfFlags* sdf);
 void AddRemoteFlags(CLI::App* app, RemoteFlags* f);
 void AddReportFlags(CLI::App* app, ReportFlags* f);
 

@@ -25,7 +25,8 @@ absl::Status WriteVectorCsv(const std::string& path,
 }
 
 absl::StatusOr<std::vector<double>> ReadWeights(const std::string& path,
-                                                int64_t nv) {
+                                                int64_t nv,
+                                                absl::string_view samples) {
   if (path.empty()) return std::vector<double>(nv, 1.0);
   std::ifstream in(path);
   if (!in) return absl::NotFoundError(absl::StrCat("cannot open '", path, "'"));
@@ -46,7 +47,7 @@ absl::StatusOr<std::vector<double>> ReadWeights(const std::string& path,
   if (std::ssize(w) != nv) {
     return absl::InvalidArgumentError(
         absl::StrCat("'", path, "' has ", w.size(),
-                     " weights but the mesh has ", nv, " vertices"));
+                     " weights but the mesh has ", nv, " ", samples));
   }
   return w;
 }

@@ -10,6 +10,7 @@
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
 #include "client/cli/thin_summary.h"
+#include "lib/core/face_sample.h"
 
 namespace meshgauge::cli {
 
@@ -18,15 +19,18 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   auto opened = Open(in, make, /*print_warnings=*/true);
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
-  const int64_t nv = opened->mesh().num_vertices();
-  auto weights = ReadWeights(grad.weights, nv);
+  const bool faces = opened->params.samples == SampleSet::kFaces;
+  const int64_t ns = NumSamples(opened->mesh(), opened->params.samples);
+  auto weights = ReadWeights(grad.weights, ns, faces ? "faces" : "vertices");
   if (!weights.ok()) return weights.status();
   auto result = backend.Sdf(opened->params, grad.jacobian.empty()
                                                 ? Derivatives::kVjp
                                                 : Derivatives::kJacobian);
   if (!result.ok()) return result.status();
   nlohmann::json j;
-  j["vertices"] = nv;
+  j["vertices"] = opened->mesh().num_vertices();
+  j["samples"] = faces ? "faces" : "vertices";
+  j["sample_count"] = ns;
   j["ok"] = result->CountStatus(VertexStatus::kOk);
   if (const std::string& path = grad.jacobian; !path.empty()) {
     auto jac = backend.Jacobian();
@@ -56,8 +60,8 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
     std::cout << j.dump() << "\n";
   } else {
     std::cout << absl::StrFormat(
-        "vertices: %d (%d with a value)\nmax |g^T J| per vertex: %.6g\n",
-        j["vertices"].get<int64_t>(), j["ok"].get<int64_t>(),
+        "%s: %d (%d with a value)\nmax |g^T J| per vertex: %.6g\n",
+        faces ? "faces" : "vertices", ns, j["ok"].get<int64_t>(),
         j["vjp_max_norm"].get<double>());
     if (j.contains("jacobian_nonzeros")) {
       std::cout << "jacobian nonzeros: " << j["jacobian_nonzeros"] << "\n";

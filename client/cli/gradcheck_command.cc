@@ -8,6 +8,7 @@
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 #include "client/cli/progress_bar.h"
+#include "lib/core/face_sample.h"
 #include "lib/embree/gradcheck.h"
 
 namespace meshgauge::cli {
@@ -49,7 +50,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
                           const PenaltyFlags& penalty_flags,
                           const BackendFactory& make) {
   GradCheckOptions options;
-  options.samples = check.samples;
+  options.samples = check.probes;
   options.seed = check.seed;
   options.tolerance = check.fd_tolerance;
   if (penalty_flags.t_min != 0) {
@@ -63,7 +64,7 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
   const int64_t rays = ResolveParams(opened->params, mesh.dimension).rays;
   ProgressBar bar(
       absl::StrCat("gradcheck: ", GradCheckPasses(mesh, options), " passes of ",
-                   mesh.num_vertices() * rays, " rays"),
+                   NumSamples(mesh, opened->params.samples) * rays, " rays"),
       in.out.Progress());
   auto rep = opened->backend->GradCheck(
       opened->params, options,

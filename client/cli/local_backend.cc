@@ -1,6 +1,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/cli/backend.h"
 #include "client/cli/progress_bar.h"
+#include "lib/core/face_sample.h"
 #include "lib/embree/calibration.h"
 #include "lib/embree/gradcheck.h"
 #include "lib/embree/ray_hit.h"
@@ -20,7 +21,8 @@ class Local : public Backend {
                                 Derivatives derivatives) override {
     const int64_t rays = ResolveParams(params, ev_->mesh().dimension).rays;
     ProgressBar bar(
-        absl::StrCat("tracing ", ev_->mesh().num_vertices() * rays, " rays"),
+        absl::StrCat("tracing ", NumSamples(ev_->mesh(), params.samples) * rays,
+                     " rays"),
         progress_);
     hits_ = HitTable();
     auto result =

@@ -80,14 +80,18 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
       };
     };
   };
-  MeshVerb(app, "sdf", "SDF per vertex (summary; --csv, --ply, --json)", &v->in,
-           true)
-      ->callback(with(
-          [v](const BackendFactory& make) { return RunSdf(v->in, make); }));
+  CLI::App* s = MeshVerb(app, "sdf",
+                         "SDF per vertex or face (summary; --csv, --ply, "
+                         "--json)",
+                         &v->in, true);
+  AddSamplesFlag(s, &v->in.sdf);
+  s->callback(
+      with([v](const BackendFactory& make) { return RunSdf(v->in, make); }));
   CLI::App* g = MeshVerb(app, "grad",
                          "sensitivities: --vjp FILE (g^T J), --jacobian FILE",
                          &v->in, false);
   AddGradFlags(g, &v->grad);
+  AddSamplesFlag(g, &v->in.sdf);
   g->callback(with([v](const BackendFactory& make) {
     return RunGrad(v->in, v->grad, make);
   }));
@@ -118,7 +122,7 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
                           "check the derivatives by central differences "
                           "(exit 1 on FAIL or INCONCLUSIVE)",
                           &v->in, false);
-  AddGradcheckFlags(gc, &v->check);
+  AddGradcheckFlags(gc, &v->check, &v->in.sdf);
   AddPenaltyFlags(gc, &v->penalty, /*t_min_required=*/false);
   gc->callback(with([v](const BackendFactory& make) {
     return RunGradcheck(v->in, v->check, v->penalty, make);

@@ -2,6 +2,7 @@
 #include "client/cli/backend.h"
 #include "client/cli/progress_bar.h"
 #include "client/remote/remote_client.h"
+#include "lib/core/face_sample.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -25,9 +26,10 @@ class Remote : public Backend {
                                 Derivatives derivatives) override {
     params_ = params;
     const int64_t rays = ResolveParams(params, mesh_.dimension).rays;
-    ProgressBar bar(absl::StrCat("tracing ", mesh_.num_vertices() * rays,
-                                 " rays on the server"),
-                    progress_);
+    ProgressBar bar(
+        absl::StrCat("tracing ", NumSamples(mesh_, params.samples) * rays,
+                     " rays on the server"),
+        progress_);
     client::SdfCall call{.include_jacobian =
                              derivatives == Derivatives::kJacobian};
     if (bar.enabled()) {

@@ -28,6 +28,7 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
   const Stopwatch watch;
   auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
   if (!opened.ok()) return opened.status();
+  if (!in.out.opposite_ply.empty()) opened->params.opposite_points = true;
   auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
   const double seconds = watch.Seconds();
@@ -36,7 +37,18 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
     if (absl::Status s = WriteSdfCsv(csv, mesh, *result); !s.ok()) return s;
   }
   if (const std::string& ply = in.out.ply; !ply.empty()) {
-    if (absl::Status s = WriteQualityPly(ply, mesh, result->values); !s.ok()) {
+    const QualityOn on = result->resolved.params.samples == SampleSet::kFaces
+                             ? QualityOn::kFaces
+                             : QualityOn::kVertices;
+    if (absl::Status s = WriteQualityPly(ply, mesh, result->values, {}, on);
+        !s.ok()) {
+      return s;
+    }
+  }
+  if (const std::string& ply = in.out.opposite_ply; !ply.empty()) {
+    if (absl::Status s = WriteSegmentsPly(ply, SamplePoints(mesh, *result),
+                                          result->opposite, result->values);
+        !s.ok()) {
       return s;
     }
   }

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/integrals.h"
 #include "lib/core/missing_diagnosis.h"
 #include "lib/core/penalty.h"
@@ -26,6 +27,8 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["method"] = method == SdfMethod::kCone        ? "cone"
                 : method == SdfMethod::kNormalRay ? "normal"
                                                   : "sphere";
+  const bool faces = result.resolved.params.samples == SampleSet::kFaces;
+  j["samples"] = faces ? "faces" : "vertices";
   j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
   j["contact_angle_degrees"] = result.resolved.params.contact_angle_degrees;
   j["rays_per_vertex"] = result.resolved.rays;
@@ -44,7 +47,7 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
     j["sdf_median"] = stats.median;
     j["sdf_mean"] = stats.mean;
   }
-  const IntegralResult integral = IntegrateNodal(opened.mesh(), result.values);
+  const IntegralResult integral = IntegrateSdf(opened.mesh(), result);
   j["integral"] = integral.value;
   j["integral_skipped_faces"] = integral.skipped_faces;
   j["rays"] = result.rays_traced;
@@ -85,8 +88,8 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["missing_faces"] = result.missing.faces;
   j["missing_area_fraction"] = result.missing.area_fraction;
   std::vector<std::string> warnings = loaded.warnings;
-  for (std::string& w : MissingValueWarnings(opened.mesh(), result.values,
-                                             result.status, warn_fraction)) {
+  for (std::string& w :
+       MissingValueWarnings(opened.mesh(), result, warn_fraction)) {
     warnings.push_back(std::move(w));
   }
   j["warnings"] = warnings;
@@ -117,7 +120,7 @@ std::string SummaryText(const nlohmann::json& j) {
       "mesh: %dD, %d vertices, %d faces, %s, %d components, %d polygons "
       "triangulated (%s)\n"
       "method: %s\n"
-      "vertices: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
+      "%s: %d ok, %d no hit, %d no faces, %d degenerate normal\n"
       "sdf: min %s  median %s  max %s  mean %s\n"
       "integral of sdf over the surface: %.8g (%d faces skipped, %.2f%% of "
       "the area)\n"
@@ -136,11 +139,11 @@ std::string SummaryText(const nlohmann::json& j) {
           : absl::StrFormat("cone, %g deg, %d rays per vertex",
                             j["cone_angle_degrees"].get<double>(),
                             j["rays_per_vertex"].get<int>()),
-      j["ok"].get<int64_t>(), j["no_hit"].get<int64_t>(),
-      j["no_faces"].get<int64_t>(), j["degenerate_normal"].get<int64_t>(),
-      num(j["sdf_min"]), num(j["sdf_median"]), num(j["sdf_max"]),
-      num(j["sdf_mean"]), j["integral"].get<double>(),
-      j["integral_skipped_faces"].get<int64_t>(),
+      j["samples"].get<std::string>(), j["ok"].get<int64_t>(),
+      j["no_hit"].get<int64_t>(), j["no_faces"].get<int64_t>(),
+      j["degenerate_normal"].get<int64_t>(), num(j["sdf_min"]),
+      num(j["sdf_median"]), num(j["sdf_max"]), num(j["sdf_mean"]),
+      j["integral"].get<double>(), j["integral_skipped_faces"].get<int64_t>(),
       100 * j["missing_area_fraction"].get<double>(),
       j["world_frame_vertices"].get<int64_t>(), j["rays"].get<int64_t>(),
       j["seconds"].get<double>(), j["rays_per_second"].get<double>(),
@@ -154,16 +157,29 @@ std::string SummaryText(const nlohmann::json& j) {
   return s;
 }
 
+std::vector<Vec3> SamplePoints(const Mesh& mesh, const SdfResult& result) {
+  if (result.resolved.params.samples == SampleSet::kVertices) {
+    return mesh.positions;
+  }
+  std::vector<Vec3> centroids(mesh.num_faces());
+  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
+    centroids[f] = FaceCentroid(mesh, f);
+  }
+  return centroids;
+}
+
 absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
                          const SdfResult& result) {
   std::ofstream out(path);
   if (!out)
     return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   const bool opposite = !result.opposite.empty();
-  out << "vertex,x,y,z,sdf,normalized,hits,kept,status"
+  const bool faces = result.resolved.params.samples == SampleSet::kFaces;
+  out << (faces ? "face" : "vertex") << ",x,y,z,sdf,normalized,hits,kept,status"
       << (opposite ? ",ox,oy,oz\n" : "\n");
-  for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
-    const Vec3& p = mesh.positions[i];
+  const std::vector<Vec3> points = SamplePoints(mesh, result);
+  for (int64_t i = 0; i < std::ssize(points); ++i) {
+    const Vec3& p = points[i];
     const bool ok = result.status[i] == VertexStatus::kOk;
     out << absl::StrFormat("%d,%.17g,%.17g,%.17g,", i, p.x, p.y, p.z);
     if (ok) {

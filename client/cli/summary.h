@@ -23,8 +23,12 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
 // Human-readable form of the same summary.
 std::string SummaryText(const nlohmann::json& summary);
 
+// Where result's samples are: the vertices, or the faces' centroids.
+std::vector<Vec3> SamplePoints(const Mesh& mesh, const SdfResult& result);
+
 // CSV: vertex,x,y,z,sdf,normalized,hits,kept,status (sdf and normalized
-// empty unless status is OK; 17 significant digits).
+// empty unless status is OK; 17 significant digits), then ox,oy,oz with
+// opposite points; face samples: face,x,y,z,... with x,y,z the centroid.
 absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
                          const SdfResult& result);
 

@@ -101,4 +101,26 @@ IntegralResult IntegrateNodal(const Mesh& mesh,
   return r;
 }
 
+IntegralResult IntegrateFaceValues(const Mesh& mesh,
+                                   const std::vector<double>& values) {
+  IntegralResult r;
+  int64_t last_skipped = -1;
+  ForEachElement(mesh, [&](int64_t face, const Element& e) {
+    if (!std::isfinite(values[face])) {
+      r.skipped_faces += face != last_skipped;
+      last_skipped = face;
+      return;
+    }
+    r.value += e.measure * values[face];
+    r.measure += e.measure;
+  });
+  return r;
+}
+
+IntegralResult IntegrateSdf(const Mesh& mesh, const SdfResult& result) {
+  return result.resolved.params.samples == SampleSet::kFaces
+             ? IntegrateFaceValues(mesh, result.values)
+             : IntegrateNodal(mesh, result.values);
+}
+
 }  // namespace meshgauge

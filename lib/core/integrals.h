@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "lib/core/mesh.h"
+#include "lib/core/sdf_types.h"
 
 namespace meshgauge {
 
@@ -24,6 +25,15 @@ struct IntegralResult {
 IntegralResult IntegrateNodal(
     const Mesh& mesh, const std::vector<double>& values,
     const std::function<double(double)>& phi = nullptr);
+
+// Integral of piecewise-constant face values (#F, NaN where there is no
+// value: the face is skipped and counted), e.g. face samples (SPEC v2 §5c).
+IntegralResult IntegrateFaceValues(const Mesh& mesh,
+                                   const std::vector<double>& values);
+
+// The integral of a pass's SDF (SPEC §7 first bullet): IntegrateNodal for
+// vertex samples, IntegrateFaceValues for face samples.
+IntegralResult IntegrateSdf(const Mesh& mesh, const SdfResult& result);
 
 // One integration element: a segment (n = 2) or a triangle (n = 3; a quad
 // gives two) with its vertex ids and measure (length or area).

@@ -30,7 +30,8 @@ int64_t MeshGeometry::MeshBytes() const {
 
 int64_t MeshGeometry::DerivedBytes() const {
   return Bytes(topo_.primitives) + Bytes(topo_.vertex_faces) +
-         Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_direction);
+         Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_direction) +
+         Bytes(topo_.face_first_primitive);
 }
 
 void MeshGeometry::RefreshDerivedGeometry() {

@@ -129,4 +129,18 @@ std::vector<std::string> MissingValueWarnings(
   return out;
 }
 
+std::vector<std::string> MissingValueWarnings(const Mesh& mesh,
+                                              const SdfResult& result,
+                                              double warn_fraction) {
+  if (result.resolved.params.samples == SampleSet::kVertices) {
+    return MissingValueWarnings(mesh, result.values, result.status,
+                                warn_fraction);
+  }
+  if (!(result.missing.area_fraction > warn_fraction)) return {};
+  return {absl::StrFormat("%d faces (%.2f%% of the surface) have no value: %s",
+                          result.missing.faces,
+                          100 * result.missing.area_fraction,
+                          LikelyMissingCause(mesh, result.Causes()))};
+}
+
 }  // namespace meshgauge

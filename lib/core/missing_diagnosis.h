@@ -28,4 +28,11 @@ std::vector<std::string> MissingValueWarnings(
     const std::vector<VertexStatus>& status,
     double warn_fraction = kWarnMissingFraction);
 
+// The warnings of a pass: MissingValueWarnings for vertex samples; for face
+// samples (SPEC v2 §5c) one sentence, with the likely cause, when the faces
+// without a value cover more than `warn_fraction` of the surface.
+std::vector<std::string> MissingValueWarnings(
+    const Mesh& mesh, const SdfResult& result,
+    double warn_fraction = kWarnMissingFraction);
+
 }  // namespace meshgauge

@@ -33,6 +33,22 @@ MissingValues CountMissing(const Mesh& mesh,
   return m;
 }
 
+MissingValues CountMissingFaces(const Mesh& mesh,
+                                const std::vector<double>& values) {
+  MissingValues m;
+  double total = 0, missing = 0;
+  int64_t last_face = -1;
+  ForEachElement(mesh, [&](int64_t face, const Element& e) {
+    total += e.measure;
+    if (std::isfinite(values[face])) return;
+    missing += e.measure;
+    if (face != last_face) ++m.faces;
+    last_face = face;
+  });
+  m.area_fraction = total > 0 ? missing / total : 0;
+  return m;
+}
+
 std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
   if (IsClosed(mesh) && SignedVolume(mesh) < 0) {
     return "the mesh is closed with a negative signed volume, so its faces "

@@ -21,6 +21,11 @@ struct MissingValues {
 // counted (they have no surface). Precondition: mesh validated.
 MissingValues CountMissing(const Mesh& mesh, const std::vector<double>& values);
 
+// The same for face samples (SPEC v2 §5c): values has #F entries; faces
+// counts those without a value, vertices stays 0.
+MissingValues CountMissingFaces(const Mesh& mesh,
+                                const std::vector<double>& values);
+
 // Counts of the statuses of the vertices without a value, for the diagnosis.
 struct MissingCauses {
   int64_t no_hit = 0;

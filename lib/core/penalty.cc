@@ -149,6 +149,11 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
   const Mesh& mesh = geometry.mesh();
   const std::vector<double>& values = sdf.values;
+  if (sdf.resolved.params.samples != SampleSet::kVertices) {
+    return absl::InvalidArgumentError(
+        "the penalty and the constraint integrate vertex values (SPEC §7): "
+        "compute them with vertex samples, not face samples");
+  }
   if (std::ssize(values) != mesh.num_vertices()) {
     return absl::InvalidArgumentError(absl::StrCat(
         "expected ", mesh.num_vertices(), " values, got ", values.size()));

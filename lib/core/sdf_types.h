@@ -20,6 +20,16 @@ enum class SdfMethod {
   kSphere,     // the inscribed ball tangent at the vertex (SPEC v2 §5b).
 };
 
+// Where the values are computed (SPEC v2 §5c).
+enum class SampleSet {
+  kVertices,  // every vertex: axis from N_p (SPEC §2), one-ring excluded (§4).
+  kFaces,     // every face's centroid (the mean of its corners): axis from
+              // the face's own normal (the sum of its primitives' area
+              // normals, whatever normal_weighting says), frame attached to
+              // its lowest-index corner; rays ignore the face itself, the
+              // inscribed ball every face sharing a vertex with it.
+};
+
 struct SdfParams {
   SdfMethod method = SdfMethod::kCone;
   // Full opening angle alpha in degrees, in (0, 180).
@@ -45,6 +55,7 @@ struct SdfParams {
   // kSphere: the contact cone's half-angle beta in degrees, in (0, 90): a
   // touching point is seen from the vertex at most beta off the axis.
   double contact_angle_degrees = 60;
+  SampleSet samples = SampleSet::kVertices;
 
   // Every field: a cached pass is reused only for equal parameters (threads
   // included, although results do not depend on them).
@@ -73,8 +84,10 @@ enum class VertexStatus : uint8_t {
 };
 const char* VertexStatusName(VertexStatus status);
 
+// Arrays hold one entry per sample: #V with SampleSet::kVertices, #F with
+// kFaces (statuses are then kOk, kNoHit or kDegenerateNormal).
 struct SdfResult {
-  // Per vertex (#V): SDF in mesh units; NaN unless status is kOk.
+  // Per sample: SDF in mesh units; NaN unless status is kOk.
   std::vector<double> values;
   // Shapira's normalised SDF in [0, 1] over the kOk values (SPEC §5); NaN
   // unless kOk; 0 everywhere when all values are equal.
@@ -90,7 +103,8 @@ struct SdfResult {
   // 3D vertices with a value whose one-ring gave no frame edge, so their
   // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D.
   int64_t world_frame_vertices = 0;
-  // Vertices without a value and the share of the surface they cover.
+  // Samples without a value and the share of the surface they cover
+  // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;
   double trace_seconds = 0;  // wall time of the ray pass.
   ResolvedParams resolved;

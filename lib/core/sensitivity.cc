@@ -8,6 +8,7 @@
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
 #include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
@@ -25,22 +26,25 @@ struct Term {
   Vec3 d;
 };
 
-// Everything a vertex's gradient needs, shared read-only by the workers.
+// Everything a sample's gradient needs, shared read-only by the workers.
 struct Context {
   const MeshGeometry& ev;
   const HitTable& hits;
-  std::vector<Vec3> normals;
+  bool faces = false;         // face samples (SPEC v2 §5c), else vertices.
+  int64_t samples = 0;        // #F or #V.
+  std::vector<Vec3> normals;  // N_p per vertex (vertex samples only).
 };
 
-void AxisTerms(const Mesh& mesh, const MeshTopology& topo, int64_t p,
-               const VertexCone& vc, const Vec3& g_axis,
-               std::vector<Term>& terms);
-void SphereTerms(const Context& ctx, int64_t p, const VertexCone& vc,
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
                  std::vector<Term>& terms);
+void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
+               const Vec3& g_axis, std::vector<Term>& terms);
+void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
+                 const VertexCone& vc, std::vector<Term>& terms);
 
-// Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for vertex p.
-// Leaves `terms` empty when p has no value.
-void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
+// Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for sample p (a
+// vertex, or a face's centroid). Leaves `terms` empty when p has no value.
+void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
                  std::vector<uint8_t>& kept, std::vector<HitGeometry>& geo) {
   terms.clear();
   const MeshGeometry& ev = ctx.ev;
@@ -48,14 +52,16 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const MeshTopology& topo = ev.topology();
   const auto& cone = ctx.hits.cone;
   const int num_rays = static_cast<int>(cone.size());
-  if (topo.vertex_faces.Of(p).empty()) return;
-  const VertexCone vc = MakeVertexCone(mesh, topo, p, ctx.normals[p]);
+  if (!ctx.faces && topo.vertex_faces.Of(p).empty()) return;
+  const VertexCone vc = ctx.faces
+                            ? MakeFaceCone(mesh, topo, p)
+                            : MakeVertexCone(mesh, topo, p, ctx.normals[p]);
   if (!vc.valid) return;
+  const Vec3 x = ctx.faces ? FaceCentroid(mesh, p) : mesh.positions[p];
   if (ctx.hits.resolved.params.method == SdfMethod::kSphere) {
-    SphereTerms(ctx, p, vc, terms);
+    SphereTerms(ctx, p, x, vc, terms);
     return;
   }
-  const Vec3& x = mesh.positions[p];
   const auto row = ctx.hits.Row(p);
   // The kept set is frozen in the hit table (SPEC §6): only kept rays are
   // evaluated, in double precision, at the current positions.
@@ -97,52 +103,72 @@ void VertexTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     d_origin -= gf.edge;
     terms.push_back({vc.frame.reference, gf.edge});
   }
-  terms.push_back({static_cast<int32_t>(p), d_origin});
-  AxisTerms(mesh, topo, p, vc, g_a + gf.axis, terms);
+  OriginTerms(ctx, p, d_origin, terms);
+  AxisTerms(ctx, p, vc, g_a + gf.axis, terms);
 }
 
 // The terms of the inscribed ball (SPEC v2 §5b): T_p = 2 r with r the
 // touching primitive's closed form (both frozen in the hit table: the
 // primitive, and the form + 1 as its kept flag), differentiated through
 // x_p, the axis and the primitive's corners.
-void SphereTerms(const Context& ctx, int64_t p, const VertexCone& vc,
-                 std::vector<Term>& terms) {
+void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
+                 const VertexCone& vc, std::vector<Term>& terms) {
   const int32_t prim = ctx.hits.Row(p)[0];
   if (prim < 0) return;
   const MeshGeometry& ev = ctx.ev;
-  const Vec3& x = ev.mesh().positions[p];
   const int kind = ctx.hits.KeptRow(p)[0] - 1;
   const BallGradient g =
       TangentBallGradient(ev.Corners(prim), x, vc.frame.axis,
                           ctx.hits.resolved.contact_cosine, kind);
-  terms.push_back({static_cast<int32_t>(p), g.x * 2});
+  OriginTerms(ctx, p, g.x * 2, terms);
   const Primitive& corners = ev.topology().primitives[prim];
   for (int j = 0; j < 3 && corners.v[j] >= 0; ++j) {
     terms.push_back({corners.v[j], g.corner[j] * 2});
   }
-  AxisTerms(ev.mesh(), ev.topology(), p, vc, g.axis * 2, terms);
+  AxisTerms(ctx, p, vc, g.axis * 2, terms);
+}
+
+// Appends the terms of g_x . d x / dx_j for the sample's point: the vertex
+// itself, or the mean of the face's corners.
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
+                 std::vector<Term>& terms) {
+  if (!ctx.faces) {
+    terms.push_back({static_cast<int32_t>(p), g_x});
+    return;
+  }
+  const Face& face = ctx.ev.mesh().faces[p];
+  for (int k = 0; k < face.size; ++k) {
+    terms.push_back({face.v[k], g_x / face.size});
+  }
 }
 
 // Appends the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
-// N the sum over p's primitives (SPEC §2).
-void AxisTerms(const Mesh& mesh, const MeshTopology& topo, int64_t p,
-               const VertexCone& vc, const Vec3& g_axis,
-               std::vector<Term>& terms) {
+// N the sum over the primitives of vertex p (SPEC §2) or of face p.
+void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
+               const Vec3& g_axis, std::vector<Term>& terms) {
+  const Mesh& mesh = ctx.ev.mesh();
+  const MeshTopology& topo = ctx.ev.topology();
   const Vec3 g_n = g_axis * vc.sign;
   const Vec3 g_big_n = (g_n - vc.n * Dot(vc.n, g_n)) / vc.normal_length;
   Vec3 grad[3];
-  for (int32_t prim_id : topo.PrimitivesOf(p)) {
+  auto add = [&](int32_t prim_id) {
     const Primitive& prim = topo.primitives[prim_id];
     PrimitiveNormalVjp(mesh, prim, g_big_n, grad);
     for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
       terms.push_back({prim.v[j], grad[j]});
     }
+  };
+  if (ctx.faces) {
+    const auto [first, count] = topo.PrimitiveRangeOfFace(p);
+    for (int32_t q = first; q < first + count; ++q) add(q);
+  } else {
+    for (int32_t q : topo.PrimitivesOf(p)) add(q);
   }
 }
 
-// Starts loading every primitive vertex p's rays hit (two vertices ahead of
-// VertexTerms), or their corners (one vertex ahead), so they are in cache
-// when VertexTerms(p) runs.
+// Starts loading every primitive sample p's rays hit (two samples ahead of
+// SampleTerms), or their corners (one sample ahead), so they are in cache
+// when SampleTerms(p) runs.
 void PrefetchPrimitives(const Context& ctx, int64_t p) {
   for (int32_t prim : ctx.hits.Row(p)) {
     if (prim >= 0) ctx.ev.PrefetchPrimitive(prim);
@@ -157,40 +183,45 @@ void PrefetchCorners(const Context& ctx, int64_t p) {
 absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
                                     const HitTable& table) {
   const HitTable* hits = &table;
+  const bool faces = hits->resolved.params.samples == SampleSet::kFaces;
+  const int64_t samples = NumSamples(ev.mesh(), hits->resolved.params.samples);
   if (hits->generation != ev.generation() ||
-      std::ssize(hits->primitives) !=
-          ev.mesh().num_vertices() * std::ssize(hits->cone)) {
+      std::ssize(hits->primitives) != samples * std::ssize(hits->cone)) {
     return absl::FailedPreconditionError(absl::StrCat(
         "sensitivities need the hit table of a ray pass at the current "
         "positions (generation ",
         ev.generation(), "), got one from generation ", hits->generation));
   }
-  if (hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
+  if (!faces &&
+      hits->resolved.params.normal_weighting != NormalWeighting::kArea) {
     return absl::FailedPreconditionError(
         "sensitivities are only available with area-weighted normals; "
         "recompute with area weighting (--normals area, the default)");
   }
-  return Context{
-      ev, *hits,
-      UnnormalizedNormals(ev.mesh(), ev.topology(), NormalWeighting::kArea)};
+  Context ctx{ev, *hits, faces, samples, {}};
+  if (!faces) {
+    ctx.normals =
+        UnnormalizedNormals(ev.mesh(), ev.topology(), NormalWeighting::kArea);
+  }
+  return ctx;
 }
 
-// Computes the terms of every vertex, a batch of kBatch vertices at a time
+// Computes the terms of every sample, a batch of kBatch samples at a time
 // in parallel, and hands each batch to consume(arena, begin, end, rows)
-// (rows[i] are the terms of vertex begin + i).
+// (rows[i] are the terms of sample begin + i).
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           int threads, Consume consume) {
-  const int64_t nv = ctx.ev.mesh().num_vertices();
+  const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
-  std::vector<std::vector<Term>> rows(std::min(nv, kBatch));
+  std::vector<std::vector<Term>> rows(std::min(ns, kBatch));
   tbb::task_arena arena(threads > 0 ? threads
                                     : tbb::info::default_concurrency());
-  for (int64_t begin = 0; begin < nv; begin += kBatch) {
+  for (int64_t begin = 0; begin < ns; begin += kBatch) {
     if (control.cancelled && control.cancelled()) {
       return absl::CancelledError("sensitivity computation cancelled");
     }
-    const int64_t end = std::min(nv, begin + kBatch);
+    const int64_t end = std::min(ns, begin + kBatch);
     arena.execute([&] {
       tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
                         [&](const tbb::blocked_range<int64_t>& r) {
@@ -204,12 +235,12 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           for (int64_t p = r.begin(); p < r.end(); ++p) {
                             if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
                             if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-                            VertexTerms(ctx, p, rows[p - begin], kept, geo);
+                            SampleTerms(ctx, p, rows[p - begin], kept, geo);
                           }
                         });
     });
     consume(arena, begin, end, rows);
-    if (control.progress) control.progress(end, nv);
+    if (control.progress) control.progress(end, ns);
   }
   return absl::OkStatus();
 }
@@ -257,15 +288,18 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
                                              const ComputeControl& control,
                                              int threads) {
   const int64_t nv = geometry.mesh().num_vertices();
-  if (std::ssize(g) != nv) {
+  const bool faces = hits.resolved.params.samples == SampleSet::kFaces;
+  const int64_t ns = NumSamples(geometry.mesh(), hits.resolved.params.samples);
+  const char* sample = faces ? "face" : "vertex";
+  if (std::ssize(g) != ns) {
     return absl::InvalidArgumentError(
-        absl::StrCat("VJP weights must have one value per vertex: expected ",
-                     nv, ", got ", g.size()));
+        absl::StrCat("VJP weights must have one value per ", sample,
+                     ": expected ", ns, ", got ", g.size()));
   }
-  for (int64_t i = 0; i < nv; ++i) {
+  for (int64_t i = 0; i < ns; ++i) {
     if (!std::isfinite(g[i])) {
       return absl::InvalidArgumentError(
-          absl::StrCat("VJP weight of vertex ", i, " is not finite"));
+          absl::StrCat("VJP weight of ", sample, " ", i, " is not finite"));
     }
   }
   auto ctx = MakeContext(geometry, hits);

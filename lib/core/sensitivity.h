@@ -24,9 +24,10 @@ namespace meshgauge {
 
 // Row-compressed sparse Jacobian dSDF/dx: row p lists (column vertex j,
 // dSDF_p/dx_j as a 3-vector; z = 0 in 2D), columns ascending and unique.
-// Rows of vertices without a value are empty.
+// One row per sample (vertex, or face with SampleSet::kFaces: its centroid
+// and normal move with its corners); rows without a value are empty.
 struct SparseJacobian {
-  std::vector<int64_t> row_offsets;  // #V + 1
+  std::vector<int64_t> row_offsets;  // samples + 1
   std::vector<int32_t> columns;
   std::vector<Vec3> values;
   int64_t nonzeros() const { return std::ssize(columns); }
@@ -43,7 +44,8 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(
     const ComputeControl& control = {}, int threads = 0);
 
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
-// g has #V entries (ignored where a vertex has no value; must be finite).
+// g has one entry per sample, #V or #F (ignored where a sample has no value;
+// must be finite).
 // O(#V) memory, no dense matrix; deterministic for any thread count.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.

@@ -49,6 +49,13 @@ MeshTopology MeshTopology::Build(const Mesh& mesh) {
   // Segments and triangles are their own primitives: the lists are
   // vertex_faces' (PrimitivesOf).
   if (quads > 0) {
+    topo.face_first_primitive.assign(mesh.faces.size() + 1, 0);
+    for (const Primitive& prim : topo.primitives) {
+      ++topo.face_first_primitive[prim.face + 1];
+    }
+    for (size_t f = 0; f < mesh.faces.size(); ++f) {
+      topo.face_first_primitive[f + 1] += topo.face_first_primitive[f];
+    }
     topo.vertex_primitives = BuildIncidence(nv, [&](auto&& emit) {
       for (int32_t p = 0; p < static_cast<int32_t>(topo.primitives.size());
            ++p) {

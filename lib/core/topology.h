@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "absl/types/span.h"
@@ -45,6 +46,15 @@ struct MeshTopology {
   Incidence vertex_primitives;
   // Cone direction of each vertex (from its faces; kInward if it has none).
   std::vector<ConeDirection> vertex_direction;
+  // The primitives of face f: [first, first + count), consecutive (a quad
+  // has two).
+  std::pair<int32_t, int32_t> PrimitiveRangeOfFace(int64_t f) const {
+    if (face_first_primitive.empty()) return {static_cast<int32_t>(f), 1};
+    return {face_first_primitive[f],
+            face_first_primitive[f + 1] - face_first_primitive[f]};
+  }
+  // #F + 1 offsets when a face is a quad; empty when primitive i is face i.
+  std::vector<int32_t> face_first_primitive;
 
   // Precondition: ValidateMesh(mesh) is OK.
   static MeshTopology Build(const Mesh& mesh);

@@ -47,6 +47,11 @@ absl::StatusOr<CalibrationReport> Calibrate(const SdfEvaluator& evaluator,
     return absl::InvalidArgumentError(absl::StrCat(
         "equal tolerance must be >= 0, got ", params.equal_tolerance));
   }
+  if (params.sdf.samples != SampleSet::kVertices) {
+    return absl::InvalidArgumentError(
+        "calibration compares vertex values: use vertex samples, not face "
+        "samples");
+  }
   if (params.bins < 1 || params.bins > 1000) {
     return absl::InvalidArgumentError(
         absl::StrCat("bins must be in [1, 1000], got ", params.bins));

@@ -6,6 +6,7 @@
 #include <random>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/sensitivity.h"
 #include "lib/embree/sdf_evaluator.h"
 
@@ -77,6 +78,11 @@ absl::Status ValidateGradCheck(const Mesh& mesh, const SdfParams& params,
   }
   if (o.penalty) {
     if (absl::Status s = ValidatePenaltyParams(*o.penalty); !s.ok()) return s;
+    if (params.samples != SampleSet::kVertices) {
+      return absl::InvalidArgumentError(
+          "the penalty integrates vertex values: check it with vertex "
+          "samples, not face samples");
+    }
   }
   if (o.vertices.empty() && o.samples < 1) {
     return absl::InvalidArgumentError(
@@ -149,9 +155,9 @@ void SummarizeJacobian(const SparseJacobian& jac, GradCheckReport& rep) {
 
 int64_t GradCheckWorkBytes(const Mesh& mesh, const SdfParams& params) {
   const int64_t rays = ResolveParams(params, mesh.dimension).rays;
-  const int64_t pass = rays * 5 + 64;  // hit table and values, per vertex.
+  const int64_t pass = rays * 5 + 64;  // hit table and values, per sample.
   const int64_t jacobian = (2 * rays + 32) * (4 + 8 * 3) + 8;
-  return mesh.num_vertices() * (3 * pass + jacobian);
+  return NumSamples(mesh, params.samples) * (3 * pass + jacobian);
 }
 
 absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
@@ -184,9 +190,10 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
   quiet.cancelled = control.cancelled;
   auto jac = ComputeJacobian(ev, base->hits, quiet, params.threads);
   if (!jac.ok()) return jac.status();
-  const int64_t nv = mesh.num_vertices();
-  std::vector<double> g(nv);
-  for (int64_t i = 0; i < nv; ++i) g[i] = std::sin(1.0 + 7.3 * i);
+  // Rows are samples: vertices or faces (SPEC v2 §5c); columns vertices.
+  const int64_t ns = std::ssize(base->sdf.values);
+  std::vector<double> g(ns);
+  for (int64_t i = 0; i < ns; ++i) g[i] = std::sin(1.0 + 7.3 * i);
   auto vjp = ComputeVjp(ev, base->hits, g, quiet, params.threads);
   if (!vjp.ok()) return vjp.status();
   PenaltyResult pen;
@@ -239,7 +246,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
       // Entries whose probe crossed an event are probed again with steps 10
       // and 100 times smaller; each keeps its first clean attempt.
       std::vector<GradCheckRow> rows;
-      std::vector<int64_t> row_of(nv, -1);
+      std::vector<int64_t> row_of(ns, -1);
       bool vjp_done = false;
       Pass at[2];
       for (int attempt = 0; attempt <= kRetries; ++attempt) {
@@ -251,7 +258,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
         }
         bool all_clean = true;
         double fd_dot = 0;
-        for (int64_t p = 0; p < nv; ++p) {
+        for (int64_t p = 0; p < ns; ++p) {
           GradCheckRow row{static_cast<int32_t>(p), j, c};
           for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
                ++e) {

@@ -14,6 +14,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/estimator.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
 #include "lib/core/normalized_sdf.h"
 #include "lib/core/normals.h"
@@ -358,6 +359,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   const ResolvedParams resolved = ResolveParams(params, mesh_.dimension);
   std::vector<ConeRay> cone;
   const bool sphere = params.method == SdfMethod::kSphere;
+  const bool faces = params.samples == SampleSet::kFaces;
   if (params.method != SdfMethod::kCone) {
     cone.push_back({Vec3(0, 0, 1), 0.0, 1.0});
   } else {
@@ -366,7 +368,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     if (!made.ok()) return made.status();
     cone = std::move(*made);
   }
-  const int64_t nv = mesh_.num_vertices();
+  // Samples: vertices, or face centroids (SPEC v2 §5c).
+  const int64_t ns = NumSamples(mesh_, params.samples);
   const int num_rays = static_cast<int>(cone.size());
   const double t_min = params.self_hit_epsilon * mean_edge_length_;
   const double t_max =
@@ -381,7 +384,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
 
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
-      previous->result != nullptr && !sphere) {
+      previous->result != nullptr && !sphere && !faces) {
     auto planned = PlanReuse(*previous, cone, resolved, limits.t_near,
                              limits.t_min, t_max);
     if (!planned.ok()) return planned.status();
@@ -390,12 +393,12 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
 
   SdfResult result;
   result.resolved = resolved;
-  result.values.assign(nv, kNaN);
-  result.status.assign(nv, VertexStatus::kOk);
-  result.hits.assign(nv, 0);
-  result.kept.assign(nv, 0);
+  result.values.assign(ns, kNaN);
+  result.status.assign(ns, VertexStatus::kOk);
+  result.hits.assign(ns, 0);
+  result.kept.assign(ns, 0);
   if (params.opposite_points)
-    result.opposite.assign(nv, Vec3(kNaN, kNaN, kNaN));
+    result.opposite.assign(ns, Vec3(kNaN, kNaN, kNaN));
   BallLimits ball;
   ball.cap = t_max / 2;
   ball.min_radius = t_min / 2;
@@ -410,12 +413,12 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::vector<int32_t> table;
   std::vector<uint8_t> kept_table, near;
   if (keep_hits) {
-    table.assign(nv * num_rays, -1);
-    kept_table.assign(nv * num_rays, 0);
-    near.assign(nv, 0);
+    table.assign(ns * num_rays, -1);
+    kept_table.assign(ns * num_rays, 0);
+    near.assign(ns, 0);
   }
 
-  ControlGate gate(control, nv);
+  ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
   const auto start = std::chrono::steady_clock::now();
   const double cone_half_angle = params.method == SdfMethod::kNormalRay
@@ -433,24 +436,31 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     scratch.reserve(num_rays);
     int64_t traced = 0, world_frames = 0;
     for (int64_t i = range.begin(); i < range.end(); ++i) {
-      const int64_t p = order_[i];
+      // Sample p: vertex order_[i], or face i.
+      const int64_t p = faces ? i : order_[i];
       const bool reuse = plan && !plan->dirty[p] &&
                          !(plan->t_min_changed && plan->hits->near[p]);
-      if (topo_.vertex_faces.Of(p).empty()) {
+      if (!faces && topo_.vertex_faces.Of(p).empty()) {
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
-      const VertexCone vc = MakeVertexCone(
-          mesh_, topo_, p,
-          UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting));
+      const VertexCone vc =
+          faces ? MakeFaceCone(mesh_, topo_, p)
+                : MakeVertexCone(mesh_, topo_, p,
+                                 UnnormalizedNormal(mesh_, topo_, p,
+                                                    params.normal_weighting));
       if (!vc.valid) {
         result.status[p] = VertexStatus::kDegenerateNormal;
         continue;
       }
       world_frames += vc.world_frame;
-      const Vec3& x = mesh_.positions[p];
+      const Vec3 x = faces ? FaceCentroid(mesh_, p) : mesh_.positions[p];
       if (sphere) {
-        OneRingPrimitives(topo_, p, &excluded);
+        if (faces) {
+          FaceRingPrimitives(mesh_, topo_, p, &excluded);
+        } else {
+          OneRingPrimitives(topo_, p, &excluded);
+        }
         const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
                                            vc.frame.axis, excluded, ball);
         ++traced;
@@ -514,7 +524,11 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       // each ray's hit in double precision once it has arrived.
       retrace_dirs.clear();
       for (int k : retrace) retrace_dirs.push_back(dirs[k]);
-      OneRingPrimitives(topo_, p, &excluded);
+      if (faces) {
+        FacePrimitives(topo_, p, &excluded);
+      } else {
+        OneRingPrimitives(topo_, p, &excluded);
+      }
       const auto fan = absl::MakeSpan(candidates.data(), retrace.size());
       scene_->IntersectFan(x, retrace_dirs, limits, excluded, fan);
       for (const HitCandidates& c : fan) {
@@ -572,7 +586,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       params.threads > 0 ? params.threads : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
   arena.execute([&] {
-    tbb::parallel_for(tbb::blocked_range<int64_t>(0, nv, kVertexBlock), process,
+    tbb::parallel_for(tbb::blocked_range<int64_t>(0, ns, kVertexBlock), process,
                       tbb::simple_partitioner());
   });
   if (gate.stopped()) return absl::CancelledError("SDF computation cancelled");
@@ -582,7 +596,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
   result.normalized = NormalizedSdf(result.values);
-  result.missing = CountMissing(mesh_, result.values);
+  result.missing = faces ? CountMissingFaces(mesh_, result.values)
+                         : CountMissing(mesh_, result.values);
   if (keep_hits) {
     hits->resolved = resolved;
     hits->cone = std::move(cone);

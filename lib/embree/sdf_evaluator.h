@@ -54,19 +54,22 @@ class SdfEvaluator : public MeshGeometry {
   static absl::StatusOr<std::unique_ptr<SdfEvaluator>> Create(
       Mesh mesh, const EvaluatorOptions& options = {});
 
-  // Computes SDF values for every vertex (SPEC §3-5). When `hits` is not
-  // null it receives the hit table for sensitivities (memory: 5 bytes x #V x
-  // K and 25 x #V). Const and thread-safe: concurrent Computes on one evaluator
-  // are fine; UpdatePositions must not run concurrently with anything. With
-  // `previous` (a pass of this evaluator with the same parameters whose hit
-  // table was kept), only the rays whose hit may have changed since are traced
-  // (docs/numerics.md, "Incremental passes"); the result and the hit table's
-  // primitives and kept flags are the full pass's, bit for bit, and rays_traced
-  // counts the rays traced. A previous pass that does not fit (other
-  // parameters, another frame of the ray tracer, over half the vertices moved)
-  // gives a full pass, as does every kSphere pass (the ball has no rays to
-  // reuse; it builds its own BVH, ball_tree.h). Errors: InvalidArgument for bad params; Cancelled when
-  // control.cancelled() returned true; Internal from Embree.
+  // Computes SDF values for every vertex (SPEC §3-5), or every face
+  // centroid with params.samples == kFaces (SPEC v2 §5c; faces in file
+  // order). When `hits` is not null it receives the hit table for
+  // sensitivities (memory: 5 bytes x samples x K and 25 x #V). Const and
+  // thread-safe: concurrent Computes on one evaluator are fine; UpdatePositions
+  // must not run concurrently with anything. With `previous` (a pass of this
+  // evaluator with the same parameters whose hit table was kept), only the rays
+  // whose hit may have changed since are traced (docs/numerics.md, "Incremental
+  // passes"); the result and the hit table's primitives and kept flags are the
+  // full pass's, bit for bit, and rays_traced counts the rays traced. A
+  // previous pass that does not fit (other parameters, another frame of the ray
+  // tracer, over half the vertices moved) gives a full pass, as does every
+  // kSphere pass (the ball has no rays to reuse; it builds its own BVH,
+  // ball_tree.h) and every face-sample pass. Errors: InvalidArgument for bad
+  // params; Cancelled when control.cancelled() returned true; Internal from
+  // Embree.
   absl::StatusOr<SdfResult> Compute(
       const SdfParams& params, const ComputeControl& control = {},
       HitTable* hits = nullptr, const PreviousPass* previous = nullptr) const;

@@ -1,5 +1,6 @@
 #include "lib/io/mesh_io.h"
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 
@@ -15,6 +16,12 @@ namespace {
 using Parser = absl::StatusOr<io::MeshFile> (*)(absl::string_view,
                                                 const std::string&,
                                                 const io::ReadLimits&);
+
+// Appends v's bytes (this is a little-endian host: the PLY writers say so).
+template <typename T>
+void PutBinary(std::ostream& out, T v) {
+  out.write(reinterpret_cast<const char*>(&v), sizeof(v));
+}
 
 // The parser of a file extension, or null.
 Parser ParserFor(absl::string_view extension) {
@@ -133,7 +140,14 @@ absl::Status WriteObj(const std::string& path, const Mesh& mesh) {
 
 absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
                              const std::vector<double>& values,
-                             const std::vector<Rgb>& colors) {
+                             const std::vector<Rgb>& colors, QualityOn on) {
+  const bool per_face = on == QualityOn::kFaces;
+  const size_t expected = per_face ? mesh.faces.size() : mesh.positions.size();
+  if (values.size() != expected) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(values.size(), " values for ", expected,
+                     per_face ? " faces" : " vertices"));
+  }
   if (!colors.empty() && colors.size() != mesh.positions.size()) {
     return absl::InvalidArgumentError(absl::StrCat(
         colors.size(), " colours for ", mesh.positions.size(), " vertices"));
@@ -145,8 +159,8 @@ absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
   out << "ply\nformat binary_little_endian 1.0\n"
       << "comment meshgauge SDF in property quality\n"
       << "element vertex " << mesh.positions.size() << "\n"
-      << "property float x\nproperty float y\nproperty float z\n"
-      << "property float quality\n";
+      << "property float x\nproperty float y\nproperty float z\n";
+  if (!per_face) out << "property float quality\n";
   if (!colors.empty()) {
     out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   }
@@ -156,37 +170,87 @@ absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
   } else {
     int64_t tris = 0;
     for (const Face& f : mesh.faces) tris += f.size - 2;
-    out << "element face " << tris << "\n"
+    out << "element face " << (per_face ? std::ssize(mesh.faces) : tris) << "\n"
         << "property list uchar int vertex_indices\n";
   }
+  if (per_face) out << "property float quality\n";
   out << "end_header\n";
-  auto put = [&out](auto v) {
-    out.write(reinterpret_cast<const char*>(&v), sizeof(v));
-  };
+  auto put = [&out](auto v) { PutBinary(out, v); };
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const Vec3& p = mesh.positions[i];
     put(static_cast<float>(p.x));
     put(static_cast<float>(p.y));
     put(static_cast<float>(p.z));
-    put(static_cast<float>(values[i]));
+    if (!per_face) put(static_cast<float>(values[i]));
     if (!colors.empty()) {
       put(colors[i].r);
       put(colors[i].g);
       put(colors[i].b);
     }
   }
-  for (const Face& f : mesh.faces) {
+  for (size_t i = 0; i < mesh.faces.size(); ++i) {
+    const Face& f = mesh.faces[i];
     if (curve) {
       put(static_cast<int32_t>(f.v[0]));
       put(static_cast<int32_t>(f.v[1]));
-      continue;
+    } else if (per_face) {
+      put(static_cast<uint8_t>(f.size));
+      for (int k = 0; k < f.size; ++k) put(static_cast<int32_t>(f.v[k]));
+    } else {
+      for (int t = 0; t + 2 < f.size; ++t) {
+        put(static_cast<uint8_t>(3));
+        put(static_cast<int32_t>(f.v[0]));
+        put(static_cast<int32_t>(f.v[t + 1]));
+        put(static_cast<int32_t>(f.v[t + 2]));
+      }
     }
-    for (int t = 0; t + 2 < f.size; ++t) {
-      put(static_cast<uint8_t>(3));
-      put(static_cast<int32_t>(f.v[0]));
-      put(static_cast<int32_t>(f.v[t + 1]));
-      put(static_cast<int32_t>(f.v[t + 2]));
+    if (per_face) put(static_cast<float>(values[i]));
+  }
+  if (!out)
+    return absl::InternalError(absl::StrCat("error writing '", path, "'"));
+  return absl::OkStatus();
+}
+
+absl::Status WriteSegmentsPly(const std::string& path,
+                              absl::Span<const Vec3> from,
+                              absl::Span<const Vec3> to,
+                              absl::Span<const double> values) {
+  if (to.size() != from.size() || values.size() != from.size()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat(from.size(), " samples, ", to.size(),
+                     " opposite points and ", values.size(), " values"));
+  }
+  std::vector<int32_t> drawn;
+  for (size_t i = 0; i < from.size(); ++i) {
+    const Vec3& q = to[i];
+    if (std::isfinite(values[i]) && std::isfinite(q.x) && std::isfinite(q.y) &&
+        std::isfinite(q.z)) {
+      drawn.push_back(static_cast<int32_t>(i));
     }
+  }
+  std::ofstream out(path, std::ios::binary);
+  if (!out)
+    return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
+  out << "ply\nformat binary_little_endian 1.0\n"
+      << "comment meshgauge thickness segments: sample -> opposite point\n"
+      << "element vertex " << 2 * drawn.size() << "\n"
+      << "property double x\nproperty double y\nproperty double z\n"
+      << "property double quality\nproperty int sample\n"
+      << "element edge " << drawn.size() << "\n"
+      << "property int vertex1\nproperty int vertex2\n"
+      << "end_header\n";
+  for (int32_t i : drawn) {
+    for (const Vec3* p : {&from[i], &to[i]}) {
+      PutBinary(out, p->x);
+      PutBinary(out, p->y);
+      PutBinary(out, p->z);
+      PutBinary(out, values[i]);
+      PutBinary(out, i);
+    }
+  }
+  for (size_t e = 0; e < drawn.size(); ++e) {
+    PutBinary(out, static_cast<int32_t>(2 * e));
+    PutBinary(out, static_cast<int32_t>(2 * e + 1));
   }
   if (!out)
     return absl::InternalError(absl::StrCat("error writing '", path, "'"));

@@ -18,6 +18,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
+#include "absl/types/span.h"
 #include "lib/core/image.h"
 #include "lib/core/mesh.h"
 #include "lib/core/mesh_repair.h"
@@ -60,14 +61,32 @@ absl::StatusOr<RepairedMesh> RepairFileMesh(io::MeshFile file,
 // faces of region ID. Errors: Internal when the file cannot be written.
 absl::Status WriteObj(const std::string& path, const Mesh& mesh);
 
-// Writes a binary little-endian PLY with float x y z and a per-vertex float
-// `quality` property (MeshLab's colour source) holding values[i] (#V; NaN is
-// written as NaN) and, when `colors` is not empty (#V), uchar red green
-// blue. 3D faces as `face` lists; 2D segments as an `edge` element. Errors:
-// InvalidArgument for a colour count other than #V; Internal when the file
-// cannot be written.
+// Which element a quality PLY's values belong to.
+enum class QualityOn { kVertices, kFaces };
+
+// Writes a binary little-endian PLY with float x y z and a float `quality`
+// property (MeshLab's colour source) holding values[i] (NaN is written as
+// NaN): per vertex (#V; 3D faces as triangle lists, quads split) or, with
+// QualityOn::kFaces, per face (#F; each face as its own list, 3 or 4
+// corners, then its quality); and, when `colors` is not empty (#V), uchar
+// red green blue per vertex. 2D segments as an `edge` element. Errors:
+// InvalidArgument for a value or colour count other than #V (#F); Internal
+// when the file cannot be written.
 absl::Status WriteQualityPly(const std::string& path, const Mesh& mesh,
                              const std::vector<double>& values,
-                             const std::vector<Rgb>& colors = {});
+                             const std::vector<Rgb>& colors = {},
+                             QualityOn on = QualityOn::kVertices);
+
+// Writes thickness segments (SPEC v2 §5c) as a binary little-endian PLY
+// line set: for each i with a finite values[i] and a finite to[i], two
+// vertices from[i] and to[i] (double x y z, double quality = values[i], int
+// sample = i) joined by an `edge`. Samples without a value are left out;
+// double coordinates keep the points as computed. from, to and values have
+// one entry per sample. Errors: InvalidArgument for sizes that differ;
+// Internal when the file cannot be written.
+absl::Status WriteSegmentsPly(const std::string& path,
+                              absl::Span<const Vec3> from,
+                              absl::Span<const Vec3> to,
+                              absl::Span<const double> values);
 
 }  // namespace meshgauge

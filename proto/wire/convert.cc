@@ -79,6 +79,8 @@ v1::SdfParameters ToWire(const SdfParams& p) {
   }
   w.set_contact_angle_degrees(p.contact_angle_degrees);
   w.set_opposite_points(p.opposite_points);
+  w.set_samples(p.samples == SampleSet::kFaces ? v1::SAMPLE_SET_FACES
+                                               : v1::SAMPLE_SET_VERTICES);
   w.set_cone_angle_degrees(p.cone_angle_degrees);
   w.set_rays(p.rays);
   w.set_kappa(p.kappa);
@@ -122,6 +124,19 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
       return absl::InvalidArgumentError(absl::StrCat(
           "params.normal_weighting ", static_cast<int>(p.normal_weighting()),
           " is not a known NormalWeighting"));
+  }
+  switch (p.samples()) {
+    case v1::SAMPLE_SET_UNSPECIFIED:
+    case v1::SAMPLE_SET_VERTICES:
+      out.samples = SampleSet::kVertices;
+      break;
+    case v1::SAMPLE_SET_FACES:
+      out.samples = SampleSet::kFaces;
+      break;
+    default:
+      return absl::InvalidArgumentError(
+          absl::StrCat("params.samples ", static_cast<int>(p.samples()),
+                       " is not a known SampleSet"));
   }
   if (p.cone_angle_degrees() != 0)
     out.cone_angle_degrees = p.cone_angle_degrees();
@@ -494,6 +509,9 @@ void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
 void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
                    v1::SdfSummary* s) {
   s->set_generation(facts.generation);
+  s->set_samples(r.resolved.params.samples == SampleSet::kFaces
+                     ? v1::SAMPLE_SET_FACES
+                     : v1::SAMPLE_SET_VERTICES);
   s->set_ok(r.CountStatus(VertexStatus::kOk));
   s->set_no_hit(r.CountStatus(VertexStatus::kNoHit));
   s->set_no_faces(r.CountStatus(VertexStatus::kNoFaces));
@@ -577,6 +595,14 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                                : "no opposite points were asked for, ",
         "the chunks carried ", r.opposite.size(), " for ", r.values.size(),
         " vertices (is the server older than SdfParameters.opposite_points?)"));
+  }
+  const bool faces = params.samples == SampleSet::kFaces;
+  if (faces ? s.samples() != v1::SAMPLE_SET_FACES
+            : s.samples() == v1::SAMPLE_SET_FACES) {
+    return Malformed(absl::StrCat(
+        faces ? "face" : "vertex", " samples were asked for, the reply holds ",
+        faces ? "others" : "face samples",
+        " (is the server older than SdfParameters.samples?)"));
   }
   r.rays_traced = s.rays();
   r.world_frame_vertices = s.world_frame_vertices();

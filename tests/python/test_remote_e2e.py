@@ -12,7 +12,8 @@ import urllib.request
 
 import numpy as np
 
-from meshgauge_client import MeshGaugeClient, MeshGaugeError, NotFoundError
+from meshgauge_client import (InvalidArgumentError, MeshGaugeClient,
+                              MeshGaugeError, NotFoundError)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
@@ -91,6 +92,36 @@ class RemoteEndToEnd(unittest.TestCase):
             self.client.sdf(sid, method="sphere", contact_angle=90.0)
         with self.assertRaises(TypeError):
             self.client.sdf(sid, opposite_points="yes")
+
+    def test_1c_face_samples(self):
+        # SPEC v2 §5c: one value per face, at its centroid along its normal.
+        # On the regular octahedron every face's normal ray runs through the
+        # centre to the opposite face's centroid: 2 / sqrt(3).
+        v, f = octahedron()
+        sid = self.client.upload(v, f).session_id
+        r = self.client.sdf(sid, samples="faces", method="normal",
+                            opposite_points=True, jacobian=True)
+        self.assertEqual(r.summary.samples, "faces")
+        self.assertEqual(r.values.shape, (8,))
+        np.testing.assert_allclose(r.values, 2 / np.sqrt(3), rtol=1e-12)
+        centroids = v[f].mean(axis=1)
+        np.testing.assert_allclose(r.opposite, -centroids, atol=1e-12)
+        self.assertEqual(r.jacobian.shape, (8, 18))
+        # Degree-1 homogeneity through the face samples' derivatives, with
+        # one weight per face.
+        g = self.client.vjp(sid, np.ones(8), method="normal", samples="faces")
+        self.assertEqual(g.shape, (6, 3))
+        self.assertAlmostEqual(float(np.sum(g * v)), float(np.sum(r.values)),
+                               places=9)
+        np.testing.assert_allclose(r.jacobian.sum(axis=0).A1.reshape(6, 3), g,
+                                   atol=1e-12)
+        with self.assertRaises(InvalidArgumentError) as e:
+            self.client.vjp(sid, np.ones(6), samples="faces")
+        self.assertIn("one per face", e.exception.details)
+        with self.assertRaises(InvalidArgumentError):
+            self.client.penalty(sid, 1.0, samples="faces")
+        with self.assertRaises(ValueError):
+            self.client.sdf(sid, samples="edges")
 
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:

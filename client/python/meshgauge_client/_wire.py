@@ -18,6 +18,7 @@ from meshgauge_client.results import (Calibration, FloatArray,
 METHODS = {"cone": pb.SDF_METHOD_CONE, "normal": pb.SDF_METHOD_NORMAL_RAY,
            "sphere": pb.SDF_METHOD_SPHERE}
 NORMALS = {"area": pb.NORMAL_WEIGHTING_AREA, "angle": pb.NORMAL_WEIGHTING_ANGLE}
+SAMPLES = {"vertices": pb.SAMPLE_SET_VERTICES, "faces": pb.SAMPLE_SET_FACES}
 FORMS = {"one-sided": pb.PENALTY_FORM_ONE_SIDED,
          "thesis": pb.PENALTY_FORM_THESIS, "ks": pb.PENALTY_FORM_KS}
 
@@ -50,12 +51,13 @@ def _flag(name: str, value: Any) -> bool:
 def sdf_params(method: str = "cone", cone_angle: float = 30.0, rays: int = 0,
                kappa: float = 1.0, max_distance: float = 0.0,
                normals: str = "area", contact_angle: float = 60.0,
-               opposite_points: bool = False) -> Any:
+               opposite_points: bool = False, samples: str = "vertices"
+               ) -> Any:
     """SdfParameters from the CLI's flag names and defaults: method
     cone|normal|sphere, cone_angle in (0, 180) degrees, rays 1..4096 (0: 100
     in 3D, 32 in 2D), kappa >= 0, max_distance >= 0 (0: bounding-box
     diagonal), normals area|angle, contact_angle (sphere) in (0, 90)
-    degrees, opposite_points a bool."""
+    degrees, opposite_points a bool, samples vertices|faces."""
     if isinstance(rays, bool) or not isinstance(rays, (int, np.integer)):
         raise TypeError(f"rays must be an int, got {type(rays).__name__}")
     if not 0 <= int(rays) <= 4096:
@@ -73,7 +75,8 @@ def sdf_params(method: str = "cone", cone_angle: float = 30.0, rays: int = 0,
         max_distance=_number("max_distance", max_distance, 0, math.inf),
         normal_weighting=_choice("normals", normals, NORMALS),
         contact_angle_degrees=contact,
-        opposite_points=_flag("opposite_points", opposite_points))
+        opposite_points=_flag("opposite_points", opposite_points),
+        samples=_choice("samples", samples, SAMPLES))
 
 
 def points(array: Any, name: str, rows: Optional[int] = None) -> FloatArray:
@@ -188,7 +191,9 @@ def summary(s: Any) -> SdfSummary:
                       s.sdf_mean, s.integral, s.rays, s.seconds, s.reused_hits,
                       s.world_frame_vertices, s.missing.vertices,
                       s.missing.faces, s.missing.area_fraction,
-                      tuple(s.warnings))
+                      tuple(s.warnings),
+                      "faces" if s.samples == pb.SAMPLE_SET_FACES
+                      else "vertices")
 
 
 def _point(p: Any, field: str) -> Tuple[float, float, float]:

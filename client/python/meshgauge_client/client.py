@@ -448,12 +448,13 @@ class MeshGaugeClient:
 
     def sdf(self, session_id: str, *, expected_generation: Optional[int] = None,
             jacobian: bool = False, **params: Any) -> SdfResult:
-        """Per-vertex SDF (SdfResult). params: options=SdfOptions(...), or
-        its fields as keywords (method, cone_angle_degrees, rays, kappa,
-        max_distance, normals; the CLI's flags). jacobian=True adds the
-        sparse Jacobian (N, N*d)."""
-        req = pb.ComputeSdfRequest(session_id=session_id,
-                                   params=self._params(params),
+        """SDF per vertex, or per face with samples="faces" (SdfResult).
+        params: options=SdfOptions(...), or its fields as keywords (method,
+        cone_angle_degrees, rays, kappa, max_distance, normals, samples; the
+        CLI's flags). jacobian=True adds the sparse Jacobian (N, V*d)."""
+        wire_params = self._params(params)
+        faces = wire_params.samples == pb.SAMPLE_SET_FACES
+        req = pb.ComputeSdfRequest(session_id=session_id, params=wire_params,
                                    include_jacobian=jacobian)
         if expected_generation is not None:
             req.expected_generation = expected_generation
@@ -486,6 +487,13 @@ class MeshGaugeClient:
                     cols.extend(c.columns)
                     data.extend(c.derivatives)
             n = len(values)
+            if summary is not None and faces != (
+                    summary.samples == pb.SAMPLE_SET_FACES):
+                raise DataLossError(
+                    grpc.StatusCode.DATA_LOSS,
+                    ("face" if faces else "vertex") + " samples were asked "
+                    "for, the reply holds others (is the server older than "
+                    "SdfParameters.samples?)")
             if opposite and len(opposite) != 3 * n:
                 raise DataLossError(
                     grpc.StatusCode.DATA_LOSS,
@@ -498,9 +506,10 @@ class MeshGaugeClient:
                 full_cols = (col[:, None] * d + np.arange(d)).ravel()
                 counts = np.diff(np.asarray(rows, dtype=np.int64)) * d
                 indptr = np.concatenate([[0], np.cumsum(counts)])
+                nv = self.info(session_id).num_vertices if faces else n
                 jac = scipy.sparse.csr_matrix(
                     (np.asarray(data, dtype=np.float64), full_cols, indptr),
-                    shape=(n, n * d))
+                    shape=(n, nv * d))
             result = SdfResult(np.asarray(values, dtype=np.float64),
                                np.asarray(status, dtype=np.int64),
                                np.asarray(hits, dtype=np.int64),
@@ -520,7 +529,8 @@ class MeshGaugeClient:
     def vjp(self, session_id: str, weights: Any, *,
             expected_generation: Optional[int] = None,
             **params: Any) -> FloatArray:
-        """g^T dSDF/dx for weights g (N,): an (N, d) array."""
+        """g^T dSDF/dx for weights g (N,), one per sample (vertex, or face
+        with samples="faces"): a (V, d) array, one row per vertex."""
         g = np.asarray(weights, dtype=np.float64)
         if g.ndim != 1 or not np.all(np.isfinite(g)):
             raise ValueError("weights must be a finite (N,) array")

@@ -18,7 +18,10 @@ class SdfOptions:
     rays: per vertex, 1..4096 (0: 100 in 3D, 32 in 2D; the server may allow
     fewer, see MeshGaugeClient.server_info); kappa >= 0: keep rays with
     |t - median| <= kappa sigma; max_distance >= 0 (0: the bounding-box
-    diagonal); normals: "area" or "angle" vertex-normal weighting.
+    diagonal); normals: "area" or "angle" vertex-normal weighting;
+    samples: "vertices" or "faces" (each face's centroid along its own
+    normal, SPEC v2 §5c; values, VJP weights and Jacobian rows are then per
+    face; penalties refuse it).
 
     Invalid values raise ValueError or TypeError when the options are made.
     """
@@ -31,6 +34,7 @@ class SdfOptions:
     normals: str = "area"
     contact_angle_degrees: float = 60.0
     opposite_points: bool = False
+    samples: str = "vertices"
 
     def __post_init__(self) -> None:
         self.to_wire()  # validates.
@@ -40,7 +44,7 @@ class SdfOptions:
         return _wire.sdf_params(self.method, self.cone_angle_degrees,
                                 self.rays, self.kappa, self.max_distance,
                                 self.normals, self.contact_angle_degrees,
-                                self.opposite_points)
+                                self.opposite_points, self.samples)
 
     @staticmethod
     def of(options: Optional["SdfOptions"], params: Dict[str, Any]

@@ -44,18 +44,22 @@ class SdfSummary:
     missing_fraction: float  # share of the area those faces cover, [0, 1].
     # Per component with over 1 % of the surface missing: the likely cause.
     warnings: Tuple[str, ...] = ()
+    samples: str = "vertices"  # where the values are: "vertices" or "faces".
 
 
 @dataclass(frozen=True)
 class SdfResult:
-    """Per-vertex shape diameter (SPEC §5).
+    """Shape diameter per sample (SPEC §5): N is the vertex count, or the
+    face count with samples="faces" (each face's centroid along its own
+    normal, SPEC v2 §5c; the Jacobian then has one row per face and a
+    column per vertex coordinate).
 
     values: (N,) SDF, NaN unless status is OK (never a silent zero).
     status: (N,) VertexStatus values; ``status_names`` gives their names.
     hits, kept: (N,) rays that hit / that the filter kept.
     normalized: (N,) Shapira's normalised SDF in [0, 1], NaN unless OK.
-    jacobian: scipy.sparse.csr_matrix (N, N*d) of dSDF_p/dx_j (column
-    j*d + c) when asked for, else None.
+    jacobian: scipy.sparse.csr_matrix (N, V*d) of dSDF_p/dx_j (column
+    j*d + c, V vertices) when asked for, else None.
     opposite: (N, 3) with opposite_points=True, what each vertex was
     measured against (SPEC v2 §5c: the normal ray's hit point, the cone's
     weighted mean hit point, the sphere's touching point; z = 0 in 2D), NaN
