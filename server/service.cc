@@ -465,7 +465,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
         for (int64_t p = 0; jac && p < nv; ++p) {
           if (vertex_bytes(p) > budget) {
             return absl::ResourceExhaustedError(absl::StrCat(
-                "vertex ", p, "'s Jacobian row takes about ", vertex_bytes(p),
+                "sample ", p, "'s Jacobian row takes about ", vertex_bytes(p),
                 " bytes, more than half the message limit of ",
                 options_.max_message_bytes,
                 " bytes (--max_message_bytes); use fewer rays or ask for "

@@ -4,7 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -15,6 +17,7 @@
 
 #include "absl/strings/str_split.h"
 #include "lib/core/vec3.h"
+#include "lib/io/mesh_io.h"
 #include "lib/io/png_file.h"
 #include "tests/cli_test_util.h"
 #include "tests/test_util.h"
@@ -221,12 +224,41 @@ TEST(CliTest, FaceSamplesGiveOneValuePerFace) {
   std::string line;
   std::getline(in, line);
   EXPECT_EQ(line, "face,x,y,z,sdf,normalized,hits,kept,status");
-  int rows = 0;
-  while (std::getline(in, line)) ++rows;
-  EXPECT_EQ(rows, 1000);
-  const std::string header = Slurp(ply).substr(0, 400);
-  EXPECT_THAT(header, HasSubstr("element face 1000\nproperty list uchar int "
-                                "vertex_indices\nproperty float quality\n"));
+  // Each row is at its face's centroid; the PLY holds its value as the
+  // face's quality.
+  auto mesh = ReadMesh(knight);
+  ASSERT_TRUE(mesh.ok());
+  std::vector<double> sdf;
+  for (int f = 0; std::getline(in, line); ++f) {
+    const std::vector<std::string> c = absl::StrSplit(line, ',');
+    ASSERT_EQ(c.size(), 9u) << line;
+    const Face& face = mesh->faces[f];
+    const Vec3 centroid =
+        (mesh->positions[face.v[0]] + mesh->positions[face.v[1]] +
+         mesh->positions[face.v[2]]) /
+        3;
+    EXPECT_EQ(Vec3(std::stod(c[1]), std::stod(c[2]), std::stod(c[3])), centroid)
+        << line;
+    sdf.push_back(c[8] == "OK" ? std::stod(c[4]) : std::nan(""));
+  }
+  ASSERT_EQ(sdf.size(), 1000u);
+  const std::string bytes = Slurp(ply);
+  const std::string end = "end_header\n";
+  const size_t body = bytes.find(end) + end.size();
+  EXPECT_THAT(bytes.substr(0, body),
+              HasSubstr("element face 1000\nproperty list uchar int "
+                        "vertex_indices\nproperty float quality\n"));
+  const size_t faces = body + 502 * 3 * sizeof(float);
+  const size_t record = 1 + 3 * sizeof(int32_t) + sizeof(float);
+  ASSERT_EQ(bytes.size(), faces + 1000 * record);
+  for (int f = 0; f < 1000; ++f) {
+    float quality;
+    std::memcpy(&quality, bytes.data() + faces + f * record + 13,
+                sizeof(float));
+    EXPECT_TRUE(quality == static_cast<float>(sdf[f]) ||
+                (std::isnan(quality) && std::isnan(sdf[f])))
+        << "face " << f;
+  }
   const std::string weights = Tmp("vertex_weights.txt");
   {
     std::ofstream w(weights);
@@ -240,6 +272,15 @@ TEST(CliTest, FaceSamplesGiveOneValuePerFace) {
       RunCli("penalty " + knight + " --samples faces --t-min 0.1");
   EXPECT_NE(penalty.exit_code, 0);
   EXPECT_THAT(penalty.out, HasSubstr("--samples"));
+  // gradcheck: --samples names the set, or (its older meaning) a count,
+  // which --probes may not contradict.
+  const CliRun both =
+      RunCli("gradcheck " + knight + " --rays 8 --probes 3 --samples 4");
+  EXPECT_EQ(both.exit_code, 1);
+  EXPECT_THAT(both.out, HasSubstr("not both"));
+  const CliRun hex = RunCli("gradcheck " + knight + " --samples 0x10");
+  EXPECT_EQ(hex.exit_code, 2);
+  EXPECT_THAT(hex.out, HasSubstr("--samples"));
   std::filesystem::remove(csv);
   std::filesystem::remove(ply);
   std::filesystem::remove(weights);

@@ -6,11 +6,12 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <numbers>
 #include <string>
 
 #include "lib/core/face_sample.h"
+#include "lib/core/integrals.h"
+#include "lib/core/missing_values.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
@@ -19,13 +20,14 @@
 #include "lib/io/mesh_io.h"
 #include "tests/fd_check.h"
 #include "tests/test_util.h"
+#include "tests/thread_count_check.h"
 
 namespace meshgauge {
 namespace {
 
 using testing::CheckJacobian;
 using testing::ExpectFdAgreement;
-using testing::SameBits;
+using testing::ExpectSameForOneAndTwoThreads;
 using testing::SharedMesh;
 
 SdfParams Faces(SdfMethod method) {
@@ -84,8 +86,9 @@ TEST(FaceSamplesTest, SlabOfTrianglesMeasuresTheThicknessAtEveryFace) {
   ExpectSlabFacesMeasureTheThickness(/*quads=*/false);
 }
 
-// A quad's centroid lies on its split diagonal: both of its triangles are
-// its own and ignored, and its axis is their summed normal.
+// A quad face: both of its triangles are its own and ignored (the centroid
+// of these square cells lies on their shared diagonal), and its axis is
+// their summed normal.
 TEST(FaceSamplesTest, SlabOfQuadsMeasuresTheThicknessAtEveryFace) {
   ExpectSlabFacesMeasureTheThickness(/*quads=*/true);
 }
@@ -98,22 +101,8 @@ TEST(FaceSamplesTest, SameForAnyThreadCount) {
   auto ev = SdfEvaluator::Create(*mesh);
   ASSERT_TRUE(ev.ok());
   for (SdfMethod method : {SdfMethod::kCone, SdfMethod::kSphere}) {
-    SdfParams one = Faces(method), two = Faces(method);
-    one.threads = 1;
-    two.threads = 2;
-    HitTable h1, h2;
-    auto r1 = (*ev)->Compute(one, {}, &h1);
-    auto r2 = (*ev)->Compute(two, {}, &h2);
-    ASSERT_TRUE(r1.ok() && r2.ok());
-    EXPECT_TRUE(SameBits(r1->values, r2->values));  // NaN where none.
-    EXPECT_EQ(r1->status, r2->status);
-    ASSERT_EQ(r1->opposite.size(), r2->opposite.size());
-    EXPECT_EQ(std::memcmp(r1->opposite.data(), r2->opposite.data(),
-                          r1->opposite.size() * sizeof(Vec3)),
-              0);
-    EXPECT_EQ(h1.primitives, h2.primitives);
-    EXPECT_EQ(h1.kept, h2.kept);
-    EXPECT_GT(r1->CountStatus(VertexStatus::kOk), 0.95 * mesh->num_faces());
+    const SdfResult r = ExpectSameForOneAndTwoThreads(**ev, Faces(method));
+    EXPECT_GT(r.CountStatus(VertexStatus::kOk), 0.95 * mesh->num_faces());
   }
 }
 
@@ -141,6 +130,25 @@ TEST(FaceSamplesTest, DerivativesMatchFiniteDifferences) {
   ExpectFdAgreement(CheckJacobian(MakeHollowSquare(4, 1, 0.2),
                                   Faces(SdfMethod::kCone), 40,
                                   "2D plate with hole faces cone"));
+}
+
+// A face without a value is skipped by the integral and counted, with its
+// area, as missing; the others count with their own value over their area.
+TEST(FaceSamplesTest, IntegralAndMissingValuesWeighFacesByTheirArea) {
+  Mesh square;
+  square.positions = {Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(2, 1, 0),
+                      Vec3(0, 1, 0)};
+  square.faces = {Face::Triangle(0, 1, 2), Face::Triangle(0, 2, 3),
+                  Face::Quad(0, 1, 2, 3)};
+  const std::vector<double> values = {3, std::nan(""), 0.5};
+  const IntegralResult integral = IntegrateFaceValues(square, values);
+  EXPECT_EQ(integral.value, 3 * 1 + 0.5 * 2);
+  EXPECT_EQ(integral.measure, 3);
+  EXPECT_EQ(integral.skipped_faces, 1);
+  const MissingValues missing = CountMissingFaces(square, values);
+  EXPECT_EQ(missing.faces, 1);
+  EXPECT_EQ(missing.vertices, 0);
+  EXPECT_EQ(missing.area_fraction, 0.25);
 }
 
 // The penalty and the calibration integrate or compare vertex values; VJP

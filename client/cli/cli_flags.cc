@@ -1,5 +1,6 @@
 #include "client/cli/cli_flags.h"
 
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -99,12 +100,13 @@ void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
                     "write per-vertex CSV: "
                     "vertex,x,y,z,sdf,normalized,hits,kept,status");
     app->add_option("--ply", f->ply,
-                    "write binary PLY with the SDF in the per-vertex quality "
-                    "property");
+                    "write binary PLY with the SDF in the quality property "
+                    "(per vertex, or per face with --samples faces)");
     app->add_option("--opposite-ply", f->opposite_ply,
-                    "write the thickness segments (vertex -> opposite point, "
+                    "write the thickness segments (sample -> opposite point, "
                     "SPEC v2 §5c) as a PLY line set: double x y z, quality "
-                    "= the value, sample = the vertex; implies --opposite");
+                    "= the value, sample = the vertex or face index; implies "
+                    "--opposite");
   }
   app->add_flag("--json", f->json, "print the summary as one JSON object");
   app->add_option("--progress", f->progress,
@@ -207,22 +209,31 @@ void AddSamplesFlag(CLI::App* app, SdfFlags* f) {
 }
 
 void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f, SdfFlags* sdf) {
-  app->add_option("--probes", f->probes, "vertices probed, >= 1")
-      ->check(CLI::Range(1, 1000000))
-      ->capture_default_str();
+  app->add_option("--probes", f->probes, "vertices probed, >= 1 (default 12)")
+      ->check(CLI::Range(1, 1000000));
   // --samples N, the count's name before --probes, still works.
+  const CLI::Validator count(
+      [](std::string& v) -> std::string {
+        int n = 0;
+        const char* end = v.data() + v.size();
+        const auto [ptr, ec] = std::from_chars(v.data(), end, n);
+        return ec == std::errc() && ptr == end && n >= 1 && n <= 1000000
+                   ? std::string()
+                   : "not a count in [1, 1000000]";
+      },
+      "COUNT");
   app->add_option_function<std::string>(
          "--samples",
          [f, sdf](const std::string& v) {
            if (v == "vertices" || v == "faces") {
              sdf->samples = v;
            } else {
-             f->probes = std::stoi(v);
+             std::from_chars(v.data(), v.data() + v.size(), f->counted);
            }
          },
          "vertices or faces (as for sdf), or a count of probed vertices "
          "(the older spelling of --probes)")
-      ->check(CLI::IsMember({"vertices", "faces"}) | CLI::Range(1, 1000000));
+      ->check(CLI::IsMember({"vertices", "faces"}) | count);
   app->add_option("--seed", f->seed, "sampling seed")->capture_default_str();
   app->add_option("--fd-tolerance", f->fd_tolerance,
                   "relative error allowed on clean samples, > 0")

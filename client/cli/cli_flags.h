@@ -80,7 +80,16 @@ struct CalibrateFlags {
 // --samples is SdfFlags' (vertices|faces) or, as before --probes existed, a
 // count of probed vertices.
 struct GradcheckFlags {
-  int probes = 12;
+  int probes = 0;   // --probes; 0: not given (12).
+  int counted = 0;  // --samples N; 0: not given.
+  // The vertices to probe: --probes or --samples N (not both), else 12.
+  absl::StatusOr<int> Probes() const {
+    if (probes > 0 && counted > 0) {
+      return absl::InvalidArgumentError(
+          "give --probes N or --samples N (its older spelling), not both");
+    }
+    return probes > 0 ? probes : counted > 0 ? counted : 12;
+  }
   uint64_t seed = 1;
   double fd_tolerance = 1e-5;
 };

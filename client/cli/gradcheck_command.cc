@@ -49,8 +49,10 @@ void PrintTable(const GradCheckReport& rep, double tolerance) {
 absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
                           const PenaltyFlags& penalty_flags,
                           const BackendFactory& make) {
+  auto probes = check.Probes();
+  if (!probes.ok()) return probes.status();
   GradCheckOptions options;
-  options.samples = check.probes;
+  options.samples = *probes;
   options.seed = check.seed;
   options.tolerance = check.fd_tolerance;
   if (penalty_flags.t_min != 0) {
@@ -116,11 +118,16 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     }
     std::cout << absl::StrFormat(
         "|dSDF/dx|: max %.4g, median %.4g; %d vertices in the world frame\n"
-        "rays traced: %d (a full pass: %d; probes reuse the base pass)\n"
+        "rays traced: %d (a full pass: %d; %s)\n"
         "probe repeats with a smaller step after an event: %d\n"
         "verdict: %s\n",
         rep->max_abs_derivative, rep->median_abs_derivative,
         rep->world_frame_vertices, rep->rays_traced, rep->full_pass_rays,
+        // SdfEvaluator::Compute reuses rays of vertex samples only.
+        opened->params.method != SdfMethod::kSphere &&
+                opened->params.samples == SampleSet::kVertices
+            ? "probes reuse the base pass"
+            : "every probe is a full pass",
         rep->retried, verdict_name);
   }
   if (verdict == GradCheckVerdict::kFail) {

@@ -40,6 +40,13 @@ class Remote : public Backend {
     auto r = c_->ComputeSdf(id_, params, call);
     bar.Finish();
     if (!r.ok()) return r.status();
+    // The outputs index the mesh file's vertices or faces by these values.
+    if (const int64_t n = NumSamples(mesh_, params.samples);
+        std::ssize(r->result.values) != n) {
+      return absl::DataLossError(absl::StrCat(
+          "the server sent ", r->result.values.size(), " values for ", n,
+          params.samples == SampleSet::kFaces ? " faces" : " vertices"));
+    }
     jacobian_ = std::move(r->jacobian);
     return std::move(r->result);
   }

@@ -16,19 +16,14 @@ Vec3 FaceCentroid(const Mesh& mesh, int64_t f) {
 }
 
 VertexCone MakeFaceCone(const Mesh& mesh, const MeshTopology& topo, int64_t f) {
-  VertexCone vc;
-  vc.sign = mesh.DirectionOfRegion(mesh.RegionOf(f)) == ConeDirection::kInward
-                ? -1.0
-                : 1.0;
   const auto [first, count] = topo.PrimitiveRangeOfFace(f);
   Vec3 normal_sum;
   for (int32_t q = first; q < first + count; ++q) {
     normal_sum += PrimitiveNormal(mesh, topo.primitives[q]);
   }
-  vc.normal_length = Norm(normal_sum);
-  if (!(vc.normal_length > 0) || !std::isfinite(vc.normal_length)) return vc;
-  vc.valid = true;
-  vc.n = normal_sum / vc.normal_length;
+  VertexCone vc =
+      ConeOfNormal(mesh.DirectionOfRegion(mesh.RegionOf(f)), normal_sum);
+  if (!vc.valid) return vc;
   const Vec3 axis = vc.n * vc.sign;
   if (mesh.dimension == 2) {
     vc.frame = MakeWorldFrame(2, axis);

@@ -22,16 +22,25 @@ struct VertexCone {
   bool world_frame = false;
 };
 
-// The cone of vertex p: its axis from the unnormalised normal sum N_p
-// (SPEC §2) and its frame, attached to the mesh in 3D (SPEC v2 §3).
-inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
-                                 int64_t p, const Vec3& normal_sum) {
+// A cone with no frame yet: `direction`'s sign, and the axis from the
+// unnormalised normal sum N (not valid when N is 0 or not finite).
+inline VertexCone ConeOfNormal(ConeDirection direction,
+                               const Vec3& normal_sum) {
   VertexCone vc;
-  vc.sign = topo.vertex_direction[p] == ConeDirection::kInward ? -1.0 : 1.0;
+  vc.sign = direction == ConeDirection::kInward ? -1.0 : 1.0;
   vc.normal_length = Norm(normal_sum);
   if (!(vc.normal_length > 0) || !std::isfinite(vc.normal_length)) return vc;
   vc.valid = true;
   vc.n = normal_sum / vc.normal_length;
+  return vc;
+}
+
+// The cone of vertex p: its axis from the unnormalised normal sum N_p
+// (SPEC §2) and its frame, attached to the mesh in 3D (SPEC v2 §3).
+inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
+                                 int64_t p, const Vec3& normal_sum) {
+  VertexCone vc = ConeOfNormal(topo.vertex_direction[p], normal_sum);
+  if (!vc.valid) return vc;
   const Vec3 axis = vc.n * vc.sign;
   if (mesh.dimension == 2) {
     vc.frame = MakeWorldFrame(2, axis);

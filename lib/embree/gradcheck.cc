@@ -25,7 +25,8 @@ struct Pass {
 };
 
 // A probe's pass reuses the base pass's rays (`base`; only the rays the
-// probed vertex can change are traced).
+// probed vertex can change are traced) where SdfEvaluator::Compute can:
+// vertex samples with a ray method.
 absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
                               const GradCheckOptions& options,
                               const ComputeControl& control,
@@ -71,7 +72,9 @@ bool SameRow(const HitTable& a, const HitTable& b, int64_t p) {
 absl::Status ValidateGradCheck(const Mesh& mesh, const SdfParams& params,
                                const GradCheckOptions& o) {
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
-  if (params.normal_weighting != NormalWeighting::kArea) {
+  // Face samples use each face's own normal whatever the weighting.
+  if (params.normal_weighting != NormalWeighting::kArea &&
+      params.samples == SampleSet::kVertices) {
     return absl::FailedPreconditionError(
         "gradcheck checks derivatives, which are only available with "
         "area-weighted normals (--normals area, the default)");

@@ -541,7 +541,7 @@ absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply) {
       (!r.values.empty() && (c.opposite_size() > 0) != !r.opposite.empty())) {
     return Malformed(absl::StrCat("chunk [", c.vertex_begin(), ", ",
                                   c.vertex_end(), ") does not continue ",
-                                  r.values.size(), " vertices"));
+                                  r.values.size(), " samples"));
   }
   r.values.insert(r.values.end(), c.values().begin(), c.values().end());
   for (int s : c.status()) {
@@ -594,7 +594,7 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
         params.opposite_points ? "opposite points were asked for, "
                                : "no opposite points were asked for, ",
         "the chunks carried ", r.opposite.size(), " for ", r.values.size(),
-        " vertices (is the server older than SdfParameters.opposite_points?)"));
+        " samples (is the server older than SdfParameters.opposite_points?)"));
   }
   const bool faces = params.samples == SampleSet::kFaces;
   if (faces ? s.samples() != v1::SAMPLE_SET_FACES

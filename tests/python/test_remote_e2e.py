@@ -122,6 +122,14 @@ class RemoteEndToEnd(unittest.TestCase):
             self.client.penalty(sid, 1.0, samples="faces")
         with self.assertRaises(ValueError):
             self.client.sdf(sid, samples="edges")
+        # The server's finite-difference check of the face derivatives.
+        report = self.client.gradcheck(sid, samples="faces", probes=2,
+                                       method="normal")
+        self.assertTrue(report.ok, report.verdict)
+        self.assertGreater(len(report.rows), 0)
+        self.assertTrue(all(r.row < 8 for r in report.rows))
+        with self.assertRaises(TypeError):
+            self.client.gradcheck(sid, samples=3, probes=2)
 
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:

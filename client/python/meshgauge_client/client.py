@@ -498,7 +498,7 @@ class MeshGaugeClient:
                 raise DataLossError(
                     grpc.StatusCode.DATA_LOSS,
                     f"the server sent {len(opposite)} opposite coordinates "
-                    f"for {n} vertices")
+                    f"for {n} samples")
             jac = None
             if jacobian:
                 d = len(data) // max(1, len(cols)) if cols else self._dim(session_id)
@@ -602,7 +602,8 @@ class MeshGaugeClient:
                     "tolerance", tolerance, 0, 1, lo_open=True), bins=bins),
             session_id))
 
-    def gradcheck(self, session_id: str, *, samples: int = 12, seed: int = 1,
+    def gradcheck(self, session_id: str, *, probes: int = 12,
+                  samples: "int | str | None" = None, seed: int = 1,
                   vertices: Optional[Any] = None,
                   relative_step: float = 1e-7, tolerance: float = 1e-5,
                   min_clean_fraction: float = 0.9,
@@ -611,17 +612,25 @@ class MeshGaugeClient:
                   **params: Any) -> GradCheckReport:
         """The SPEC §6 finite-difference check of the session's derivatives
         at its current positions, run by the server on a private copy (the
-        session is unchanged): `meshgauge gradcheck`. samples (1..1000)
-        vertices drawn with seed, or the given vertices; penalty: also the
-        penalty's gradient, a dict of t_min and optionally form, power, rho,
-        max_missing_fraction. report.ok is True on PASS."""
-        if (isinstance(samples, bool) or not isinstance(samples, int)
-                or not 1 <= samples <= 1000):
-            raise ValueError(f"samples must be an int in [1, 1000], got "
-                             f"{samples!r}")
+        session is unchanged): `meshgauge gradcheck`. probes (1..1000)
+        vertices drawn with seed, or the given vertices; samples "vertices"
+        or "faces": where the checked values are (SPEC v2 §5c; an int is the
+        older name of probes); penalty: also the penalty's gradient, a dict
+        of t_min and optionally form, power, rho, max_missing_fraction.
+        report.ok is True on PASS."""
+        if isinstance(samples, str):
+            params["samples"] = samples
+        elif samples is not None:
+            if probes != 12:
+                raise TypeError("give probes, or samples as a count, not both")
+            probes = samples
+        if (isinstance(probes, bool) or not isinstance(probes, int)
+                or not 1 <= probes <= 1000):
+            raise ValueError(f"probes must be an int in [1, 1000], got "
+                             f"{probes!r}")
         req = pb.GradCheckRequest(
             session_id=session_id, params=self._params(params),
-            samples=samples, seed=seed,
+            samples=probes, seed=seed,
             relative_step=_wire._number("relative_step", relative_step, 0,
                                         0.01, lo_open=True),
             tolerance=_wire._number("tolerance", tolerance, 0, np.inf,

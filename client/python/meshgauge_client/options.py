@@ -13,7 +13,7 @@ class SdfOptions:
     """method: "cone" (Shapira et al.), "normal" (one ray along the axis:
     physical thickness) or "sphere" (the inscribed ball tangent at the vertex,
     SPEC v2 §5b); contact_angle_degrees: the sphere's contact cone
-    half-angle in (0, 90); opposite_points: also return each vertex's
+    half-angle in (0, 90); opposite_points: also return each sample's
     opposite point (SdfResult.opposite); cone_angle_degrees: full opening angle in (0, 180);
     rays: per vertex, 1..4096 (0: 100 in 3D, 32 in 2D; the server may allow
     fewer, see MeshGaugeClient.server_info); kappa >= 0: keep rays with

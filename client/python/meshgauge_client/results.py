@@ -60,7 +60,7 @@ class SdfResult:
     normalized: (N,) Shapira's normalised SDF in [0, 1], NaN unless OK.
     jacobian: scipy.sparse.csr_matrix (N, V*d) of dSDF_p/dx_j (column
     j*d + c, V vertices) when asked for, else None.
-    opposite: (N, 3) with opposite_points=True, what each vertex was
+    opposite: (N, 3) with opposite_points=True, what each sample was
     measured against (SPEC v2 §5c: the normal ray's hit point, the cone's
     weighted mean hit point, the sphere's touching point; z = 0 in 2D), NaN
     unless OK; else None.
