@@ -17,6 +17,12 @@ source ../scripts/lib.sh
 FRONT=127.0.0.1:50051
 PROM=http://127.0.0.1:9090
 
+# A stack an interrupted run left behind (its containers come back with the
+# engine) is not this test's: it goes first.
+./stack.sh down --volumes >/dev/null 2>&1 || true
+docker ps -aq --filter label=com.docker.compose.project=meshgauge |
+  xargs -r docker rm -f >/dev/null
+
 echo "== up with port 9090 taken fails before it starts anything"
 /usr/bin/python3 -c 'import socket,time; s=socket.socket(); s.bind(("127.0.0.1",9090)); s.listen(); time.sleep(60)' &
 squatter=$!

@@ -82,11 +82,14 @@ prune_build_stage() {
 # Fails, naming them, when 127.0.0.1's ports 50051 and 9090 are taken by
 # anything but this stack (checked before anything is built or started).
 check_ports() {
-  [ -n "$($COMPOSE ps -q balancer 2>/dev/null)" ] && return 0
   [ -n "$(docker service ls -q --filter name=meshgauge_balancer 2>/dev/null)" ] &&
     return 0
   local taken=()
   for port in 50051 9090; do
+    # A port a running container of this stack publishes is the stack's own
+    # (a stopped one left behind holds nothing, and proves nothing).
+    [ -n "$(docker ps -q --filter label=com.docker.compose.project=meshgauge \
+              --filter "publish=$port" 2>/dev/null)" ] && continue
     (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null && taken+=("$port")
   done
   [ ${#taken[@]} -eq 0 ] && return 0

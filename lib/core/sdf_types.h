@@ -101,8 +101,8 @@ struct SdfResult {
   std::vector<Vec3> opposite;
   int64_t rays_traced = 0;
   // 3D vertices with a value whose one-ring gave no frame edge, so their
-  // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D and for face
-  // samples (a face's corners always give one).
+  // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D, for kSphere
+  // (no rays, no frame) and for face samples (a face's corners give one).
   int64_t world_frame_vertices = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).

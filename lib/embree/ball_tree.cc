@@ -1,6 +1,7 @@
 #include "lib/embree/ball_tree.h"
 
 #include <embree3/rtcore.h>
+#include <emmintrin.h>  // SSE2: Embree 3 runs on x86-64 only.
 
 #include <algorithm>
 #include <cmath>
@@ -20,10 +21,19 @@ struct Node {
   bool leaf;
 };
 constexpr int kArity = 4;
+// The children's boxes relative to the tree's origin, in single precision
+// rounded outward, one SIMD lane per child; unused lanes are empty boxes.
 struct Inner : Node {
   int count;
-  Box box[kArity];
+  alignas(16) float lo[3][kArity];
+  alignas(16) float hi[3][kArity];
   const Node* child[kArity];
+  Box BoxOf(int i) const {
+    Box b;
+    b.lo = Vec3(lo[0][i], lo[1][i], lo[2][i]);
+    b.hi = Vec3(hi[0][i], hi[1][i], hi[2][i]);
+    return b;
+  }
 };
 // `count` primitive indices follow the struct in the same allocation.
 struct Leaf : Node {
@@ -37,6 +47,12 @@ struct Leaf : Node {
 void* CreateInner(RTCThreadLocalAllocator alloc, unsigned int, void*) {
   auto* n = new (rtcThreadLocalAlloc(alloc, sizeof(Inner), 16)) Inner();
   n->leaf = false;
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 0; i < kArity; ++i) {
+      n->lo[k][i] = std::numeric_limits<float>::infinity();
+      n->hi[k][i] = -std::numeric_limits<float>::infinity();
+    }
+  }
   return n;
 }
 
@@ -52,10 +68,13 @@ void SetBounds(void* node, const RTCBounds** bounds, unsigned int count,
                void*) {
   auto* n = static_cast<Inner*>(node);
   for (unsigned i = 0; i < count; ++i) {
-    n->box[i].lo =
-        Vec3(bounds[i]->lower_x, bounds[i]->lower_y, bounds[i]->lower_z);
-    n->box[i].hi =
-        Vec3(bounds[i]->upper_x, bounds[i]->upper_y, bounds[i]->upper_z);
+    const RTCBounds& b = *bounds[i];
+    n->lo[0][i] = b.lower_x;
+    n->lo[1][i] = b.lower_y;
+    n->lo[2][i] = b.lower_z;
+    n->hi[0][i] = b.upper_x;
+    n->hi[1][i] = b.upper_y;
+    n->hi[2][i] = b.upper_z;
   }
 }
 
@@ -110,18 +129,113 @@ bool OutsideCone(const Box& b, const Vec3& x, const ContactCone& cone) {
                     1.75 * (MaxAbs(w) + MaxAbs(b.hi - b.lo)));
 }
 
+// The contact cone's test (OutsideCone) for the children in `lanes` at
+// once, in single precision (SSE): a bit per child outside the cone. The
+// boxes are first made relative to x in double, so that rounding is
+// relative to each box's own reach (|w| + size); the plane is built only
+// for boxes whose centre is off the axis by a tenth of that reach (its
+// direction across the axis is then good to 1e-5), and a box is culled only
+// beyond a margin of 1e-4 of its reach, far above the rounding.
+struct ConeLanes {
+  float axis[3], cos2, cos_beta, sin_beta, slack;
+};
+
+int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
+  const __m128 zero = _mm_setzero_ps();
+  const __m128 half = _mm_set1_ps(0.5f);
+  const __m128 sign = _mm_set1_ps(-0.0f);
+  auto relative = [](const float* v, double origin) {
+    const __m128 f = _mm_load_ps(v);
+    const __m128d o = _mm_set1_pd(origin);
+    const __m128d low = _mm_sub_pd(_mm_cvtps_pd(f), o);
+    const __m128d high = _mm_sub_pd(_mm_cvtps_pd(_mm_movehl_ps(f, f)), o);
+    return _mm_movelh_ps(_mm_cvtpd_ps(low), _mm_cvtpd_ps(high));
+  };
+  __m128 lo[3], hi[3], w[3], along = zero, w2 = zero, reach = zero;
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = relative(n.lo[k], x[k]);
+    hi[k] = relative(n.hi[k], x[k]);
+    w[k] = _mm_mul_ps(_mm_add_ps(lo[k], hi[k]), half);
+    along = _mm_add_ps(along, _mm_mul_ps(_mm_set1_ps(q.axis[k]), w[k]));
+    w2 = _mm_add_ps(w2, _mm_mul_ps(w[k], w[k]));
+    reach = _mm_max_ps(reach, _mm_andnot_ps(sign, w[k]));
+  }
+  __m128 size = zero;
+  for (int k = 0; k < 3; ++k) {
+    size = _mm_max_ps(size, _mm_sub_ps(hi[k], lo[k]));
+  }
+  reach = _mm_add_ps(reach, size);
+  // A box whose centre is in the cone is not outside it.
+  const __m128 inside =
+      _mm_and_ps(_mm_cmpge_ps(along, zero),
+                 _mm_cmpge_ps(_mm_mul_ps(along, along),
+                              _mm_mul_ps(_mm_set1_ps(q.cos2), w2)));
+  __m128 across[3], len2 = zero;
+  for (int k = 0; k < 3; ++k) {
+    across[k] = _mm_sub_ps(w[k], _mm_mul_ps(_mm_set1_ps(q.axis[k]), along));
+    len2 = _mm_add_ps(len2, _mm_mul_ps(across[k], across[k]));
+  }
+  const __m128 off_axis = _mm_cmpge_ps(
+      len2, _mm_mul_ps(_mm_set1_ps(1e-2f), _mm_mul_ps(reach, reach)));
+  const __m128 scale = _mm_div_ps(_mm_set1_ps(q.cos_beta), _mm_sqrt_ps(len2));
+  __m128 beyond = zero;
+  for (int k = 0; k < 3; ++k) {
+    const __m128 nu = _mm_sub_ps(_mm_mul_ps(across[k], scale),
+                                 _mm_set1_ps(q.axis[k] * q.sin_beta));
+    const __m128 low = _mm_cmpge_ps(nu, zero);  // the least far corner.
+    const __m128 corner =
+        _mm_or_ps(_mm_and_ps(low, lo[k]), _mm_andnot_ps(low, hi[k]));
+    beyond = _mm_add_ps(beyond, _mm_mul_ps(nu, corner));
+  }
+  const __m128 margin = _mm_mul_ps(_mm_set1_ps(1.75f * q.slack), reach);
+  const __m128 outside =
+      _mm_andnot_ps(inside, _mm_and_ps(off_axis, _mm_cmpgt_ps(beyond, margin)));
+  return _mm_movemask_ps(outside);
+}
+
+// The ball's test for the four children of a node at once, in single
+// precision (SSE), with a margin (relative 1e-6 of the radius and of the
+// coordinates) far above its rounding, so that it keeps every box the
+// double-precision test keeps: a bit per child that may hold a point of
+// the ball, and each child's squared distance to the ball's centre. The
+// contact cone's test stays in double (OutsideCone): its separating plane
+// is only as good as the direction across the axis it is built from.
+int ChildrenInBall(const Inner& n, const Vec3& centre, double r,
+                   float abs_margin, float d2_out[kArity]) {
+  const __m128 zero = _mm_setzero_ps();
+  __m128 d2 = zero;
+  for (int k = 0; k < 3; ++k) {
+    const __m128 c = _mm_set1_ps(static_cast<float>(centre[k]));
+    const __m128 d =
+        _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(n.lo[k]), c), zero),
+                   _mm_sub_ps(c, _mm_load_ps(n.hi[k])));
+    d2 = _mm_add_ps(d2, _mm_mul_ps(d, d));
+  }
+  _mm_storeu_ps(d2_out, d2);
+  const float reach = static_cast<float>(r * (1 + 4e-6) + abs_margin);
+  return _mm_movemask_ps(_mm_cmple_ps(d2, _mm_set1_ps(reach * reach)));
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<BallTree>> BallTree::Create(
     const Mesh& mesh, const MeshTopology& topo) {
   std::unique_ptr<BallTree> tree(new BallTree());
+  // Boxes relative to the mesh's centre keep single precision close.
+  Box all;
+  for (const Vec3& p : mesh.positions) all.Extend(p, p);
+  tree->origin_ = mesh.positions.empty() ? Vec3() : (all.lo + all.hi) * 0.5;
+  for (const Vec3& p : mesh.positions) {
+    tree->reach_ = std::max(tree->reach_, MaxAbs(p - tree->origin_));
+  }
   const int64_t n = std::ssize(topo.primitives);
   std::vector<RTCBuildPrimitive> prims(n);
   for (int64_t i = 0; i < n; ++i) {
     const Primitive& p = topo.primitives[i];
     Box box;
     for (int j = 0; j < 3 && p.v[j] >= 0; ++j) {
-      box.Extend(mesh.positions[p.v[j]], mesh.positions[p.v[j]]);
+      const Vec3 v = mesh.positions[p.v[j]] - tree->origin_;
+      box.Extend(v, v);
     }
     RTCBuildPrimitive& b = prims[i];
     b.lower_x = Down(box.lo.x);
@@ -159,54 +273,70 @@ BallTree::~BallTree() {
   if (bvh_) rtcReleaseBVH(bvh_);
 }
 
-void BallTree::Visit(const Vec3& x, const ContactCone& cone, double radius,
+void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
+                     double radius,
                      absl::FunctionRef<double(int32_t prim)> visit) const {
   if (root_ == nullptr) return;
+  const Vec3 x = x_world - origin_;
   const Vec3& axis = cone.axis;
-  // Boxes hold single-precision bounds rounded outward; the slack covers
-  // the rounding of the distances computed here.
-  auto may_hold = [&](const Box& b, double r, double* d2) {
+  // A popped child whose ball shrank since it was pushed is tested again, in
+  // double precision: boxes hold single-precision bounds rounded outward;
+  // the slack covers the rounding of the distances computed here.
+  auto may_hold = [&](const Box& b, double r) {
     const Vec3 centre = x + axis * r;
-    *d2 = DistanceSquared(b, centre);
     const double reach = r * (1 + 1e-12) + 1e-12 * MaxAbs(centre);
-    return *d2 <= reach * reach && !OutsideCone(b, x, cone);
+    return DistanceSquared(b, centre) <= reach * reach &&
+           !OutsideCone(b, x, cone);
   };
+  // Single-precision rounding of the ball's centre (relative to the tree's
+  // origin) is below 1e-7 of it.
+  const float abs_margin = static_cast<float>(1e-6 * (reach_ + MaxAbs(x)));
+  ConeLanes lanes;
+  for (int k = 0; k < 3; ++k) lanes.axis[k] = static_cast<float>(axis[k]);
+  lanes.cos_beta = static_cast<float>(cone.cos_beta);
+  lanes.cos2 = static_cast<float>(cone.cos_beta * cone.cos_beta * (1 - 1e-5));
+  lanes.sin_beta = static_cast<float>(cone.sin_beta);
+  lanes.slack = static_cast<float>(cone.cull_slack + 1e-4);
   double r = radius;
-  // Boxes are tested when pushed and again when popped if the ball has
-  // shrunk since.
   struct Entry {
     const Node* node;
-    const Box* box;  // null for the root.
-    double r;        // the radius it was tested with.
+    const Inner* parent;  // null for the root.
+    int lane;             // the node's lane in parent.
+    double r;             // the radius it was tested with.
   };
   thread_local std::vector<Entry> stack;
   stack.clear();
-  stack.push_back({static_cast<const Node*>(root_), nullptr, r});
+  stack.push_back({static_cast<const Node*>(root_), nullptr, 0, r});
   while (!stack.empty()) {
     const Entry e = stack.back();
     stack.pop_back();
-    double d2;
-    if (e.r != r && e.box != nullptr && !may_hold(*e.box, r, &d2)) continue;
+    if (e.r != r && e.parent != nullptr &&
+        !may_hold(e.parent->BoxOf(e.lane), r)) {
+      continue;
+    }
     if (e.node->leaf) {
       const auto* leaf = static_cast<const Leaf*>(e.node);
       for (uint32_t i = 0; i < leaf->count; ++i) r = visit(leaf->prims()[i]);
       continue;
     }
     const auto* inner = static_cast<const Inner*>(e.node);
+    alignas(16) float d2[kArity];
+    const int in_ball = ChildrenInBall(*inner, x + axis * r, r, abs_margin, d2);
     // The children that may hold a point, nearest pushed last (visited
     // first).
-    std::pair<double, int> held[kArity];
+    std::pair<float, int> order[kArity];
     int num_held = 0;
-    for (int i = 0; i < inner->count; ++i) {
-      double dist;
-      if (!may_hold(inner->box[i], r, &dist)) continue;
+    const int held =
+        in_ball == 0 ? 0 : in_ball & ~ChildrenOutsideCone(*inner, x, lanes);
+    for (int i = 0; i < kArity; ++i) {
+      if (!(held >> i & 1)) continue;
       int k = num_held++;  // insertion, farthest first.
-      for (; k > 0 && held[k - 1].first < dist; --k) held[k] = held[k - 1];
-      held[k] = {dist, i};
+      for (; k > 0 && order[k - 1].first < d2[i]; --k) order[k] = order[k - 1];
+      order[k] = {d2[i], i};
     }
     for (int k = 0; k < num_held; ++k) {
-      const int i = held[k].second;
-      stack.push_back({inner->child[i], &inner->box[i], r});
+      const int i = order[k].second;
+      stack.push_back({inner->child[i], inner, i, r});
     }
   }
 }

@@ -19,8 +19,10 @@ namespace meshgauge {
 
 class BallTree {
  public:
-  // Boxes of topo.primitives at mesh.positions, rounded outward to single
-  // precision. Errors: Internal from Embree.
+  // Boxes of topo.primitives at mesh.positions, relative to the mesh's
+  // centre and rounded outward to single precision; a node's four children
+  // are tested at once (SSE) with margins that keep every box a
+  // double-precision test would. Errors: Internal from Embree.
   static absl::StatusOr<std::unique_ptr<BallTree>> Create(
       const Mesh& mesh, const MeshTopology& topo);
   ~BallTree();
@@ -39,6 +41,8 @@ class BallTree {
   BallTree() = default;
   RTCBVHTy* bvh_ = nullptr;
   const void* root_ = nullptr;
+  Vec3 origin_;       // the boxes are relative to it.
+  double reach_ = 0;  // the largest coordinate relative to origin_.
 };
 
 }  // namespace meshgauge

@@ -444,11 +444,16 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
-      const VertexCone vc =
-          faces ? MakeFaceCone(mesh_, topo_, p)
-                : MakeVertexCone(mesh_, topo_, p,
-                                 UnnormalizedNormal(mesh_, topo_, p,
-                                                    params.normal_weighting));
+      VertexCone vc;
+      if (faces) {
+        vc = MakeFaceCone(mesh_, topo_, p);
+      } else {
+        const Vec3 normal =
+            UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting);
+        // The ball needs the axis only, not the rays' frame.
+        vc = sphere ? ConeOfNormal(topo_.vertex_direction[p], normal)
+                    : MakeVertexCone(mesh_, topo_, p, normal);
+      }
       if (!vc.valid) {
         result.status[p] = VertexStatus::kDegenerateNormal;
         continue;
@@ -462,7 +467,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
           OneRingPrimitives(topo_, p, &excluded);
         }
         const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
-                                           vc.frame.axis, excluded, ball);
+                                           vc.n * vc.sign, excluded, ball);
         ++traced;
         if (!table.empty()) {  // one "ray" per vertex.
           table[p] = b.prim;
