@@ -451,37 +451,37 @@ grpc::Status MeshGaugeService::ComputeSdf(
           if (!j.ok()) return Interrupted(ctx, j.status());
           jac = std::move(*j);
         }
-        const int64_t nv = std::ssize(r.values);  // samples: #V or #F.
+        const int64_t ns = std::ssize(r.values);  // samples: #V or #F.
         const int dim = ev.mesh().dimension;
         // Per sample about 30 bytes of values; per Jacobian entry 4 + 8 dim.
         const int64_t budget = options_.max_message_bytes / 2;
-        auto vertex_bytes = [&](int64_t p) {
+        auto sample_bytes = [&](int64_t p) {
           return 40 + (jac ? (jac->row_offsets[p + 1] - jac->row_offsets[p]) *
                                  (4 + 8 * dim)
                            : 0);
         };
         // A message holds at least one vertex: refuse before streaming when
         // one vertex's row cannot fit.
-        for (int64_t p = 0; jac && p < nv; ++p) {
-          if (vertex_bytes(p) > budget) {
+        for (int64_t p = 0; jac && p < ns; ++p) {
+          if (sample_bytes(p) > budget) {
             return absl::ResourceExhaustedError(absl::StrCat(
-                "sample ", p, "'s Jacobian row takes about ", vertex_bytes(p),
+                "sample ", p, "'s Jacobian row takes about ", sample_bytes(p),
                 " bytes, more than half the message limit of ",
                 options_.max_message_bytes,
                 " bytes (--max_message_bytes); use fewer rays or ask for "
                 "the VJP instead"));
           }
         }
-        for (int64_t begin = 0, end = 0; begin < nv; begin = end) {
+        for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
           if (ctx->IsCancelled()) {
             return Interrupted(ctx, absl::CancelledError("cancelled"));
           }
-          end = std::min(nv, begin + chunk);
+          end = std::min(ns, begin + chunk);
           // End the chunk early so that its values (and rows) fit in one
           // message.
           int64_t bytes = 0;
           for (int64_t p = begin; p < end; ++p) {
-            bytes += vertex_bytes(p);
+            bytes += sample_bytes(p);
             if (bytes > budget && p > begin) {
               end = p;
               break;
@@ -498,8 +498,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
         wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
-        // The diagnosis costs a topology pass.
-        if (r.missing.vertices > 0 || r.missing.faces > 0) {
+        // The diagnosis costs a topology pass; a face left without a value
+        // is where any sample is missing.
+        if (r.missing.faces > 0) {
           for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
             last.mutable_summary()->add_warnings(std::move(w));
           }
@@ -531,8 +532,7 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
         if (request->weights_size() != samples) {
           return absl::InvalidArgumentError(absl::StrCat(
               "weights holds ", request->weights_size(),
-              " values, expected one per ",
-              prep->params.samples == SampleSet::kFaces ? "face" : "vertex",
+              " values, expected one per ", SampleName(prep->params.samples),
               " (", samples, ")"));
         }
         auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,

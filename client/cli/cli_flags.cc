@@ -97,8 +97,8 @@ void AddMeshFlags(CLI::App* app, MeshFlags* f) {
 void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
   if (files) {
     app->add_option("--csv", f->csv,
-                    "write per-vertex CSV: "
-                    "vertex,x,y,z,sdf,normalized,hits,kept,status");
+                    "write CSV, a row per vertex (or face with --samples "
+                    "faces): vertex,x,y,z,sdf,normalized,hits,kept,status");
     app->add_option("--ply", f->ply,
                     "write binary PLY with the SDF in the quality property "
                     "(per vertex, or per face with --samples faces)");

@@ -19,9 +19,9 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   auto opened = Open(in, make, /*print_warnings=*/true);
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
-  const bool faces = opened->params.samples == SampleSet::kFaces;
   const int64_t ns = NumSamples(opened->mesh(), opened->params.samples);
-  auto weights = ReadWeights(grad.weights, ns, faces ? "faces" : "vertices");
+  const char* samples = SampleSetName(opened->params.samples);
+  auto weights = ReadWeights(grad.weights, ns, samples);
   if (!weights.ok()) return weights.status();
   auto result = backend.Sdf(opened->params, grad.jacobian.empty()
                                                 ? Derivatives::kVjp
@@ -29,7 +29,7 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   if (!result.ok()) return result.status();
   nlohmann::json j;
   j["vertices"] = opened->mesh().num_vertices();
-  j["samples"] = faces ? "faces" : "vertices";
+  j["samples"] = samples;
   j["sample_count"] = ns;
   j["ok"] = result->CountStatus(VertexStatus::kOk);
   if (const std::string& path = grad.jacobian; !path.empty()) {
@@ -60,9 +60,8 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
     std::cout << j.dump() << "\n";
   } else {
     std::cout << absl::StrFormat(
-        "%s: %d (%d with a value)\nmax |g^T J| per vertex: %.6g\n",
-        faces ? "faces" : "vertices", ns, j["ok"].get<int64_t>(),
-        j["vjp_max_norm"].get<double>());
+        "%s: %d (%d with a value)\nmax |g^T J| per vertex: %.6g\n", samples, ns,
+        j["ok"].get<int64_t>(), j["vjp_max_norm"].get<double>());
     if (j.contains("jacobian_nonzeros")) {
       std::cout << "jacobian nonzeros: " << j["jacobian_nonzeros"] << "\n";
     }

@@ -43,9 +43,9 @@ class Remote : public Backend {
     // The outputs index the mesh file's vertices or faces by these values.
     if (const int64_t n = NumSamples(mesh_, params.samples);
         std::ssize(r->result.values) != n) {
-      return absl::DataLossError(absl::StrCat(
-          "the server sent ", r->result.values.size(), " values for ", n,
-          params.samples == SampleSet::kFaces ? " faces" : " vertices"));
+      return absl::DataLossError(
+          absl::StrCat("the server sent ", r->result.values.size(),
+                       " values for ", n, " ", SampleSetName(params.samples)));
     }
     jacobian_ = std::move(r->jacobian);
     return std::move(r->result);

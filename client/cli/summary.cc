@@ -27,8 +27,7 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["method"] = method == SdfMethod::kCone        ? "cone"
                 : method == SdfMethod::kNormalRay ? "normal"
                                                   : "sphere";
-  const bool faces = result.resolved.params.samples == SampleSet::kFaces;
-  j["samples"] = faces ? "faces" : "vertices";
+  j["samples"] = SampleSetName(result.resolved.params.samples);
   j["cone_angle_degrees"] = result.resolved.params.cone_angle_degrees;
   j["contact_angle_degrees"] = result.resolved.params.contact_angle_degrees;
   j["rays_per_vertex"] = result.resolved.rays;
@@ -174,8 +173,8 @@ absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
   if (!out)
     return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
   const bool opposite = !result.opposite.empty();
-  const bool faces = result.resolved.params.samples == SampleSet::kFaces;
-  out << (faces ? "face" : "vertex") << ",x,y,z,sdf,normalized,hits,kept,status"
+  out << SampleName(result.resolved.params.samples)
+      << ",x,y,z,sdf,normalized,hits,kept,status"
       << (opposite ? ",ox,oy,oz\n" : "\n");
   const std::vector<Vec3> points = SamplePoints(mesh, result);
   for (int64_t i = 0; i < std::ssize(points); ++i) {

@@ -15,49 +15,56 @@ Vec3 FaceCentroid(const Mesh& mesh, int64_t f) {
   return sum / face.size;
 }
 
-VertexCone MakeFaceCone(const Mesh& mesh, const MeshTopology& topo, int64_t f) {
-  const auto [first, count] = topo.PrimitiveRangeOfFace(f);
-  Vec3 normal_sum;
+SampleCone MakeSampleCone(const Mesh& mesh, const MeshTopology& topo,
+                          SampleSet set, int64_t p,
+                          absl::FunctionRef<Vec3()> normal_sum, bool frame) {
+  if (set == SampleSet::kVertices) {
+    return {frame ? MakeVertexCone(mesh, topo, p, normal_sum())
+                  : ConeOfNormal(topo.vertex_direction[p], normal_sum()),
+            mesh.positions[p]};
+  }
+  const auto [first, count] = topo.PrimitiveRangeOfFace(p);
+  Vec3 face_normal;
   for (int32_t q = first; q < first + count; ++q) {
-    normal_sum += PrimitiveNormal(mesh, topo.primitives[q]);
+    face_normal += PrimitiveNormal(mesh, topo.primitives[q]);
   }
-  VertexCone vc =
-      ConeOfNormal(mesh.DirectionOfRegion(mesh.RegionOf(f)), normal_sum);
-  if (!vc.valid) return vc;
-  const Vec3 axis = vc.n * vc.sign;
+  SampleCone s{
+      ConeOfNormal(mesh.DirectionOfRegion(mesh.RegionOf(p)), face_normal),
+      FaceCentroid(mesh, p)};
+  if (!s.cone.valid || !frame) return s;
   if (mesh.dimension == 2) {
-    vc.frame = MakeWorldFrame(2, axis);
-    return vc;
+    s.cone.frame = MakeWorldFrame(2, s.cone.axis());
+    return s;
   }
-  const Face& face = mesh.faces[f];
+  const Face& face = mesh.faces[p];
   std::array<int32_t, 4> corners = face.v;  // ascending (insertion sort).
   for (int i = 1; i < face.size; ++i) {
     for (int k = i; k > 0 && corners[k - 1] > corners[k]; --k) {
       std::swap(corners[k - 1], corners[k]);
     }
   }
-  vc.frame = MakeAttachedFrame(axis, FaceCentroid(mesh, f),
-                               absl::MakeConstSpan(corners.data(), face.size),
-                               mesh.positions);
-  vc.world_frame = vc.frame.reference < 0;
-  return vc;
+  s.cone.frame = MakeAttachedFrame(
+      s.cone.axis(), s.x, absl::MakeConstSpan(corners.data(), face.size),
+      mesh.positions);
+  s.cone.world_frame = s.cone.frame.reference < 0;
+  return s;
 }
 
-void FacePrimitives(const MeshTopology& topo, int64_t f,
-                    std::vector<int32_t>* out) {
+void SampleExclusions(const Mesh& mesh, const MeshTopology& topo, SampleSet set,
+                      bool ball, int64_t p, std::vector<int32_t>* out) {
+  if (set == SampleSet::kVertices) {
+    OneRingPrimitives(topo, p, out);
+    return;
+  }
   out->clear();
-  const auto [first, count] = topo.PrimitiveRangeOfFace(f);
-  for (int32_t q = first; q < first + count; ++q) out->push_back(q);
-}
-
-void FaceRingPrimitives(const Mesh& mesh, const MeshTopology& topo, int64_t f,
-                        std::vector<int32_t>* out) {
-  out->clear();
-  const Face& face = mesh.faces[f];
+  if (!ball) {
+    topo.AppendPrimitivesOfFace(p, out);  // consecutive: ascending.
+    return;
+  }
+  const Face& face = mesh.faces[p];
   for (int k = 0; k < face.size; ++k) {
     for (int32_t g : topo.vertex_faces.Of(face.v[k])) {
-      const auto [first, count] = topo.PrimitiveRangeOfFace(g);
-      for (int32_t q = first; q < first + count; ++q) out->push_back(q);
+      topo.AppendPrimitivesOfFace(g, out);
     }
   }
   std::sort(out->begin(), out->end());

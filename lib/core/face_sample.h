@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/topology.h"
@@ -20,21 +21,29 @@ inline int64_t NumSamples(const Mesh& mesh, SampleSet set) {
 // The mean of face f's corners (a quad's four, a segment's two).
 Vec3 FaceCentroid(const Mesh& mesh, int64_t f);
 
-// The cone of face f: axis = sign N_f/|N_f| with N_f the sum of the area
-// normals (PrimitiveNormal) of f's primitives and the sign of f's region's
-// direction; in 3D the frame attached (SPEC v2 §3) to the first of f's
-// corners in increasing index seen from the centroid (any corner of a
-// planar face qualifies), in 2D the world frame. Not valid when N_f = 0 (a
-// validated mesh has none).
-VertexCone MakeFaceCone(const Mesh& mesh, const MeshTopology& topo, int64_t f);
+// Sample p of `set`: where it sits and its cone, for the value pass and the
+// sensitivities alike.
+//  * A vertex: x_p, and MakeVertexCone of N_p = normal_sum() (SPEC §2-3).
+//  * A face: its centroid, and axis = sign N_f/|N_f| with N_f the sum of
+//    the area normals (PrimitiveNormal) of f's primitives and the sign of
+//    f's region's direction; in 3D the frame attached (SPEC v2 §3) to the
+//    first of f's corners in increasing index seen from the centroid (any
+//    corner of a planar face qualifies), in 2D the world frame.
+// With `frame` false the cone has its axis only (the inscribed ball needs
+// no rays). Not valid when N is 0 (a face of a validated mesh never is).
+struct SampleCone {
+  VertexCone cone;
+  Vec3 x;
+};
+SampleCone MakeSampleCone(const Mesh& mesh, const MeshTopology& topo,
+                          SampleSet set, int64_t p,
+                          absl::FunctionRef<Vec3()> normal_sum, bool frame);
 
-// f's own primitives, ascending: what a ray from its centroid ignores.
-void FacePrimitives(const MeshTopology& topo, int64_t f,
-                    std::vector<int32_t>* out);
-
-// The primitives of every face sharing a vertex with f (f's included),
-// ascending and unique: what the inscribed ball at f's centroid ignores.
-void FaceRingPrimitives(const Mesh& mesh, const MeshTopology& topo, int64_t f,
-                        std::vector<int32_t>* out);
+// What sample p of `set` ignores, ascending and unique, into `out`: for a
+// vertex its one-ring's primitives (SPEC §4; the inscribed ball likewise);
+// for a face, its own primitives, or with `ball` those of every face
+// sharing a vertex with it (SPEC v2 §5c).
+void SampleExclusions(const Mesh& mesh, const MeshTopology& topo, SampleSet set,
+                      bool ball, int64_t p, std::vector<int32_t>* out);
 
 }  // namespace meshgauge

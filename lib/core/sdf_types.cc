@@ -64,6 +64,14 @@ ResolvedParams ResolveParams(const SdfParams& params, int dimension) {
   return r;
 }
 
+const char* SampleSetName(SampleSet set) {
+  return set == SampleSet::kFaces ? "faces" : "vertices";
+}
+
+const char* SampleName(SampleSet set) {
+  return set == SampleSet::kFaces ? "face" : "vertex";
+}
+
 const char* VertexStatusName(VertexStatus status) {
   switch (status) {
     case VertexStatus::kOk:

@@ -30,6 +30,11 @@ enum class SampleSet {
               // inscribed ball every face sharing a vertex with it.
 };
 
+// "vertices" or "faces" (the CLI's --samples); SampleName: "vertex" or
+// "face".
+const char* SampleSetName(SampleSet set);
+const char* SampleName(SampleSet set);
+
 struct SdfParams {
   SdfMethod method = SdfMethod::kCone;
   // Full opening angle alpha in degrees, in (0, 180).

@@ -53,12 +53,14 @@ void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const auto& cone = ctx.hits.cone;
   const int num_rays = static_cast<int>(cone.size());
   if (!ctx.faces && topo.vertex_faces.Of(p).empty()) return;
-  const VertexCone vc = ctx.faces
-                            ? MakeFaceCone(mesh, topo, p)
-                            : MakeVertexCone(mesh, topo, p, ctx.normals[p]);
+  const bool sphere = ctx.hits.resolved.params.method == SdfMethod::kSphere;
+  const SampleCone sample = MakeSampleCone(
+      mesh, topo, ctx.hits.resolved.params.samples, p,
+      [&] { return ctx.normals[p]; }, /*frame=*/!sphere);
+  const VertexCone& vc = sample.cone;
   if (!vc.valid) return;
-  const Vec3 x = ctx.faces ? FaceCentroid(mesh, p) : mesh.positions[p];
-  if (ctx.hits.resolved.params.method == SdfMethod::kSphere) {
+  const Vec3& x = sample.x;
+  if (sphere) {
     SphereTerms(ctx, p, x, vc, terms);
     return;
   }
@@ -117,9 +119,8 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
   if (prim < 0) return;
   const MeshGeometry& ev = ctx.ev;
   const int kind = ctx.hits.KeptRow(p)[0] - 1;
-  const BallGradient g =
-      TangentBallGradient(ev.Corners(prim), x, vc.frame.axis,
-                          ctx.hits.resolved.contact_cosine, kind);
+  const BallGradient g = TangentBallGradient(
+      ev.Corners(prim), x, vc.axis(), ctx.hits.resolved.contact_cosine, kind);
   OriginTerms(ctx, p, g.x * 2, terms);
   const Primitive& corners = ev.topology().primitives[prim];
   for (int j = 0; j < 3 && corners.v[j] >= 0; ++j) {
@@ -288,9 +289,8 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
                                              const ComputeControl& control,
                                              int threads) {
   const int64_t nv = geometry.mesh().num_vertices();
-  const bool faces = hits.resolved.params.samples == SampleSet::kFaces;
   const int64_t ns = NumSamples(geometry.mesh(), hits.resolved.params.samples);
-  const char* sample = faces ? "face" : "vertex";
+  const char* sample = SampleName(hits.resolved.params.samples);
   if (std::ssize(g) != ns) {
     return absl::InvalidArgumentError(
         absl::StrCat("VJP weights must have one value per ", sample,

@@ -95,15 +95,7 @@ void VertexNeighbors(const Mesh& mesh, const MeshTopology& topo, int64_t p,
 void OneRingPrimitives(const MeshTopology& topo, int64_t p,
                        std::vector<int32_t>* out) {
   out->clear();
-  const auto& prims = topo.primitives;
-  for (int32_t q : topo.PrimitivesOf(p)) {
-    out->push_back(q);
-    // A quad's two triangles are consecutive primitives.
-    if (q > 0 && prims[q - 1].face == prims[q].face) out->push_back(q - 1);
-    if (q + 1 < std::ssize(prims) && prims[q + 1].face == prims[q].face) {
-      out->push_back(q + 1);
-    }
-  }
+  for (int32_t f : topo.vertex_faces.Of(p)) topo.AppendPrimitivesOfFace(f, out);
   std::sort(out->begin(), out->end());
   out->erase(std::unique(out->begin(), out->end()), out->end());
 }

@@ -53,6 +53,11 @@ struct MeshTopology {
     return {face_first_primitive[f],
             face_first_primitive[f + 1] - face_first_primitive[f]};
   }
+  // Appends them to `out`.
+  void AppendPrimitivesOfFace(int64_t f, std::vector<int32_t>* out) const {
+    const auto [first, count] = PrimitiveRangeOfFace(f);
+    for (int32_t q = first; q < first + count; ++q) out->push_back(q);
+  }
   // #F + 1 offsets when a face is a quad; empty when primitive i is face i.
   std::vector<int32_t> face_first_primitive;
 

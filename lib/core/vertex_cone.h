@@ -20,6 +20,7 @@ struct VertexCone {
   // True for a 3D vertex whose one-ring gave no frame edge (SPEC v2 §3
   // fallback to the world frame); counted in SdfResult.
   bool world_frame = false;
+  Vec3 axis() const { return n * sign; }  // frame.axis once there is a frame.
 };
 
 // A cone with no frame yet: `direction`'s sign, and the axis from the
@@ -41,7 +42,7 @@ inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
                                  int64_t p, const Vec3& normal_sum) {
   VertexCone vc = ConeOfNormal(topo.vertex_direction[p], normal_sum);
   if (!vc.valid) return vc;
-  const Vec3 axis = vc.n * vc.sign;
+  const Vec3 axis = vc.axis();
   if (mesh.dimension == 2) {
     vc.frame = MakeWorldFrame(2, axis);
   } else {

@@ -22,9 +22,9 @@ struct Node {
 };
 constexpr int kArity = 4;
 // The children's boxes relative to the tree's origin, in single precision
-// rounded outward, one SIMD lane per child; unused lanes are empty boxes.
+// rounded outward, one SIMD lane per child; unused lanes are empty boxes
+// (no child: every test rejects them).
 struct Inner : Node {
-  int count;
   alignas(16) float lo[3][kArity];
   alignas(16) float hi[3][kArity];
   const Node* child[kArity];
@@ -58,7 +58,6 @@ void* CreateInner(RTCThreadLocalAllocator alloc, unsigned int, void*) {
 
 void SetChildren(void* node, void** children, unsigned int count, void*) {
   auto* n = static_cast<Inner*>(node);
-  n->count = static_cast<int>(count);
   for (unsigned i = 0; i < count; ++i) {
     n->child[i] = static_cast<const Node*>(children[i]);
   }
@@ -129,7 +128,7 @@ bool OutsideCone(const Box& b, const Vec3& x, const ContactCone& cone) {
                     1.75 * (MaxAbs(w) + MaxAbs(b.hi - b.lo)));
 }
 
-// The contact cone's test (OutsideCone) for the children in `lanes` at
+// The contact cone's test (OutsideCone) for a node's four children at
 // once, in single precision (SSE): a bit per child outside the cone. The
 // boxes are first made relative to x in double, so that rounding is
 // relative to each box's own reach (|w| + size); the plane is built only
@@ -197,9 +196,7 @@ int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
 // precision (SSE), with a margin (relative 1e-6 of the radius and of the
 // coordinates) far above its rounding, so that it keeps every box the
 // double-precision test keeps: a bit per child that may hold a point of
-// the ball, and each child's squared distance to the ball's centre. The
-// contact cone's test stays in double (OutsideCone): its separating plane
-// is only as good as the direction across the axis it is built from.
+// the ball, and each child's squared distance to the ball's centre.
 int ChildrenInBall(const Inner& n, const Vec3& centre, double r,
                    float abs_margin, float d2_out[kArity]) {
   const __m128 zero = _mm_setzero_ps();

@@ -444,30 +444,25 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         result.status[p] = VertexStatus::kNoFaces;
         continue;
       }
-      VertexCone vc;
-      if (faces) {
-        vc = MakeFaceCone(mesh_, topo_, p);
-      } else {
-        const Vec3 normal =
-            UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting);
-        // The ball needs the axis only, not the rays' frame.
-        vc = sphere ? ConeOfNormal(topo_.vertex_direction[p], normal)
-                    : MakeVertexCone(mesh_, topo_, p, normal);
-      }
+      // The ball needs the axis only, not the rays' frame.
+      const SampleCone sample = MakeSampleCone(
+          mesh_, topo_, params.samples, p,
+          [&] {
+            return UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting);
+          },
+          /*frame=*/!sphere);
+      const VertexCone& vc = sample.cone;
       if (!vc.valid) {
         result.status[p] = VertexStatus::kDegenerateNormal;
         continue;
       }
       world_frames += vc.world_frame;
-      const Vec3 x = faces ? FaceCentroid(mesh_, p) : mesh_.positions[p];
+      const Vec3& x = sample.x;
       if (sphere) {
-        if (faces) {
-          FaceRingPrimitives(mesh_, topo_, p, &excluded);
-        } else {
-          OneRingPrimitives(topo_, p, &excluded);
-        }
+        SampleExclusions(mesh_, topo_, params.samples, /*ball=*/true, p,
+                         &excluded);
         const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
-                                           vc.n * vc.sign, excluded, ball);
+                                           vc.axis(), excluded, ball);
         ++traced;
         if (!table.empty()) {  // one "ray" per vertex.
           table[p] = b.prim;
@@ -529,11 +524,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       // each ray's hit in double precision once it has arrived.
       retrace_dirs.clear();
       for (int k : retrace) retrace_dirs.push_back(dirs[k]);
-      if (faces) {
-        FacePrimitives(topo_, p, &excluded);
-      } else {
-        OneRingPrimitives(topo_, p, &excluded);
-      }
+      SampleExclusions(mesh_, topo_, params.samples, /*ball=*/false, p,
+                       &excluded);
       const auto fan = absl::MakeSpan(candidates.data(), retrace.size());
       scene_->IntersectFan(x, retrace_dirs, limits, excluded, fan);
       for (const HitCandidates& c : fan) {

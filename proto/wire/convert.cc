@@ -600,7 +600,7 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
   if (faces ? s.samples() != v1::SAMPLE_SET_FACES
             : s.samples() == v1::SAMPLE_SET_FACES) {
     return Malformed(absl::StrCat(
-        faces ? "face" : "vertex", " samples were asked for, the reply holds ",
+        SampleName(params.samples), " samples were asked for, the reply holds ",
         faces ? "others" : "face samples",
         " (is the server older than SdfParameters.samples?)"));
   }

@@ -122,7 +122,8 @@ class MeshGaugeClient:
         self._deadline = deadline
         self._chunk = chunk
         self._retry_seconds = retry_seconds
-        self._dims: "dict[str, int]" = {}
+        # Per session: its dimension and vertex count (fixed at upload).
+        self._shapes: "dict[str, Tuple[int, int]]" = {}
         self._server_info: Optional[ServerInfo] = None
         self._asked_server_info = False
 
@@ -168,10 +169,14 @@ class MeshGaugeClient:
 
         return self._retrying(invoke)
 
+    def _shape(self, session_id: str) -> Tuple[int, int]:
+        if session_id not in self._shapes:
+            info = self.info(session_id)
+            self._shapes[session_id] = (info.dimension, info.num_vertices)
+        return self._shapes[session_id]
+
     def _dim(self, session_id: str) -> int:
-        if session_id not in self._dims:
-            self._dims[session_id] = self.info(session_id).dimension
-        return self._dims[session_id]
+        return self._shape(session_id)[0]
 
     # Sessions ---------------------------------------------------------------
 
@@ -345,7 +350,7 @@ class MeshGaugeClient:
                                             wait_for_ready=True)
 
         info = _wire.session_info(self._retrying(create).session)
-        self._dims[info.session_id] = info.dimension
+        self._shapes[info.session_id] = (info.dimension, info.num_vertices)
         return info
 
     def session(self, vertices: Any, faces: Any = None,
@@ -426,7 +431,7 @@ class MeshGaugeClient:
     def delete(self, session_id: str) -> None:
         self._call(self._stub.DeleteSession,
                    pb.DeleteSessionRequest(session_id=session_id), session_id)
-        self._dims.pop(session_id, None)
+        self._shapes.pop(session_id, None)
 
     def update_positions(self, session_id: str, positions: Any,
                          expected_generation: int,
@@ -506,7 +511,7 @@ class MeshGaugeClient:
                 full_cols = (col[:, None] * d + np.arange(d)).ravel()
                 counts = np.diff(np.asarray(rows, dtype=np.int64)) * d
                 indptr = np.concatenate([[0], np.cumsum(counts)])
-                nv = self.info(session_id).num_vertices if faces else n
+                nv = self._shape(session_id)[1] if faces else n
                 jac = scipy.sparse.csr_matrix(
                     (np.asarray(data, dtype=np.float64), full_cols, indptr),
                     shape=(n, nv * d))
@@ -602,7 +607,7 @@ class MeshGaugeClient:
                     "tolerance", tolerance, 0, 1, lo_open=True), bins=bins),
             session_id))
 
-    def gradcheck(self, session_id: str, *, probes: int = 12,
+    def gradcheck(self, session_id: str, *, probes: Optional[int] = None,
                   samples: "int | str | None" = None, seed: int = 1,
                   vertices: Optional[Any] = None,
                   relative_step: float = 1e-7, tolerance: float = 1e-5,
@@ -612,7 +617,7 @@ class MeshGaugeClient:
                   **params: Any) -> GradCheckReport:
         """The SPEC §6 finite-difference check of the session's derivatives
         at its current positions, run by the server on a private copy (the
-        session is unchanged): `meshgauge gradcheck`. probes (1..1000)
+        session is unchanged): `meshgauge gradcheck`. probes (1..1000, 12)
         vertices drawn with seed, or the given vertices; samples "vertices"
         or "faces": where the checked values are (SPEC v2 §5c; an int is the
         older name of probes); penalty: also the penalty's gradient, a dict
@@ -621,9 +626,11 @@ class MeshGaugeClient:
         if isinstance(samples, str):
             params["samples"] = samples
         elif samples is not None:
-            if probes != 12:
+            if probes is not None:
                 raise TypeError("give probes, or samples as a count, not both")
             probes = samples
+        if probes is None:
+            probes = 12
         if (isinstance(probes, bool) or not isinstance(probes, int)
                 or not 1 <= probes <= 1000):
             raise ValueError(f"probes must be an int in [1, 1000], got "
