@@ -129,7 +129,7 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertGreater(len(report.rows), 0)
         self.assertTrue(all(r.row < 8 for r in report.rows))
         with self.assertRaises(TypeError):
-            self.client.gradcheck(sid, samples=3, probes=2)
+            self.client.gradcheck(sid, samples=3, probes=12)
 
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:
