@@ -108,28 +108,9 @@ double DistanceSquared(const Box& b, const Vec3& p) {
   return d2;
 }
 
-// True when the box lies strictly outside the contact cone at x: every
-// corner beyond the separating plane towards the box's centre.
-bool OutsideCone(const Box& b, const Vec3& x, const ContactCone& cone) {
-  const Vec3 w = (b.lo + b.hi) * 0.5 - x;
-  const double along = Dot(cone.axis, w);
-  // A box whose centre is in the cone is not outside it.
-  if (along >= 0 &&
-      along * along >= cone.cos_beta * cone.cos_beta * Dot(w, w)) {
-    return false;
-  }
-  Vec3 nu;
-  if (!SeparatingNormal(cone, w, &nu)) return false;
-  // The corner least far along nu; every corner is within
-  // sqrt(3) (MaxAbs(w) + MaxAbs(extent)) of x.
-  const Vec3 corner(nu.x >= 0 ? b.lo.x : b.hi.x, nu.y >= 0 ? b.lo.y : b.hi.y,
-                    nu.z >= 0 ? b.lo.z : b.hi.z);
-  return BeyondCone(cone, nu, corner - x,
-                    1.75 * (MaxAbs(w) + MaxAbs(b.hi - b.lo)));
-}
-
-// The contact cone's test (OutsideCone) for a node's four children at
-// once, in single precision (SSE): a bit per child outside the cone. The
+// True, per child of a node, when its box lies strictly outside the contact
+// cone at x: every corner beyond the plane through x that separates the cone
+// from the box's centre (a bit per child; four at once, SSE). The
 // boxes are first made relative to x in double, so that rounding is
 // relative to each box's own reach (|w| + size); the plane is built only
 // for boxes whose centre is off the axis by a tenth of that reach (its
@@ -196,19 +177,35 @@ int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
 // precision (SSE), with a margin (relative 1e-6 of the radius and of the
 // coordinates) far above its rounding, so that it keeps every box the
 // double-precision test keeps: a bit per child that may hold a point of
-// the ball, and each child's squared distance to the ball's centre.
-int ChildrenInBall(const Inner& n, const Vec3& centre, double r,
-                   float abs_margin, float d2_out[kArity]) {
+// the ball. `key_out` receives, per child, rho (the radius of the ball
+// tangent at x through a point) of the box's point nearest the ball's
+// centre, +infinity behind the tangent plane: the order of the search, not
+// a bound (a smaller ball is likelier in a box with a smaller key).
+int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
+                   float abs_margin, float key_out[kArity]) {
   const __m128 zero = _mm_setzero_ps();
-  __m128 d2 = zero;
+  __m128 d2 = zero, along = zero, w2 = zero;
   for (int k = 0; k < 3; ++k) {
-    const __m128 c = _mm_set1_ps(static_cast<float>(centre[k]));
+    const __m128 c = _mm_set1_ps(static_cast<float>(x[k] + axis[k] * r));
+    const __m128 lo = _mm_load_ps(n.lo[k]);
+    const __m128 hi = _mm_load_ps(n.hi[k]);
     const __m128 d =
-        _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(n.lo[k]), c), zero),
-                   _mm_sub_ps(c, _mm_load_ps(n.hi[k])));
+        _mm_max_ps(_mm_max_ps(_mm_sub_ps(lo, c), zero), _mm_sub_ps(c, hi));
     d2 = _mm_add_ps(d2, _mm_mul_ps(d, d));
+    const __m128 w = _mm_sub_ps(_mm_min_ps(_mm_max_ps(c, lo), hi),
+                                _mm_set1_ps(static_cast<float>(x[k])));
+    along = _mm_add_ps(along,
+                       _mm_mul_ps(w, _mm_set1_ps(static_cast<float>(axis[k]))));
+    w2 = _mm_add_ps(w2, _mm_mul_ps(w, w));
   }
-  _mm_storeu_ps(d2_out, d2);
+  const __m128 front = _mm_cmpgt_ps(along, zero);
+  const __m128 rho = _mm_div_ps(w2, _mm_add_ps(along, along));
+  _mm_store_ps(
+      key_out,
+      _mm_or_ps(
+          _mm_and_ps(front, rho),
+          _mm_andnot_ps(front,
+                        _mm_set1_ps(std::numeric_limits<float>::infinity()))));
   const float reach = static_cast<float>(r * (1 + 4e-6) + abs_margin);
   return _mm_movemask_ps(_mm_cmple_ps(d2, _mm_set1_ps(reach * reach)));
 }
@@ -276,14 +273,14 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
   if (root_ == nullptr) return;
   const Vec3 x = x_world - origin_;
   const Vec3& axis = cone.axis;
-  // A popped child whose ball shrank since it was pushed is tested again, in
-  // double precision: boxes hold single-precision bounds rounded outward;
-  // the slack covers the rounding of the distances computed here.
-  auto may_hold = [&](const Box& b, double r) {
+  // A popped child whose ball shrank since it was pushed is tested against
+  // the smaller ball again, in double precision (its cone test does not
+  // depend on the radius): boxes hold single-precision bounds rounded
+  // outward; the slack covers the rounding of the distances computed here.
+  auto in_ball = [&](const Box& b, double r) {
     const Vec3 centre = x + axis * r;
     const double reach = r * (1 + 1e-12) + 1e-12 * MaxAbs(centre);
-    return DistanceSquared(b, centre) <= reach * reach &&
-           !OutsideCone(b, x, cone);
+    return DistanceSquared(b, centre) <= reach * reach;
   };
   // Single-precision rounding of the ball's centre (relative to the tree's
   // origin) is below 1e-7 of it.
@@ -308,7 +305,7 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
     const Entry e = stack.back();
     stack.pop_back();
     if (e.r != r && e.parent != nullptr &&
-        !may_hold(e.parent->BoxOf(e.lane), r)) {
+        !in_ball(e.parent->BoxOf(e.lane), r)) {
       continue;
     }
     if (e.node->leaf) {
@@ -316,24 +313,22 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
       for (uint32_t i = 0; i < leaf->count; ++i) r = visit(leaf->prims()[i]);
       continue;
     }
+    // The children that may hold a point, the smallest key on top.
     const auto* inner = static_cast<const Inner*>(e.node);
-    alignas(16) float d2[kArity];
-    const int in_ball = ChildrenInBall(*inner, x + axis * r, r, abs_margin, d2);
-    // The children that may hold a point, nearest pushed last (visited
-    // first).
-    std::pair<float, int> order[kArity];
-    int num_held = 0;
+    alignas(16) float key[kArity];
+    const int touched = ChildrenInBall(*inner, x, axis, r, abs_margin, key);
     const int held =
-        in_ball == 0 ? 0 : in_ball & ~ChildrenOutsideCone(*inner, x, lanes);
+        touched == 0 ? 0 : touched & ~ChildrenOutsideCone(*inner, x, lanes);
+    int order[kArity];
+    int num_held = 0;
     for (int i = 0; i < kArity; ++i) {
       if (!(held >> i & 1)) continue;
-      int k = num_held++;  // insertion, farthest first.
-      for (; k > 0 && order[k - 1].first < d2[i]; --k) order[k] = order[k - 1];
-      order[k] = {d2[i], i};
+      int k = num_held++;  // insertion, largest key first.
+      for (; k > 0 && key[order[k - 1]] < key[i]; --k) order[k] = order[k - 1];
+      order[k] = i;
     }
     for (int k = 0; k < num_held; ++k) {
-      const int i = order[k].second;
-      stack.push_back({inner->child[i], inner, i, r});
+      stack.push_back({inner->child[order[k]], inner, order[k], r});
     }
   }
 }

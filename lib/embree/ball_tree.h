@@ -31,7 +31,8 @@ class BallTree {
 
   // Calls visit(prim) for every primitive whose box may hold a point within
   // the ball of radius r tangent at x (centre x + r cone.axis) and within
-  // the contact cone around x, boxes nearer the centre first; r starts at
+  // the contact cone around x, the box likeliest to hold a smaller ball
+  // first (the order changes the work, not the result); r starts at
   // `radius` and is what visit returns after each call (it may only
   // shrink). Thread-safe.
   void Visit(const Vec3& x, const ContactCone& cone, double radius,

@@ -499,11 +499,15 @@ class MeshGaugeClient:
                     ("face" if faces else "vertex") + " samples were asked "
                     "for, the reply holds others (is the server older than "
                     "SdfParameters.samples?)")
-            if opposite and len(opposite) != 3 * n:
+            if len(opposite) != (3 * n if wire_params.opposite_points else 0):
                 raise DataLossError(
                     grpc.StatusCode.DATA_LOSS,
                     f"the server sent {len(opposite)} opposite coordinates "
-                    f"for {n} samples")
+                    f"for {n} samples" + (
+                        " (is the server older than "
+                        "SdfParameters.opposite_points?)"
+                        if wire_params.opposite_points and not opposite
+                        else ""))
             jac = None
             if jacobian:
                 d = len(data) // max(1, len(cols)) if cols else self._dim(session_id)
