@@ -9,7 +9,8 @@
 # serving, Redis up, the alert rules loaded), kills one replica and
 # restarts the other three times and waits for the alerts
 # MeshgaugeReplicasBelowDesired and MeshgaugeReplicaRestarting to fire, and
-# brings the stack down (also on failure). The faults are deploy/chaos-test.sh's. Traffic goes to
+# brings the stack down (also on failure): plain `down` keeps the build
+# stage, `down --prune` removes it. The faults are deploy/chaos-test.sh's. Traffic goes to
 # 127.0.0.1 only. Needs a Docker engine: deploy/ensure-docker.sh.
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -36,7 +37,6 @@ grep -q "port(s) 9090 already in use" /tmp/meshgauge-stack-taken.txt ||
   { echo "FAIL: up left containers behind"; exit 1; }
 
 ./stack.sh up 2
-# The chaos test (next in .ci/run) reuses the build cache.
 cleanup() { ./stack.sh down --volumes >/dev/null 2>&1 || true; }
 trap cleanup EXIT
 
@@ -173,4 +173,14 @@ balancer=$(docker ps -q --filter label=com.docker.compose.project=meshgauge \
   --filter label=com.docker.compose.service=balancer)
 if docker logs "$balancer" 2>&1 | grep "Connection closed during SSL handshake"; then
   echo "FAIL: the balancer logs connections closed during TLS handshakes"; exit 1; fi
+echo "== down keeps the build stage (the next up's cache); down --prune removes it"
+stage=$(docker images -q --filter label=meshgauge.stage=build | head -1)
+[ -n "$stage" ] || { echo "FAIL: no build stage image after up"; exit 1; }
+./stack.sh down --volumes
+docker image inspect "$stage" >/dev/null 2>&1 ||
+  { echo "FAIL: down removed the build stage"; exit 1; }
+./stack.sh down --prune
+if docker image inspect "$stage" >/dev/null 2>&1; then
+  echo "FAIL: down --prune kept the build stage"; exit 1; fi
+echo "down kept the build stage $stage; down --prune removed it"
 echo "stack test: PASS"

@@ -20,6 +20,9 @@
 # - Reloads: the balancer itself is reloaded (SIGUSR2 to its master
 #   process, as `deploy/stack.sh reload-balancer` does) three times under a
 #   load whose clients do not retry: 0 errors.
+# - Restarts: the balancer soft-stops (SIGUSR1, as `docker stop` and
+#   `docker restart` do) and a new one starts, twice, under a load whose
+#   clients do not retry: 0 errors.
 # Every load also checks 0 mismatches and 0 lost sessions.
 #   balancer_test.sh SERVER LOAD CLI CFG [CYCLES]
 set -euo pipefail
@@ -70,10 +73,13 @@ sed -e "s|^ *bind :50051 .*|  bind 127.0.0.1:$hp proto h2|" \
     -e "s|^ *bind 127.0.0.1:8404|  bind 127.0.0.1:$health_port|" \
     -e "s|^ *server-template .*|  server r0 127.0.0.1:${ports[0]}\n  server r1 127.0.0.1:${ports[1]}|" \
     "$cfg" >"$tmp/haproxy.cfg"
-haproxy -W -db -f "$tmp/haproxy.cfg" 2>"$tmp/haproxy.log" &
-haproxy_pid=$!
-pids+=($!)
-await_tcp "$hp"
+start_balancer() {
+  haproxy -W -db -f "$tmp/haproxy.cfg" 2>>"$tmp/haproxy.log" &
+  haproxy_pid=$!
+  pids+=($!)
+  await_tcp "$hp"
+}
+start_balancer
 # The balancer's own health: plain HTTP 200 on its health port.
 curl -sf "http://127.0.0.1:$health_port/healthz" >/dev/null ||
   fail "the balancer's health frontend did not answer 200"
@@ -178,3 +184,20 @@ done
 await_progress "after the reloads"
 finish_load "a reload of the balancer cost a client without retries a call"
 echo "PASS: 3 reloads of the balancer, no client (without retries) saw an error"
+
+# A restart: the old balancer soft-stops (SIGUSR1, its image's stop
+# signal: no new connection, the calls in flight finish), then a new one
+# starts on the same port. The clients do not retry; a call made in the gap
+# waits for the connection (the client's connect timeout), none fails.
+start_load 60 restart --retry=false
+for c in 1 2; do
+  await_progress "before restart $c"
+  t0=$(date +%s.%N)
+  kill -USR1 "$haproxy_pid"
+  wait "$haproxy_pid" || true
+  start_balancer
+  echo "restart $c of the balancer: listening again $(since "$t0") s after SIGUSR1"
+done
+await_progress "after the restarts"
+finish_load "a restart of the balancer cost a client without retries a call"
+echo "PASS: 2 restarts (soft stop, start) of the balancer, no client (without retries) saw an error"

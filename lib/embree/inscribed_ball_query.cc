@@ -1,7 +1,6 @@
 #include "lib/embree/inscribed_ball_query.h"
 
 #include <algorithm>
-#include <vector>
 
 #include "lib/embree/hit_candidates.h"
 
@@ -37,22 +36,6 @@ VertexBall InscribedBall(const MeshGeometry& geometry, const RayScene& scene,
   HitCandidates ray(static_cast<float>(MaxAbs(x - scene.origin())));
   scene.IntersectFan(x, dirs, limits.fan, excluded, absl::MakeSpan(&ray, 1));
   for (int i = 0; i < ray.count(); ++i) consider(ray[i].prim);
-  // Where curvature, not thickness, bounds the ball, it touches just beyond
-  // the excluded primitives: their corners' other primitives shrink it
-  // before the traversal (which then culls far more).
-  const MeshTopology& topo = geometry.topology();
-  thread_local std::vector<int32_t> corners;
-  corners.clear();
-  for (int32_t e : excluded) {
-    for (int32_t v : topo.primitives[e].v) {
-      if (v >= 0) corners.push_back(v);
-    }
-  }
-  std::sort(corners.begin(), corners.end());
-  corners.erase(std::unique(corners.begin(), corners.end()), corners.end());
-  for (int32_t v : corners) {
-    for (int32_t prim : topo.PrimitivesOf(v)) consider(prim);
-  }
   tree.Visit(x, cone, best.contact.radius, consider);
   if (best.prim < 0) best.contact = BallContact();
   return best;
