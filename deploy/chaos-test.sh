@@ -23,7 +23,8 @@
 # lost, and in the pause phase no call over the bound; the plain client
 # with 0 NOT_FOUND. Per phase it reports calls,
 # retried attempts (the replicas' meshgauge_rpc_retried_attempts_total in
-# Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end.
+# Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end
+# with `down --prune` and checks that the build stage is gone.
 set -euo pipefail
 cd "$(dirname "$0")"
 source ../scripts/lib.sh
@@ -142,4 +143,12 @@ if c.get("not_found", 0) or c.get("sessions", 0) < 2:
     sys.exit("FAIL: the plain client saw NOT_FOUND or lost its sessions")
 PY
 [ "$failed" -eq 0 ] || { echo "chaos test: FAIL"; exit 1; }
+# The last stack of .ci/run: `down --prune` removes the build stage (the
+# next `up` builds it again).
+stage=$(docker images -q --filter label=meshgauge.stage=build | head -1)
+[ -n "$stage" ] || { echo "FAIL: no build stage image after up"; exit 1; }
+./stack.sh down --volumes --prune
+if docker image inspect "$stage" >/dev/null 2>&1; then
+  echo "FAIL: down --prune kept the build stage"; exit 1; fi
+echo "down --prune removed the build stage $stage"
 echo "chaos test: PASS"

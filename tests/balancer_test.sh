@@ -194,7 +194,13 @@ for c in 1 2; do
   await_progress "before restart $c"
   t0=$(date +%s.%N)
   kill -USR1 "$haproxy_pid"
+  # Within the 30 s stop grace period `docker stop` gives it.
+  for _ in $(seq 1 300); do kill -0 "$haproxy_pid" 2>/dev/null || break; sleep 0.1; done
+  kill -0 "$haproxy_pid" 2>/dev/null && fail "the balancer's soft stop took over 30 s"
   wait "$haproxy_pid" || true
+  keep=()
+  for pid in "${pids[@]}"; do [ "$pid" = "$haproxy_pid" ] || keep+=("$pid"); done
+  pids=("${keep[@]}")
   start_balancer
   echo "restart $c of the balancer: listening again $(since "$t0") s after SIGUSR1"
 done

@@ -7,7 +7,6 @@
 #include <cmath>
 #include <limits>
 #include <new>
-#include <utility>
 #include <vector>
 
 #include "lib/core/inscribed_ball.h"
@@ -179,8 +178,8 @@ int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
 // double-precision test keeps: a bit per child that may hold a point of
 // the ball. `key_out` receives, per child, rho (the radius of the ball
 // tangent at x through a point) of the box's point nearest the ball's
-// centre, +infinity behind the tangent plane: the order of the search, not
-// a bound (a smaller ball is likelier in a box with a smaller key).
+// centre, +infinity on or behind the tangent plane: the order of the search,
+// not a bound (a smaller ball is likelier in a box with a smaller key).
 int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
                    float abs_margin, float key_out[kArity]) {
   const __m128 zero = _mm_setzero_ps();
@@ -200,7 +199,7 @@ int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
   }
   const __m128 front = _mm_cmpgt_ps(along, zero);
   const __m128 rho = _mm_div_ps(w2, _mm_add_ps(along, along));
-  _mm_store_ps(
+  _mm_storeu_ps(
       key_out,
       _mm_or_ps(
           _mm_and_ps(front, rho),

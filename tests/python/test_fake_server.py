@@ -93,11 +93,39 @@ class WrongRepliesTest(unittest.TestCase):
         self.assertEqual(self.client.sdf("fake", samples="faces").values.shape,
                          (8,))
 
-    def test_missing_opposite_points_are_data_loss(self) -> None:
+    def test_opposite_points_other_than_asked_for_are_data_loss(self) -> None:
+        # None when asked for (an older server), too few, or some unasked.
         self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
         with self.assertRaises(DataLossError) as e:
             self.client.sdf("fake", opposite_points=True)
-        self.assertIn("opposite", e.exception.details)
+        self.assertIn("0 opposite coordinates for 6 samples", e.exception.details)
+        for count, asked in ((15, True), (18, False)):
+            self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
+            self.fake.reply[0].chunk.opposite.extend([0.5] * count)
+            with self.assertRaises(DataLossError) as e:
+                self.client.sdf("fake", opposite_points=asked)
+            self.assertIn(f"{count} opposite coordinates", e.exception.details)
+        self.fake.reply[0].chunk.opposite[:] = [0.5] * 18
+        self.assertEqual(
+            self.client.sdf("fake", opposite_points=True).opposite.shape,
+            (6, 3))
+
+    def test_a_reply_without_its_summary_or_of_other_counts_is_data_loss(
+            self) -> None:
+        self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)[:1]
+        with self.assertRaises(DataLossError) as e:
+            self.client.sdf("fake")
+        self.assertIn("without its summary", e.exception.details)
+        self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
+        self.fake.reply[1].summary.ok = 8
+        with self.assertRaises(DataLossError) as e:
+            self.client.sdf("fake")
+        self.assertIn("the summary counts 8 samples", e.exception.details)
+        self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
+        self.fake.reply[1].summary.ok = 5
+        self.fake.reply[1].summary.no_hit = 1
+        with self.assertRaises(DataLossError):
+            self.client.sdf("fake")
 
     @unittest.skipUnless(CLI, "MESHGAUGE_CLI is not set")
     def test_the_cli_refuses_a_reply_of_another_face_count(self) -> None:

@@ -492,8 +492,19 @@ class MeshGaugeClient:
                     cols.extend(c.columns)
                     data.extend(c.derivatives)
             n = len(values)
-            if summary is not None and faces != (
-                    summary.samples == pb.SAMPLE_SET_FACES):
+            if summary is None:
+                raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                                    "ComputeSdf stream ended without its "
+                                    "summary")
+            counted = (summary.ok + summary.no_hit + summary.no_faces
+                       + summary.degenerate_normal)
+            if counted != n or summary.ok != sum(
+                    1 for x in status if x == pb.VERTEX_STATUS_OK):
+                raise DataLossError(
+                    grpc.StatusCode.DATA_LOSS,
+                    f"the summary counts {counted} samples ({summary.ok} "
+                    f"with a value), the chunks carried {n}")
+            if faces != (summary.samples == pb.SAMPLE_SET_FACES):
                 raise DataLossError(
                     grpc.StatusCode.DATA_LOSS,
                     ("face" if faces else "vertex") + " samples were asked "
