@@ -168,7 +168,7 @@ PY
 [ "$failed" -eq 0 ] || { echo "chaos test: FAIL"; exit 1; }
 # The last stack of .ci/run: `down --prune` removes the build stage (the
 # next `up` builds it again).
-stage=$(docker images -q --filter label=meshgauge.stage=build | head -1)
+stage=$(stack_build_stage)
 [ -n "$stage" ] || { echo "FAIL: no build stage image after up"; exit 1; }
 ./stack.sh down --volumes --prune
 if docker image inspect "$stage" >/dev/null 2>&1; then

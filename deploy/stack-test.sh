@@ -174,7 +174,7 @@ balancer=$(docker ps -q --filter label=com.docker.compose.project=meshgauge \
 if docker logs "$balancer" 2>&1 | grep "Connection closed during SSL handshake"; then
   echo "FAIL: the balancer logs connections closed during TLS handshakes"; exit 1; fi
 echo "== down keeps the build stage (the next up's cache)"
-stage=$(docker images -q --filter label=meshgauge.stage=build | head -1)
+stage=$(stack_build_stage)
 [ -n "$stage" ] || { echo "FAIL: no build stage image after up"; exit 1; }
 ./stack.sh down --volumes
 docker image inspect "$stage" >/dev/null 2>&1 ||

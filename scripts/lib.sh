@@ -77,6 +77,12 @@ stack_replica() {
     --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
 }
 
+# The newest image of the stack's build stage (label meshgauge.stage=build:
+# the cache of the next `deploy/stack.sh up`), empty when there is none.
+stack_build_stage() {
+  docker images -q --filter label=meshgauge.stage=build | head -1
+}
+
 # Runs the meshgauge image's program $1 with arguments $2... on the host
 # network as the caller's user, with the stack's secrets (./secrets, run
 # from deploy/) at /secrets and MESHGAUGE_TOKEN passed on when set.

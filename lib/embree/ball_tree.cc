@@ -314,7 +314,7 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
     }
     // The children that may hold a point, the smallest key on top.
     const auto* inner = static_cast<const Inner*>(e.node);
-    alignas(16) float key[kArity];
+    float key[kArity];
     const int touched = ChildrenInBall(*inner, x, axis, r, abs_margin, key);
     const int held =
         touched == 0 ? 0 : touched & ~ChildrenOutsideCone(*inner, x, lanes);

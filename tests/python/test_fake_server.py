@@ -137,20 +137,21 @@ class WrongRepliesTest(unittest.TestCase):
             with open(mesh, "w") as f:
                 f.write(OCTAHEDRON_OFF)
             csv = os.path.join(d, "out.csv")
-            run = subprocess.run(
-                [CLI, "remote", "sdf", "--server", self.target, "--session-id", "fake",
-                 "--samples", "faces", "--csv", csv, mesh],
-                capture_output=True, text=True, timeout=60)
+
+            def sdf_of_faces() -> Any:
+                return subprocess.run(
+                    [CLI, "remote", "sdf", "--server", self.target,
+                     "--session-id", "fake", "--samples", "faces", "--csv",
+                     csv, mesh], capture_output=True, text=True, timeout=60)
+
+            run = sdf_of_faces()
             self.assertEqual(run.returncode, 1, run.stdout)
             self.assertIn("error: DATA_LOSS: the server sent 3 values for 8 "
                           "faces", run.stderr)
             self.assertFalse(os.path.exists(csv))
             # The full count passes the same check.
             self.fake.reply = chunk_and_summary(8, pb.SAMPLE_SET_FACES)
-            run = subprocess.run(
-                [CLI, "remote", "sdf", "--server", self.target, "--session-id", "fake",
-                 "--samples", "faces", "--csv", csv, mesh],
-                capture_output=True, text=True, timeout=60)
+            run = sdf_of_faces()
             self.assertEqual(run.returncode, 0, run.stderr)
             with open(csv) as f:
                 self.assertEqual(len(f.read().splitlines()), 9)
