@@ -4,6 +4,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -148,6 +149,40 @@ TEST(SensitivityTest, VjpIsBitIdenticalForOneAndTwoThreads) {
   auto b = ComputeVjp(**ev, hits, g, {}, 2);
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(*a, *b);
+}
+
+// Each Jacobian row holds one entry per vertex (a sample's rays hit the
+// same primitives many times), and the VJP is exactly g^T J summed in sample
+// order: out_j = sum_p g_p J_pj.
+TEST(SensitivityTest, JacobianRowsHaveUniqueColumnsAndTheVjpIsGTransposeJ) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok());
+  auto ev = SdfEvaluator::Create(*mesh);
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
+  auto jac = ComputeJacobian(**ev, hits);
+  ASSERT_TRUE(jac.ok());
+  std::vector<double> g(mesh->num_vertices());
+  for (size_t i = 0; i < g.size(); ++i) g[i] = std::cos(0.37 * i);
+  std::vector<Vec3> expected(mesh->num_vertices());
+  int64_t repeated_hits = 0;
+  for (int64_t p = 0; p < mesh->num_vertices(); ++p) {
+    const auto row = hits.Row(p);
+    std::vector<int32_t> prims(row.begin(), row.end());
+    std::sort(prims.begin(), prims.end());
+    repeated_hits +=
+        std::adjacent_find(prims.begin(), prims.end()) != prims.end();
+    for (int64_t k = jac->row_offsets[p]; k < jac->row_offsets[p + 1]; ++k) {
+      if (k > jac->row_offsets[p]) {
+        ASSERT_LT(jac->columns[k - 1], jac->columns[k]) << "row " << p;
+      }
+      expected[jac->columns[k]] += jac->values[k] * g[p];
+    }
+  }
+  EXPECT_GT(repeated_hits, mesh->num_vertices() / 2);
+  auto vjp = ComputeVjp(**ev, hits, g);
+  ASSERT_TRUE(vjp.ok());
+  EXPECT_EQ(*vjp, expected);
 }
 
 TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {

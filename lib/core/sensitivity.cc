@@ -26,27 +26,75 @@ struct Term {
   Vec3 d;
 };
 
+// A sample's row of the Jacobian, summed per vertex as its terms arrive
+// (entries in the order of each vertex's first term, each the sum of its
+// terms in arrival order). A sample's rays hit few primitives, so the row
+// holds far fewer entries than its rays have corners.
+class Row {
+ public:
+  void Clear() {
+    for (size_t slot : used_) slots_[slot] = -1;
+    used_.clear();
+    terms_.clear();
+  }
+  void Add(int32_t vertex, const Vec3& d) {
+    if (2 * (terms_.size() + 1) > slots_.size()) Grow();
+    const size_t i = Find(vertex);
+    if (slots_[i] < 0) {
+      slots_[i] = static_cast<int32_t>(terms_.size());
+      used_.push_back(i);
+      terms_.push_back({vertex, d});
+    } else {
+      terms_[slots_[i]].d += d;
+    }
+  }
+  const std::vector<Term>& terms() const { return terms_; }
+
+ private:
+  // The slot holding `vertex`, or the empty slot where it would go (open
+  // addressing, linear probing; the table is at most half full).
+  size_t Find(int32_t vertex) const {
+    const size_t mask = slots_.size() - 1;
+    size_t i = (static_cast<uint32_t>(vertex) * 0x9E3779B1u) & mask;
+    while (slots_[i] >= 0 && terms_[slots_[i]].vertex != vertex) {
+      i = (i + 1) & mask;
+    }
+    return i;
+  }
+  void Grow() {
+    slots_.assign(std::max<size_t>(256, 2 * slots_.size()), -1);
+    used_.clear();
+    for (size_t k = 0; k < terms_.size(); ++k) {
+      const size_t i = Find(terms_[k].vertex);
+      slots_[i] = static_cast<int32_t>(k);
+      used_.push_back(i);
+    }
+  }
+
+  std::vector<Term> terms_;
+  std::vector<int32_t> slots_;  // index into terms_, -1 when empty.
+  std::vector<size_t> used_;    // the slots not empty.
+};
+
 // Everything a sample's gradient needs, shared read-only by the workers.
 struct Context {
   const MeshGeometry& ev;
   const HitTable& hits;
-  bool faces = false;         // face samples (SPEC v2 §5c), else vertices.
-  int64_t samples = 0;        // #F or #V.
-  std::vector<Vec3> normals;  // N_p per vertex (vertex samples only).
+  bool faces = false;   // face samples (SPEC v2 §5c), else vertices.
+  int64_t samples = 0;  // #F or #V.
 };
 
-void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
-                 std::vector<Term>& terms);
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms);
 void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
-               const Vec3& g_axis, std::vector<Term>& terms);
+               const Vec3& g_axis, Row& terms);
 void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
-                 const VertexCone& vc, std::vector<Term>& terms);
+                 const VertexCone& vc, Row& terms);
 
-// Appends dSDF_p/dx_j terms (unmerged, possibly repeated j) for sample p (a
-// vertex, or a face's centroid). Leaves `terms` empty when p has no value.
-void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
+// Adds the terms dSDF_p/dx_j of sample p (a vertex, or a face's centroid)
+// to `terms` (cleared first). Leaves it empty when p has no value.
+void SampleTerms(const Context& ctx, int64_t p, Row& terms,
                  std::vector<uint8_t>& kept, std::vector<HitGeometry>& geo) {
-  terms.clear();
+  terms.Clear();
   const MeshGeometry& ev = ctx.ev;
   const Mesh& mesh = ev.mesh();
   const MeshTopology& topo = ev.topology();
@@ -56,7 +104,8 @@ void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const bool sphere = ctx.hits.resolved.params.method == SdfMethod::kSphere;
   const SampleCone sample = MakeSampleCone(
       mesh, topo, ctx.hits.resolved.params.samples, p,
-      [&] { return ctx.normals[p]; }, /*frame=*/!sphere);
+      [&] { return UnnormalizedNormal(mesh, topo, p, NormalWeighting::kArea); },
+      /*frame=*/!sphere);
   const VertexCone& vc = sample.cone;
   if (!vc.valid) return;
   const Vec3& x = sample.x;
@@ -91,7 +140,7 @@ void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
     d_origin -= dt_dx;
     const Primitive& prim = topo.primitives[row[k]];
     for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
-      terms.push_back({prim.v[j], dt_dx * h.lambda[j]});
+      terms.Add(prim.v[j], dt_dx * h.lambda[j]);
     }
     const Vec3 g_d = dt_dx * (-h.t);  // c * dt/dd
     g_u += g_d * cone[k].local.x;
@@ -103,7 +152,7 @@ void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
   const FrameGradient gf = FrameVjp(mesh.dimension, vc.frame, g_u, g_v);
   if (vc.frame.reference >= 0) {
     d_origin -= gf.edge;
-    terms.push_back({vc.frame.reference, gf.edge});
+    terms.Add(vc.frame.reference, gf.edge);
   }
   OriginTerms(ctx, p, d_origin, terms);
   AxisTerms(ctx, p, vc, g_a + gf.axis, terms);
@@ -114,7 +163,7 @@ void SampleTerms(const Context& ctx, int64_t p, std::vector<Term>& terms,
 // primitive, and the form + 1 as its kept flag), differentiated through
 // x_p, the axis and the primitive's corners.
 void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
-                 const VertexCone& vc, std::vector<Term>& terms) {
+                 const VertexCone& vc, Row& terms) {
   const int32_t prim = ctx.hits.Row(p)[0];
   if (prim < 0) return;
   const MeshGeometry& ev = ctx.ev;
@@ -124,29 +173,28 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
   OriginTerms(ctx, p, g.x * 2, terms);
   const Primitive& corners = ev.topology().primitives[prim];
   for (int j = 0; j < 3 && corners.v[j] >= 0; ++j) {
-    terms.push_back({corners.v[j], g.corner[j] * 2});
+    terms.Add(corners.v[j], g.corner[j] * 2);
   }
   AxisTerms(ctx, p, vc, g.axis * 2, terms);
 }
 
 // Appends the terms of g_x . d x / dx_j for the sample's point: the vertex
 // itself, or the mean of the face's corners.
-void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
-                 std::vector<Term>& terms) {
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms) {
   if (!ctx.faces) {
-    terms.push_back({static_cast<int32_t>(p), g_x});
+    terms.Add(static_cast<int32_t>(p), g_x);
     return;
   }
   const Face& face = ctx.ev.mesh().faces[p];
   for (int k = 0; k < face.size; ++k) {
-    terms.push_back({face.v[k], g_x / face.size});
+    terms.Add(face.v[k], g_x / face.size);
   }
 }
 
 // Appends the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
 // N the sum over the primitives of vertex p (SPEC §2) or of face p.
 void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
-               const Vec3& g_axis, std::vector<Term>& terms) {
+               const Vec3& g_axis, Row& terms) {
   const Mesh& mesh = ctx.ev.mesh();
   const MeshTopology& topo = ctx.ev.topology();
   const Vec3 g_n = g_axis * vc.sign;
@@ -156,7 +204,7 @@ void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
     const Primitive& prim = topo.primitives[prim_id];
     PrimitiveNormalVjp(mesh, prim, g_big_n, grad);
     for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
-      terms.push_back({prim.v[j], grad[j]});
+      terms.Add(prim.v[j], grad[j]);
     }
   };
   if (ctx.faces) {
@@ -199,12 +247,7 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
         "sensitivities are only available with area-weighted normals; "
         "recompute with area weighting (--normals area, the default)");
   }
-  Context ctx{ev, *hits, faces, samples, {}};
-  if (!faces) {
-    ctx.normals =
-        UnnormalizedNormals(ev.mesh(), ev.topology(), NormalWeighting::kArea);
-  }
-  return ctx;
+  return Context{ev, *hits, faces, samples};
 }
 
 // Computes the terms of every sample, a batch of kBatch samples at a time
@@ -228,6 +271,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                         [&](const tbb::blocked_range<int64_t>& r) {
                           std::vector<uint8_t> kept(num_rays);
                           std::vector<HitGeometry> geo(num_rays);
+                          Row row;
                           PrefetchPrimitives(ctx, r.begin());
                           if (r.size() > 1) {
                             PrefetchPrimitives(ctx, r.begin() + 1);
@@ -236,7 +280,9 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           for (int64_t p = r.begin(); p < r.end(); ++p) {
                             if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
                             if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-                            SampleTerms(ctx, p, rows[p - begin], kept, geo);
+                            SampleTerms(ctx, p, row, kept, geo);
+                            rows[p - begin].assign(row.terms().begin(),
+                                                   row.terms().end());
                           }
                         });
     });
@@ -262,19 +308,12 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
              std::vector<std::vector<Term>>& rows) {
         for (int64_t p = begin; p < end; ++p) {
           std::vector<Term>& terms = rows[p - begin];
-          std::stable_sort(
+          std::sort(
               terms.begin(), terms.end(),
               [](const Term& a, const Term& b) { return a.vertex < b.vertex; });
-          for (size_t i = 0; i < terms.size();) {
-            Vec3 sum;
-            size_t j = i;
-            for (; j < terms.size() && terms[j].vertex == terms[i].vertex;
-                 ++j) {
-              sum += terms[j].d;
-            }
-            jac.columns.push_back(terms[i].vertex);
-            jac.values.push_back(sum);
-            i = j;
+          for (const Term& t : terms) {
+            jac.columns.push_back(t.vertex);
+            jac.values.push_back(t.d);
           }
           jac.row_offsets.push_back(jac.nonzeros());
         }
