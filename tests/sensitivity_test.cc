@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "lib/core/shapes.h"
@@ -168,7 +169,10 @@ TEST(SensitivityTest, JacobianRowsHaveUniqueColumnsAndTheVjpIsGTransposeJ) {
   int64_t repeated_hits = 0;
   for (int64_t p = 0; p < mesh->num_vertices(); ++p) {
     const auto row = hits.Row(p);
-    std::vector<int32_t> prims(row.begin(), row.end());
+    std::vector<int32_t> prims;
+    for (int32_t q : row) {
+      if (q >= 0) prims.push_back(q);
+    }
     std::sort(prims.begin(), prims.end());
     repeated_hits +=
         std::adjacent_find(prims.begin(), prims.end()) != prims.end();
@@ -182,7 +186,10 @@ TEST(SensitivityTest, JacobianRowsHaveUniqueColumnsAndTheVjpIsGTransposeJ) {
   EXPECT_GT(repeated_hits, mesh->num_vertices() / 2);
   auto vjp = ComputeVjp(**ev, hits, g);
   ASSERT_TRUE(vjp.ok());
-  EXPECT_EQ(*vjp, expected);
+  ASSERT_EQ(vjp->size(), expected.size());
+  EXPECT_EQ(
+      std::memcmp(vjp->data(), expected.data(), expected.size() * sizeof(Vec3)),
+      0);
 }
 
 TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {

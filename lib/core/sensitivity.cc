@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -17,8 +18,9 @@
 namespace meshgauge {
 namespace {
 
-// Vertices per batch: terms of a batch are computed in parallel, then
-// scattered serially in vertex order (deterministic sums).
+// Samples per batch: the rows of a batch are computed in parallel, then
+// scattered in parallel over destination ranges, each destination summing
+// in sample order (deterministic sums).
 constexpr int64_t kBatch = 4096;
 
 struct Term {
@@ -43,7 +45,7 @@ class Row {
     if (slots_[i] < 0) {
       slots_[i] = static_cast<int32_t>(terms_.size());
       used_.push_back(i);
-      terms_.push_back({vertex, d});
+      terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
     } else {
       terms_[slots_[i]].d += d;
     }
@@ -54,8 +56,10 @@ class Row {
   // The slot holding `vertex`, or the empty slot where it would go (open
   // addressing, linear probing; the table is at most half full).
   size_t Find(int32_t vertex) const {
+    // The product's high bits (Fibonacci hashing): its low bits would
+    // depend on the vertex's low bits alone.
     const size_t mask = slots_.size() - 1;
-    size_t i = (static_cast<uint32_t>(vertex) * 0x9E3779B1u) & mask;
+    size_t i = (static_cast<uint32_t>(vertex) * 0x9E3779B1u) >> shift_;
     while (slots_[i] >= 0 && terms_[slots_[i]].vertex != vertex) {
       i = (i + 1) & mask;
     }
@@ -63,6 +67,7 @@ class Row {
   }
   void Grow() {
     slots_.assign(std::max<size_t>(256, 2 * slots_.size()), -1);
+    shift_ = 32 - std::countr_zero(slots_.size());
     used_.clear();
     for (size_t k = 0; k < terms_.size(); ++k) {
       const size_t i = Find(terms_[k].vertex);
@@ -74,6 +79,7 @@ class Row {
   std::vector<Term> terms_;
   std::vector<int32_t> slots_;  // index into terms_, -1 when empty.
   std::vector<size_t> used_;    // the slots not empty.
+  int shift_ = 0;               // 32 - log2(slots_.size()).
 };
 
 // Everything a sample's gradient needs, shared read-only by the workers.
@@ -178,7 +184,7 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
   AxisTerms(ctx, p, vc, g.axis * 2, terms);
 }
 
-// Appends the terms of g_x . d x / dx_j for the sample's point: the vertex
+// Adds the terms of g_x . d x / dx_j for the sample's point: the vertex
 // itself, or the mean of the face's corners.
 void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms) {
   if (!ctx.faces) {
@@ -191,7 +197,7 @@ void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms) {
   }
 }
 
-// Appends the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
+// Adds the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
 // N the sum over the primitives of vertex p (SPEC §2) or of face p.
 void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
                const Vec3& g_axis, Row& terms) {
@@ -345,7 +351,7 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
   if (!ctx.ok()) return ctx.status();
   std::vector<Vec3> out(nv);
   // Scatter in parallel over destination ranges; every destination still
-  // sums its terms in vertex order, so the result does not depend on the
+  // sums its terms in sample order, so the result does not depend on the
   // number of threads.
   absl::Status s = ForEachBatch(
       *ctx, control, threads,
