@@ -2,6 +2,7 @@
 //
 //   meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S]
 //                   [--generated_vertices N] [--cli PATH] MESH...
+//   meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...
 //
 // For each mesh (closed meshes with negative volume are reversed first; with
 // --permute_seed also with its vertices permuted; with --generated_vertices
@@ -18,6 +19,9 @@
 //    BVH, rays, estimator, summary): best wall time, its ratio to the
 //    fastest raw pass over the same rays, its stages, and its peak RSS
 //    against the bytes of mesh + BVH + hit table it reports.
+// With --ray_tests_only, per mesh only the values pass with Embree's
+// watertight test (the default) and with its fast one, over the same rays:
+// both rates, hit fractions, and the vertices whose value differs.
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -30,6 +34,7 @@
 #include "absl/strings/str_cat.h"
 #include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
+#include "bench/ray_test_compare.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
 #include "lib/core/stopwatch.h"
@@ -49,6 +54,9 @@ ABSL_FLAG(int64_t, generated_vertices, 0,
           "(0: none)");
 ABSL_FLAG(std::string, cli, "",
           "the meshgauge CLI: also time `CLI sdf FILE --json` (empty: skip)");
+ABSL_FLAG(bool, ray_tests_only, false,
+          "per mesh, only compare the values pass with Embree's watertight "
+          "test and with its fast one");
 ABSL_FLAG(std::string, mesh_dir, "/tmp",
           "where the permuted and generated meshes are written for the CLI");
 
@@ -265,6 +273,32 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   return 0;
 }
 
+int BenchRayTests(const std::string& name, const Mesh& mesh) {
+  SdfParams params;
+  params.threads = absl::GetFlag(FLAGS_threads);
+  params.rays = absl::GetFlag(FLAGS_rays);
+  auto c = CompareRayTests(mesh, params, absl::GetFlag(FLAGS_repeat));
+  if (!c.ok()) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(),
+                 std::string(c.status().message()).c_str());
+    return 1;
+  }
+  const double rays = static_cast<double>(c->rays);
+  std::printf(
+      "%-28s ray test: watertight %.3e rays/s, fast %.3e rays/s (%.3f x); "
+      "hit fraction %.7f vs %.7f (%lld rays); values differ at %lld of %lld "
+      "vertices (%.2e), largest relative difference %.2e\n",
+      name.c_str(), c->watertight_rate, c->fast_rate,
+      c->fast_rate / c->watertight_rate, c->watertight_hits / rays,
+      c->fast_hits / rays,
+      static_cast<long long>(c->fast_hits - c->watertight_hits),
+      static_cast<long long>(c->differing), static_cast<long long>(c->vertices),
+      static_cast<double>(c->differing) / static_cast<double>(c->vertices),
+      c->max_relative_difference);
+  std::fflush(stdout);
+  return 0;
+}
+
 // `mesh` written as a binary PLY under --mesh_dir for the CLI.
 std::string Written(const Mesh& mesh, const std::string& name) {
   const std::string path = absl::StrCat(absl::GetFlag(FLAGS_mesh_dir),
@@ -295,6 +329,10 @@ int main(int argc, char** argv) {
       continue;
     }
     const std::string name = BaseName(path);
+    if (absl::GetFlag(FLAGS_ray_tests_only)) {
+      rc |= BenchRayTests(name, *mesh);
+      continue;
+    }
     rc |= BenchMesh(name, *mesh, path);
     if (const uint64_t seed = absl::GetFlag(FLAGS_permute_seed); seed != 0) {
       const Mesh permuted = Permuted(*mesh, seed);

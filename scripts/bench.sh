@@ -4,6 +4,7 @@
 # the whole `meshgauge sdf` run (wall time, stages, memory and peak RSS) with
 # their ratios to the fastest raw pass, on the shared meshes, on igea with its
 # vertices permuted and on a generated mesh of a million vertices (25 rays);
+# Embree's watertight ray test against its fast one on every shared mesh;
 # then incremental passes after patch updates (meshgauge_incremental_bench).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
@@ -20,6 +21,10 @@ build/bench/meshgauge_bench --cli "$CLI" "$@" ../shared/meshes/horse.ply \
   ../shared/meshes/stanford-bunny.obj ../shared/meshes/rocker-arm.obj
 build/bench/meshgauge_bench --cli "$CLI" --rays 25 --repeat 1 \
   --generated_vertices 1000000 "$@"
+# Embree's watertight ray test (meshgauge's) against its fast one on every
+# shared mesh: both rates, hit fractions, vertices whose value differs.
+build/bench/meshgauge_bench --ray_tests_only "$@" ../shared/meshes/*.ply \
+  ../shared/meshes/*.obj ../shared/meshes/*.off ../shared/meshes/*.STL
 # Incremental passes (issue 25's goals): 1 % and 10 % patches and every
 # vertex moved, against a full pass.
 build/bench/meshgauge_incremental_bench ../shared/meshes/igea-triangles.ply \

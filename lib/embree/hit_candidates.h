@@ -33,6 +33,12 @@ class HitCandidates {
   // `reach`: the largest coordinate magnitude of the ray's origin in the
   // scene's coordinates (the rounding of t_f scales with it).
   explicit HitCandidates(float reach = 0) : reach_(reach) {}
+  // As HitCandidates(reach), without writing the entries.
+  void Reset(float reach) {
+    reach_ = reach;
+    near_ = false;
+    count_ = 0;
+  }
 
   // Largest t_f still in the window of `best`.
   static float Window(float best, float reach) {

@@ -23,8 +23,9 @@ absl::Status DeviceStatus(RTCDevice device, const char* what) {
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<RayScene>> RayScene::Create(
-    const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy) {
-  std::unique_ptr<RayScene> scene(new RayScene(topo, policy));
+    const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy,
+    RayTest test) {
+  std::unique_ptr<RayScene> scene(new RayScene(topo, policy, test));
   if (absl::Status s = scene->Init(mesh); !s.ok()) return s;
   return scene;
 }
@@ -105,12 +106,13 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   device_ = SharedDevice();
   if (!device_) return absl::InternalError("rtcNewDevice failed");
   scene_ = rtcNewScene(device_);
-  // ROBUST: watertight intersection, so a ray through a shared edge or
-  // vertex (common on symmetric meshes) cannot slip between primitives.
-  // DYNAMIC (with LOW quality and a REFIT geometry): without it Embree 3
-  // rebuilds on every commit instead of refitting (measured: 50 ms vs 4 ms
-  // for 320k triangles). CONTEXT_FILTER_FUNCTION: IntersectFan's filter.
-  int flags = RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+  // ROBUST (RayTest::kWatertight): a ray through a shared edge or vertex
+  // (common on symmetric meshes) cannot slip between primitives. DYNAMIC (with
+  // LOW quality and a REFIT geometry): without it Embree 3 rebuilds on every
+  // commit instead of refitting (measured: 50 ms vs 4 ms for 320k triangles).
+  // CONTEXT_FILTER_FUNCTION: IntersectFan's filter.
+  int flags = RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+  if (test_ == RayTest::kWatertight) flags |= RTC_SCENE_FLAG_ROBUST;
   if (policy_ == BvhUpdatePolicy::kRefit) flags |= RTC_SCENE_FLAG_DYNAMIC;
   rtcSetSceneFlags(scene_, static_cast<RTCSceneFlags>(flags));
   rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
@@ -306,7 +308,7 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             absl::Span<HitCandidates> out) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
-  for (HitCandidates& c : out) c = HitCandidates(reach);
+  for (HitCandidates& c : out) c.Reset(reach);
   FanContext fan;
   rtcInitIntersectContext(&fan.rtc);
   fan.rtc.filter = FanFilter;

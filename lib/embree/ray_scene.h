@@ -41,6 +41,19 @@ enum class BvhUpdatePolicy {
 // it changes only when the mesh moves by about its size.
 Vec3 SceneOrigin(const Mesh& mesh);
 
+// The ray-primitive test Embree runs.
+enum class RayTest {
+  // Watertight (Embree's ROBUST mode): a ray through an edge or vertex
+  // shared by primitives hits at least one of them, as SPEC §4's closest
+  // hit needs. The default everywhere.
+  kWatertight,
+  // Embree's faster default test, for measuring what the watertight one
+  // costs (meshgauge_bench): a ray through a shared edge can slip between
+  // its primitives and meet a farther surface or none (docs/benchmarks.md
+  // counts how often on the shared meshes).
+  kFast,
+};
+
 class RayScene {
  public:
   // Builds the BVH. `topo` must outlive the scene. Errors: InvalidArgument
@@ -49,7 +62,8 @@ class RayScene {
   // face's vertex over 1e17 from SceneOrigin(mesh));
   // Internal on Embree failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
-      const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy);
+      const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy,
+      RayTest test = RayTest::kWatertight);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
@@ -97,8 +111,8 @@ class RayScene {
                     absl::Span<HitCandidates> out) const;
 
  private:
-  RayScene(const MeshTopology& topo, BvhUpdatePolicy policy)
-      : topo_(topo), policy_(policy) {}
+  RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)
+      : topo_(topo), policy_(policy), test_(test) {}
   absl::Status Init(const Mesh& mesh);
   // Sets origin_ and extrude_half_height_ for `mesh` and copies its
   // positions into the vertex buffer.
@@ -107,6 +121,7 @@ class RayScene {
 
   const MeshTopology& topo_;
   BvhUpdatePolicy policy_;
+  RayTest test_;
   int dimension_ = 3;
   float extrude_half_height_ = 1;
   Vec3 origin_;  // subtracted (in double) from every coordinate Embree sees.

@@ -177,6 +177,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   std::unique_ptr<SdfEvaluator> ev(new SdfEvaluator());
   if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   ev->policy_ = options.bvh_policy;
+  ev->ray_test_ = options.ray_test;
   ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;
   ev->order_ = MortonOrder(ev->mesh_.positions);
@@ -189,7 +190,7 @@ bool IsBvhBase(int64_t generation, int rebuild_every_updates) {
 }
 
 absl::Status SdfEvaluator::RebuildBvh() {
-  auto scene = RayScene::Create(mesh_, topo_, policy_);
+  auto scene = RayScene::Create(mesh_, topo_, policy_, ray_test_);
   if (!scene.ok()) return scene.status();
   scene_ = std::move(*scene);
   ++builds_;
@@ -522,12 +523,16 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       directions();
       // Trace (in packets), prefetching each candidate primitive, then pick
       // each ray's hit in double precision once it has arrived.
-      retrace_dirs.clear();
-      for (int k : retrace) retrace_dirs.push_back(dirs[k]);
+      absl::Span<const Vec3> fan_dirs = dirs;
+      if (reuse) {
+        retrace_dirs.clear();
+        for (int k : retrace) retrace_dirs.push_back(dirs[k]);
+        fan_dirs = retrace_dirs;
+      }
       SampleExclusions(mesh_, topo_, params.samples, /*ball=*/false, p,
                        &excluded);
       const auto fan = absl::MakeSpan(candidates.data(), retrace.size());
-      scene_->IntersectFan(x, retrace_dirs, limits, excluded, fan);
+      scene_->IntersectFan(x, fan_dirs, limits, excluded, fan);
       for (const HitCandidates& c : fan) {
         if (c.count() > 0) PrefetchPrimitive(c[0].prim);
       }
@@ -538,7 +543,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       for (size_t j = 0; j < retrace.size(); ++j) {
         prims[retrace[j]] =
             PickClosest(*this, fan[j], excluded, limits.t_min, reach, x,
-                        retrace_dirs[j], &around, &t[retrace[j]]);
+                        fan_dirs[j], &around, &t[retrace[j]]);
         vertex_near |= fan[j].near();
       }
       for (int k = 0; k < num_rays; ++k) {

@@ -32,6 +32,9 @@ struct EvaluatorOptions {
   // generation() right after creation (>= 0): a session restored at a later
   // generation keeps counting from there.
   int64_t generation = 0;
+  // kFast only to measure what the watertight test costs (it breaks SPEC
+  // §4 on rays through shared edges).
+  RayTest ray_test = RayTest::kWatertight;
 };
 
 // True when the BVH of `generation` is built from scratch rather than
@@ -113,6 +116,7 @@ class SdfEvaluator : public MeshGeometry {
   absl::Status RebuildBvh();
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
+  RayTest ray_test_ = RayTest::kWatertight;
   int rebuild_every_updates_ = 0;
   std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;
