@@ -2,6 +2,7 @@
 //
 //   meshgauge-load --target host:port [--clients N] [--iterations M]
 //                  [--frequency F] [--time_limit_seconds T] [--recreate]
+//                  [--until_signal]
 //
 // Every client creates its own session (an icosphere of geodesic frequency
 // F), then for M iterations: UpdatePositions (a deterministic deformation of
@@ -10,6 +11,11 @@
 // the same sequence alone: the reference. Every reply of every concurrent
 // client must equal the reference bit for bit. Bounded by --iterations and
 // --time_limit_seconds; loopback or the stack's own addresses only.
+// With --until_signal the clients go on past M iterations, the positions
+// cycling through the reference's M (SPEC 2.1: a reply does not depend on
+// the session's history), until SIGTERM or SIGINT: each client then ends
+// its iteration and stops (a fault test ends the load once its fault is
+// over, whatever the fault's length).
 // With --recreate, a client whose session was lost (NOT_FOUND, UNAVAILABLE:
 // a replica died) re-creates it at the current iteration and continues.
 // At the end every client checks that its session is still there at its
@@ -25,6 +31,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <map>
@@ -45,6 +52,9 @@ ABSL_FLAG(int, clients, 4, "concurrent clients, 1..256");
 ABSL_FLAG(int, iterations, 5, "iterations per client, 1..10000");
 ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
 ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
+ABSL_FLAG(bool, until_signal, false,
+          "iterate until SIGTERM or SIGINT, the positions cycling through "
+          "the --iterations of the reference");
 ABSL_FLAG(bool, recreate, false, "re-create lost sessions and continue");
 ABSL_FLAG(std::string, session_prefix, "load", "session ids: PREFIX-<n>");
 ABSL_FLAG(bool, retry, true,
@@ -63,6 +73,11 @@ namespace meshgauge::bench {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Set by SIGTERM or SIGINT with --until_signal.
+std::atomic<bool> stop_requested{false};
+static_assert(std::atomic<bool>::is_always_lock_free);
+void RequestStop(int) { stop_requested = true; }
 
 struct Reply {
   std::vector<double> values;
@@ -113,12 +128,15 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
-// One client's run. Fills `replies` when `reference` is null, else compares.
-// Returns false when the client could not finish.
+// One client's run: `iterations` of them, or with `until_signal` until
+// stop_requested (iteration i at the positions of i % iterations). Fills
+// `replies` when `reference` is null, else compares. Returns false when the
+// client could not finish.
 bool RunClient(const std::string& target, const client::ClientOptions& options,
                const std::string& id, const Mesh& mesh, int iterations,
-               Clock::time_point stop_at, std::vector<Reply>* replies,
-               const std::vector<Reply>* reference, Stats& stats) {
+               bool until_signal, Clock::time_point stop_at,
+               std::vector<Reply>* replies, const std::vector<Reply>* reference,
+               Stats& stats) {
   client::RemoteClient c(target, options);
   const SdfParams params;
   const std::vector<double> ones(mesh.num_vertices(), 1.0);
@@ -141,9 +159,10 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
   };
   if (!create(mesh.positions)) return false;
   int64_t generation = 0;
-  for (int it = 0; it < iterations; ++it) {
+  for (int it = 0; until_signal ? !stop_requested : it < iterations; ++it) {
     if (Clock::now() > stop_at) return false;
-    const std::vector<Vec3> positions = Deform(mesh, it);
+    const int step = it % iterations;
+    const std::vector<Vec3> positions = Deform(mesh, step);
     bool lost = false;
     auto up = timed("UpdatePositions", [&] {
       return c.UpdatePositions(id, generation, 3, positions);
@@ -154,7 +173,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     if (up.ok()) {
       generation = up->generation;
       sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
-      if (sdf.ok() && it % 2 == 0) {
+      if (sdf.ok() && step % 2 == 0) {
         auto vjp =
             timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
         derivative = vjp.status();
@@ -208,8 +227,8 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     }
     if (reference == nullptr) {
       replies->push_back(std::move(reply));
-    } else if (!SameBits(reply.values, (*reference)[it].values) ||
-               !SameBits(reply.gradient, (*reference)[it].gradient)) {
+    } else if (!SameBits(reply.values, (*reference)[step].values) ||
+               !SameBits(reply.gradient, (*reference)[step].gradient)) {
       ++stats.mismatches;
     }
   }
@@ -252,8 +271,14 @@ int Run() {
   const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
   Stats ref_stats;
   std::vector<Reply> reference;
+  const bool until_signal = absl::GetFlag(FLAGS_until_signal);
+  if (until_signal) {
+    std::signal(SIGTERM, RequestStop);
+    std::signal(SIGINT, RequestStop);
+  }
   if (!RunClient(target, options, prefix + "-reference", mesh, iterations,
-                 stop_at, &reference, nullptr, ref_stats)) {
+                 /*until_signal=*/false, stop_at, &reference, nullptr,
+                 ref_stats)) {
     std::printf("reference run failed\n");
     ref_stats.PrintErrors();
     return 1;
@@ -267,7 +292,8 @@ int Run() {
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
       if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh,
-                    iterations, stop_at, nullptr, &reference, stats)) {
+                    iterations, until_signal, stop_at, nullptr, &reference,
+                    stats)) {
         ++finished;
       }
     });
@@ -277,8 +303,13 @@ int Run() {
       std::chrono::duration<double>(Clock::now() - start).count();
   int64_t errors = 0;
   for (const auto& [k, n] : stats.errors) errors += n;
-  std::printf("target %s: %d clients x %d iterations, %lld vertices, %.2f s\n",
-              target.c_str(), clients, iterations,
+  const std::string per_client =
+      until_signal
+          ? absl::StrCat("iterations until signalled (cycling through ",
+                         iterations, " positions)")
+          : absl::StrCat(iterations, " iterations");
+  std::printf("target %s: %d clients x %s, %lld vertices, %.2f s\n",
+              target.c_str(), clients, per_client.c_str(),
               static_cast<long long>(mesh.num_vertices()), wall);
   std::printf(
       "throughput: %.2f iterations/s (%lld iterations), %d/%d clients "

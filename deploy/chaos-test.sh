@@ -1,9 +1,12 @@
 #!/usr/bin/env bash
 # Chaos test of the stack (deploy/stack.sh): while the project's load client
 # (meshgauge-load: 6 clients, UpdatePositions -> ComputeSdf -> ComputeVjp or
-# ComputePenalty, a fixed number of iterations, every reply compared bit for
-# bit with a single-client reference at the same generation, every session
-# checked at the end) runs through the balancer, one fault per phase:
+# ComputePenalty, every reply compared bit for bit with a single-client
+# reference at the same positions, every session checked at the end) runs
+# through the balancer, one fault per phase. The clients start before the
+# fault and go on until it is over and they have made 30 more iterations;
+# then they are told to stop (meshgauge-load --until_signal, SIGTERM), so
+# the load outlasts any fault:
 #   kill     a replica's server process is SIGKILLed (a crash; its restart
 #            policy brings it back)
 #   restart  the replicas in turn are restarted (graceful stop, start;
@@ -32,7 +35,8 @@ COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
 MESHGAUGE_VERSION=$(meshgauge_version)
 export MESHGAUGE_VERSION
 PROM=http://127.0.0.1:9090
-ITERATIONS=${CHAOS_ITERATIONS:-50}
+# The reference's iterations, whose positions the clients cycle through.
+ITERATIONS=${CHAOS_ITERATIONS:-30}
 RESTARTS=${CHAOS_RESTARTS:-2}
 PAUSE_SECONDS=${CHAOS_PAUSE_SECONDS:-20}
 MAX_LATENCY=${CHAOS_MAX_LATENCY:-10}
@@ -71,11 +75,13 @@ failed=0
 phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clients run)
   local name=$1 fault=$2
   shift 2
-  local out="$REPORT/$name.txt"
-  stack_tool meshgauge-load --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
+  local out="$REPORT/$name.txt" container="meshgauge-chaos-load-$name"
+  docker rm -f "$container" >/dev/null 2>&1 || true  # left by a killed run.
+  STACK_TOOL_NAME=$container stack_tool meshgauge-load \
+    --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
     --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
-    --frequency 16 --session_prefix "chaos-$name" --time_limit_seconds 600 \
-    --progress_every 6 "$@" >"$out" 2>&1 &
+    --until_signal --frequency 16 --session_prefix "chaos-$name" \
+    --time_limit_seconds 600 --progress_every 6 "$@" >"$out" 2>&1 &
   local load=$!
   # The fault comes once the clients have made calls (6 iterations).
   await_lines "$out" '^iterations:' 0 1200 ||
@@ -83,8 +89,14 @@ phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clien
   local start=$SECONDS
   echo "== phase $name: $fault"
   eval "$fault" || { echo "FAIL: the fault command failed"; failed=1; }
-  kill -0 "$load" 2>/dev/null ||
-    { echo "FAIL: the clients finished before the fault was over"; failed=1; }
+  if kill -0 "$load" 2>/dev/null; then
+    # Calls after the fault: 30 more iterations, then the clients stop.
+    await_lines "$out" '^iterations:' $(($(grep -c '^iterations:' "$out") + 4)) 1200 ||
+      { echo "FAIL: the clients made no progress after the fault"; failed=1; }
+    docker kill --signal TERM "$container" >/dev/null 2>&1 || true
+  else
+    echo "FAIL: the clients finished before the fault was over"; failed=1
+  fi
   local rc=0
   wait "$load" || rc=$?
   local end
@@ -106,8 +118,8 @@ phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clien
 healthy 2
 # A crash: SIGKILL from outside the engine (`docker kill` would count as a
 # manual stop and suspend the restart policy).
-phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(stack_replica 1)")"'
-healthy 2  # the restart policy brought it back
+# The fault is over once the restart policy has brought the replica back.
+phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(stack_replica 1)")"; sleep 3; healthy 2'
 restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
   for i in $(seq 1 "$RESTARTS"); do
     local r=$((2 - (i + 1) % 2))
@@ -116,12 +128,9 @@ restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
     healthy 2
   done
 }
-# Two graceful restarts, each waiting for health, can outlast the usual load
-# (in CI at ecd4146 the clients finished first): twice the iterations.
-phase restart restarts --iterations $((2 * ITERATIONS))
+phase restart restarts
 healthy 2
-phase scale './stack.sh scale 3'
-healthy 3
+phase scale './stack.sh scale 3 && healthy 3'
 hang() {  # replica $1's server process stops for PAUSE_SECONDS, then goes on
   local pid
   pid=$(docker inspect -f '{{.State.Pid}}' "$(stack_replica "$1")")

@@ -85,9 +85,11 @@ stack_build_stage() {
 
 # Runs the meshgauge image's program $1 with arguments $2... on the host
 # network as the caller's user, with the stack's secrets (./secrets, run
-# from deploy/) at /secrets and MESHGAUGE_TOKEN passed on when set.
+# from deploy/) at /secrets and MESHGAUGE_TOKEN passed on when set; the
+# container is named $STACK_TOOL_NAME when set (to signal it).
 stack_tool() {
   docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
+    ${STACK_TOOL_NAME:+--name "$STACK_TOOL_NAME"} \
     -v "$PWD/secrets:/secrets:ro" ${MESHGAUGE_TOKEN:+-e MESHGAUGE_TOKEN} \
     --entrypoint "$1" "meshgauge:$(meshgauge_version)" "${@:2}"
 }
