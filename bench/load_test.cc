@@ -12,8 +12,8 @@
 // client must equal the reference bit for bit. Bounded by --iterations and
 // --time_limit_seconds; loopback or the stack's own addresses only.
 // With --until_signal the clients go on past M iterations, the positions
-// cycling through the reference's M (SPEC 2.1: a reply does not depend on
-// the session's history), until SIGTERM or SIGINT: each client then ends
+// cycling through the reference's M (SPEC §3, v2.1: a reply does not depend
+// on the session's history), until SIGTERM or SIGINT: each client then ends
 // its iteration and stops (a fault test ends the load once its fault is
 // over, whatever the fault's length).
 // With --recreate, a client whose session was lost (NOT_FOUND, UNAVAILABLE:
@@ -196,11 +196,8 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
              failed.code() == absl::StatusCode::kUnavailable;
       if (!(lost && absl::GetFlag(FLAGS_recreate))) return false;
       // Re-create from the original mesh and redo this iteration (which
-      // moves it to this iteration's positions). The BVH is then built from
-      // the same positions as the reference's and refitted to the same
-      // positions, so the replies stay bit-identical (a BVH built directly
-      // at the moved positions may break exact float ties between
-      // primitives differently).
+      // moves it to this iteration's positions); the replies do not depend
+      // on the session's history (SPEC §3, v2.1).
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
       bool ok = false;
       for (int attempt = 0; attempt < 20 && !ok; ++attempt) {
@@ -281,6 +278,10 @@ int Run() {
                  ref_stats)) {
     std::printf("reference run failed\n");
     ref_stats.PrintErrors();
+    return 1;
+  }
+  if (stop_requested) {  // the clients would make no iteration and pass.
+    std::printf("stopped by a signal before the concurrent phase\n");
     return 1;
   }
   Stats stats;

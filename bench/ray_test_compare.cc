@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <memory>
 #include <numeric>
+#include <vector>
 
 #include "lib/embree/sdf_evaluator.h"
 
@@ -13,12 +15,14 @@ namespace meshgauge::bench {
 absl::StatusOr<RayTestComparison> CompareRayTests(const Mesh& mesh,
                                                   const SdfParams& params,
                                                   int rounds) {
+  // [0]: watertight, [1]: fast.
+  constexpr RayTest kTests[2] = {RayTest::kWatertight, RayTest::kFast};
   std::unique_ptr<SdfEvaluator> evaluators[2];
-  for (RayTest test : {RayTest::kWatertight, RayTest::kFast}) {
+  for (int i = 0; i < 2; ++i) {
     auto made = SdfEvaluator::Create(
-        mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild, .ray_test = test});
+        mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild, .ray_test = kTests[i]});
     if (!made.ok()) return made.status();
-    evaluators[static_cast<int>(test)] = std::move(*made);
+    evaluators[i] = std::move(*made);
   }
   SdfResult results[2];
   double rates[2] = {0, 0};

@@ -286,12 +286,13 @@ int BenchRayTests(const std::string& name, const Mesh& mesh) {
   const double rays = static_cast<double>(c->rays);
   std::printf(
       "%-28s ray test: watertight %.3e rays/s, fast %.3e rays/s (%.3f x); "
-      "hit fraction %.7f vs %.7f (%lld rays); values differ at %lld of %lld "
-      "vertices (%.2e), largest relative difference %.2e\n",
+      "hit fraction %.7f vs %.7f (hits lost by the fast test: %lld); values "
+      "differ at %lld of %lld vertices (%.2e), largest relative difference "
+      "%.2e\n",
       name.c_str(), c->watertight_rate, c->fast_rate,
       c->fast_rate / c->watertight_rate, c->watertight_hits / rays,
       c->fast_hits / rays,
-      static_cast<long long>(c->fast_hits - c->watertight_hits),
+      static_cast<long long>(c->watertight_hits - c->fast_hits),
       static_cast<long long>(c->differing), static_cast<long long>(c->vertices),
       static_cast<double>(c->differing) / static_cast<double>(c->vertices),
       c->max_relative_difference);

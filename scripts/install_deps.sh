@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages meshgauge needs (idempotent: apt-get runs
-# only when a package is missing). Uses sudo when not root.
+# Installs the Debian 12 packages meshgauge needs, and any packages given as
+# arguments (scripts/bench_cgal.sh: libcgal-dev), idempotently: apt-get runs
+# only when a package is missing. Uses sudo when not root.
 set -euo pipefail
 
 PACKAGES=(
@@ -14,6 +15,7 @@ PACKAGES=(
   python3-venv python3-pip python3-wheel python3-setuptools mypy libcli11-dev
   redis-server libhiredis-dev haproxy libpng-dev chromium
   libeigen3-dev
+  "$@"
 )
 
 missing=()

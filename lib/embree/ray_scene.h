@@ -43,9 +43,10 @@ Vec3 SceneOrigin(const Mesh& mesh);
 
 // The ray-primitive test Embree runs.
 enum class RayTest {
-  // Watertight (Embree's ROBUST mode): a ray through an edge or vertex
-  // shared by primitives hits at least one of them, as SPEC §4's closest
-  // hit needs. The default everywhere.
+  // Embree's ROBUST mode, a watertight test: a ray through an edge or
+  // vertex shared by primitives does not slip between them (measured:
+  // RaySceneTest, docs/benchmarks.md), as SPEC §4's closest hit needs. The
+  // default everywhere.
   kWatertight,
   // Embree's faster default test, for measuring what the watertight one
   // costs (meshgauge_bench): a ray through a shared edge can slip between
