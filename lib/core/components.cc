@@ -1,5 +1,7 @@
 #include "lib/core/components.h"
 
+#include <tbb/parallel_invoke.h>
+
 #include <algorithm>
 #include <array>
 #include <numeric>
@@ -133,9 +135,11 @@ std::vector<Component> ConnectedComponents(const Mesh& mesh) {
 
 namespace {
 
-// DiagnoseMesh from the mesh's topology and manifold neighbours.
+// DiagnoseMesh from the mesh's topology, manifold neighbours and count of
+// double-sided faces.
 MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
-                         const std::vector<FacePair>& pairs) {
+                         const std::vector<FacePair>& pairs,
+                         int64_t double_sided_faces) {
   MeshDiagnostics d;
   d.components = std::ssize(t.components);
   d.closed = t.closed;
@@ -146,7 +150,7 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
       d.inward_component_faces.push_back(std::ssize(c.faces));
     }
   }
-  d.double_sided_faces = CountDoubleSidedFaces(mesh);
+  d.double_sided_faces = double_sided_faces;
   d.boundary_edges = t.boundary_edges;
   std::vector<int32_t> component_of(mesh.faces.size());
   for (size_t i = 0; i < t.components.size(); ++i) {
@@ -297,8 +301,18 @@ Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
 }  // namespace
 
 MeshDiagnostics DiagnoseMesh(const Mesh& mesh) {
-  const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
-  return Diagnose(mesh, AnalyzeTopology(mesh, uses), ManifoldNeighbours(uses));
+  // The double-sided faces' sort beside the edges' (both read the mesh
+  // only): a third of the checks' time on a million vertices.
+  int64_t double_sided = 0;
+  Topology t;
+  std::vector<FacePair> pairs;
+  tbb::parallel_invoke([&] { double_sided = CountDoubleSidedFaces(mesh); },
+                       [&] {
+                         const std::vector<EdgeUse> uses = SortedEdgeUses(mesh);
+                         t = AnalyzeTopology(mesh, uses);
+                         pairs = ManifoldNeighbours(uses);
+                       });
+  return Diagnose(mesh, t, pairs, double_sided);
 }
 
 Reorientation ReorientComponents(Mesh& mesh) {
@@ -313,7 +327,8 @@ MeshDiagnostics ReorientAndDiagnose(Mesh& mesh, Reorientation* reorientation) {
   Topology t = AnalyzeTopology(mesh, uses);
   std::vector<FacePair> pairs = ManifoldNeighbours(uses);
   *reorientation = Reorient(mesh, t, pairs);
-  return Diagnose(mesh, t, pairs);
+  // Counted after reorienting: it turns faces.
+  return Diagnose(mesh, t, pairs, CountDoubleSidedFaces(mesh));
 }
 
 }  // namespace meshgauge

@@ -53,6 +53,13 @@ std::string Cause(const Mesh& mesh, const Component& c,
 std::vector<std::string> MissingValueWarnings(
     const Mesh& mesh, const std::vector<double>& values,
     const std::vector<VertexStatus>& status, double warn_fraction) {
+  // Nothing missing, nothing flagged: skip the components (a full topology
+  // pass, about half a second on a million vertices).
+  if (warn_fraction >= 0 &&
+      std::all_of(values.begin(), values.end(),
+                  [](double v) { return std::isfinite(v); })) {
+    return {};
+  }
   const std::vector<Component> components = ConnectedComponents(mesh);
   std::vector<int32_t> component_of(mesh.faces.size());
   std::vector<ComponentMissing> per(components.size());

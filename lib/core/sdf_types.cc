@@ -88,8 +88,11 @@ const char* VertexStatusName(VertexStatus status) {
 
 ValueStats SummarizeValues(const std::vector<double>& values) {
   std::vector<double> ok;
+  double sum = 0;
   for (double v : values) {
-    if (std::isfinite(v)) ok.push_back(v);
+    if (!std::isfinite(v)) continue;
+    ok.push_back(v);
+    sum += v;  // in the values' order: the same for any thread count.
   }
   ValueStats s;
   s.count = std::ssize(ok);
@@ -98,14 +101,17 @@ ValueStats SummarizeValues(const std::vector<double>& values) {
         std::numeric_limits<double>::quiet_NaN();
     return s;
   }
-  std::sort(ok.begin(), ok.end());
-  const size_t n = ok.size();
-  double sum = 0;
-  for (double v : ok) sum += v;
-  s.min = ok.front();
-  s.max = ok.back();
-  s.mean = sum / static_cast<double>(n);
-  s.median = n % 2 ? ok[n / 2] : (ok[n / 2 - 1] + ok[n / 2]) / 2;
+  const auto [min, max] = std::minmax_element(ok.begin(), ok.end());
+  s.min = *min;
+  s.max = *max;
+  s.mean = sum / static_cast<double>(ok.size());
+  // The median by selection (linear time): the upper middle element, and
+  // for an even count the largest of the lower half too.
+  const auto upper = ok.begin() + std::ssize(ok) / 2;
+  std::nth_element(ok.begin(), upper, ok.end());
+  s.median = ok.size() % 2
+                 ? *upper
+                 : (*std::max_element(ok.begin(), upper) + *upper) / 2;
   return s;
 }
 
