@@ -20,8 +20,10 @@ namespace {
 
 // Samples per batch: the rows of a batch are computed in parallel, then
 // scattered in parallel over destination ranges, each destination summing
-// in sample order (deterministic sums).
-constexpr int64_t kBatch = 4096;
+// in sample order (deterministic sums). The rows' memory is reused from
+// batch to batch; small batches keep it in cache and fault in fewer pages
+// per call (horse, 100 rays: VJP 0.23 s with 4096, 0.17 s with 1024).
+constexpr int64_t kBatch = 1024;
 
 struct Term {
   int32_t vertex;
