@@ -230,7 +230,8 @@ TEST(OrientationTest, ReorientMakesEachComponentConsistentThenOutward) {
 // The shared-analysis ReorientAndDiagnose gives what the two calls give,
 // on meshes where every one of its updates matters: faces made consistent
 // (pair directions), a component turned outward (volumes), a double-sided
-// pair, a reversed segment of a curve.
+// pair, a reversed segment of a curve, a duplicated face that turning
+// makes double-sided.
 TEST(OrientationTest, ReorientAndDiagnoseEqualsTheTwoCalls) {
   int flipped = 0;
   Mesh sphere = SphereWithFlippedFaces(&flipped);
@@ -242,7 +243,19 @@ TEST(OrientationTest, ReorientAndDiagnoseEqualsTheTwoCalls) {
   sided.faces.push_back(back);
   Mesh curve = MakeCircle(1, 16);
   ReverseFace(curve.faces[3]);
-  for (const Mesh& m : {sphere, boxes, sided, curve}) {
+  // Two copies of one triangle, alike: they disagree across all three
+  // edges, and making them agree turns one into the other's back.
+  Mesh twins;
+  twins.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  twins.faces = {Face::Triangle(0, 1, 2), Face::Triangle(0, 1, 2)};
+  {
+    Mesh t = twins;
+    Reorientation r;
+    EXPECT_EQ(DiagnoseMesh(t).double_sided_faces, 0);
+    EXPECT_EQ(ReorientAndDiagnose(t, &r).double_sided_faces, 2);
+    EXPECT_EQ(r.faces_made_consistent, 1);
+  }
+  for (const Mesh& m : {sphere, boxes, sided, curve, twins}) {
     Mesh a = m, b = m;
     const Reorientation ra = ReorientComponents(a);
     const MeshDiagnostics da = DiagnoseMesh(a);
