@@ -14,8 +14,8 @@ mkdir -p "$OUT/obj"
 CXX=clang++-14
 FLAGS=(-std=c++20 -O1 -g -I. -fsanitize=fuzzer-no-link,address,undefined
        -fno-sanitize-recover=undefined -fno-omit-frame-pointer)
-read -r -a ABSL <<<"$(pkg-config --libs absl_strings absl_status absl_statusor \
-  absl_str_format absl_hash)"
+read -r -a LIBS <<<"$(pkg-config --libs absl_strings absl_status absl_statusor \
+  absl_str_format absl_hash tbb)"
 SOURCES=(lib/io/mesh_builder.cc lib/io/mesh_io.cc lib/io/obj_reader.cc
          lib/io/off_reader.cc lib/io/ply_reader.cc lib/io/scan.cc
          lib/io/stl_reader.cc lib/core/polygon.cc lib/core/mesh.cc
@@ -32,7 +32,7 @@ status=0
 for fmt in obj off ply stl; do
   bin="$OUT/fuzz_$fmt"
   "$CXX" "${FLAGS[@]}" -fsanitize=fuzzer "-DMESHGAUGE_FUZZ_FORMAT=\".$fmt\"" \
-    tests/fuzz/fuzz_reader.cc "${OBJECTS[@]}" "${ABSL[@]}" -o "$bin"
+    tests/fuzz/fuzz_reader.cc "${OBJECTS[@]}" "${LIBS[@]}" -o "$bin"
   work="$OUT/corpus_$fmt"
   mkdir -p "$work"
   log="$OUT/fuzz_$fmt.log"

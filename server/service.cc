@@ -290,7 +290,9 @@ absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(
       !s.ok()) {
     return s;
   }
-  auto repaired = RepairFileMesh(std::move(*file), assembler.repairs());
+  RepairOptions repairs = assembler.repairs();
+  repairs.threads = options_.compute_threads;
+  auto repaired = RepairFileMesh(std::move(*file), repairs);
   if (!repaired.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("CreateSession: ", repaired.status().message()));

@@ -153,7 +153,7 @@ TEST_F(UploadFileTest, AFileIsReadAsTheCliReadsIt) {
     ASSERT_TRUE(info.ok()) << info.status();
     cli::MeshFlags flags;
     flags.reorient = true;
-    auto cli = cli::LoadMesh(path, flags);
+    auto cli = cli::LoadMesh(path, flags, /*threads=*/0);
     ASSERT_TRUE(cli.ok()) << cli.status();
     EXPECT_EQ(info->num_vertices(), cli->mesh.num_vertices());
     EXPECT_EQ(info->num_faces(), cli->mesh.num_faces());

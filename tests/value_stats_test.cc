@@ -38,6 +38,15 @@ TEST(ValueStatsTest, MedianOfManyUnsortedValues) {
   EXPECT_EQ(s.max, 1000);
 }
 
+TEST(ValueStatsTest, MedianOfManyValuesWithRepeatsAndAnEvenCount) {
+  std::vector<double> values;
+  for (int i = 0; i < 1000; ++i) values.push_back((i * 389) % 1000 / 2);
+  const ValueStats s = SummarizeValues(values);  // 0, 0, 1, 1, ..., 499
+  EXPECT_EQ(s.count, 1000);
+  EXPECT_EQ(s.median, 249.5);
+  EXPECT_EQ(s.mean, 249.5);
+}
+
 TEST(ValueStatsTest, NoFiniteValueGivesNaNs) {
   const ValueStats s = SummarizeValues({kNaN, -kInf});
   EXPECT_EQ(s.count, 0);

@@ -314,7 +314,7 @@ absl::Status ApplyRegionDirections(Mesh& mesh,
 }  // namespace
 
 absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
-                                    const MeshFlags& flags) {
+                                    const MeshFlags& flags, int threads) {
   const Stopwatch watch;
   auto read = ReadMeshFile(path);
   if (!read.ok()) return read.status();
@@ -330,7 +330,8 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
   }
   auto repaired = RepairFileMesh(
       std::move(*read), {.drop_degenerate_faces = flags.drop_degenerate_faces,
-                         .reorient = flags.reorient});
+                         .reorient = flags.reorient,
+                         .threads = threads});
   if (!repaired.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": ", repaired.status().message()));

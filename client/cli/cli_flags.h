@@ -153,8 +153,9 @@ struct LoadedMesh {
 
 // Reads and validates `path`; inward-oriented closed components, double-
 // sided faces and open meshes are reported in `warnings`; the inward
-// components are reversed only with --reorient.
+// components are reversed only with --reorient. The checks use at most
+// `threads` threads (0: all cores).
 absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
-                                    const MeshFlags& flags);
+                                    const MeshFlags& flags, int threads);
 
 }  // namespace meshgauge::cli

@@ -1,6 +1,8 @@
 #include "client/cli/huge_pages.h"
 
+#include <limits.h>
 #include <stdlib.h>
+#include <sys/auxv.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -11,7 +13,16 @@ namespace {
 
 constexpr char kTunable[] = "glibc.malloc.hugetlb";
 
-bool NamesFileOfAtLeast(char** argv, int64_t bytes) {
+}  // namespace
+
+bool HugePageTunableNamed() {
+  const char* tunables = getenv("GLIBC_TUNABLES");
+  return tunables != nullptr &&
+         std::string(tunables).find(kTunable) != std::string::npos;
+}
+
+bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes) {
+  if (argv[0] == nullptr) return false;
   for (char** arg = argv + 1; *arg != nullptr; ++arg) {
     struct stat st;
     if (stat(*arg, &st) == 0 && S_ISREG(st.st_mode) && st.st_size >= bytes) {
@@ -21,26 +32,25 @@ bool NamesFileOfAtLeast(char** argv, int64_t bytes) {
   return false;
 }
 
-}  // namespace
-
-bool HugePageTunableNamed() {
-  const char* tunables = getenv("GLIBC_TUNABLES");
-  return tunables != nullptr &&
-         std::string(tunables).find(kTunable) != std::string::npos;
-}
-
-void ReexecWithHugePages(char** argv, int64_t min_file_bytes) {
+void ReexecWithHugePages(char** argv) {
   if (argv[0] == nullptr || HugePageTunableNamed() ||
-      !NamesFileOfAtLeast(argv, min_file_bytes)) {
+      getauxval(AT_SECURE) != 0) {
     return;
   }
+  char exe[PATH_MAX];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n <= 0) return;
+  exe[n] = '\0';
+  const std::string path(exe);
+  const std::string name = path.substr(path.rfind('/') + 1);
+  if (name.rfind("ld-", 0) == 0 || name.rfind("ld.so", 0) == 0) return;
   const char* tunables = getenv("GLIBC_TUNABLES");
   std::string value = tunables != nullptr && *tunables != '\0'
                           ? std::string(tunables) + ":"
                           : std::string();
   value += std::string(kTunable) + "=1";
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
-  execv("/proc/self/exe", argv);
+  execv(exe, argv);
   // Not re-executed: this process keeps its small pages.
 }
 

@@ -11,17 +11,24 @@ namespace meshgauge::cli {
 // user's explicit 0 is respected).
 bool HugePageTunableNamed();
 
+// Whether one of argv[1..] (inputs and outputs alike; `--flag=path` is not
+// split) names a regular file of at least `bytes`. `argv`: main's,
+// null-terminated.
+bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes);
+
 // glibc's malloc (2.35 and later) asks the kernel for transparent huge pages
 // for its large chunks only when the tunable glibc.malloc.hugetlb=1 is in
 // GLIBC_TUNABLES at start-up; the kernel grants them when its THP mode is
-// "madvise" (Debian's default) or "always". When the tunable is not named
-// yet and one of the arguments argv[1..] names a regular file of at least
-// `min_file_bytes` (a mesh large enough to repay the re-execution, about
-// 20 ms), re-executes this program (/proc/self/exe, the same arguments)
-// with the tunable appended to GLIBC_TUNABLES. Returns when it does not
+// "madvise" (Debian's default) or "always". Unless the tunable is named
+// already, re-executes this program (the file /proc/self/exe links to, so
+// that its process name stays; the same arguments, about 20 ms) with the
+// tunable appended to GLIBC_TUNABLES. Does nothing in a secure-execution
+// (setuid) process, whose loader drops the tunable, or when the program is
+// run through the dynamic loader (`ld.so PROGRAM`). Returns when it does not
 // re-execute or the re-execution failed (no /proc: the run goes on with
-// small pages). `argv`: main's, null-terminated. Call first in main, before
-// any thread starts.
-void ReexecWithHugePages(char** argv, int64_t min_file_bytes);
+// small pages). A run under a tool that follows the process (valgrind)
+// should set glibc.malloc.hugetlb=0. `argv`: main's, null-terminated. Call
+// first in main, before any thread starts.
+void ReexecWithHugePages(char** argv);
 
 }  // namespace meshgauge::cli

@@ -266,10 +266,12 @@ int Main(int argc, char** argv) {
 }  // namespace meshgauge::cli
 
 int main(int argc, char** argv) {
-  // Transparent huge pages for the arrays of meshes from 4 MiB files
+  // Transparent huge pages when an argument names a file of 4 MiB or more
   // (client/cli/huge_pages.h; docs/benchmarks.md): on a million-vertex mesh
   // read 0.59 -> 0.16 s, checks 0.90 -> 0.43 s, setup 0.69 -> 0.52 s.
-  meshgauge::cli::ReexecWithHugePages(argv, int64_t{4} << 20);
+  if (meshgauge::cli::ArgumentNamesFileOfAtLeast(argv, int64_t{4} << 20)) {
+    meshgauge::cli::ReexecWithHugePages(argv);
+  }
   // A run allocates and frees arrays of megabytes stage after stage (file,
   // diagnostics, topology, normals): kept in the heap instead of unmapped,
   // each is reused without faulting its pages in again (measured on igea:

@@ -12,7 +12,7 @@ absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
                             bool print_warnings) {
   auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
-  auto loaded = LoadMesh(in.mesh, in.mesh_flags);
+  auto loaded = LoadMesh(in.mesh, in.mesh_flags, params->threads);
   if (!loaded.ok()) return loaded.status();
   for (const std::string& w : loaded->warnings) {
     if (print_warnings) std::cerr << "meshgauge: warning: " << w << "\n";

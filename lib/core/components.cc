@@ -335,9 +335,10 @@ Reorientation ReorientComponents(Mesh& mesh) {
 MeshDiagnostics ReorientAndDiagnose(Mesh& mesh, Reorientation* reorientation) {
   Analysis a = Analyze(mesh);
   *reorientation = Reorient(mesh, a.topology, a.pairs);
-  // Turned faces may make or unmake double-sided pairs: counted again.
-  if (reorientation->faces_made_consistent > 0 ||
-      reorientation->components_turned_outward > 0) {
+  // Faces turned within a component may make or unmake double-sided pairs:
+  // counted again. (A pair's faces share their corners, so a component
+  // turned outward turns both.)
+  if (reorientation->faces_made_consistent > 0) {
     a.double_sided_faces = CountDoubleSidedFaces(mesh);
   }
   return Diagnose(mesh, a.topology, a.pairs, a.double_sided_faces);

@@ -1,5 +1,7 @@
 #include "lib/core/mesh_repair.h"
 
+#include <tbb/task_arena.h>
+
 #include <utility>
 
 #include "absl/strings/match.h"
@@ -52,8 +54,13 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
               "removes them)"
             : ""));
   }
-  r.diagnostics = options.reorient ? ReorientAndDiagnose(mesh, &r.reorientation)
-                                   : DiagnoseMesh(mesh);
+  tbb::task_arena arena(options.threads > 0 ? options.threads
+                                            : tbb::info::default_concurrency());
+  arena.execute([&] {
+    r.diagnostics = options.reorient
+                        ? ReorientAndDiagnose(mesh, &r.reorientation)
+                        : DiagnoseMesh(mesh);
+  });
   std::vector<std::string> warnings = RepairSentences(r);
   for (std::string& w : r.diagnostics.warnings) {
     warnings.push_back(std::move(w));

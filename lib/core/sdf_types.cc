@@ -92,7 +92,7 @@ ValueStats SummarizeValues(const std::vector<double>& values) {
   for (double v : values) {
     if (!std::isfinite(v)) continue;
     ok.push_back(v);
-    sum += v;  // in the values' order: the same for any thread count.
+    sum += v;
   }
   ValueStats s;
   s.count = std::ssize(ok);
