@@ -5,8 +5,8 @@
 # reference at the same positions, every session checked at the end) runs
 # through the balancer, one fault per phase. The clients start before the
 # fault and go on until it is over and they have made 30 more iterations (in
-# all, about 5 per client); then they are told to stop (meshgauge-load --until_signal, SIGTERM), so
-# the load outlasts any fault:
+# all, about 5 per client); then they are told to stop (meshgauge-load
+# --until_signal, SIGTERM), so the load outlasts any fault:
 #   kill     a replica's server process is SIGKILLed (a crash; its restart
 #            policy brings it back)
 #   restart  the replicas in turn are restarted (graceful stop, start;
@@ -90,16 +90,12 @@ phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clien
   eval "$fault" || { echo "FAIL: the fault command failed"; failed=1; }
   # Calls after the fault: 30 more iterations in all (about 5 per client),
   # then the clients stop.
-  local lines
-  lines=$(grep -c '^iterations:' "$out" || true)
-  for _ in $(seq 1 1200); do
-    kill -0 "$load" 2>/dev/null || break
-    [ "$(grep -c '^iterations:' "$out" || true)" -ge $((lines + 5)) ] && break
-    sleep 0.1
-  done
+  local progressed=0
+  await_lines "$out" '^iterations:' $(($(grep -c '^iterations:' "$out") + 4)) 1200 ||
+    progressed=1
   if ! kill -0 "$load" 2>/dev/null; then
     echo "FAIL: the load ended before it was told to stop"; failed=1
-  elif [ "$(grep -c '^iterations:' "$out" || true)" -lt $((lines + 5)) ]; then
+  elif ((progressed != 0)); then
     echo "FAIL: the clients made no progress after the fault"; failed=1
   fi
   docker kill --signal TERM "$container" >/dev/null 2>&1 || true

@@ -15,12 +15,6 @@ constexpr char kTunable[] = "glibc.malloc.hugetlb";
 
 }  // namespace
 
-bool HugePageTunableNamed() {
-  const char* tunables = getenv("GLIBC_TUNABLES");
-  return tunables != nullptr &&
-         std::string(tunables).find(kTunable) != std::string::npos;
-}
-
 bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes) {
   if (argv[0] == nullptr) return false;
   for (char** arg = argv + 1; *arg != nullptr; ++arg) {
@@ -33,8 +27,12 @@ bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes) {
 }
 
 void ReexecWithHugePages(char** argv) {
-  if (argv[0] == nullptr || HugePageTunableNamed() ||
-      getauxval(AT_SECURE) != 0) {
+  // A tunables string naming it already (a user's explicit 0 included)
+  // is left as it is.
+  const char* tunables = getenv("GLIBC_TUNABLES");
+  if (argv[0] == nullptr || getauxval(AT_SECURE) != 0 ||
+      (tunables != nullptr &&
+       std::string(tunables).find(kTunable) != std::string::npos)) {
     return;
   }
   char exe[PATH_MAX];
@@ -44,7 +42,6 @@ void ReexecWithHugePages(char** argv) {
   const std::string path(exe);
   const std::string name = path.substr(path.rfind('/') + 1);
   if (name.rfind("ld-", 0) == 0 || name.rfind("ld.so", 0) == 0) return;
-  const char* tunables = getenv("GLIBC_TUNABLES");
   std::string value = tunables != nullptr && *tunables != '\0'
                           ? std::string(tunables) + ":"
                           : std::string();

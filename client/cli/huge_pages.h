@@ -7,10 +7,6 @@
 
 namespace meshgauge::cli {
 
-// Whether GLIBC_TUNABLES names glibc.malloc.hugetlb (set to any value: a
-// user's explicit 0 is respected).
-bool HugePageTunableNamed();
-
 // Whether one of argv[1..] (inputs and outputs alike; `--flag=path` is not
 // split) names a regular file of at least `bytes`. `argv`: main's,
 // null-terminated.

@@ -6,6 +6,7 @@
 
 #include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "lib/core/thread_count.h"
 
 namespace meshgauge {
 namespace {
@@ -54,8 +55,7 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
               "removes them)"
             : ""));
   }
-  tbb::task_arena arena(options.threads > 0 ? options.threads
-                                            : tbb::info::default_concurrency());
+  tbb::task_arena arena(ThreadCount(options.threads));
   arena.execute([&] {
     r.diagnostics = options.reorient
                         ? ReorientAndDiagnose(mesh, &r.reorientation)

@@ -13,6 +13,7 @@
 #include "lib/core/hit.h"
 #include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
+#include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
 
 namespace meshgauge {
@@ -267,8 +268,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
   std::vector<std::vector<Term>> rows(std::min(ns, kBatch));
-  tbb::task_arena arena(threads > 0 ? threads
-                                    : tbb::info::default_concurrency());
+  tbb::task_arena arena(ThreadCount(threads));
   for (int64_t begin = 0; begin < ns; begin += kBatch) {
     if (control.cancelled && control.cancelled()) {
       return absl::CancelledError("sensitivity computation cancelled");

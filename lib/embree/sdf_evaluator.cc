@@ -19,6 +19,7 @@
 #include "lib/core/normalized_sdf.h"
 #include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
+#include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/inscribed_ball_query.h"
 #include "lib/embree/moved_boxes.h"
@@ -584,9 +585,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     world_frame_vertices += world_frames;
     gate.Done(range.size());
   };
-  const int threads =
-      params.threads > 0 ? params.threads : tbb::info::default_concurrency();
-  tbb::task_arena arena(threads);
+  tbb::task_arena arena(ThreadCount(params.threads));
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, ns, kVertexBlock), process,
                       tbb::simple_partitioner());
