@@ -2,6 +2,7 @@
 // named after the input they reject.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <functional>
 #include <limits>
@@ -136,6 +137,38 @@ TEST(MeshValidationTest, ReportsSeveralDefectsTogether) {
   const std::string e = Error(m);
   EXPECT_THAT(e, HasSubstr("non-finite"));
   EXPECT_THAT(e, HasSubstr("out of range"));
+}
+
+// The checks run in blocks of faces and vertices side by side: a message
+// still counts every defect and lists the first ids in id order, for any
+// thread count.
+TEST(MeshValidationTest, RejectsZeroAreaFacesInSeveralBlocksListingTheFirst) {
+  constexpr int kFaces = 200000;
+  Mesh m;
+  for (int f = 0; f < kFaces; ++f) {
+    m.positions.push_back({1.0 * f, 0, 0});
+    m.positions.push_back({f + 1.0, 0, 0});
+    m.positions.push_back({1.0 * f, 1, 0});
+    m.faces.push_back(Face::Triangle(3 * f, 3 * f + 1, 3 * f + 2));
+  }
+  Mesh flat = m;
+  for (int f : {70000, 3, 140000, 65535, 65536, 200, kFaces - 1}) {
+    flat.positions[3 * f + 2] = {f + 0.5, 0, 0};
+  }
+  const std::string expected =
+      "7 faces have zero area (first face ids: 3, 200, 65535, 65536, 70000)";
+  for (int threads : {1, 2}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      EXPECT_THAT(Error(flat), HasSubstr(expected)) << threads << " threads";
+    });
+  }
+  Mesh nan = m;
+  for (int v : {3 * kFaces - 1, 5, 400000}) {
+    nan.positions[v].z = std::numeric_limits<double>::quiet_NaN();
+  }
+  EXPECT_THAT(Error(nan), HasSubstr("3 vertices have non-finite coordinates "
+                                    "(first vertex ids: 5, 400000, 599999)"));
 }
 
 TEST(MeshValidationTest, UnreferencedVerticesAreValidAndGetNoFaces) {

@@ -219,10 +219,13 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   return d;
 }
 
-// ReorientComponents from the mesh's topology and manifold neighbours,
-// which it keeps up to date (signed volumes, pair directions).
-Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
-  Reorientation r;
+// Makes each patch of faces joined by manifold edges agree with the larger
+// side (ties: with its lowest face), counting in `r`; keeps the pairs'
+// directions up to date. Returns, per component, whether a face in it was
+// reversed.
+std::vector<char> MakeConsistent(Mesh& mesh, const Topology& t,
+                                 std::vector<FacePair>& pairs,
+                                 Reorientation& r) {
   const int32_t nf = static_cast<int32_t>(mesh.num_faces());
   // Neighbours of each face (CSR) with the parity between them.
   std::vector<int32_t> offsets(nf + 1, 0);
@@ -242,7 +245,7 @@ Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
   // Each patch: faces reached through manifold edges from its lowest face,
   // with their parity (1: reverse to agree with that face).
   std::vector<int8_t> parity(nf, -1);
-  std::vector<int32_t> patch, queue;
+  std::vector<int32_t> patch;
   std::vector<int32_t> component_of(nf);
   std::vector<char> reversed(nf, 0);
   for (size_t i = 0; i < t.components.size(); ++i) {
@@ -287,6 +290,21 @@ Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
   // Reversing faces keeps the components; it changes their volumes and the
   // direction of pairs with one reversed face.
   for (FacePair& p : pairs) p.same_direction ^= reversed[p.a] != reversed[p.b];
+  return changed;
+}
+
+// ReorientComponents from the mesh's topology and manifold neighbours,
+// which it keeps up to date (signed volumes, pair directions).
+Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
+  Reorientation r;
+  // With every manifold edge joining agreeing faces, each patch keeps its
+  // lowest face's orientation and nothing conflicts: the propagation (a
+  // neighbour list and a walk over every face) would change nothing.
+  const std::vector<char> changed =
+      std::any_of(pairs.begin(), pairs.end(),
+                  [](const FacePair& p) { return p.same_direction; })
+          ? MakeConsistent(mesh, t, pairs, r)
+          : std::vector<char>(t.components.size(), 0);
   for (size_t i = 0; i < changed.size(); ++i) {
     Component& c = t.components[i];
     if (changed[i]) c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);

@@ -1,6 +1,9 @@
 #include "lib/core/mesh.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -12,27 +15,6 @@ namespace meshgauge {
 namespace {
 
 constexpr int kMaxIdsInMessage = 5;
-
-// Collects offending ids of one defect class for a precise message.
-class DefectList {
- public:
-  explicit DefectList(std::string what) : what_(std::move(what)) {}
-  void Add(int64_t id) {
-    if (count_ < kMaxIdsInMessage) first_.push_back(id);
-    ++count_;
-  }
-  bool empty() const { return count_ == 0; }
-  // "<count> <what> (first <kind> ids: 1, 2, 3)".
-  std::string Message(const char* kind) const {
-    return absl::StrCat(count_, " ", what_, " (first ", kind,
-                        " ids: ", absl::StrJoin(first_, ", "), ")");
-  }
-
- private:
-  std::string what_;
-  int64_t count_ = 0;
-  std::vector<int64_t> first_;
-};
 
 // |(b-a) x (c-a)| <= 1e-14 * longest edge^2, evaluated on the edges scaled
 // by their largest component so that no product overflows or underflows.
@@ -62,6 +44,122 @@ bool EdgesOverflow(const Mesh& mesh, const Face& f) {
     }
   }
   return false;
+}
+
+// The offending ids of one defect class, for a precise message.
+class DefectList {
+ public:
+  void Add(int64_t id) {
+    if (count_ < kMaxIdsInMessage) first_.push_back(id);
+    ++count_;
+  }
+  // Appends the ids of `later`, all above this list's.
+  void Append(const DefectList& later) {
+    for (int64_t id : later.first_) {
+      if (std::ssize(first_) < kMaxIdsInMessage) first_.push_back(id);
+    }
+    count_ += later.count_;
+  }
+  bool empty() const { return count_ == 0; }
+  // "<count> <what> (first <kind> ids: 1, 2, 3)".
+  std::string Message(const std::string& what, const char* kind) const {
+    return absl::StrCat(count_, " ", what, " (first ", kind,
+                        " ids: ", absl::StrJoin(first_, ", "), ")");
+  }
+
+ private:
+  int64_t count_ = 0;
+  std::vector<int64_t> first_;
+};
+
+// ValidateMesh's defect classes, in the order of its message.
+enum Defect {
+  kNonFinite,
+  kNonzeroZ,
+  kBadArity,
+  kOutOfRange,
+  kRepeated,
+  kOverflow,
+  kDegenerate,
+  kNumDefects,
+  kNone = kNumDefects,
+};
+
+std::string DefectText(Defect d, const Mesh& mesh) {
+  const int dimension = mesh.dimension;
+  switch (d) {
+    case kNonFinite:
+      return "vertices have non-finite coordinates";
+    case kNonzeroZ:
+      return "vertices of a 2D mesh have z != 0 (mixed dimensions)";
+    case kBadArity:
+      return dimension == 2 ? "faces are not segments in a 2D mesh (mixed "
+                              "dimensions)"
+                            : "faces are neither triangles nor quads in a 3D "
+                              "mesh (mixed dimensions)";
+    case kOutOfRange:
+      return absl::StrCat("faces have vertex indices out of range [0, ",
+                          mesh.num_vertices(), ")");
+    case kRepeated:
+      return "faces repeat a vertex index";
+    case kOverflow:
+      return "faces have edges too long for double precision (an edge "
+             "component of 1e150 or more overflows the face normals; "
+             "rescale the mesh)";
+    case kDegenerate:
+      return dimension == 2 ? "segments have zero length"
+                            : "faces have zero area";
+    case kNumDefects:
+      break;
+  }
+  return "";
+}
+
+Defect VertexDefect(const Mesh& mesh, int64_t i) {
+  if (!IsFinite(mesh.positions[i])) return kNonFinite;
+  if (mesh.dimension == 2 && mesh.positions[i].z != 0) return kNonzeroZ;
+  return kNone;
+}
+
+// The first defect of face `f` found in ValidateMesh's order; its geometry
+// is looked at only when every vertex is finite (`finite`).
+Defect FaceDefect(const Mesh& mesh, int64_t f, bool finite) {
+  const Face& face = mesh.faces[f];
+  const bool arity_ok =
+      mesh.dimension == 2 ? face.size == 2 : (face.size == 3 || face.size == 4);
+  if (!arity_ok) return kBadArity;
+  for (int k = 0; k < face.size; ++k) {
+    if (face.v[k] < 0 || face.v[k] >= mesh.num_vertices()) return kOutOfRange;
+  }
+  for (int a = 0; a < face.size; ++a) {
+    for (int b = a + 1; b < face.size; ++b) {
+      if (face.v[a] == face.v[b]) return kRepeated;
+    }
+  }
+  if (!finite) return kNone;
+  if (EdgesOverflow(mesh, face)) return kOverflow;
+  if (FaceIsDegenerate(mesh, face)) return kDegenerate;
+  return kNone;
+}
+
+using Defects = std::array<DefectList, kNumDefects>;
+
+// The defects of elements [0, n) (`defect(i)`), found in blocks side by side
+// and merged in id order: the same lists for any thread count.
+template <typename DefectOf>
+Defects FindDefects(int64_t n, DefectOf defect) {
+  constexpr int64_t kBlock = 1 << 16;
+  std::vector<Defects> blocks((n + kBlock - 1) / kBlock);
+  tbb::parallel_for(int64_t{0}, std::ssize(blocks), [&](int64_t b) {
+    for (int64_t i = b * kBlock; i < std::min(n, (b + 1) * kBlock); ++i) {
+      if (const Defect d = defect(i); d != kNone) blocks[b][d].Add(i);
+    }
+  });
+  Defects all;
+  for (const Defects& block : blocks) {
+    for (int d = 0; d < kNumDefects; ++d) all[d].Append(block[d]);
+  }
+  return all;
 }
 
 }  // namespace
@@ -141,71 +239,28 @@ absl::Status ValidateMesh(const Mesh& mesh) {
         "face_regions has ", mesh.face_regions.size(),
         " entries but the mesh has ", mesh.faces.size(), " faces"));
   }
+  const Defects vertices = FindDefects(mesh.num_vertices(), [&mesh](int64_t i) {
+    return VertexDefect(mesh, i);
+  });
+  const bool finite = vertices[kNonFinite].empty();
+  const Defects faces = FindDefects(
+      mesh.num_faces(),
+      [&mesh, finite](int64_t f) { return FaceDefect(mesh, f, finite); });
   std::vector<std::string> problems;
-  DefectList non_finite("vertices have non-finite coordinates");
-  DefectList nonzero_z("vertices of a 2D mesh have z != 0 (mixed dimensions)");
-  for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
-    if (!IsFinite(mesh.positions[i]))
-      non_finite.Add(i);
-    else if (mesh.dimension == 2 && mesh.positions[i].z != 0)
-      nonzero_z.Add(i);
+  for (int d = 0; d < kNumDefects; ++d) {
+    const bool vertex = d == kNonFinite || d == kNonzeroZ;
+    const DefectList& list = vertex ? vertices[d] : faces[d];
+    if (list.empty()) continue;
+    problems.push_back(list.Message(DefectText(static_cast<Defect>(d), mesh),
+                                    vertex ? "vertex" : "face"));
   }
-  if (!non_finite.empty()) problems.push_back(non_finite.Message("vertex"));
-  if (!nonzero_z.empty()) problems.push_back(nonzero_z.Message("vertex"));
-
-  DefectList bad_arity(mesh.dimension == 2
-                           ? "faces are not segments in a 2D mesh (mixed "
-                             "dimensions)"
-                           : "faces are neither triangles nor quads in a 3D "
-                             "mesh (mixed dimensions)");
-  DefectList out_of_range(absl::StrCat(
-      "faces have vertex indices out of range [0, ", mesh.num_vertices(), ")"));
-  DefectList repeated("faces repeat a vertex index");
-  DefectList degenerate(mesh.dimension == 2 ? "segments have zero length"
-                                            : "faces have zero area");
-  DefectList overflow(
-      "faces have edges too long for double precision (an edge component "
-      "of 1e150 or more overflows the face normals; rescale the mesh)");
-  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
-    const Face& face = mesh.faces[f];
-    const bool arity_ok = mesh.dimension == 2
-                              ? face.size == 2
-                              : (face.size == 3 || face.size == 4);
-    if (!arity_ok) {
-      bad_arity.Add(f);
-      continue;
-    }
-    bool in_range = true;
-    for (int k = 0; k < face.size; ++k) {
-      if (face.v[k] < 0 || face.v[k] >= mesh.num_vertices()) in_range = false;
-    }
-    if (!in_range) {
-      out_of_range.Add(f);
-      continue;
-    }
-    bool has_repeat = false;
-    for (int a = 0; a < face.size; ++a) {
-      for (int b = a + 1; b < face.size; ++b) {
-        if (face.v[a] == face.v[b]) has_repeat = true;
-      }
-    }
-    if (has_repeat) {
-      repeated.Add(f);
-      continue;
-    }
-    if (!non_finite.empty()) continue;
-    if (EdgesOverflow(mesh, face)) {
-      overflow.Add(f);
-    } else if (FaceIsDegenerate(mesh, face)) {
-      degenerate.Add(f);
-    }
-  }
-  for (const DefectList* list :
-       {&bad_arity, &out_of_range, &repeated, &overflow, &degenerate}) {
-    if (!list->empty()) problems.push_back(list->Message("face"));
-  }
-  if (problems.empty()) {
-    // Direction conflicts: 0 = unseen, 1 = inward, 2 = outward, 3 = both.
+  // Direction conflicts (only where some region's cones point outward, the
+  // others' inward): 0 = unseen, 1 = inward, 2 = outward, 3 = both.
+  if (problems.empty() &&
+      std::any_of(mesh.region_directions.begin(), mesh.region_directions.end(),
+                  [](const auto& entry) {
+                    return entry.second != ConeDirection::kInward;
+                  })) {
     std::vector<uint8_t> seen(mesh.positions.size(), 0);
     for (int64_t f = 0; f < mesh.num_faces(); ++f) {
       const uint8_t bit =
@@ -215,12 +270,15 @@ absl::Status ValidateMesh(const Mesh& mesh) {
       const Face& face = mesh.faces[f];
       for (int k = 0; k < face.size; ++k) seen[face.v[k]] |= bit;
     }
-    DefectList conflict(
-        "vertices touch faces of regions with different cone directions");
+    DefectList conflict;
     for (int64_t i = 0; i < mesh.num_vertices(); ++i) {
       if (seen[i] == 3) conflict.Add(i);
     }
-    if (!conflict.empty()) problems.push_back(conflict.Message("vertex"));
+    if (!conflict.empty()) {
+      problems.push_back(conflict.Message(
+          "vertices touch faces of regions with different cone directions",
+          "vertex"));
+    }
   }
   if (problems.empty()) return absl::OkStatus();
   return absl::InvalidArgumentError(

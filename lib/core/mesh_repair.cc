@@ -47,15 +47,17 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
   if (options.drop_degenerate_faces) {
     r.dropped_faces = DropDegenerateFaces(mesh);
   }
-  if (absl::Status s = ValidateMesh(mesh); !s.ok()) {
+  tbb::task_arena arena(ThreadCount(options.threads));
+  absl::Status valid;
+  arena.execute([&] { valid = ValidateMesh(mesh); });
+  if (!valid.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(
-        s.message(),
-        absl::StrContains(s.message(), "zero area")
+        valid.message(),
+        absl::StrContains(valid.message(), "zero area")
             ? " (--drop-degenerate-faces or drop_degenerate_faces=True "
               "removes them)"
             : ""));
   }
-  tbb::task_arena arena(ThreadCount(options.threads));
   arena.execute([&] {
     r.diagnostics = options.reorient
                         ? ReorientAndDiagnose(mesh, &r.reorientation)

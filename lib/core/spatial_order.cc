@@ -1,5 +1,8 @@
 #include "lib/core/spatial_order.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <utility>
 
@@ -29,15 +32,16 @@ std::vector<int32_t> MortonOrder(absl::Span<const Vec3> points) {
   auto cell = [&](double v, double a, double b) {
     return b > a ? static_cast<uint64_t>((v - a) / (b - a) * kCells) : 0;
   };
+  // Keys are unique (the index breaks ties): one order for any thread count.
   std::vector<std::pair<uint64_t, int32_t>> keyed(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
+  tbb::parallel_for(size_t{0}, points.size(), [&](size_t i) {
     const Vec3& p = points[i];
     keyed[i] = {Spread(cell(p.x, lo.x, hi.x)) |
                     Spread(cell(p.y, lo.y, hi.y)) << 1 |
                     Spread(cell(p.z, lo.z, hi.z)) << 2,
                 static_cast<int32_t>(i)};
-  }
-  std::sort(keyed.begin(), keyed.end());
+  });
+  tbb::parallel_sort(keyed.begin(), keyed.end());
   std::vector<int32_t> order(points.size());
   for (size_t i = 0; i < keyed.size(); ++i) order[i] = keyed[i].second;
   return order;
