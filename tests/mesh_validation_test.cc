@@ -142,7 +142,8 @@ TEST(MeshValidationTest, ReportsSeveralDefectsTogether) {
 // The checks run in blocks of faces and vertices side by side: a message
 // still counts every defect and lists the first ids in id order, for any
 // thread count.
-TEST(MeshValidationTest, RejectsZeroAreaFacesInSeveralBlocksListingTheFirst) {
+TEST(MeshValidationTest,
+     RejectsDefectsInSeveralBlocksListingTheFirstInIdOrder) {
   constexpr int kFaces = 200000;
   Mesh m;
   for (int f = 0; f < kFaces; ++f) {

@@ -254,8 +254,8 @@ absl::Status ValidateMesh(const Mesh& mesh) {
     problems.push_back(list.Message(DefectText(static_cast<Defect>(d), mesh),
                                     vertex ? "vertex" : "face"));
   }
-  // Direction conflicts (only where some region's cones point outward, the
-  // others' inward): 0 = unseen, 1 = inward, 2 = outward, 3 = both.
+  // Direction conflicts (possible only when some region's cones point
+  // outward): 0 = unseen, 1 = inward, 2 = outward, 3 = both.
   if (problems.empty() &&
       std::any_of(mesh.region_directions.begin(), mesh.region_directions.end(),
                   [](const auto& entry) {

@@ -75,7 +75,8 @@ struct Mesh {
 // A face has zero area when |cross| <= 1e-14 * (longest edge)^2 (for quads:
 // either triangle of the split (0,1,2), (0,2,3)); a segment when its length
 // is exactly 0. Unreferenced vertices and open or non-manifold meshes are
-// valid.
+// valid. Runs in the caller's TBB arena (a tbb::task_arena bounds its
+// threads); the result does not depend on their number.
 absl::Status ValidateMesh(const Mesh& mesh);
 
 // Sets (*positions)[indices[i]] = moved[i]. Every index must be in range

@@ -48,8 +48,7 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
     r.dropped_faces = DropDegenerateFaces(mesh);
   }
   tbb::task_arena arena(ThreadCount(options.threads));
-  absl::Status valid;
-  arena.execute([&] { valid = ValidateMesh(mesh); });
+  const absl::Status valid = arena.execute([&] { return ValidateMesh(mesh); });
   if (!valid.ok()) {
     return absl::InvalidArgumentError(absl::StrCat(
         valid.message(),

@@ -17,7 +17,7 @@ namespace meshgauge {
 struct RepairOptions {
   bool drop_degenerate_faces = false;  // DropDegenerateFaces before checks.
   bool reorient = false;               // ReorientComponents after them.
-  int threads = 0;  // for the checks' sorts, which run side by side (0: all).
+  int threads = 0;  // for validation and the checks' sorts (0: all).
 };
 
 // A valid mesh and what was done to it.

@@ -13,7 +13,8 @@ namespace meshgauge {
 
 // Indices of `points` sorted along a Morton curve of their bounding box (21
 // bits per axis; ties in index order, so the order is deterministic).
-// O(n log n). Precondition: finite points, fewer than 2^31.
+// O(n log n), in the caller's TBB arena. Precondition: finite points, fewer
+// than 2^31.
 std::vector<int32_t> MortonOrder(absl::Span<const Vec3> points);
 
 }  // namespace meshgauge
