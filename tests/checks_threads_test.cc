@@ -1,6 +1,6 @@
 // RepairOptions::threads bounds every parallel part of the checks
-// (validation, the edge and face sorts, the reorientation): with one
-// thread, TBB starts no worker thread. The test observes the process's
+// (validation and the edge and face sorts, with and without reorienting):
+// with one thread, TBB starts no worker thread. The test observes the process's
 // threads (/proc/self/task), so it must be the first TBB work of its
 // process: this binary holds this test alone.
 #include <gtest/gtest.h>
