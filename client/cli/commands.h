@@ -83,6 +83,7 @@ struct RemoteInput {
   std::string positions;
   int64_t generation = -1;
   MeshFlags mesh_flags;  // upload.
+  int threads = 0;       // upload: the local checks' threads (0: all cores).
   bool json = false;
 };
 absl::Status RunRemote(const RemoteInput& in);

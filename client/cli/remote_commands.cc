@@ -51,7 +51,7 @@ void Print(const nlohmann::json& j, bool json) {
 }
 
 absl::Status Upload(client::RemoteClient& c, const RemoteInput& in) {
-  auto loaded = LoadMesh(in.target, in.mesh_flags, /*threads=*/0);
+  auto loaded = LoadMesh(in.target, in.mesh_flags, in.threads);
   if (!loaded.ok()) return loaded.status();
   for (const auto& w : loaded->warnings)
     std::cerr << "meshgauge: warning: " << w << "\n";

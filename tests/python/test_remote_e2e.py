@@ -226,7 +226,10 @@ class RemoteEndToEnd(unittest.TestCase):
                 self.assertEqual(p.returncode, 0, p.stderr)
             return p
 
-        info = json.loads(run("upload", knight, "--session-id", "cli").stdout)
+        # --threads bounds the local checks before the upload, as with
+        # the other verbs.
+        info = json.loads(run("upload", knight, "--session-id", "cli",
+                              "--threads", "1").stdout)
         self.assertEqual(info["vertices"], 502)
         on = ("--session-id", "cli")
         sdf = json.loads(run("sdf", knight, *on).stdout)
