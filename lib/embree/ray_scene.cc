@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <limits>
 
@@ -273,30 +274,45 @@ struct FanContext {
 // restored), records the others and keeps tfar at the candidates' window, so
 // that every primitive in it is reported whatever the traversal order (Embree
 // keeps a tfar that the filter set when it accepts the hit).
+void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
+                unsigned i) {
+  const auto prim = static_cast<int32_t>(RTCHitN_primID(args->hit, args->N, i));
+  if (std::binary_search(fan.excluded.begin(), fan.excluded.end(), prim)) {
+    args->valid[i] = 0;
+    return;
+  }
+  HitCandidates& c = fan.out[args->N == 1 ? 0 : i];
+  float& tfar = RTCRayN_tfar(args->ray, args->N, i);
+  if (tfar < fan.near_below) c.MarkNear();
+  if (tfar < fan.t_min) {
+    args->valid[i] = 0;
+    return;
+  }
+  constexpr float kEdge = 0x1p-10f;
+  const float u = RTCHitN_u(args->hit, args->N, i);
+  const float v = RTCHitN_v(args->hit, args->N, i);
+  const bool edge = fan.segments ? std::min(u, 1 - u) < kEdge
+                                 : std::min({u, v, 1 - u - v}) < kEdge;
+  c.Add(prim, tfar, edge);
+  tfar = std::min(c.Limit(), fan.t_far);
+}
+
 void FanFilter(const RTCFilterFunctionNArguments* args) {
-  const auto* fan = reinterpret_cast<const FanContext*>(args->context);
+  const auto& fan = *reinterpret_cast<const FanContext*>(args->context);
+  if (args->N == 16) {
+    // Embree passes one valid lane when it traces a packet's rays one at a
+    // time: find the valid lanes without a branch per lane.
+    uint32_t lanes = 0;
+    for (unsigned i = 0; i < 16; ++i) {
+      lanes |= static_cast<uint32_t>(args->valid[i] == -1) << i;
+    }
+    for (; lanes != 0; lanes &= lanes - 1) {
+      FilterLane(fan, args, static_cast<unsigned>(std::countr_zero(lanes)));
+    }
+    return;
+  }
   for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] != -1) continue;
-    const auto prim =
-        static_cast<int32_t>(RTCHitN_primID(args->hit, args->N, i));
-    if (std::binary_search(fan->excluded.begin(), fan->excluded.end(), prim)) {
-      args->valid[i] = 0;
-      continue;
-    }
-    HitCandidates& c = fan->out[args->N == 1 ? 0 : i];
-    float& tfar = RTCRayN_tfar(args->ray, args->N, i);
-    if (tfar < fan->near_below) c.MarkNear();
-    if (tfar < fan->t_min) {
-      args->valid[i] = 0;
-      continue;
-    }
-    constexpr float kEdge = 0x1p-10f;
-    const float u = RTCHitN_u(args->hit, args->N, i);
-    const float v = RTCHitN_v(args->hit, args->N, i);
-    const bool edge = fan->segments ? std::min(u, 1 - u) < kEdge
-                                    : std::min({u, v, 1 - u - v}) < kEdge;
-    c.Add(prim, tfar, edge);
-    tfar = std::min(c.Limit(), fan->t_far);
+    if (args->valid[i] == -1) FilterLane(fan, args, i);
   }
 }
 
