@@ -269,11 +269,11 @@ struct FanContext {
   HitCandidates* out;  // out[lane] for packets; out[0] for single rays.
 };
 
-// Called by Embree for every hit within the ray's current tfar: skips the
-// excluded primitives and those closer than t_min (the hit is rejected and tfar
-// restored), records the others and keeps tfar at the candidates' window, so
-// that every primitive in it is reported whatever the traversal order (Embree
-// keeps a tfar that the filter set when it accepts the hit).
+// FanFilter's work on lane i: skips an excluded primitive or one closer
+// than t_min (the hit is rejected and tfar restored), records the others and
+// keeps tfar at the candidates' window, so that every primitive in it is
+// reported whatever the traversal order (Embree keeps a tfar that the filter
+// set when it accepts the hit).
 void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
                 unsigned i) {
   const auto prim = static_cast<int32_t>(RTCHitN_primID(args->hit, args->N, i));
@@ -297,6 +297,8 @@ void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
   tfar = std::min(c.Limit(), fan.t_far);
 }
 
+// Called by Embree for every hit within a ray's current tfar, for the valid
+// lanes of args->valid.
 void FanFilter(const RTCFilterFunctionNArguments* args) {
   const auto& fan = *reinterpret_cast<const FanContext*>(args->context);
   if (args->N == 16) {
