@@ -40,6 +40,12 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 CLI::Validator Positive() { return Interval(0, kInf, true, true); }
 CLI::Validator NonNegative() { return Interval(0, kInf, false, true); }
 
+void AddThreadsFlag(CLI::App* app, int* threads, const std::string& help) {
+  app->add_option("--threads", *threads, help)
+      ->check(CLI::Range(0, 1024))
+      ->capture_default_str();
+}
+
 void AddSdfFlags(CLI::App* app, SdfFlags* f) {
   app->add_option("--method", f->method,
                   "cone (Shapira et al.), normal (one ray along the axis: "
@@ -66,9 +72,7 @@ void AddSdfFlags(CLI::App* app, SdfFlags* f) {
                   "outlier filter: keep |t - median| <= kappa sigma, >= 0")
       ->check(NonNegative())
       ->capture_default_str();
-  app->add_option("--threads", f->threads, "worker threads (0: all cores)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
+  AddThreadsFlag(app, &f->threads, "worker threads (0: all cores)");
   app->add_option("--max-distance", f->max_distance,
                   "rays longer than this are misses (0: bounding-box "
                   "diagonal)")

@@ -115,6 +115,9 @@ struct RemoteFlags {
 CLI::Validator Positive();
 CLI::Validator NonNegative();
 
+// --threads into *threads, 0..1024 (0: all cores); `help` says what they
+// run.
+void AddThreadsFlag(CLI::App* app, int* threads, const std::string& help);
 void AddSdfFlags(CLI::App* app, SdfFlags* f);
 // --samples vertices|faces: where the values are (SPEC v2 §5c).
 void AddSamplesFlag(CLI::App* app, SdfFlags* f);

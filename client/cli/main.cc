@@ -209,11 +209,9 @@ int Main(int argc, char** argv) {
   up->add_option("--session-id", r.session_id,
                  "session id (default: a new UUID)");
   AddMeshFlags(up, &r.mesh_flags);
-  up->add_option("--threads", r.threads,
+  AddThreadsFlag(up, &r.threads,
                  "threads of the local checks before the upload (0: all "
-                 "cores)")
-      ->check(CLI::Range(0, 1024))
-      ->capture_default_str();
+                 "cores)");
   SessionVerb(remote, "list", "the caller's sessions", &r, false, &run);
   SessionVerb(remote, "health", "exit 0 only while SERVING", &r, false, &run);
   SessionVerb(remote, "server-info",
