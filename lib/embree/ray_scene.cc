@@ -301,20 +301,14 @@ void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
 // lanes of args->valid.
 void FanFilter(const RTCFilterFunctionNArguments* args) {
   const auto& fan = *reinterpret_cast<const FanContext*>(args->context);
-  if (args->N == 16) {
-    // Embree passes one valid lane when it traces a packet's rays one at a
-    // time: find the valid lanes without a branch per lane.
-    uint32_t lanes = 0;
-    for (unsigned i = 0; i < 16; ++i) {
-      lanes |= static_cast<uint32_t>(args->valid[i] == -1) << i;
-    }
-    for (; lanes != 0; lanes &= lanes - 1) {
-      FilterLane(fan, args, static_cast<unsigned>(std::countr_zero(lanes)));
-    }
-    return;
-  }
+  // Embree passes one valid lane when it traces a packet's rays one at a
+  // time: find the valid lanes (N <= 16) without a branch per lane.
+  uint32_t lanes = 0;
   for (unsigned i = 0; i < args->N; ++i) {
-    if (args->valid[i] == -1) FilterLane(fan, args, i);
+    lanes |= static_cast<uint32_t>(args->valid[i] == -1) << i;
+  }
+  for (; lanes != 0; lanes &= lanes - 1) {
+    FilterLane(fan, args, static_cast<unsigned>(std::countr_zero(lanes)));
   }
 }
 
