@@ -202,12 +202,19 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
 }
 
 absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
-    grpc::ServerContext* ctx, Session& session, const Session::Reader& reader,
-    const SdfParams& params, const ComputeControl& control) {
-  const SdfEvaluator& ev = *reader.evaluator;
+    grpc::ServerContext* ctx, const std::string& tenant, const Prepared& prep,
+    const ComputeControl& control) {
+  const SdfEvaluator& ev = *prep.reader.evaluator;
+  const SdfParams& params = prep.params;
+  Session& session = *prep.session;
   if (auto cached = session.FindPass(params, ev.generation())) {
     return Pass{std::move(cached), true};
   }
+  // Counted in the session's memory once stored; until then a claim.
+  auto claim = store_->ClaimScratch(tenant, prep.session,
+                                    EstimatePassBytes(ev.mesh(), params),
+                                    "this ray pass's hit table and values");
+  if (!claim.ok()) return claim.status();
   // The rays of the session's last pass with these parameters (an earlier
   // generation's) are reused where they cannot have changed.
   const std::shared_ptr<const CachedPass> last = session.LatestPass(params);
@@ -222,6 +229,7 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
   pass->result = std::move(*result);
   pass->bytes = PassBytes(*pass);
   session.StorePass(pass);
+  claim->reset();  // the session's memory now counts the pass.
   store_->EnforceBudget(&session);
   return Pass{std::move(pass), false};
 }
@@ -441,8 +449,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
           control.progress = ProgressWriter(
               FullPassRays(*prep->reader.evaluator, prep->params), writer);
         }
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
-                               control);
+        auto pass = EnsurePass(ctx, tenant, *prep, control);
         if (!pass.ok()) return pass.status();
         const SdfEvaluator& ev = *prep->reader.evaluator;
         const SdfResult& r = pass->pass->result;
@@ -537,8 +544,7 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
               " values, expected one per ", SampleName(prep->params.samples),
               " (", samples, ")"));
         }
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
-                               Control(ctx));
+        auto pass = EnsurePass(ctx, tenant, *prep, Control(ctx));
         if (!pass.ok()) return pass.status();
         metrics_->RecordHitCache(pass->reused);
         auto vjp =
@@ -585,8 +591,7 @@ grpc::Status MeshGaugeService::ComputePenalty(
             (*thin_request ? (*thin_request)->max_regions * kThinRegionDoubles
                            : 0);
         if (absl::Status s = CheckReplySize(reply_values); !s.ok()) return s;
-        auto pass = EnsurePass(ctx, *prep->session, prep->reader, prep->params,
-                               Control(ctx));
+        auto pass = EnsurePass(ctx, tenant, *prep, Control(ctx));
         if (!pass.ok()) return pass.status();
         metrics_->RecordHitCache(pass->reused);
         const SdfResult& sdf = pass->pass->result;
@@ -703,7 +708,9 @@ grpc::Status MeshGaugeService::GradCheck(
         auto claim =
             store_->ClaimScratch(tenant, prep->session,
                                  Session::EstimateBaseBytes(mesh) +
-                                     GradCheckWorkBytes(mesh, prep->params));
+                                     GradCheckWorkBytes(mesh, prep->params),
+                                 "this check's private copy of the mesh and "
+                                 "its passes");
         if (!claim.ok()) return claim.status();
         Mesh copy = mesh;
         prep->reader.lock.unlock();  // updates of the session go on.

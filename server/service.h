@@ -78,19 +78,21 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
     std::shared_ptr<const CachedPass> pass;
     bool reused = false;
   };
-  // The session's ray pass for these parameters at the reader's generation:
-  // cached, or traced now (and cached) under `control` (cancellation and
-  // deadlines of ctx; progress).
-  absl::StatusOr<Pass> EnsurePass(grpc::ServerContext* ctx, Session& session,
-                                  const Session::Reader& reader,
-                                  const SdfParams& params,
-                                  const ComputeControl& control);
   // Shared front half of the compute calls: session, params, generation.
   struct Prepared {
     std::shared_ptr<Session> session;
     Session::Reader reader;
     SdfParams params;
   };
+  // The session's ray pass for prep's parameters at the reader's
+  // generation: cached, or traced now (and cached) under `control`
+  // (cancellation and deadlines of ctx; progress). A new pass's memory is
+  // claimed for `tenant` before it is traced (RESOURCE_EXHAUSTED when it
+  // cannot fit).
+  absl::StatusOr<Pass> EnsurePass(grpc::ServerContext* ctx,
+                                  const std::string& tenant,
+                                  const Prepared& prep,
+                                  const ComputeControl& control);
   absl::StatusOr<Prepared> Prepare(const std::string& tenant,
                                    const std::string& session_id,
                                    const v1::SdfParameters& params,

@@ -245,16 +245,15 @@ void SessionCache::Sweep() {
 ScratchClaim::~ScratchClaim() { store_->ReleaseScratch(tenant_, bytes_); }
 
 absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
-    const std::string& tenant, std::shared_ptr<Session> session,
-    int64_t bytes) {
+    const std::string& tenant, std::shared_ptr<Session> session, int64_t bytes,
+    absl::string_view what) {
   const int64_t budget =
       std::min(options_.memory_budget_bytes, options_.BudgetPerTenant());
   if (session->memory_bytes() + bytes > budget) {
     return absl::ResourceExhaustedError(absl::StrCat(
-        "the session and this computation's scratch memory (a private copy "
-        "of the mesh and its passes) need about ",
-        session->memory_bytes() + bytes,
-        " bytes, more than the memory budget of ", budget,
+        "the session (", session->memory_bytes(), " bytes) and ", what, " (",
+        bytes, " bytes of scratch memory) need more than the memory budget of ",
+        budget,
         " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant); "
         "use fewer rays"));
   }
@@ -269,9 +268,10 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
   PublishLocked();
   if (!fits) {
     return absl::ResourceExhaustedError(absl::StrCat(
-        "the computation needs about ", bytes,
-        " bytes of scratch memory, which the server's memory budget cannot "
-        "hold now (other tenants' sessions fill it); retry later"));
+        what, " (", bytes,
+        " bytes of scratch memory) cannot be held in the server's memory "
+        "budget now (other tenants' sessions fill it); retry later or use "
+        "fewer rays"));
   }
   return std::unique_ptr<ScratchClaim>(new ScratchClaim(this, tenant, bytes));
 }

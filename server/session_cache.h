@@ -30,7 +30,7 @@ class SessionCache : public SessionStore {
                                             int64_t bytes) override;
   absl::StatusOr<std::unique_ptr<ScratchClaim>> ClaimScratch(
       const std::string& tenant, std::shared_ptr<Session> session,
-      int64_t bytes) override;
+      int64_t bytes, absl::string_view what) override;
   void Sweep() override;
   void EnforceBudget(const Session* keep) override;
   int64_t size() const override;

@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/strings/string_view.h"
 #include "server/clock.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
@@ -74,9 +75,9 @@ class UploadReservation {
   int64_t arrived_ = 0;
 };
 
-// A computation's memory beyond its session's (a gradcheck's private copy
-// of the mesh and its passes), accounted to its tenant while it lives
-// (SessionStore::ClaimScratch).
+// A computation's memory beyond its session's (a ray pass being traced, a
+// gradcheck's private copy of the mesh and its passes), accounted to its
+// tenant while it lives (SessionStore::ClaimScratch).
 class ScratchClaim {
  public:
   ScratchClaim(const ScratchClaim&) = delete;
@@ -143,12 +144,13 @@ class SessionStore {
   // Accounts `bytes` of a computation's scratch memory on `session` to
   // `tenant` until the claim is destroyed (evicting the session meanwhile
   // frees none of them). Evicts by the upload rule (only from the tenant
-  // holding the most bytes, never `session`). Errors: RESOURCE_EXHAUSTED,
-  // nothing claimed, when the bytes exceed the tenant's budget or the
-  // server's even after eviction.
+  // holding the most bytes, never `session`). `what` names the memory in
+  // errors ("this ray pass's hit table and values"). Errors:
+  // RESOURCE_EXHAUSTED, nothing claimed, when the bytes exceed the tenant's
+  // budget or the server's even after eviction.
   virtual absl::StatusOr<std::unique_ptr<ScratchClaim>> ClaimScratch(
       const std::string& tenant, std::shared_ptr<Session> session,
-      int64_t bytes) = 0;
+      int64_t bytes, absl::string_view what) = 0;
 
   // Evicts sessions (cache entries with records) idle longer than the TTL.
   virtual void Sweep() = 0;

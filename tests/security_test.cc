@@ -28,6 +28,7 @@ namespace {
 using client::ClientOptions;
 using client::RemoteClient;
 using ::testing::HasSubstr;
+using testing::MetricValue;
 using ::testing::Not;
 
 absl::StatusCode Code(const absl::Status& s) { return s.code(); }
@@ -217,6 +218,57 @@ TEST_F(SecurityTest, AGradCheckNeverEvictsASmallerTenant) {
   EXPECT_TRUE(alice_->Get("a").ok());
   EXPECT_TRUE(alice_->Get("a2").ok());
   EXPECT_TRUE(bob_->Get("k").ok());
+}
+
+// A ray pass's hit table (5 bytes a ray) is claimed against the memory
+// budget before it is traced, by the gradcheck's rule: bob's pass of 1024
+// rays a vertex evicts bob's older session when that makes room, never
+// alice's; a pass that cannot fit is refused, nothing traced or evicted
+// (it used to be traced, stored, and then made room by evicting alice).
+TEST_F(SecurityTest, ARayPassNeverEvictsASmallerTenant) {
+  const Mesh sphere = MakeIcosphere(1, 10);
+  const int64_t base = server::Session::EstimateBaseBytes(sphere);
+  SdfParams many;
+  many.rays = 1024;
+  const int64_t pass = EstimatePassBytes(sphere, many);
+  ASSERT_GT(pass, 2 * base) << "the pass must outweigh a session";
+  server::ServerOptions o = options_;
+  o.max_rays = 1024;
+  o.memory_budget_bytes = 2 * base + pass + base / 2;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "old").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  auto traced = bob_->ComputeSdf("b", many);
+  ASSERT_TRUE(traced.ok()) << traced.status();
+  EXPECT_EQ(Code(bob_->Get("old")), absl::StatusCode::kNotFound);
+  EXPECT_TRUE(alice_->Get("a").ok());
+  EXPECT_GE(bob_->Get("b")->memory_bytes, base + pass);
+
+  // Room for the two sessions but not for the pass.
+  o.memory_budget_bytes = 2 * base + pass / 2;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  const double rays =
+      MetricValue(metrics_.Text(), "meshgauge_rays_traced_total");
+  auto refused = bob_->ComputeSdf("b", many);
+  EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(refused.status().message()),
+              HasSubstr("ray pass's hit table"));
+  EXPECT_EQ(MetricValue(metrics_.Text(), "meshgauge_rays_traced_total"), rays);
+  EXPECT_TRUE(alice_->Get("a").ok());
+  EXPECT_TRUE(bob_->Get("b").ok());
+  // The default 100 rays fit.
+  EXPECT_TRUE(bob_->ComputeSdf("b", SdfParams{}).ok());
+  EXPECT_TRUE(alice_->Get("a").ok());
 }
 
 // Data of an upload in flight counts as its tenant's: bob's upload evicts

@@ -22,17 +22,11 @@ namespace meshgauge {
 namespace {
 
 using ::testing::HasSubstr;
+using testing::MetricValue;
 using testing::RawUpload;
 using testing::SameBits;
 
 Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
-
-// The value of an unlabelled counter or gauge in Prometheus text.
-double MetricValue(const std::string& text, const std::string& name) {
-  const size_t at = text.find("\n" + name + " ");
-  if (at == std::string::npos) return 0;
-  return std::stod(text.substr(at + name.size() + 2));
-}
 
 void ExpectSameRows(const std::vector<GradCheckRow>& a,
                     const std::vector<GradCheckRow>& b) {

@@ -48,6 +48,14 @@ class ServerFixture : public ::testing::Test {
   std::unique_ptr<client::RemoteClient> client_;
 };
 
+// The value of an unlabelled counter or gauge in Prometheus text (0 when
+// absent).
+inline double MetricValue(const std::string& text, const std::string& name) {
+  const size_t at = text.find("\n" + name + " ");
+  if (at == std::string::npos) return 0;
+  return std::stod(text.substr(at + name.size() + 2));
+}
+
 // Streams raw CreateSession messages (headers, chunks and footers as a
 // test writes them) and returns the server's reply.
 inline absl::StatusOr<v1::SessionInfo> RawUpload(

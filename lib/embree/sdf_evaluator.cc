@@ -617,6 +617,18 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   return result;
 }
 
+int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params) {
+  const int64_t samples = NumSamples(mesh, params.samples);
+  const int64_t rays = ResolveParams(params, mesh.dimension).rays;
+  // Hit table: a primitive (4) and a kept flag (1) per ray, a near flag per
+  // sample, the positions per vertex. Result: value, normalized value,
+  // status, hits and kept counts per sample, and the opposite point.
+  const int64_t per_sample =
+      5 * rays + 1 + (8 + 8 + 1 + 4 + 4) + (params.opposite_points ? 24 : 0);
+  return samples * per_sample +
+         mesh.num_vertices() * static_cast<int64_t>(sizeof(Vec3));
+}
+
 absl::Status SdfEvaluator::UpdatePositions(absl::Span<const Vec3> positions) {
   if (std::ssize(positions) != mesh_.num_vertices()) {
     return absl::InvalidArgumentError(

@@ -50,6 +50,14 @@ struct PreviousPass {
   const HitTable* hits = nullptr;
 };
 
+// The bytes SdfEvaluator::Compute(params, control, &hits) returns and
+// keeps for `mesh`: the hit table (5 per ray, 25 per vertex) and the
+// result (25 per sample, 24 more with opposite points). Per-thread buffers
+// and the kSphere pass's ball tree, freed when Compute returns, are not
+// counted. For bounding a pass before it is traced (the server's memory
+// budget); params must be valid (ResolveParams).
+int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params);
+
 class SdfEvaluator : public MeshGeometry {
  public:
   // Validates `mesh` (SPEC §1) and builds the BVH.
