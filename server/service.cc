@@ -52,11 +52,6 @@ const char* CodeName(grpc::StatusCode code) {
   return i >= 0 && i < 17 ? kNames[i] : "UNKNOWN";
 }
 
-int64_t PassBytes(const CachedPass& p) {
-  return p.hits.Bytes() + std::ssize(p.result.values) * (8 + 8 + 1 + 4 + 4) +
-         std::ssize(p.result.opposite) * static_cast<int64_t>(sizeof(Vec3));
-}
-
 int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
   return NumSamples(ev.mesh(), params.samples) *
          int64_t{ResolveParams(params, ev.mesh().dimension).rays};
@@ -227,7 +222,7 @@ absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
   pass->params = params;
   pass->generation = ev.generation();
   pass->result = std::move(*result);
-  pass->bytes = PassBytes(*pass);
+  pass->bytes = PassBytes(pass->result, pass->hits);
   session.StorePass(pass);
   claim->reset();  // the session's memory now counts the pass.
   store_->EnforceBudget(&session);

@@ -358,5 +358,33 @@ TEST(EvaluatorTest, TrayNormalRayIsPlateThickness) {
   std::printf("tray: %d vertices inside the large faces, all at 3.175\n", flat);
 }
 
+// The server claims EstimatePassBytes before a pass and then accounts
+// PassBytes of what the pass holds: they agree for every kind of pass
+// (vertices and faces, 3D quads split in two, 2D, opposite points, the
+// inscribed ball's one "ray").
+TEST(EvaluatorTest, EstimatePassBytesIsWhatAPassHolds) {
+  SdfParams faces, opposite, sphere, rays;
+  faces.samples = SampleSet::kFaces;
+  opposite.opposite_points = true;
+  sphere.method = SdfMethod::kSphere;
+  rays.rays = 37;
+  const Mesh meshes[] = {MakeBox(1, 2, 3, 0.5, /*quads=*/true),
+                         MakeCircle(1, 40)};
+  for (const Mesh& mesh : meshes) {
+    auto ev = SdfEvaluator::Create(mesh);
+    ASSERT_TRUE(ev.ok()) << ev.status();
+    for (const SdfParams& params :
+         {SdfParams{}, faces, opposite, sphere, rays}) {
+      HitTable hits;
+      auto pass = (*ev)->Compute(params, {}, &hits);
+      ASSERT_TRUE(pass.ok()) << pass.status();
+      EXPECT_EQ(EstimatePassBytes(mesh, params), PassBytes(*pass, hits))
+          << "dimension " << mesh.dimension << ", method "
+          << static_cast<int>(params.method) << ", samples "
+          << static_cast<int>(params.samples) << ", rays " << params.rays;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace meshgauge

@@ -629,6 +629,16 @@ int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params) {
          mesh.num_vertices() * static_cast<int64_t>(sizeof(Vec3));
 }
 
+int64_t PassBytes(const SdfResult& result, const HitTable& hits) {
+  return hits.Bytes() +
+         static_cast<int64_t>(result.values.capacity() * sizeof(double) +
+                              result.normalized.capacity() * sizeof(double) +
+                              result.status.capacity() * sizeof(VertexStatus) +
+                              result.hits.capacity() * sizeof(int32_t) +
+                              result.kept.capacity() * sizeof(int32_t) +
+                              result.opposite.capacity() * sizeof(Vec3));
+}
+
 absl::Status SdfEvaluator::UpdatePositions(absl::Span<const Vec3> positions) {
   if (std::ssize(positions) != mesh_.num_vertices()) {
     return absl::InvalidArgumentError(

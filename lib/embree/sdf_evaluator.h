@@ -51,12 +51,15 @@ struct PreviousPass {
 };
 
 // The bytes SdfEvaluator::Compute(params, control, &hits) returns and
-// keeps for `mesh`: the hit table (5 per ray, 25 per vertex) and the
-// result (25 per sample, 24 more with opposite points). Per-thread buffers
-// and the kSphere pass's ball tree, freed when Compute returns, are not
-// counted. For bounding a pass before it is traced (the server's memory
-// budget); params must be valid (ResolveParams).
+// keeps for `mesh`: the hit table (5 per ray, 1 per sample, 24 per vertex)
+// and the result (25 per sample, 24 more with opposite points), equal to
+// PassBytes of the pass. Per-thread buffers and the kSphere pass's ball
+// tree, freed when Compute returns, are not counted. For bounding a pass
+// before it is traced (the server's memory budget); params must be valid
+// (ResolveParams).
 int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params);
+// The bytes a pass's result and hit table hold.
+int64_t PassBytes(const SdfResult& result, const HitTable& hits);
 
 class SdfEvaluator : public MeshGeometry {
  public:
