@@ -449,7 +449,14 @@ grpc::Status MeshGaugeService::ComputeSdf(
         const SdfEvaluator& ev = *prep->reader.evaluator;
         const SdfResult& r = pass->pass->result;
         std::optional<SparseJacobian> jac;
+        std::unique_ptr<ScratchClaim> jacobian_claim;  // until streamed.
         if (request->include_jacobian()) {
+          auto bytes = JacobianBytesBound(ev, pass->pass->hits);
+          if (!bytes.ok()) return bytes.status();
+          auto claim = store_->ClaimScratch(tenant, prep->session, *bytes,
+                                            "this Jacobian");
+          if (!claim.ok()) return claim.status();
+          jacobian_claim = std::move(*claim);
           auto j = ComputeJacobian(ev, pass->pass->hits, Control(ctx),
                                    options_.compute_threads);
           if (!j.ok()) return Interrupted(ctx, j.status());

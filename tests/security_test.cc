@@ -14,8 +14,10 @@
 #include <vector>
 
 #include "absl/strings/str_replace.h"
+#include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/gradcheck.h"
+#include "lib/embree/sdf_evaluator.h"
 #include "server/auth.h"
 #include "server/upload_watch.h"
 #include "tests/fake_clock.h"
@@ -268,6 +270,41 @@ TEST_F(SecurityTest, ARayPassNeverEvictsASmallerTenant) {
   EXPECT_TRUE(bob_->Get("b").ok());
   // The default 100 rays fit.
   EXPECT_TRUE(bob_->ComputeSdf("b", SdfParams{}).ok());
+  EXPECT_TRUE(alice_->Get("a").ok());
+}
+
+// A Jacobian asked with ComputeSdf is claimed (JacobianBytesBound) before
+// it is made, by the same rule: one that cannot fit is refused and evicts
+// nobody, where before it was made without being counted at all.
+TEST_F(SecurityTest, AJacobianThatCannotFitIsRefusedBeforeItIsMade) {
+  const Mesh sphere = MakeIcosphere(1, 10);
+  const int64_t base = server::Session::EstimateBaseBytes(sphere);
+  const int64_t pass = EstimatePassBytes(sphere, SdfParams{});
+  int64_t jacobian = 0;
+  {
+    auto ev = SdfEvaluator::Create(sphere);
+    HitTable hits;
+    ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
+    jacobian = *JacobianBytesBound(**ev, hits);
+  }
+  server::ServerOptions o = options_;
+  o.memory_budget_bytes = 2 * base + pass + jacobian / 2;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
+  clock_.Advance(1);
+  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  auto refused = bob_->ComputeSdf("b", SdfParams{}, {.include_jacobian = true});
+  EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(refused.status().message()),
+              HasSubstr("this Jacobian"));
+  EXPECT_TRUE(alice_->Get("a").ok());
+  EXPECT_TRUE(bob_->Get("b").ok());
+  // The values alone fit (the pass traced for the refused call is cached).
+  auto values = bob_->ComputeSdf("b", SdfParams{});
+  ASSERT_TRUE(values.ok()) << values.status();
+  EXPECT_TRUE(values->facts.reused_hits);
   EXPECT_TRUE(alice_->Get("a").ok());
 }
 

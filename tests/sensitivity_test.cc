@@ -192,6 +192,43 @@ TEST(SensitivityTest, JacobianRowsHaveUniqueColumnsAndTheVjpIsGTransposeJ) {
       0);
 }
 
+// JacobianBytesBound (what the server claims before ComputeJacobian) holds
+// every Jacobian: vertex and face samples, quads, 2D, the inscribed ball;
+// with 3 rays on a fine sphere the rays hit distinct primitives and the
+// rows come close to it.
+TEST(SensitivityTest, JacobianBytesBoundHoldsTheJacobian) {
+  SdfParams cone, faces, ball, few;
+  faces.samples = SampleSet::kFaces;
+  ball.method = SdfMethod::kSphere;
+  few.rays = 3;
+  struct Case {
+    Mesh mesh;
+    SdfParams params;
+  };
+  const Case cases[] = {{*ReadMesh(SharedMesh("decimated-knight.off")), cone},
+                        {MakeBox(1, 2, 3, 0.25, /*quads=*/true), faces},
+                        {MakeBox(1, 2, 3, 0.25, /*quads=*/true), cone},
+                        {MakeCircle(1, 64), cone},
+                        {MakeCircle(1, 64), ball},
+                        {MakeIcosphere(1, 8), ball},
+                        {MakeIcosphere(1, 30), few}};
+  for (const Case& c : cases) {
+    auto ev = SdfEvaluator::Create(c.mesh);
+    ASSERT_TRUE(ev.ok()) << ev.status();
+    HitTable hits;
+    ASSERT_TRUE((*ev)->Compute(c.params, {}, &hits).ok());
+    auto bound = JacobianBytesBound(**ev, hits);
+    auto jac = ComputeJacobian(**ev, hits);
+    ASSERT_TRUE(bound.ok() && jac.ok());
+    const int64_t bytes =
+        jac->nonzeros() * (4 + 24) + std::ssize(jac->row_offsets) * 8;
+    EXPECT_LE(bytes, *bound) << c.mesh.num_vertices() << " vertices";
+    if (c.params.rays == 3) {
+      EXPECT_GE(2 * bytes, *bound) << "fine sphere";
+    }
+  }
+}
+
 TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);

@@ -259,6 +259,26 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
   return Context{ev, *hits, faces, samples};
 }
 
+// An upper bound on the entries of sample p's row: the corners of the
+// primitive each kept ray hit (or the ball's), the frame's reference edge,
+// and the vertices of the sample's point and axis: the face's corners, or
+// the vertex and the other corners of its primitives.
+int64_t RowEntriesBound(const Context& ctx, int64_t p) {
+  const Mesh& mesh = ctx.ev.mesh();
+  const int corners = mesh.dimension == 3 ? 3 : 2;
+  int64_t hit = 0;
+  if (ctx.hits.resolved.params.method == SdfMethod::kSphere) {
+    hit = ctx.hits.Row(p)[0] >= 0;
+  } else {
+    for (uint8_t k : ctx.hits.KeptRow(p)) hit += k != 0;
+  }
+  const int64_t around =
+      ctx.faces
+          ? mesh.faces[p].size
+          : 1 + (corners - 1) * std::ssize(ctx.ev.topology().PrimitivesOf(p));
+  return std::min<int64_t>(mesh.num_vertices(), corners * hit + around + 1);
+}
+
 // Computes the terms of every sample, a batch of kBatch samples at a time
 // in parallel, and hands each batch to consume(arena, begin, end, rows)
 // (rows[i] are the terms of sample begin + i).
@@ -309,6 +329,11 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   auto ctx = MakeContext(geometry, hits);
   if (!ctx.ok()) return ctx.status();
   SparseJacobian jac;
+  int64_t bound = 0;
+  for (int64_t p = 0; p < ctx->samples; ++p) bound += RowEntriesBound(*ctx, p);
+  jac.columns.reserve(bound);
+  jac.values.reserve(bound);
+  jac.row_offsets.reserve(ctx->samples + 1);
   jac.row_offsets.push_back(0);
   absl::Status s = ForEachBatch(
       *ctx, control, threads,
@@ -328,6 +353,18 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
       });
   if (!s.ok()) return s;
   return jac;
+}
+
+absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
+                                           const HitTable& hits) {
+  auto ctx = MakeContext(geometry, hits);
+  if (!ctx.ok()) return ctx.status();
+  int64_t entries = 0;
+  for (int64_t p = 0; p < ctx->samples; ++p) {
+    entries += RowEntriesBound(*ctx, p);
+  }
+  return entries * static_cast<int64_t>(sizeof(int32_t) + sizeof(Vec3)) +
+         (ctx->samples + 1) * static_cast<int64_t>(sizeof(int64_t));
 }
 
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,

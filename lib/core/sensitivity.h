@@ -43,6 +43,16 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(
     const MeshGeometry& geometry, const HitTable& hits,
     const ComputeControl& control = {}, int threads = 0);
 
+// An upper bound on the bytes ComputeJacobian returns for this hit table
+// (per sample: 3 entries per kept ray, or 2 in 2D, plus the vertices of
+// the sample's point, frame edge and normal; 4 + 24 bytes an entry, 8 a
+// row), to bound a Jacobian before it is made (the server's memory
+// budget). Close on fine meshes; loose where rays hit the same primitives
+// (a 502-vertex knight: 13x). ComputeJacobian reserves its entries (pages
+// it does not fill are never touched). Errors: as ComputeJacobian.
+absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
+                                           const HitTable& hits);
+
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
 // g has one entry per sample, #V or #F (ignored where a sample has no value;
 // must be finite).
