@@ -4,11 +4,11 @@
 
 #include <algorithm>
 #include <atomic>
-#include <bit>
 #include <cmath>
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "lib/embree/fan_filter.h"
 #include "lib/embree/ray_hit.h"
 
 namespace meshgauge {
@@ -257,62 +257,6 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return {};
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
-
-namespace {
-
-// The context of one fan's traversal: Embree passes it to FanFilter.
-struct FanContext {
-  RTCIntersectContext rtc;  // first: Embree sees a pointer to it.
-  absl::Span<const int32_t> excluded;
-  float t_min, near_below, t_far;
-  bool segments;       // 2D: extruded quads, whose u runs along the segment.
-  HitCandidates* out;  // out[lane] for packets; out[0] for single rays.
-};
-
-// FanFilter's work on lane i: skips an excluded primitive or one closer
-// than t_min (the hit is rejected and tfar restored), records the others and
-// keeps tfar at the candidates' window, so that every primitive in it is
-// reported whatever the traversal order (Embree keeps a tfar that the filter
-// set when it accepts the hit).
-void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
-                unsigned i) {
-  const auto prim = static_cast<int32_t>(RTCHitN_primID(args->hit, args->N, i));
-  if (std::binary_search(fan.excluded.begin(), fan.excluded.end(), prim)) {
-    args->valid[i] = 0;
-    return;
-  }
-  HitCandidates& c = fan.out[args->N == 1 ? 0 : i];
-  float& tfar = RTCRayN_tfar(args->ray, args->N, i);
-  if (tfar < fan.near_below) c.MarkNear();
-  if (tfar < fan.t_min) {
-    args->valid[i] = 0;
-    return;
-  }
-  constexpr float kEdge = 0x1p-10f;
-  const float u = RTCHitN_u(args->hit, args->N, i);
-  const float v = RTCHitN_v(args->hit, args->N, i);
-  const bool edge = fan.segments ? std::min(u, 1 - u) < kEdge
-                                 : std::min({u, v, 1 - u - v}) < kEdge;
-  c.Add(prim, tfar, edge);
-  tfar = std::min(c.Limit(), fan.t_far);
-}
-
-// Called by Embree for every hit within a ray's current tfar, for the valid
-// lanes of args->valid.
-void FanFilter(const RTCFilterFunctionNArguments* args) {
-  const auto& fan = *reinterpret_cast<const FanContext*>(args->context);
-  // Embree passes one valid lane when it traces a packet's rays one at a
-  // time: find the valid lanes (N <= 16) without a branch per lane.
-  uint32_t lanes = 0;
-  for (unsigned i = 0; i < args->N; ++i) {
-    lanes |= static_cast<uint32_t>(args->valid[i] == -1) << i;
-  }
-  for (; lanes != 0; lanes &= lanes - 1) {
-    FilterLane(fan, args, static_cast<unsigned>(std::countr_zero(lanes)));
-  }
-}
-
-}  // namespace
 
 void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             const FanLimits& limits,
