@@ -229,6 +229,36 @@ TEST(SensitivityTest, JacobianBytesBoundHoldsTheJacobian) {
   }
 }
 
+// A VJP's rows are made a batch at a time, at most 1024 samples and 2^20
+// row entries: with 1024 rays a batch holds fewer samples (its memory is
+// bounded whatever the ray count), with the default 100 it holds 1024.
+TEST(SensitivityTest, AVjpBatchIsBoundedByItsRowsNotOnlyItsSamples) {
+  const Mesh sphere = MakeIcosphere(1, 15);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  for (int rays : {0, 1024}) {
+    SdfParams params;
+    params.rays = rays;
+    HitTable hits;
+    ASSERT_TRUE((*ev)->Compute(params, {}, &hits).ok());
+    int64_t last = 0, widest = 0;
+    ComputeControl control;
+    control.progress = [&](int64_t done, int64_t total) {
+      EXPECT_EQ(total, sphere.num_vertices());
+      widest = std::max(widest, done - last);
+      last = done;
+    };
+    const std::vector<double> g(sphere.num_vertices(), 1.0);
+    ASSERT_TRUE(ComputeVjp(**ev, hits, g, control).ok());
+    EXPECT_EQ(last, sphere.num_vertices());
+    if (rays == 0) {
+      EXPECT_EQ(widest, 1024);
+    } else {
+      EXPECT_LT(widest, 1024);
+    }
+  }
+}
+
 TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);
