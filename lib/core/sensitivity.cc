@@ -5,7 +5,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
 #include <bit>
 #include <cmath>
 
@@ -283,86 +282,49 @@ int64_t RowEntriesBound(const Context& ctx, int64_t p) {
   return std::min<int64_t>(mesh.num_vertices(), corners * hit + around + 1);
 }
 
-// The rows of a batch of samples [begin, end), in one buffer: sample p's
-// row is terms[offsets[i], offsets[i] + counts[i]) with i = p - begin, its
-// room RowEntriesBound(p). The buffer is sized (and its pages touched) in
-// one sweep before the rows are made: faulting them in from the workers'
-// scattered writes instead gains nothing on fine meshes, while zeroing
-// the room the rows leave unused costs little on coarse ones. Against a
-// vector per row (medians of 7 VJPs, 2 threads, alternating): horse 0.157
-// s against 0.175 s, bunny 0.129 against 0.150, igea 0.66-0.69 against
-// 0.70-0.72, rocker-arm 0.0288 against 0.0281-0.0298.
-struct Batch {
-  int64_t begin = 0, end = 0;
-  std::vector<int64_t> offsets, counts;
-  std::vector<Term> terms;
-  void SetRow(int64_t p, const std::vector<Term>& row) {
-    const int64_t i = p - begin;
-    std::copy(row.begin(), row.end(), terms.begin() + offsets[i]);
-    counts[i] = std::ssize(row);
-  }
-  absl::Span<Term> Row(int64_t p) {
-    const int64_t i = p - begin;
-    return absl::MakeSpan(terms.data() + offsets[i], counts[i]);
-  }
-};
-
-// Computes the terms of every sample, a batch at a time (at most kBatch
-// samples and, but for a single sample, kBatchEntries of their rows'
-// bounds: the batch's memory is bounded whatever the ray count) in
-// parallel, and hands each batch to consume(arena, batch).
+// Computes the terms of every sample, a batch at a time in parallel (at
+// most kBatch samples and, but for a single sample, kBatchEntries of their
+// rows' bounds, so that the rows' memory is bounded whatever the ray
+// count), and hands each batch to consume(arena, begin, end, rows) (rows[i]
+// are the terms of sample begin + i).
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           int threads, Consume consume) {
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
-  Batch batch;
-  std::atomic<bool> overflow{false};
+  std::vector<std::vector<Term>> rows(std::min(ns, kBatch));
   tbb::task_arena arena(ThreadCount(threads));
-  for (int64_t begin = 0; begin < ns; begin = batch.end) {
+  for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
     if (control.cancelled && control.cancelled()) {
       return absl::CancelledError("sensitivity computation cancelled");
     }
-    batch.begin = begin;
-    batch.offsets.assign(1, 0);
-    for (int64_t p = begin; p < ns && p - begin < kBatch; ++p) {
-      const int64_t room = batch.offsets.back() + RowEntriesBound(ctx, p);
-      if (p > begin && room > kBatchEntries) break;
-      batch.offsets.push_back(room);
+    int64_t entries = 0;
+    for (end = begin; end < ns && end - begin < kBatch; ++end) {
+      entries += RowEntriesBound(ctx, end);
+      if (end > begin && entries > kBatchEntries) break;
     }
-    batch.end = begin + std::ssize(batch.offsets) - 1;
-    batch.counts.assign(batch.end - begin, 0);
-    batch.terms.resize(batch.offsets.back());
     arena.execute([&] {
-      tbb::parallel_for(
-          tbb::blocked_range<int64_t>(begin, batch.end, 64),
-          [&](const tbb::blocked_range<int64_t>& r) {
-            std::vector<uint8_t> kept(num_rays);
-            std::vector<HitGeometry> geo(num_rays);
-            Row row;
-            PrefetchPrimitives(ctx, r.begin());
-            if (r.size() > 1) PrefetchPrimitives(ctx, r.begin() + 1);
-            PrefetchCorners(ctx, r.begin());
-            for (int64_t p = r.begin(); p < r.end(); ++p) {
-              if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
-              if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-              SampleTerms(ctx, p, row, kept, geo);
-              const int64_t i = p - begin;
-              const auto& terms = row.terms();
-              if (std::ssize(terms) > batch.offsets[i + 1] - batch.offsets[i]) {
-                overflow = true;  // RowEntriesBound is wrong: never written.
-                continue;
-              }
-              batch.SetRow(p, terms);
-            }
-          });
+      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
+                        [&](const tbb::blocked_range<int64_t>& r) {
+                          std::vector<uint8_t> kept(num_rays);
+                          std::vector<HitGeometry> geo(num_rays);
+                          Row row;
+                          PrefetchPrimitives(ctx, r.begin());
+                          if (r.size() > 1) {
+                            PrefetchPrimitives(ctx, r.begin() + 1);
+                          }
+                          PrefetchCorners(ctx, r.begin());
+                          for (int64_t p = r.begin(); p < r.end(); ++p) {
+                            if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
+                            if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
+                            SampleTerms(ctx, p, row, kept, geo);
+                            rows[p - begin].assign(row.terms().begin(),
+                                                   row.terms().end());
+                          }
+                        });
     });
-    if (overflow) {
-      return absl::InternalError(
-          "a Jacobian row has more entries than its bound (a bug)");
-    }
-    consume(arena, batch);
-    if (control.progress) control.progress(batch.end, ns);
+    consume(arena, begin, end, rows);
+    if (control.progress) control.progress(end, ns);
   }
   return absl::OkStatus();
 }
@@ -383,9 +345,11 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   jac.row_offsets.reserve(ctx->samples + 1);
   jac.row_offsets.push_back(0);
   absl::Status s = ForEachBatch(
-      *ctx, control, threads, [&jac](tbb::task_arena&, Batch& batch) {
-        for (int64_t p = batch.begin; p < batch.end; ++p) {
-          const absl::Span<Term> terms = batch.Row(p);
+      *ctx, control, threads,
+      [&jac](tbb::task_arena&, int64_t begin, int64_t end,
+             std::vector<std::vector<Term>>& rows) {
+        for (int64_t p = begin; p < end; ++p) {
+          std::vector<Term>& terms = rows[p - begin];
           std::sort(
               terms.begin(), terms.end(),
               [](const Term& a, const Term& b) { return a.vertex < b.vertex; });
@@ -438,14 +402,16 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
   // sums its terms in sample order, so the result does not depend on the
   // number of threads.
   absl::Status s = ForEachBatch(
-      *ctx, control, threads, [&](tbb::task_arena& arena, Batch& batch) {
+      *ctx, control, threads,
+      [&](tbb::task_arena& arena, int64_t begin, int64_t end,
+          const std::vector<std::vector<Term>>& rows) {
         const int parts = arena.max_concurrency();
         arena.execute([&] {
           tbb::parallel_for(0, parts, [&](int part) {
             const int64_t lo = nv * part / parts, hi = nv * (part + 1) / parts;
-            for (int64_t p = batch.begin; p < batch.end; ++p) {
+            for (int64_t p = begin; p < end; ++p) {
               if (g[p] == 0) continue;
-              for (const Term& term : batch.Row(p)) {
+              for (const Term& term : rows[p - begin]) {
                 if (term.vertex >= lo && term.vertex < hi) {
                   out[term.vertex] += term.d * g[p];
                 }
