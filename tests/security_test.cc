@@ -65,6 +65,25 @@ class SecurityTest : public testing::ServerFixture {
     o.token = token;
     return std::make_unique<RemoteClient>(target_, o);
   }
+  // Restarts the server with this memory budget, then
+  // alice uploads `mesh` as each of `alice_ids` and bob as each of
+  // `bob_ids`, a second apart in that order (later is more recently used).
+  void RestartWithSessions(int64_t budget, const Mesh& mesh,
+                           const std::vector<std::string>& alice_ids,
+                           const std::vector<std::string>& bob_ids) {
+    server::ServerOptions o = options_;
+    o.memory_budget_bytes = budget;
+    RestartServer(o);
+    alice_ = Client("alice-secret");
+    bob_ = Client("bob-secret");
+    for (const auto& [client, ids] : {std::pair{alice_.get(), &alice_ids},
+                                      std::pair{bob_.get(), &bob_ids}}) {
+      for (const std::string& id : *ids) {
+        ASSERT_TRUE(client->Upload(mesh, id).ok()) << id;
+        clock_.Advance(1);
+      }
+    }
+  }
   std::unique_ptr<RemoteClient> alice_, bob_;
 };
 
@@ -190,16 +209,8 @@ TEST_F(SecurityTest, AGradCheckNeverEvictsASmallerTenant) {
   const Mesh sphere = MakeIcosphere(1, 10);
   const int64_t base = server::Session::EstimateBaseBytes(sphere);
   const int64_t scratch = base + GradCheckWorkBytes(sphere, SdfParams{});
-  server::ServerOptions o = options_;
-  o.memory_budget_bytes = 2 * base + scratch + base / 2;
-  RestartServer(o);
-  alice_ = Client("alice-secret");
-  bob_ = Client("bob-secret");
-  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "old").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "k").ok());
+  RestartWithSessions(2 * base + scratch + base / 2, sphere, {"a"},
+                      {"old", "k"});
   ASSERT_EQ(Code(alice_->Get("a")), absl::StatusCode::kOk);
   // A request the check refuses claims nothing, so it evicts nothing.
   GradCheckOptions bad;
@@ -234,17 +245,7 @@ TEST_F(SecurityTest, ARayPassNeverEvictsASmallerTenant) {
   many.rays = 1024;
   const int64_t pass = EstimatePassBytes(sphere, many);
   ASSERT_GT(pass, 2 * base) << "the pass must outweigh a session";
-  server::ServerOptions o = options_;
-  o.max_rays = 1024;
-  o.memory_budget_bytes = 2 * base + pass + base / 2;
-  RestartServer(o);
-  alice_ = Client("alice-secret");
-  bob_ = Client("bob-secret");
-  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "old").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  RestartWithSessions(2 * base + pass + base / 2, sphere, {"a"}, {"old", "b"});
   auto traced = bob_->ComputeSdf("b", many);
   ASSERT_TRUE(traced.ok()) << traced.status();
   EXPECT_EQ(Code(bob_->Get("old")), absl::StatusCode::kNotFound);
@@ -252,13 +253,7 @@ TEST_F(SecurityTest, ARayPassNeverEvictsASmallerTenant) {
   EXPECT_GE(bob_->Get("b")->memory_bytes, base + pass);
 
   // Room for the two sessions but not for the pass.
-  o.memory_budget_bytes = 2 * base + pass / 2;
-  RestartServer(o);
-  alice_ = Client("alice-secret");
-  bob_ = Client("bob-secret");
-  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  RestartWithSessions(2 * base + pass / 2, sphere, {"a"}, {"b"});
   const double rays =
       MetricValue(metrics_.Text(), "meshgauge_rays_traced_total");
   auto refused = bob_->ComputeSdf("b", many);
@@ -287,14 +282,7 @@ TEST_F(SecurityTest, AJacobianThatCannotFitIsRefusedBeforeItIsMade) {
     ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
     jacobian = *JacobianBytesBound(**ev, hits);
   }
-  server::ServerOptions o = options_;
-  o.memory_budget_bytes = 2 * base + pass + jacobian / 2;
-  RestartServer(o);
-  alice_ = Client("alice-secret");
-  bob_ = Client("bob-secret");
-  ASSERT_TRUE(alice_->Upload(sphere, "a").ok());
-  clock_.Advance(1);
-  ASSERT_TRUE(bob_->Upload(sphere, "b").ok());
+  RestartWithSessions(2 * base + pass + jacobian / 2, sphere, {"a"}, {"b"});
   auto refused = bob_->ComputeSdf("b", SdfParams{}, {.include_jacobian = true});
   EXPECT_EQ(Code(refused), absl::StatusCode::kResourceExhausted);
   EXPECT_THAT(std::string(refused.status().message()),
