@@ -282,6 +282,13 @@ int64_t RowEntriesBound(const Context& ctx, int64_t p) {
   return std::min<int64_t>(mesh.num_vertices(), corners * hit + around + 1);
 }
 
+// The sum of RowEntriesBound over every sample.
+int64_t EntriesBound(const Context& ctx) {
+  int64_t entries = 0;
+  for (int64_t p = 0; p < ctx.samples; ++p) entries += RowEntriesBound(ctx, p);
+  return entries;
+}
+
 // Computes the terms of every sample, a batch at a time in parallel (at
 // most kBatch samples and, but for a single sample, kBatchEntries of their
 // rows' bounds, so that the rows' memory is bounded whatever the ray
@@ -338,8 +345,7 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   auto ctx = MakeContext(geometry, hits);
   if (!ctx.ok()) return ctx.status();
   SparseJacobian jac;
-  int64_t bound = 0;
-  for (int64_t p = 0; p < ctx->samples; ++p) bound += RowEntriesBound(*ctx, p);
+  const int64_t bound = EntriesBound(*ctx);
   jac.columns.reserve(bound);
   jac.values.reserve(bound);
   jac.row_offsets.reserve(ctx->samples + 1);
@@ -368,11 +374,8 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
                                            const HitTable& hits) {
   auto ctx = MakeContext(geometry, hits);
   if (!ctx.ok()) return ctx.status();
-  int64_t entries = 0;
-  for (int64_t p = 0; p < ctx->samples; ++p) {
-    entries += RowEntriesBound(*ctx, p);
-  }
-  return entries * static_cast<int64_t>(sizeof(int32_t) + sizeof(Vec3)) +
+  return EntriesBound(*ctx) *
+             static_cast<int64_t>(sizeof(int32_t) + sizeof(Vec3)) +
          (ctx->samples + 1) * static_cast<int64_t>(sizeof(int64_t));
 }
 

@@ -623,8 +623,10 @@ int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params) {
   // Hit table: a primitive (4) and a kept flag (1) per ray, a near flag per
   // sample, the positions per vertex. Result: value, normalized value,
   // status, hits and kept counts per sample, and the opposite point.
-  const int64_t per_sample =
-      5 * rays + 1 + (8 + 8 + 1 + 4 + 4) + (params.opposite_points ? 24 : 0);
+  const int64_t per_sample = static_cast<int64_t>(
+      rays * (sizeof(int32_t) + sizeof(uint8_t)) + sizeof(uint8_t) +
+      2 * sizeof(double) + sizeof(VertexStatus) + 2 * sizeof(int32_t) +
+      (params.opposite_points ? sizeof(Vec3) : 0));
   return samples * per_sample +
          mesh.num_vertices() * static_cast<int64_t>(sizeof(Vec3));
 }
