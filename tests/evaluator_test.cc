@@ -2,6 +2,7 @@
 // rebuild), cancellation, and NORMAL_RAY on the thin CAD plate.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <malloc.h>
 
 #include <cstring>
 
@@ -331,6 +332,31 @@ TEST(EvaluatorTest, HitTableMatchesValuesAndRecordsGeneration) {
 
 // The tray is a 3.175 mm plate: NORMAL_RAY gives exactly the plate thickness
 // at every vertex whose faces all lie in the two large faces.
+// The hit table is allocated without initialization and each sample's row
+// written by the worker that takes it: a sample that traces no ray (here a
+// vertex without faces) still gets a row of misses. glibc's perturbation
+// fills fresh allocations with 0xa5 so that an unwritten row shows.
+TEST(EvaluatorTest, AVertexWithoutFacesGetsAnEmptyHitRow) {
+  Mesh mesh = MakeIcosphere(1, 2);
+  mesh.positions.insert(mesh.positions.begin(), Vec3(0.1, 0.2, 0.3));
+  for (Face& f : mesh.faces) {
+    for (int k = 0; k < f.size; ++k) ++f.v[k];
+  }
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(ev.ok()) << ev.status();
+  ASSERT_EQ(mallopt(M_PERTURB, 0x5a), 1);
+  HitTable hits;
+  auto sdf = (*ev)->Compute({}, {}, &hits);
+  mallopt(M_PERTURB, 0);
+  ASSERT_TRUE(sdf.ok()) << sdf.status();
+  EXPECT_EQ(sdf->status[0], VertexStatus::kNoFaces);
+  EXPECT_THAT(hits.Row(0), ::testing::Each(-1));
+  EXPECT_THAT(hits.KeptRow(0), ::testing::Each(0));
+  EXPECT_EQ(hits.near[0], 0);
+  // Every other vertex's rays hit the sphere.
+  EXPECT_THAT(hits.Row(1), ::testing::Each(::testing::Ge(0)));
+}
+
 TEST(EvaluatorTest, TrayNormalRayIsPlateThickness) {
   auto mesh = ReadMesh(SharedMesh("1002_tray_bottom.STL"));
   ASSERT_TRUE(mesh.ok());

@@ -6,6 +6,7 @@
 
 #include "absl/types/span.h"
 #include "lib/core/cone.h"
+#include "lib/core/default_init.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/vec3.h"
 
@@ -19,13 +20,13 @@ namespace meshgauge {
 struct HitTable {
   ResolvedParams resolved;
   std::vector<ConeRay> cone;
-  std::vector<int32_t> primitives;
+  DefaultInitVector<int32_t> primitives;
   // #V x K: 1 where the ray passed the filter. kSphere (K = 1): the
   // touching primitive's closed form + 1 (BallContact::kind), 0 for none,
   // so that a change of form counts as an event like a change of hit.
-  std::vector<uint8_t> kept;
-  double t_min = 0;           // self-hit threshold, mesh units.
-  double t_max = 0;           // miss distance, mesh units.
+  DefaultInitVector<uint8_t> kept;
+  double t_min = 0;  // self-hit threshold, mesh units.
+  double t_max = 0;  // miss distance, mesh units.
   int64_t generation = -1;
   // What a later pass needs to reuse this one's rays (SdfEvaluator::Compute
   // with a PreviousPass): the positions, per vertex whether a ray met a

@@ -412,11 +412,14 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     if (!made.ok()) return made.status();
     ball_tree = std::move(*made);
   }
-  std::vector<int32_t> table;
-  std::vector<uint8_t> kept_table, near;
+  // The table's rows are first written by the workers (each sample's row
+  // at the start of its iteration).
+  DefaultInitVector<int32_t> table;
+  DefaultInitVector<uint8_t> kept_table;
+  std::vector<uint8_t> near;
   if (keep_hits) {
-    table.assign(ns * num_rays, -1);
-    kept_table.assign(ns * num_rays, 0);
+    table.resize(ns * num_rays);
+    kept_table.resize(ns * num_rays);
     near.assign(ns, 0);
   }
 
@@ -442,6 +445,12 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       const int64_t p = faces ? i : order_[i];
       const bool reuse = plan && !plan->dirty[p] &&
                          !(plan->t_min_changed && plan->hits->near[p]);
+      int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
+      uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
+      if (row) {
+        std::fill_n(row, num_rays, -1);
+        std::fill_n(kept_row, num_rays, 0);
+      }
       if (!faces && topo_.vertex_faces.Of(p).empty()) {
         result.status[p] = VertexStatus::kNoFaces;
         continue;
@@ -466,9 +475,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
                                            vc.axis(), excluded, ball);
         ++traced;
-        if (!table.empty()) {  // one "ray" per vertex.
-          table[p] = b.prim;
-          kept_table[p] = static_cast<uint8_t>(b.contact.kind + 1);
+        if (row) {  // one "ray" per vertex.
+          *row = b.prim;
+          *kept_row = static_cast<uint8_t>(b.contact.kind + 1);
         }
         if (b.prim < 0) {
           result.status[p] = VertexStatus::kNoHit;
@@ -494,8 +503,6 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         }
         have_dirs = true;
       };
-      int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
-      uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
       // Which rays to trace: all, or (reusing) those whose hit may change.
       std::fill(t.begin(), t.end(), kNaN);
       retrace.clear();
