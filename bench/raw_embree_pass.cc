@@ -53,11 +53,15 @@ int64_t TracePackets(RTCScene scene, RTCIntersectContext* ctx, const Vec3& x,
   return hits;
 }
 
-int64_t TraceVertex(RawTrace trace, RTCScene scene, const Vec3& x,
-                    const std::vector<Vec3>& dirs, float t_near, float t_far,
-                    std::vector<RTCRayHit>& stream) {
+// Accepts every hit: Embree keeps the lanes of args->valid as they are.
+void AcceptEveryHit(const RTCFilterFunctionNArguments*) {}
+
+int64_t TraceVertex(RawTrace trace, bool noop_filter, RTCScene scene,
+                    const Vec3& x, const std::vector<Vec3>& dirs, float t_near,
+                    float t_far, std::vector<RTCRayHit>& stream) {
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
+  if (noop_filter) ctx.filter = AcceptEveryHit;
   int64_t hits = 0;
   switch (trace) {
     case RawTrace::kSingle:
@@ -95,9 +99,9 @@ std::string RawConfig::Name() const {
   static const char* const kTrace[] = {"rtcIntersect1", "rtcIntersect4",
                                        "rtcIntersect8", "rtcIntersect16",
                                        "rtcIntersect1M"};
-  return absl::StrCat(high_quality ? "HIGH" : "MEDIUM",
-                      robust ? " ROBUST " : " plain ",
-                      kTrace[static_cast<int>(trace)]);
+  return absl::StrCat(
+      high_quality ? "HIGH" : "MEDIUM", robust ? " ROBUST " : " plain ",
+      kTrace[static_cast<int>(trace)], noop_filter ? " no-op filter" : "");
 }
 
 std::vector<RawConfig> RawConfigs() {
@@ -112,6 +116,8 @@ std::vector<RawConfig> RawConfigs() {
       configs.push_back({.robust = robust, .high_quality = true, .trace = t});
     }
   }
+  configs.push_back(
+      {.robust = true, .trace = RawTrace::kPacket16, .noop_filter = true});
   return configs;
 }
 
@@ -134,8 +140,9 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
 
   RTCDevice device = rtcNewDevice(nullptr);
   RTCScene scene = rtcNewScene(device);
-  rtcSetSceneFlags(scene,
-                   config.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE);
+  int flags = config.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
+  if (config.noop_filter) flags |= RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
+  rtcSetSceneFlags(scene, static_cast<RTCSceneFlags>(flags));
   rtcSetSceneBuildQuality(scene, config.high_quality
                                      ? RTC_BUILD_QUALITY_HIGH
                                      : RTC_BUILD_QUALITY_MEDIUM);
@@ -185,8 +192,9 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
             for (size_t k = 0; k < dirs.size(); ++k) {
               dirs[k] = RayDirection(vc.frame, (*cone)[k]);
             }
-            local_hits += TraceVertex(config.trace, scene, mesh.positions[p],
-                                      dirs, t_near, t_far, stream);
+            local_hits +=
+                TraceVertex(config.trace, config.noop_filter, scene,
+                            mesh.positions[p], dirs, t_near, t_far, stream);
             local_rays += std::ssize(dirs);
           }
           rays += local_rays;
