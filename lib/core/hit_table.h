@@ -6,7 +6,7 @@
 
 #include "absl/types/span.h"
 #include "lib/core/cone.h"
-#include "lib/core/default_init.h"
+#include "lib/core/table_allocator.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/vec3.h"
 
@@ -20,11 +20,11 @@ namespace meshgauge {
 struct HitTable {
   ResolvedParams resolved;
   std::vector<ConeRay> cone;
-  DefaultInitVector<int32_t> primitives;
+  TableVector<int32_t> primitives;
   // #V x K: 1 where the ray passed the filter. kSphere (K = 1): the
   // touching primitive's closed form + 1 (BallContact::kind), 0 for none,
   // so that a change of form counts as an event like a change of hit.
-  DefaultInitVector<uint8_t> kept;
+  TableVector<uint8_t> kept;
   double t_min = 0;  // self-hit threshold, mesh units.
   double t_max = 0;  // miss distance, mesh units.
   int64_t generation = -1;

@@ -414,8 +414,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   }
   // The table's rows are first written by the workers (each sample's row
   // at the start of its iteration).
-  DefaultInitVector<int32_t> table;
-  DefaultInitVector<uint8_t> kept_table;
+  TableVector<int32_t> table;
+  TableVector<uint8_t> kept_table;
   std::vector<uint8_t> near;
   if (keep_hits) {
     table.resize(ns * num_rays);
