@@ -23,6 +23,7 @@
 // With --ray_tests_only, per mesh only the values pass with Embree's
 // watertight test (the default) and with its fast one, over the same rays:
 // both rates, hit fractions, and the vertices whose value differs.
+#include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <numeric>

@@ -6,8 +6,8 @@
 
 #include "absl/types/span.h"
 #include "lib/core/cone.h"
-#include "lib/core/table_allocator.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/table_allocator.h"
 #include "lib/core/vec3.h"
 
 namespace meshgauge {
