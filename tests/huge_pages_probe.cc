@@ -21,19 +21,7 @@
 #include <string>
 
 #include "client/cli/huge_pages.h"
-
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
-    __has_feature(memory_sanitizer)
-#define MESHGAUGE_SANITIZED 1
-#endif
-#endif
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define MESHGAUGE_SANITIZED 1
-#endif
-#ifndef MESHGAUGE_SANITIZED
-#define MESHGAUGE_SANITIZED 0
-#endif
+#include "lib/core/sanitizers.h"
 
 int main(int argc, char** argv) {
   if (argc < 2) return 2;

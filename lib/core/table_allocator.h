@@ -26,23 +26,13 @@
 #include <utility>
 #include <vector>
 
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define MESHGAUGE_TABLE_SANITIZED 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer) || \
-    __has_feature(memory_sanitizer)
-#define MESHGAUGE_TABLE_SANITIZED 1
-#endif
-#endif
-#ifndef MESHGAUGE_TABLE_SANITIZED
-#define MESHGAUGE_TABLE_SANITIZED 0
-#endif
+#include "lib/core/sanitizers.h"
 
 namespace meshgauge {
 
 // Whether TableAllocator maps its large arrays itself: not under a
 // sanitizer.
-inline constexpr bool kTableMapsLargeArrays = !MESHGAUGE_TABLE_SANITIZED;
+inline constexpr bool kTableMapsLargeArrays = !MESHGAUGE_SANITIZED;
 
 // Whether TableAllocator advises huge pages: unless the process was started
 // with glibc.malloc.hugetlb=0 in GLIBC_TUNABLES.
