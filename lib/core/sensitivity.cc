@@ -1,7 +1,9 @@
 #include "lib/core/sensitivity.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -19,15 +21,16 @@
 namespace meshgauge {
 namespace {
 
-// Samples per batch: the rows of a batch are computed in parallel, then
-// scattered in parallel over destination ranges, each destination summing
-// in sample order (deterministic sums). The rows' memory is reused from
-// batch to batch; small batches keep it in cache and fault in fewer pages
-// per call (horse, 100 rays: VJP 0.23 s with 4096, 0.17 s with 1024).
+// Samples per batch: the rows of a batch are computed in parallel while
+// the batch before is scattered (each destination summing in sample order:
+// deterministic sums). The two batches' rows are reused from batch to
+// batch; small batches keep them in cache (horse, 100 rays: VJP 0.23 s with
+// 4096 samples, 0.17 s with 1024; with the scatter overlapped, 2^16 row
+// entries by their bounds beat 2^20: docs/benchmarks.md).
 constexpr int64_t kBatch = 1024;
-// At most this many row entries per batch (bounds, RowEntriesBound; 32 MB
-// of terms): about 340 samples with 1024 rays, 85 with 4096.
-constexpr int64_t kBatchEntries = int64_t{1} << 20;
+// At most this many row entries per batch (bounds, RowEntriesBound; 1.8 MB
+// of terms): about 200 samples with 100 rays, 21 with 1024.
+constexpr int64_t kBatchEntries = int64_t{1} << 16;
 
 struct Term {
   int32_t vertex;
@@ -37,55 +40,31 @@ struct Term {
 // A sample's row of the Jacobian, summed per vertex as its terms arrive
 // (entries in the order of each vertex's first term, each the sum of its
 // terms in arrival order). A sample's rays hit few primitives, so the row
-// holds far fewer entries than its rays have corners.
+// holds far fewer entries than its rays have corners. One per worker
+// thread, kept across samples: its slot per vertex (4 bytes a vertex) finds
+// a vertex's entry with one load.
 class Row {
  public:
+  explicit Row(int64_t num_vertices) : slots_(num_vertices, -1) {}
+
   void Clear() {
-    for (size_t slot : used_) slots_[slot] = -1;
-    used_.clear();
+    for (const Term& t : terms_) slots_[t.vertex] = -1;
     terms_.clear();
   }
   void Add(int32_t vertex, const Vec3& d) {
-    if (2 * (terms_.size() + 1) > slots_.size()) Grow();
-    const size_t i = Find(vertex);
-    if (slots_[i] < 0) {
-      slots_[i] = static_cast<int32_t>(terms_.size());
-      used_.push_back(i);
+    int32_t& slot = slots_[vertex];
+    if (slot < 0) {
+      slot = static_cast<int32_t>(terms_.size());
       terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
     } else {
-      terms_[slots_[i]].d += d;
+      terms_[slot].d += d;
     }
   }
   const std::vector<Term>& terms() const { return terms_; }
 
  private:
-  // The slot holding `vertex`, or the empty slot where it would go (open
-  // addressing, linear probing; the table is at most half full).
-  size_t Find(int32_t vertex) const {
-    // The product's high bits (Fibonacci hashing): its low bits would
-    // depend on the vertex's low bits alone.
-    const size_t mask = slots_.size() - 1;
-    size_t i = (static_cast<uint32_t>(vertex) * 0x9E3779B1u) >> shift_;
-    while (slots_[i] >= 0 && terms_[slots_[i]].vertex != vertex) {
-      i = (i + 1) & mask;
-    }
-    return i;
-  }
-  void Grow() {
-    slots_.assign(std::max<size_t>(256, 2 * slots_.size()), -1);
-    shift_ = 32 - std::countr_zero(slots_.size());
-    used_.clear();
-    for (size_t k = 0; k < terms_.size(); ++k) {
-      const size_t i = Find(terms_[k].vertex);
-      slots_[i] = static_cast<int32_t>(k);
-      used_.push_back(i);
-    }
-  }
-
   std::vector<Term> terms_;
-  std::vector<int32_t> slots_;  // index into terms_, -1 when empty.
-  std::vector<size_t> used_;    // the slots not empty.
-  int shift_ = 0;               // 32 - log2(slots_.size()).
+  std::vector<int32_t> slots_;  // per vertex: its index in terms_, or -1.
 };
 
 // Everything a sample's gradient needs, shared read-only by the workers.
@@ -292,15 +271,47 @@ int64_t EntriesBound(const Context& ctx) {
 // Computes the terms of every sample, a batch at a time in parallel (at
 // most kBatch samples and, but for a single sample, kBatchEntries of their
 // rows' bounds, so that the rows' memory is bounded whatever the ray
-// count), and hands each batch to consume(arena, begin, end, rows) (rows[i]
-// are the terms of sample begin + i).
+// count), and hands each batch to consume(begin, end, rows) (rows[i] are the
+// terms of sample begin + i), one batch after the other in sample order,
+// each while the next batch is computed.
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           int threads, Consume consume) {
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
-  std::vector<std::vector<Term>> rows(std::min(ns, kBatch));
+  const int64_t nv = ctx.ev.mesh().num_vertices();
+  // Double-buffered: `computing` is filled while the other is consumed.
+  std::vector<std::vector<Term>> rows[2];
+  for (auto& r : rows) r.resize(std::min(ns, kBatch));
+  int computing = 0;
+  int64_t ready_begin = 0, ready_end = 0;  // rows[computing ^ 1].
+  tbb::enumerable_thread_specific<Row> row_of_thread(nv);
   tbb::task_arena arena(ThreadCount(threads));
+  auto compute = [&](int64_t begin, int64_t end) {
+    std::vector<std::vector<Term>>& out = rows[computing];
+    tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
+                      [&](const tbb::blocked_range<int64_t>& r) {
+                        std::vector<uint8_t> kept(num_rays);
+                        std::vector<HitGeometry> geo(num_rays);
+                        Row& row = row_of_thread.local();
+                        PrefetchPrimitives(ctx, r.begin());
+                        if (r.size() > 1)
+                          PrefetchPrimitives(ctx, r.begin() + 1);
+                        PrefetchCorners(ctx, r.begin());
+                        for (int64_t p = r.begin(); p < r.end(); ++p) {
+                          if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
+                          if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
+                          SampleTerms(ctx, p, row, kept, geo);
+                          out[p - begin].assign(row.terms().begin(),
+                                                row.terms().end());
+                        }
+                      });
+  };
+  auto consume_ready = [&] {
+    if (ready_end > ready_begin) {
+      consume(ready_begin, ready_end, rows[computing ^ 1]);
+    }
+  };
   for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
     if (control.cancelled && control.cancelled()) {
       return absl::CancelledError("sensitivity computation cancelled");
@@ -311,28 +322,14 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
       if (end > begin && entries > kBatchEntries) break;
     }
     arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
-                        [&](const tbb::blocked_range<int64_t>& r) {
-                          std::vector<uint8_t> kept(num_rays);
-                          std::vector<HitGeometry> geo(num_rays);
-                          Row row;
-                          PrefetchPrimitives(ctx, r.begin());
-                          if (r.size() > 1) {
-                            PrefetchPrimitives(ctx, r.begin() + 1);
-                          }
-                          PrefetchCorners(ctx, r.begin());
-                          for (int64_t p = r.begin(); p < r.end(); ++p) {
-                            if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
-                            if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-                            SampleTerms(ctx, p, row, kept, geo);
-                            rows[p - begin].assign(row.terms().begin(),
-                                                   row.terms().end());
-                          }
-                        });
+      tbb::parallel_invoke([&] { compute(begin, end); }, consume_ready);
     });
-    consume(arena, begin, end, rows);
+    ready_begin = begin;
+    ready_end = end;
+    computing ^= 1;
     if (control.progress) control.progress(end, ns);
   }
+  consume_ready();
   return absl::OkStatus();
 }
 
@@ -352,8 +349,7 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   jac.row_offsets.push_back(0);
   absl::Status s = ForEachBatch(
       *ctx, control, threads,
-      [&jac](tbb::task_arena&, int64_t begin, int64_t end,
-             std::vector<std::vector<Term>>& rows) {
+      [&jac](int64_t begin, int64_t end, std::vector<std::vector<Term>>& rows) {
         for (int64_t p = begin; p < end; ++p) {
           std::vector<Term>& terms = rows[p - begin];
           std::sort(
@@ -401,28 +397,19 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
   auto ctx = MakeContext(geometry, hits);
   if (!ctx.ok()) return ctx.status();
   std::vector<Vec3> out(nv);
-  // Scatter in parallel over destination ranges; every destination still
-  // sums its terms in sample order, so the result does not depend on the
-  // number of threads.
-  absl::Status s = ForEachBatch(
-      *ctx, control, threads,
-      [&](tbb::task_arena& arena, int64_t begin, int64_t end,
-          const std::vector<std::vector<Term>>& rows) {
-        const int parts = arena.max_concurrency();
-        arena.execute([&] {
-          tbb::parallel_for(0, parts, [&](int part) {
-            const int64_t lo = nv * part / parts, hi = nv * (part + 1) / parts;
-            for (int64_t p = begin; p < end; ++p) {
-              if (g[p] == 0) continue;
-              for (const Term& term : rows[p - begin]) {
-                if (term.vertex >= lo && term.vertex < hi) {
-                  out[term.vertex] += term.d * g[p];
-                }
-              }
-            }
-          });
-        });
-      });
+  // Each batch is scattered by one task, in sample order (so the result
+  // does not depend on the number of threads), while the next is computed.
+  absl::Status s =
+      ForEachBatch(*ctx, control, threads,
+                   [&](int64_t begin, int64_t end,
+                       const std::vector<std::vector<Term>>& rows) {
+                     for (int64_t p = begin; p < end; ++p) {
+                       if (g[p] == 0) continue;
+                       for (const Term& term : rows[p - begin]) {
+                         out[term.vertex] += term.d * g[p];
+                       }
+                     }
+                   });
   if (!s.ok()) return s;
   return out;
 }

@@ -56,7 +56,8 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
 // g has one entry per sample, #V or #F (ignored where a sample has no value;
 // must be finite).
-// O(#V) memory, no dense matrix; deterministic for any thread count.
+// O(#V) memory (the result, 24 bytes a vertex, and 4 bytes a vertex per
+// thread), no dense matrix; deterministic for any thread count.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
