@@ -163,6 +163,8 @@ TEST(SensitivityTest, JacobianRowsHaveUniqueColumnsAndTheVjpIsGTransposeJ) {
   ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
   auto jac = ComputeJacobian(**ev, hits);
   ASSERT_TRUE(jac.ok());
+  // Every batch appended, the last included (about 3 batches here).
+  ASSERT_EQ(std::ssize(jac->row_offsets), mesh->num_vertices() + 1);
   std::vector<double> g(mesh->num_vertices());
   for (size_t i = 0; i < g.size(); ++i) g[i] = std::cos(0.37 * i);
   std::vector<Vec3> expected(mesh->num_vertices());

@@ -1,7 +1,6 @@
 #include "lib/core/sensitivity.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/task_arena.h>
@@ -9,6 +8,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/face_sample.h"
@@ -28,8 +28,8 @@ namespace {
 // 4096 samples, 0.17 s with 1024; with the scatter overlapped, 2^16 row
 // entries by their bounds beat 2^20: docs/benchmarks.md).
 constexpr int64_t kBatch = 1024;
-// At most this many row entries per batch (bounds, RowEntriesBound; 1.8 MB
-// of terms): about 200 samples with 100 rays, 21 with 1024.
+// At most this many row entries per batch by their bounds (RowEntriesBound;
+// 2 MiB of terms): about 200 samples with 100 rays, 21 with 1024.
 constexpr int64_t kBatchEntries = int64_t{1} << 16;
 
 struct Term {
@@ -40,9 +40,9 @@ struct Term {
 // A sample's row of the Jacobian, summed per vertex as its terms arrive
 // (entries in the order of each vertex's first term, each the sum of its
 // terms in arrival order). A sample's rays hit few primitives, so the row
-// holds far fewer entries than its rays have corners. One per worker
-// thread, kept across samples: its slot per vertex (4 bytes a vertex) finds
-// a vertex's entry with one load.
+// holds far fewer entries than its rays have corners. One per thread slot
+// of the computation's arena, kept across samples: its slot per vertex (4
+// bytes a vertex) finds a vertex's entry with one load.
 class Row {
  public:
   explicit Row(int64_t num_vertices) : slots_(num_vertices, -1) {}
@@ -54,8 +54,8 @@ class Row {
   void Add(int32_t vertex, const Vec3& d) {
     int32_t& slot = slots_[vertex];
     if (slot < 0) {
-      slot = static_cast<int32_t>(terms_.size());
       terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
+      slot = static_cast<int32_t>(terms_.size() - 1);
     } else {
       terms_[slot].d += d;
     }
@@ -268,49 +268,62 @@ int64_t EntriesBound(const Context& ctx) {
   return entries;
 }
 
+// The rows of the samples [begin, end): rows[p - begin] is sample p's (the
+// vectors are reused from batch to batch and keep their capacity).
+struct Batch {
+  int64_t begin = 0, end = 0;
+  std::vector<std::vector<Term>> rows;
+};
+
 // Computes the terms of every sample, a batch at a time in parallel (at
 // most kBatch samples and, but for a single sample, kBatchEntries of their
 // rows' bounds, so that the rows' memory is bounded whatever the ray
-// count), and hands each batch to consume(begin, end, rows) (rows[i] are the
-// terms of sample begin + i), one batch after the other in sample order,
-// each while the next batch is computed.
+// count), and hands each batch to consume(batch), one batch after the
+// other in sample order, each while the next batch is computed.
+// control.progress follows the consumed batches.
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           int threads, Consume consume) {
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
   const int64_t nv = ctx.ev.mesh().num_vertices();
-  // Double-buffered: `computing` is filled while the other is consumed.
-  std::vector<std::vector<Term>> rows[2];
-  for (auto& r : rows) r.resize(std::min(ns, kBatch));
+  // Double-buffered: batch[computing] is filled while the other is consumed.
+  Batch batch[2];
   int computing = 0;
-  int64_t ready_begin = 0, ready_end = 0;  // rows[computing ^ 1].
-  tbb::enumerable_thread_specific<Row> row_of_thread(nv);
   tbb::task_arena arena(ThreadCount(threads));
-  auto compute = [&](int64_t begin, int64_t end) {
-    std::vector<std::vector<Term>>& out = rows[computing];
-    tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, 64),
-                      [&](const tbb::blocked_range<int64_t>& r) {
-                        std::vector<uint8_t> kept(num_rays);
-                        std::vector<HitGeometry> geo(num_rays);
-                        Row& row = row_of_thread.local();
-                        PrefetchPrimitives(ctx, r.begin());
-                        if (r.size() > 1)
-                          PrefetchPrimitives(ctx, r.begin() + 1);
-                        PrefetchCorners(ctx, r.begin());
-                        for (int64_t p = r.begin(); p < r.end(); ++p) {
-                          if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
-                          if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-                          SampleTerms(ctx, p, row, kept, geo);
-                          out[p - begin].assign(row.terms().begin(),
-                                                row.terms().end());
-                        }
-                      });
+  // One Row per thread slot of the arena (at most its concurrency), each
+  // on its own cache lines (its vector's end moves with every new entry).
+  struct alignas(64) ThreadRow {
+    std::optional<Row> row;
+  };
+  std::vector<ThreadRow> rows(arena.max_concurrency());
+  auto compute = [&] {
+    Batch& b = batch[computing];
+    tbb::parallel_for(
+        tbb::blocked_range<int64_t>(b.begin, b.end, 64),
+        [&](const tbb::blocked_range<int64_t>& r) {
+          std::vector<uint8_t> kept(num_rays);
+          std::vector<HitGeometry> geo(num_rays);
+          std::optional<Row>& row =
+              rows[tbb::this_task_arena::current_thread_index()].row;
+          if (!row) row.emplace(nv);
+          PrefetchPrimitives(ctx, r.begin());
+          if (r.size() > 1) PrefetchPrimitives(ctx, r.begin() + 1);
+          PrefetchCorners(ctx, r.begin());
+          for (int64_t p = r.begin(); p < r.end(); ++p) {
+            if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
+            if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
+            SampleTerms(ctx, p, *row, kept, geo);
+            b.rows[p - b.begin].assign(row->terms().begin(),
+                                       row->terms().end());
+          }
+        });
   };
   auto consume_ready = [&] {
-    if (ready_end > ready_begin) {
-      consume(ready_begin, ready_end, rows[computing ^ 1]);
-    }
+    Batch& b = batch[computing ^ 1];
+    if (b.end == b.begin) return;
+    consume(b);
+    if (control.progress) control.progress(b.end, ns);
   };
   for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
     if (control.cancelled && control.cancelled()) {
@@ -321,13 +334,12 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
       entries += RowEntriesBound(ctx, end);
       if (end > begin && entries > kBatchEntries) break;
     }
-    arena.execute([&] {
-      tbb::parallel_invoke([&] { compute(begin, end); }, consume_ready);
-    });
-    ready_begin = begin;
-    ready_end = end;
+    Batch& b = batch[computing];
+    b.begin = begin;
+    b.end = end;
+    if (std::ssize(b.rows) < end - begin) b.rows.resize(end - begin);
+    arena.execute([&] { tbb::parallel_invoke(compute, consume_ready); });
     computing ^= 1;
-    if (control.progress) control.progress(end, ns);
   }
   consume_ready();
   return absl::OkStatus();
@@ -347,21 +359,19 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   jac.values.reserve(bound);
   jac.row_offsets.reserve(ctx->samples + 1);
   jac.row_offsets.push_back(0);
-  absl::Status s = ForEachBatch(
-      *ctx, control, threads,
-      [&jac](int64_t begin, int64_t end, std::vector<std::vector<Term>>& rows) {
-        for (int64_t p = begin; p < end; ++p) {
-          std::vector<Term>& terms = rows[p - begin];
-          std::sort(
-              terms.begin(), terms.end(),
-              [](const Term& a, const Term& b) { return a.vertex < b.vertex; });
-          for (const Term& t : terms) {
-            jac.columns.push_back(t.vertex);
-            jac.values.push_back(t.d);
-          }
-          jac.row_offsets.push_back(jac.nonzeros());
-        }
+  absl::Status s = ForEachBatch(*ctx, control, threads, [&jac](Batch& batch) {
+    for (int64_t p = batch.begin; p < batch.end; ++p) {
+      std::vector<Term>& terms = batch.rows[p - batch.begin];
+      std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
+        return a.vertex < b.vertex;
       });
+      for (const Term& t : terms) {
+        jac.columns.push_back(t.vertex);
+        jac.values.push_back(t.d);
+      }
+      jac.row_offsets.push_back(jac.nonzeros());
+    }
+  });
   if (!s.ok()) return s;
   return jac;
 }
@@ -399,17 +409,14 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
   std::vector<Vec3> out(nv);
   // Each batch is scattered by one task, in sample order (so the result
   // does not depend on the number of threads), while the next is computed.
-  absl::Status s =
-      ForEachBatch(*ctx, control, threads,
-                   [&](int64_t begin, int64_t end,
-                       const std::vector<std::vector<Term>>& rows) {
-                     for (int64_t p = begin; p < end; ++p) {
-                       if (g[p] == 0) continue;
-                       for (const Term& term : rows[p - begin]) {
-                         out[term.vertex] += term.d * g[p];
-                       }
-                     }
-                   });
+  absl::Status s = ForEachBatch(*ctx, control, threads, [&](Batch& batch) {
+    for (int64_t p = batch.begin; p < batch.end; ++p) {
+      if (g[p] == 0) continue;
+      for (const Term& term : batch.rows[p - batch.begin]) {
+        out[term.vertex] += term.d * g[p];
+      }
+    }
+  });
   if (!s.ok()) return s;
   return out;
 }
