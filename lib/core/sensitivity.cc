@@ -6,7 +6,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <bit>
 #include <cmath>
 #include <optional>
 
@@ -296,7 +295,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   struct alignas(64) ThreadRow {
     std::optional<Row> row;
   };
-  std::vector<ThreadRow> rows(arena.max_concurrency());
+  std::vector<ThreadRow> thread_rows(arena.max_concurrency());
   auto compute = [&] {
     Batch& b = batch[computing];
     tbb::parallel_for(
@@ -305,7 +304,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
           std::vector<uint8_t> kept(num_rays);
           std::vector<HitGeometry> geo(num_rays);
           std::optional<Row>& row =
-              rows[tbb::this_task_arena::current_thread_index()].row;
+              thread_rows[tbb::this_task_arena::current_thread_index()].row;
           if (!row) row.emplace(nv);
           PrefetchPrimitives(ctx, r.begin());
           if (r.size() > 1) PrefetchPrimitives(ctx, r.begin() + 1);
