@@ -16,6 +16,7 @@
 #include "absl/strings/str_join.h"
 #include "lib/core/mesh_repair.h"
 #include "lib/core/missing_diagnosis.h"
+#include "lib/core/missing_values.h"
 #include "lib/core/shapes.h"
 #include "lib/io/mesh_io.h"
 
@@ -387,6 +388,33 @@ TEST(MissingValueWarningsTest, BelowTheThresholdNothingAndBeyondFiveACount) {
   EXPECT_EQ(w[5],
             "2 more components have more than 1% of the surface "
             "without values");
+}
+
+// A pass's warnings skip the components' topology pass when the missing
+// share of the surface is under the threshold: at the threshold's edge,
+// they are the diagnosis's, named component or none.
+TEST(MissingValueWarningsTest, APassAtTheThresholdGetsTheDiagnosisWarnings) {
+  Mesh mesh;
+  Append(mesh, MakeIcosphere(1, 3), {0, 0, 0});
+  Append(mesh, MakeBox(1, 1, 1, 0.5), {3, 0, 0});
+  SdfResult pass;
+  pass.values.assign(mesh.positions.size(), 1.0);
+  pass.status.assign(mesh.positions.size(), VertexStatus::kOk);
+  const Face& face = mesh.faces[7];
+  for (int k = 0; k < face.size; ++k) {
+    pass.values[face.v[k]] = std::numeric_limits<double>::quiet_NaN();
+    pass.status[face.v[k]] = VertexStatus::kNoHit;
+  }
+  pass.missing = CountMissing(mesh, pass.values);
+  const double share = pass.missing.area_fraction;
+  ASSERT_GT(share, 0);
+  for (const double warn :
+       {share * (1 - 1e-12), share * (1 + 1e-12), share / 2, share * 2, 0.0}) {
+    const auto diagnosed =
+        MissingValueWarnings(mesh, pass.values, pass.status, warn);
+    EXPECT_EQ(MissingValueWarnings(mesh, pass, warn), diagnosed) << warn;
+    EXPECT_EQ(diagnosed.empty(), warn > share) << warn;
+  }
 }
 
 }  // namespace

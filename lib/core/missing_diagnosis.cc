@@ -140,6 +140,14 @@ std::vector<std::string> MissingValueWarnings(const Mesh& mesh,
                                               const SdfResult& result,
                                               double warn_fraction) {
   if (result.resolved.params.samples == SampleSet::kVertices) {
+    // A component's missing area is a sum of some of the terms of the
+    // surface's, in the same order, so it is never larger: with the
+    // surface's share under the threshold (a margin for the rounding of the
+    // share) no component is named, and its topology pass is skipped.
+    if (warn_fraction >= 0 &&
+        result.missing.area_fraction <= warn_fraction * (1 - 1e-9)) {
+      return {};
+    }
     return MissingValueWarnings(mesh, result.values, result.status,
                                 warn_fraction);
   }

@@ -30,7 +30,10 @@ std::vector<std::string> MissingValueWarnings(
 
 // The warnings of a pass: MissingValueWarnings for vertex samples; for face
 // samples (SPEC v2 §5c) one sentence, with the likely cause, when the faces
-// without a value cover more than `warn_fraction` of the surface.
+// without a value cover more than `warn_fraction` of the surface. Linear
+// and without a topology pass when result.missing (the pass's CountMissing)
+// covers at most `warn_fraction` of the surface, as no component can then be
+// named.
 std::vector<std::string> MissingValueWarnings(
     const Mesh& mesh, const SdfResult& result,
     double warn_fraction = kWarnMissingFraction);
