@@ -509,8 +509,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
         wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
-        // The diagnosis costs a topology pass; a face left without a value
-        // is where any sample is missing.
+        // A face left without a value is where any sample is missing; the
+        // diagnosis costs a topology pass only when the missing share of the
+        // surface is over the warning's.
         if (r.missing.faces > 0) {
           for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
             last.mutable_summary()->add_warnings(std::move(w));
