@@ -231,6 +231,29 @@ TEST(SensitivityTest, JacobianBytesBoundHoldsTheJacobian) {
   }
 }
 
+// Progress follows the batches at most once a percent, as ComputeControl
+// promises: 1024 rays on this sphere make a few hundred batches.
+TEST(SensitivityTest, VjpProgressIsReportedAtMostOncePerPercent) {
+  const Mesh sphere = MakeIcosphere(1, 25);
+  auto ev = SdfEvaluator::Create(sphere);
+  ASSERT_TRUE(ev.ok());
+  SdfParams params;
+  params.rays = 1024;
+  HitTable hits;
+  ASSERT_TRUE((*ev)->Compute(params, {}, &hits).ok());
+  int64_t calls = 0, last = 0;
+  ComputeControl control;
+  control.progress = [&](int64_t done, int64_t) {
+    EXPECT_GT(done, last);
+    last = done;
+    ++calls;
+  };
+  const std::vector<double> g(sphere.num_vertices(), 1.0);
+  ASSERT_TRUE(ComputeVjp(**ev, hits, g, control).ok());
+  EXPECT_EQ(last, sphere.num_vertices());
+  EXPECT_LE(calls, 101);
+}
+
 // A VJP's rows are made a batch at a time, at most 1024 samples and 2^16
 // row entries by their bounds: with 1024 rays a batch holds fewer samples
 // (its memory is bounded whatever the ray count), with one ray 1024.

@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/control_gate.h"
 #include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
 #include "lib/core/inscribed_ball.h"
@@ -279,13 +280,15 @@ struct Batch {
 // rows' bounds, so that the rows' memory is bounded whatever the ray
 // count), and hands each batch to consume(batch), one batch after the
 // other in sample order, each while the next batch is computed.
-// control.progress follows the consumed batches.
+// control.progress follows the consumed batches (ControlGate: at most once
+// a percent).
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           int threads, Consume consume) {
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
   const int64_t nv = ctx.ev.mesh().num_vertices();
+  ControlGate gate(control, ns);
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];
   int computing = 0;
@@ -322,10 +325,10 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
     Batch& b = batch[computing ^ 1];
     if (b.end == b.begin) return;
     consume(b);
-    if (control.progress) control.progress(b.end, ns);
+    gate.Done(b.end - b.begin);
   };
   for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
-    if (control.cancelled && control.cancelled()) {
+    if (!gate.Poll()) {
       return absl::CancelledError("sensitivity computation cancelled");
     }
     int64_t entries = 0;

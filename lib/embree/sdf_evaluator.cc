@@ -10,9 +10,9 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <mutex>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/control_gate.h"
 #include "lib/core/estimator.h"
 #include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
@@ -29,39 +29,6 @@ namespace {
 
 constexpr int64_t kVertexBlock = 64;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// Serialises the user's hooks and throttles progress reports.
-class ControlGate {
- public:
-  ControlGate(const ComputeControl& control, int64_t total)
-      : control_(control), total_(total) {}
-  // Returns false once cancellation was requested.
-  bool Poll() {
-    if (stop_.load(std::memory_order_relaxed)) return false;
-    if (!control_.cancelled) return true;
-    std::lock_guard<std::mutex> lock(mu_);
-    if (control_.cancelled()) stop_ = true;
-    return !stop_;
-  }
-  void Done(int64_t n) {
-    const int64_t done = done_.fetch_add(n) + n;
-    if (!control_.progress) return;
-    std::lock_guard<std::mutex> lock(mu_);
-    if (done * 100 / total_ > reported_ * 100 / total_ || done == total_) {
-      reported_ = std::max(reported_, done);
-      control_.progress(reported_, total_);
-    }
-  }
-  bool stopped() const { return stop_; }
-
- private:
-  const ComputeControl& control_;
-  const int64_t total_;
-  std::mutex mu_;
-  std::atomic<bool> stop_{false};
-  std::atomic<int64_t> done_{0};
-  int64_t reported_ = 0;
-};
 
 // Where a ray meets a primitive's plane: the distance t and how far the
 // point lies inside the primitive (in its plane, the smallest distance to
