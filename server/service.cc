@@ -509,13 +509,10 @@ grpc::Status MeshGaugeService::ComputeSdf(
         wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
                             {ev.generation(), pass->reused, Seconds(start)},
                             last.mutable_summary());
-        // A face left without a value is where any sample is missing; the
-        // diagnosis costs a topology pass only when the missing share of the
-        // surface is over the warning's.
-        if (r.missing.faces > 0) {
-          for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
-            last.mutable_summary()->add_warnings(std::move(w));
-          }
+        // Without a topology pass unless the missing share of the surface
+        // is over the warning's.
+        for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
+          last.mutable_summary()->add_warnings(std::move(w));
         }
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
