@@ -372,6 +372,26 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
               HasSubstr("one-ring exclusion"));
 }
 
+// Outsider report: two unit parts 2e7 apart lost the far one's values, and
+// the warning blamed the one-ring exclusion.
+TEST(MissingValueWarningsTest, APartTooSmallForSinglePrecisionIsNamed) {
+  Mesh two;
+  Append(two, MakeIcosphere(1, 2), {0, 0, 0});
+  Append(two, MakeIcosphere(1, 2), {2e7, 0, 0});
+  std::vector<int32_t> far(two.faces.size() / 2);
+  std::iota(far.begin(), far.end(), static_cast<int32_t>(far.size()));
+  EXPECT_THAT(absl::StrJoin(WarningsFor(two, VertexStatus::kNoHit, far), ""),
+              HasSubstr("it spans 3.46 while the mesh spans 2e+07, where "
+                        "the ray tracer's single-precision coordinates step "
+                        "by about 2.38"));
+  // Parts 1e4 apart: resolved, so the usual cause.
+  Mesh near;
+  Append(near, MakeIcosphere(1, 2), {0, 0, 0});
+  Append(near, MakeIcosphere(1, 2), {1e4, 0, 0});
+  EXPECT_THAT(absl::StrJoin(WarningsFor(near, VertexStatus::kNoHit, far), ""),
+              HasSubstr("one-ring exclusion"));
+}
+
 TEST(MissingValueWarningsTest, BelowTheThresholdNothingAndBeyondFiveACount) {
   // One face of 2880 and its neighbours: under 1 % of the surface.
   EXPECT_TRUE(

@@ -234,12 +234,12 @@ TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
   for (Vec3& p : huge.positions) p *= 1e-5;
   EXPECT_EQ(SdfEvaluator::Create(huge).status().code(),
             absl::StatusCode::kInvalidArgument);
-  // An unused vertex far away moves the centroid the BVH is built on.
+  // An unused vertex far away is not a face's (UnusedVerticesDoNotMoveThe
+  // TracersOrigin).
   Mesh stray = MakeIcosphere(1, 2);
   stray.positions.push_back({1e30, 0, 0});
   ASSERT_TRUE(ValidateMesh(stray).ok());
-  EXPECT_EQ(SdfEvaluator::Create(stray).status().code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_TRUE(SdfEvaluator::Create(stray).ok());
   // An update moving the whole (small) mesh far from where it was built.
   std::vector<Vec3> moved = sphere.positions;
   for (Vec3& p : moved) p += Vec3{1e19, 0, 0};
@@ -254,6 +254,31 @@ TEST(EvaluatorTest, RejectsAMeshBeyondTheRayTracersRangeAndKeepsOldOnes) {
   auto values = (*ok)->Compute({});
   ASSERT_TRUE(values.ok());
   EXPECT_EQ(values->CountStatus(VertexStatus::kOk), large.num_vertices());
+}
+
+// Outsider report: a unit tetrahedron with an unused vertex at (1e9, 1e9,
+// 1e9) lost every value, as the tracer's origin (the vertices' centroid)
+// moved to 2.5e8, where single precision cannot resolve the tetrahedron.
+TEST(EvaluatorTest, UnusedVerticesDoNotMoveTheTracersOrigin) {
+  Mesh tet;
+  tet.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  tet.faces = {Face::Triangle(0, 2, 1), Face::Triangle(0, 1, 3),
+               Face::Triangle(0, 3, 2), Face::Triangle(1, 2, 3)};
+  Mesh stray = tet;
+  stray.positions.push_back({1e9, 1e9, 1e9});
+  ASSERT_TRUE(ValidateMesh(stray).ok());
+  auto ev = SdfEvaluator::Create(tet);
+  auto stray_ev = SdfEvaluator::Create(stray);
+  ASSERT_TRUE(ev.ok() && stray_ev.ok());
+  EXPECT_EQ((*stray_ev)->scene().origin(), (*ev)->scene().origin());
+  auto values = (*ev)->Compute({});
+  auto stray_values = (*stray_ev)->Compute({});
+  ASSERT_TRUE(values.ok() && stray_values.ok());
+  EXPECT_EQ(values->CountStatus(VertexStatus::kOk), 4);
+  EXPECT_EQ(stray_values->status[4], VertexStatus::kNoFaces);
+  for (int v = 0; v < 4; ++v) {
+    EXPECT_EQ(stray_values->values[v], values->values[v]) << v;
+  }
 }
 
 TEST(EvaluatorTest, RejectsUpdateCollapsingAFace) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "absl/strings/str_format.h"
@@ -11,16 +12,34 @@
 namespace meshgauge {
 namespace {
 
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
 struct ComponentMissing {
   int64_t component = 0;
   double area = 0, missing_area = 0;
   int64_t missing_vertices = 0, no_hit = 0, degenerate = 0;
   Vec3 area_vector;       // sum of the faces' area vectors (3D).
   double area_norms = 0;  // sum of their lengths.
+  // The bounding box of its faces' vertices.
+  Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
 };
 
+// Below this share of the mesh's bounding-box diagonal a component spans
+// fewer than about 2^7 steps of the tracer's single precision, whose
+// coordinates reach about twice the diagonal (SceneOrigin).
+constexpr double kUnresolvedShare = 0x1p-16;
+
 std::string Cause(const Mesh& mesh, const Component& c,
-                  const ComponentMissing& m, bool inconsistent) {
+                  const ComponentMissing& m, bool inconsistent,
+                  double diagonal) {
+  const double span = Norm(m.hi - m.lo);
+  if (span < kUnresolvedShare * diagonal) {
+    return absl::StrFormat(
+        "it spans %.3g while the mesh spans %.3g, where the ray tracer's "
+        "single-precision coordinates step by about %.3g (trace it on its "
+        "own, or bring the parts closer)",
+        span, diagonal, diagonal * 0x1p-23);
+  }
   if (c.closed && c.signed_volume < 0) {
     return "it is closed with a negative signed volume: its faces point "
            "inward and the cones look outside (--reorient, or reorient in "
@@ -76,6 +95,13 @@ std::vector<std::string> MissingValueWarnings(
     for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
     total += e.measure;
     m.area += e.measure;
+    for (int i = 0; i < e.n; ++i) {
+      const Vec3& p = mesh.positions[e.v[i]];
+      for (int c = 0; c < 3; ++c) {
+        m.lo[c] = std::min(m.lo[c], p[c]);
+        m.hi[c] = std::max(m.hi[c], p[c]);
+      }
+    }
     if (!finite) m.missing_area += e.measure;
     if (e.n == 3) {
       const Vec3& a = mesh.positions[e.v[0]];
@@ -114,6 +140,7 @@ std::vector<std::string> MissingValueWarnings(
   if (!flagged.empty())
     inconsistent = DiagnoseMesh(mesh).inconsistent_components;
   std::vector<std::string> out;
+  const double diagonal = BoundingBoxDiagonal(mesh);
   constexpr size_t kNamed = 5;
   for (size_t i = 0; i < flagged.size() && i < kNamed; ++i) {
     const ComponentMissing& m = flagged[i];
@@ -125,7 +152,7 @@ std::vector<std::string> MissingValueWarnings(
         "has no value, %d vertices: %s",
         m.component, c.faces.size(), 100 * m.missing_area / m.area,
         mesh.dimension == 2 ? "length" : "area", 100 * m.missing_area / total,
-        m.missing_vertices, Cause(mesh, c, m, mixed)));
+        m.missing_vertices, Cause(mesh, c, m, mixed, diagonal)));
   }
   if (flagged.size() > kNamed) {
     out.push_back(absl::StrFormat(

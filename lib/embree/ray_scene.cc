@@ -44,8 +44,7 @@ namespace {
 // and 42 vertices gets no hit, one of 642 vertices gets all), and beyond
 // about 1.8e18 Embree asserts, aborting the process. Such meshes are
 // refused, and so is a face's vertex farther than kMaxSpan from `origin`
-// (SceneOrigin: the coordinates Embree sees are relative to it; an unused
-// vertex far away would put a face's vertices there).
+// (SceneOrigin: the coordinates Embree sees are relative to it).
 constexpr double kMaxSpanTimesEdgeSquared = 1e38;
 constexpr double kMaxSpan = 1e17;
 
@@ -63,9 +62,8 @@ absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
   if (reach > kMaxSpan) {
     return absl::InvalidArgumentError(absl::StrCat(
         "a face's vertex lies ", reach,
-        " from the centroid of the vertices (at most ", kMaxSpan,
-        " in single precision; an unused vertex far away moves that "
-        "centroid): rescale or recentre the mesh"));
+        " from the centroid of the faces' vertices (at most ", kMaxSpan,
+        " in single precision): rescale or recentre the mesh"));
   }
   // 2D segments become quads extruded over twice the diagonal.
   if (mesh.dimension == 2) edge2 = std::max(edge2, 4 * (span + 1) * (span + 1));
@@ -87,10 +85,19 @@ double PowerOfTwoAbove(double x) {
 
 // SceneOrigin for a mesh of this bounding-box diagonal.
 Vec3 OriginOf(const Mesh& mesh, double diagonal) {
+  std::vector<uint8_t> used(mesh.positions.size(), 0);
+  for (const Face& f : mesh.faces) {
+    for (int k = 0; k < f.size; ++k) used[f.v[k]] = 1;
+  }
   Vec3 c;
-  for (const Vec3& p : mesh.positions) c += p;
-  if (mesh.positions.empty()) return c;
-  c = c / std::ssize(mesh.positions);
+  int64_t n = 0;
+  for (size_t i = 0; i < used.size(); ++i) {
+    if (!used[i]) continue;
+    c += mesh.positions[i];
+    ++n;
+  }
+  if (n == 0) return c;
+  c = c / n;
   const double q = PowerOfTwoAbove(diagonal);
   return Vec3(std::round(c.x / q) * q, std::round(c.y / q) * q,
               std::round(c.z / q) * q);

@@ -32,8 +32,10 @@ enum class BvhUpdatePolicy {
   kRefit,
 };
 
-// The origin of the coordinates Embree sees: the vertices' centroid rounded
-// to a multiple of the power of two at or above the bounding-box diagonal.
+// The origin of the coordinates Embree sees: the centroid of the vertices
+// that faces use (an unused vertex far away would otherwise leave the faces
+// without single-precision resolution), rounded to a multiple of the power
+// of two at or above the bounding-box diagonal.
 // Coordinates relative to it keep their precision whatever the part's
 // offset (CAD coordinates), it depends on the current positions alone (a
 // refitted scene and one built at the same positions see the same
