@@ -386,6 +386,47 @@ TEST(EvaluatorTest, AVertexWithoutFacesGetsAnEmptyHitRow) {
   EXPECT_THAT(hits.Row(1), ::testing::Each(::testing::Ge(0)));
 }
 
+// SPEC §4 ignores hits closer than eps_self * h in double precision.
+// Outsider report: on an unwelded mesh a vertex got 3.7e-15 from a
+// neighbouring copy's face, whose single-precision distance had cleared the
+// threshold. Here a small triangle lies under the top centre of a unit box
+// at 1e-9 .. 6.4e-8 below t_min in double precision; single precision puts
+// some of them past t_min. The normal ray ignores every one of them and
+// meets the bottom at 1.
+TEST(EvaluatorTest, HitsBelowTheSelfHitThresholdInDoubleAreIgnored) {
+  const Mesh box = MakeBox(1, 1, 1, 0.5);
+  int32_t top = -1;
+  for (int32_t v = 0; v < box.num_vertices(); ++v) {
+    if (box.positions[v] == Vec3(0.5, 0.5, 1)) top = v;
+  }
+  ASSERT_GE(top, 0);
+  SdfParams params;
+  params.method = SdfMethod::kNormalRay;
+  params.self_hit_epsilon = 1e-3;
+  int past_in_single = 0;
+  for (int k = 1; k <= 64; ++k) {
+    Mesh mesh = box;
+    const int32_t n = static_cast<int32_t>(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(),
+                          {{0.45, 0.45, 0}, {0.6, 0.47, 0}, {0.48, 0.6, 0}});
+    mesh.faces.push_back(Face::Triangle(n, n + 1, n + 2));
+    const double t_min = params.self_hit_epsilon * MeanEdgeLength(mesh);
+    for (int i = n; i < n + 3; ++i)
+      mesh.positions[i].z = 1 - (t_min - k * 1e-9);
+    auto ev = SdfEvaluator::Create(mesh);
+    ASSERT_TRUE(ev.ok());
+    const RayScene::Hit raw = (*ev)->scene().Intersect(
+        mesh.positions[top], Vec3(0, 0, -1), static_cast<float>(t_min), 10);
+    past_in_single += raw.prim == std::ssize((*ev)->topology().primitives) - 1;
+    auto r = (*ev)->Compute(params);
+    ASSERT_TRUE(r.ok());
+    ASSERT_EQ(r->status[top], VertexStatus::kOk) << k;
+    EXPECT_EQ(r->values[top], 1) << k;
+  }
+  // Else the test would not test the double-precision rule.
+  EXPECT_GT(past_in_single, 0);
+}
+
 // The tray is a 3.175 mm plate: NORMAL_RAY gives exactly the plate thickness
 // at every vertex whose faces all lie in the two large faces.
 TEST(EvaluatorTest, TrayNormalRayIsPlateThickness) {

@@ -133,6 +133,48 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
   return best;
 }
 
+// SPEC §4 ignores hits closer than t_min, in double precision, while
+// Embree's filter decides in single precision (FanFilter): a primitive
+// passing through x or just beyond it (a coincident or touching surface)
+// may get a single-precision distance past limits.t_min and a
+// double-precision one below t_min. Such candidates of one ray are dropped
+// and the ray traced again without them, until its candidates are all at
+// t_min or beyond: otherwise the ray would keep a distance of about 0, or
+// (a distance not positive) none, instead of the surface behind. Only
+// candidates within 2^-16 of the coordinates' magnitude past limits.t_min
+// (HitCandidates' window, far wider than single-precision rounding) can be
+// below t_min: `suspect_below` (SuspectBelow). Returns whether a candidate
+// was dropped (the ray's hit then depends on t_min: HitTable::near).
+// `dropped`, `merged`: scratch.
+double SuspectBelow(const RayScene::FanLimits& limits, double reach) {
+  return limits.t_min + (reach + limits.t_min) * 0x1p-16;
+}
+bool DropHitsBelowTMin(const MeshGeometry& g, const RayScene& scene,
+                       const Vec3& x, const Vec3& d, double t_min,
+                       double suspect_below, const RayScene::FanLimits& limits,
+                       absl::Span<const int32_t> excluded, HitCandidates* c,
+                       std::vector<int32_t>* dropped,
+                       std::vector<int32_t>* merged) {
+  dropped->clear();
+  for (;;) {
+    const size_t before = dropped->size();
+    for (int i = 0; i < c->count() && (*c)[i].t < suspect_below; ++i) {
+      const PrimitiveCorners pc = g.Corners((*c)[i].prim);
+      const Vec3 m = PrimitiveNormalOf(pc);
+      // Not NaN when d . m != 0 (a ray along the plane is left as it is).
+      if (Dot(pc.a - x, m) / Dot(d, m) < t_min) {
+        dropped->push_back((*c)[i].prim);
+      }
+    }
+    if (dropped->size() == before) return !dropped->empty();
+    merged->assign(excluded.begin(), excluded.end());
+    merged->insert(merged->end(), dropped->begin(), dropped->end());
+    std::sort(merged->begin(), merged->end());
+    scene.IntersectFan(x, absl::MakeConstSpan(&d, 1), limits, *merged,
+                       absl::MakeSpan(c, 1));
+  }
+}
+
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
@@ -199,7 +241,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator::ReusePlan>>
 SdfEvaluator::PlanReuse(const PreviousPass& previous,
                         const std::vector<ConeRay>& cone,
                         const ResolvedParams& resolved, float t_near,
-                        float t_min_f, double t_max) const {
+                        double t_min, double t_max) const {
   const HitTable& h = *previous.hits;
   const SdfResult& r = *previous.result;
   const int64_t nv = mesh_.num_vertices();
@@ -269,7 +311,8 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
   auto made = MovedBoxes::Create(std::move(boxes));
   if (!made.ok()) return made.status();
   plan->boxes = std::move(*made);
-  plan->t_min_changed = static_cast<float>(h.t_min) != t_min_f;
+  // Hits are dropped below t_min in double precision (DropHitsBelowTMin).
+  plan->t_min_changed = h.t_min != t_min;
   plan->t_max_changed = h.t_max != t_max;
   plan->t_max_both = std::min(h.t_max, t_max);
   return plan;
@@ -354,8 +397,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
       previous->result != nullptr && !sphere && !faces) {
-    auto planned = PlanReuse(*previous, cone, resolved, limits.t_near,
-                             limits.t_min, t_max);
+    auto planned =
+        PlanReuse(*previous, cone, resolved, limits.t_near, t_min, t_max);
     if (!planned.ok()) return planned.status();
     plan = std::move(*planned);
   }
@@ -401,7 +444,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     std::vector<double> t(num_rays);
     std::vector<int32_t> prims(num_rays);
     std::vector<HitCandidates> candidates(num_rays);
-    std::vector<int32_t> excluded, retrace, around;
+    std::vector<int32_t> excluded, retrace, around, dropped, merged;
     std::vector<Vec3> dirs(num_rays), retrace_dirs;
     std::vector<uint8_t> kept(num_rays);
     std::vector<double> scratch;
@@ -515,10 +558,18 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
         if (c.count() > 0) PrefetchCorners(c[0].prim);
       }
       bool vertex_near = reuse && plan->hits->near[p];
+      const double suspect_below = SuspectBelow(limits, reach);
       for (size_t j = 0; j < retrace.size(); ++j) {
+        vertex_near |= fan[j].near();
+        if (fan[j].count() > 0 && fan[j][0].t < suspect_below &&
+            DropHitsBelowTMin(*this, *scene_, x, fan_dirs[j], t_min,
+                              suspect_below, limits, excluded, &fan[j],
+                              &dropped, &merged)) {
+          vertex_near = true;
+        }
         prims[retrace[j]] =
-            PickClosest(*this, fan[j], excluded, limits.t_min, reach, x,
-                        fan_dirs[j], &around, &t[retrace[j]]);
+            PickClosest(*this, fan[j], excluded, t_min, reach, x, fan_dirs[j],
+                        &around, &t[retrace[j]]);
         vertex_near |= fan[j].near();
       }
       for (int k = 0; k < num_rays; ++k) {

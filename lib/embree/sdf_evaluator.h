@@ -112,7 +112,7 @@ class SdfEvaluator : public MeshGeometry {
   // What of `previous` a pass can reuse; null when nothing.
   absl::StatusOr<std::unique_ptr<ReusePlan>> PlanReuse(
       const PreviousPass& previous, const std::vector<ConeRay>& cone,
-      const ResolvedParams& resolved, float t_near, float t_min_f,
+      const ResolvedParams& resolved, float t_near, double t_min,
       double t_max) const;
   // The rays of vertex p (at x, cone axis `axis`) that a pass reusing
   // `plan` traces again (docs/numerics.md, "Incremental passes"), into
