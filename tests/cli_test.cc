@@ -573,6 +573,44 @@ TEST(CliDerivativesTest, PenaltyOnMostlyMissingValuesFailsNamingTheCause) {
                                  "negative signed volume"));
 }
 
+// Outsider report: grad wrote an all-zero gradient with exit 0 and report
+// exited 0 on surfaces without values, where penalty fails: an optimiser or
+// a CI check would read "converged" or "thick enough".
+TEST(CliDerivativesTest, GradAndReportOnMostlyMissingValuesFailNamingTheCause) {
+  const std::string horse = SharedMesh("horse.ply");  // inward oriented.
+  const std::string vjp = Tmp("missing_vjp.csv");
+  const CliRun grad = RunCli("grad " + horse + " --rays 10 --vjp " + vjp);
+  EXPECT_EQ(grad.exit_code, 1) << grad.out;
+  EXPECT_THAT(grad.out, HasSubstr("warning: component 0 (96966 faces)"));
+  EXPECT_THAT(grad.out, HasSubstr("error: a gradient over a surface whose "
+                                  "values are mostly missing"));
+  EXPECT_FALSE(std::filesystem::exists(vjp));
+  const CliRun allowed = RunCli(
+      "grad " + horse + " --rays 10 --json --max-missing-fraction 1", false);
+  ASSERT_EQ(allowed.exit_code, 0) << allowed.out;
+  const auto j = nlohmann::json::parse(allowed.out);
+  EXPECT_NEAR(j["missing_area_fraction"].get<double>(), 0.946, 1e-3);
+  EXPECT_THAT(j["warnings"][0].get<std::string>(),
+              HasSubstr("negative signed volume"));
+
+  const std::filesystem::path dir = Tmp("missing_report");
+  const CliRun report = RunCli("report " + horse +
+                               " --t-min 0.01 --rays 10 --view-size 64 64 "
+                               "--out " +
+                               dir.string());
+  EXPECT_EQ(report.exit_code, 1) << report.out;
+  EXPECT_THAT(report.out, HasSubstr("error: a report (written to '" +
+                                    dir.string() + "') over a surface"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "report.json"));
+  EXPECT_EQ(RunCli("report " + horse +
+                   " --t-min 0.01 --rays 10 --view-size 64 64 "
+                   "--max-missing-fraction 1 --out " +
+                   dir.string())
+                .exit_code,
+            0);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(CliDerivativesTest, GradcheckPassesOnKnightAndPrintsTable) {
   const CliRun r = RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
                           " --rays 20 --samples 4 --seed 3 --t-min 0.3");

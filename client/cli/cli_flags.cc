@@ -35,6 +35,15 @@ CLI::Validator Interval(double lo, double hi, bool lo_open, bool hi_open) {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// penalty, report, grad.
+void AddMaxMissingFraction(CLI::App* app, double* max_missing_fraction) {
+  app->add_option("--max-missing-fraction", *max_missing_fraction,
+                  "fail when faces without values cover more than this "
+                  "fraction of the surface, [0, 1]")
+      ->check(Interval(0, 1, false, false))
+      ->capture_default_str();
+}
+
 }  // namespace
 
 CLI::Validator Positive() { return Interval(0, kInf, true, true); }
@@ -143,11 +152,7 @@ void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required) {
   app->add_option("--rho", f->rho, "KS aggregation rho > 0 (--form ks)")
       ->check(Positive())
       ->capture_default_str();
-  app->add_option("--max-missing-fraction", f->max_missing_fraction,
-                  "fail when faces without values cover more than this "
-                  "fraction of the surface, [0, 1]")
-      ->check(Interval(0, 1, false, false))
-      ->capture_default_str();
+  AddMaxMissingFraction(app, &f->max_missing_fraction);
   app->add_option("--grad", f->grad,
                   "write dP/dx (dG/dx) as CSV vertex,dx,dy,dz");
 }
@@ -180,6 +185,7 @@ void AddReportFlags(CLI::App* app, ReportFlags* f) {
                   "the values' range, widened to t_min)")
       ->expected(2)
       ->check(Interval(-kInf, kInf, true, true));
+  AddMaxMissingFraction(app, &f->max_missing_fraction);
 }
 
 void AddGradFlags(CLI::App* app, GradFlags* f) {
@@ -189,6 +195,7 @@ void AddGradFlags(CLI::App* app, GradFlags* f) {
   app->add_option("--vjp", f->vjp, "write g^T J as CSV vertex,dx,dy,dz");
   app->add_option("--jacobian", f->jacobian,
                   "write the sparse Jacobian as CSV row,col,dx,dy,dz");
+  AddMaxMissingFraction(app, &f->max_missing_fraction);
 }
 
 void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f) {

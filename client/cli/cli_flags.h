@@ -64,9 +64,10 @@ struct PenaltyFlags {
   std::string grad;
 };
 
-// --weights --vjp --jacobian.
+// --weights --vjp --jacobian --max-missing-fraction.
 struct GradFlags {
   std::string weights, vjp, jacobian;
+  double max_missing_fraction = 0.5;
 };
 
 // --t-min --tolerance --bins.
@@ -103,6 +104,7 @@ struct ReportFlags {
   std::string up = "z";
   int bins = 40;
   std::vector<double> color_range;  // empty: the values' range and t_min.
+  double max_missing_fraction = 0.5;
 };
 
 // --server --tls-ca-file --tls-cert-file --tls-key-file --token-file.

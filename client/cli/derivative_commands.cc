@@ -11,6 +11,8 @@
 #include "client/cli/csv_io.h"
 #include "client/cli/thin_summary.h"
 #include "lib/core/face_sample.h"
+#include "lib/core/missing_diagnosis.h"
+#include "lib/core/missing_values.h"
 
 namespace meshgauge::cli {
 
@@ -27,6 +29,20 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
                                                 ? Derivatives::kVjp
                                                 : Derivatives::kJacobian);
   if (!result.ok()) return result.status();
+  // Warnings as `sdf` gives them (in the JSON, or on stderr); derivatives
+  // of a surface mostly without values are refused, as a penalty over it
+  // is (SPEC v2 §7), not written as zeros.
+  const std::vector<std::string> warnings = MissingValueWarnings(
+      opened->mesh(), *result, in.out.warn_missing_fraction);
+  for (const std::string& w : warnings) {
+    if (!in.out.json) std::cerr << "meshgauge: warning: " << w << "\n";
+  }
+  if (absl::Status s =
+          CheckMissing(opened->mesh(), result->missing, result->Causes(),
+                       grad.max_missing_fraction, "a gradient");
+      !s.ok()) {
+    return s;
+  }
   nlohmann::json j;
   j["vertices"] = opened->mesh().num_vertices();
   j["samples"] = samples;
@@ -53,6 +69,8 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   auto vjp = backend.Vjp(*weights);
   if (!vjp.ok()) return vjp.status();
   j["vjp_max_norm"] = MaxNorm(*vjp);
+  j["missing_area_fraction"] = result->missing.area_fraction;
+  j["warnings"] = warnings;
   if (const std::string& path = grad.vjp; !path.empty()) {
     if (absl::Status s = WriteVectorCsv(path, *vjp); !s.ok()) return s;
   }

@@ -184,7 +184,11 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
     std::cerr << "meshgauge: warning: " << w.get<std::string>() << "\n";
   }
   std::cout << (in.out.json ? Dump(report, -1) : sentence) << "\n";
-  return absl::OkStatus();
+  // Written, so that the pictures show where; but a check of a surface
+  // mostly without values fails, as a penalty over it does (SPEC v2 §7).
+  return CheckMissing(mesh, result->missing, result->Causes(),
+                      flags.max_missing_fraction,
+                      absl::StrCat("a report (written to '", flags.out, "')"));
 }
 
 }  // namespace meshgauge::cli
