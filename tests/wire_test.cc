@@ -446,6 +446,15 @@ TEST(WireTest, GradCheckOptionsAndReportRoundTrip) {
                               .fd = 1.0 / 3,
                               .clean = true,
                               .measure_part = 1e-300});
+  rep.vjp_rows.push_back({.row = -1,
+                          .vertex = 4,
+                          .coordinate = 0,
+                          .analytic = 0.0073 + 1e-17,
+                          .fd = 0.0073 - 1e-17,
+                          .relative_error = 2e-15,
+                          .clean = true,
+                          .step = 1e-9});
+  rep.vjp_checks = rep.vjp_passed = 1;
   rep.clean = rep.passed = 1;
   rep.penalty_clean = rep.penalty_passed = 1;
   rep.rays_traced = 123456789012;
@@ -464,6 +473,10 @@ TEST(WireTest, GradCheckOptionsAndReportRoundTrip) {
   ASSERT_EQ(got->penalty_rows.size(), 1u);
   EXPECT_EQ(got->penalty_rows[0].analytic, 1.0 / 3);
   EXPECT_EQ(got->penalty_rows[0].measure_part, 1e-300);
+  ASSERT_EQ(got->vjp_rows.size(), 1u);
+  EXPECT_EQ(got->vjp_rows[0].analytic, rep.vjp_rows[0].analytic);
+  EXPECT_EQ(got->vjp_rows[0].fd, rep.vjp_rows[0].fd);
+  EXPECT_EQ(got->vjp_rows[0].vertex, 4);
   EXPECT_EQ(got->rays_traced, rep.rays_traced);
   EXPECT_EQ(got->retried, 2);
   EXPECT_EQ(got->Verdict(), GradCheckVerdict::kPass);

@@ -23,16 +23,15 @@ nlohmann::json RowJson(const GradCheckRow& r) {
           {"analytic", r.analytic},
           {"fd", r.fd},
           {"relative_error", r.relative_error},
-          {"clean", r.clean}};
+          {"clean", r.clean},
+          {"step", r.step}};
 }
 
 void PrintTable(const GradCheckReport& rep, double tolerance) {
   std::cout << absl::StrFormat("%8s %8s %5s %16s %16s %10s  %s\n", "row",
                                "vertex", "coord", "analytic", "fd", "rel err",
                                "sample");
-  auto line = [&](const GradCheckRow& r) {
-    const std::string row =
-        r.row < 0 ? std::string("penalty") : absl::StrCat(r.row);
+  auto line = [&](const GradCheckRow& r, const std::string& row) {
     const char* kind = !r.clean                        ? "event"
                        : r.relative_error <= tolerance ? "clean"
                                                        : "clean, FAILS";
@@ -40,8 +39,10 @@ void PrintTable(const GradCheckReport& rep, double tolerance) {
                                  r.vertex, Axis(r.coordinate), r.analytic, r.fd,
                                  r.relative_error, kind);
   };
-  for (const GradCheckRow& r : rep.rows) line(r);
-  for (const GradCheckRow& r : rep.penalty_rows) line(r);
+  for (const GradCheckRow& r : rep.rows) line(r, absl::StrCat(r.row));
+  for (const GradCheckRow& r : rep.penalty_rows) line(r, "penalty");
+  // analytic g^T J against sum_p g_p fd_p.
+  for (const GradCheckRow& r : rep.vjp_rows) line(r, "g^T J");
 }
 
 }  // namespace
@@ -101,6 +102,10 @@ absl::Status RunGradcheck(const MeshInput& in, const GradcheckFlags& check,
     j["rows"] = nlohmann::json::array();
     for (const auto* rows : {&rep->rows, &rep->penalty_rows}) {
       for (const GradCheckRow& r : *rows) j["rows"].push_back(RowJson(r));
+    }
+    j["vjp_rows"] = nlohmann::json::array();
+    for (const GradCheckRow& r : rep->vjp_rows) {
+      j["vjp_rows"].push_back(RowJson(r));
     }
     std::cout << j.dump() << "\n";
   } else {

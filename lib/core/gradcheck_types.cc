@@ -5,9 +5,13 @@
 
 namespace meshgauge {
 
-double GradCheckRelativeError(double fd, double analytic) {
+double GradCheckRelativeError(double fd, double analytic, double floor) {
   return std::abs(fd - analytic) /
-         std::max({std::abs(analytic), std::abs(fd), 1e-2});
+         std::max({std::abs(analytic), std::abs(fd), floor});
+}
+
+double GradCheckFloor(double first_step, double step, double weights_norm) {
+  return 1e-2 * (first_step / step) * std::max(1.0, weights_norm);
 }
 
 GradCheckVerdict GradCheckReport::Verdict() const {

@@ -41,6 +41,9 @@ struct GradCheckRow {
 struct GradCheckReport {
   std::vector<GradCheckRow> rows;          // SDF entries with a nonzero side.
   std::vector<GradCheckRow> penalty_rows;  // one per (vertex, coordinate).
+  // One per probe whose entries were all clean at one of its steps (row -1):
+  // analytic (g^T J)_j[coordinate] against fd = sum_p g_p fd_p.
+  std::vector<GradCheckRow> vjp_rows;
   int64_t clean = 0, passed = 0;
   double worst = 0;  // largest relative error of a clean row.
   int64_t vjp_checks = 0, vjp_passed = 0;  // g^T J against sum_p g_p FD_p.
@@ -63,7 +66,17 @@ struct GradCheckReport {
   bool Passed() const { return Verdict() == GradCheckVerdict::kPass; }
 };
 
-// |fd - analytic| / max(|analytic|, |fd|, 1e-2).
-double GradCheckRelativeError(double fd, double analytic);
+// |fd - analytic| / max(|analytic|, |fd|, floor). The default floor, 1e-2,
+// makes the criterion 1e-7 absolute for small derivatives at the default
+// step, above the central difference's round-off (about eps * SDF / step);
+// at a step k times smaller the round-off, and the floor, are k times
+// larger (GradCheckFloor).
+double GradCheckRelativeError(double fd, double analytic, double floor = 1e-2);
+
+// The floor of GradCheckRelativeError for a difference at `step` when the
+// check's first step is `first_step`, of a sum of central differences
+// weighted by g whose Euclidean norm is `weights_norm` (1 for one entry):
+// independent round-off errors add in quadrature.
+double GradCheckFloor(double first_step, double step, double weights_norm = 1);
 
 }  // namespace meshgauge

@@ -260,7 +260,7 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
           return st;
         }
         bool all_clean = true;
-        double fd_dot = 0;
+        double fd_dot = 0, g_squares = 0;
         for (int64_t p = 0; p < ns; ++p) {
           GradCheckRow row{static_cast<int32_t>(p), j, c};
           for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
@@ -278,7 +278,9 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
           all_clean &= row.clean;
           if (row.clean) {
             fd_dot += g[p] * row.fd;
-            row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+            g_squares += g[p] * g[p];
+            row.relative_error = GradCheckRelativeError(
+                row.fd, row.analytic, GradCheckFloor(step, h));
           }
           if (row_of[p] < 0) {
             row_of[p] = std::ssize(rows);
@@ -289,9 +291,17 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
         }
         if (all_clean && !vjp_done) {
           vjp_done = true;
+          GradCheckRow row{-1, j, c};
+          row.analytic = (*vjp)[j][c];
+          row.fd = fd_dot;
+          row.step = h;
+          row.clean = true;
+          row.relative_error = GradCheckRelativeError(
+              fd_dot, row.analytic,
+              GradCheckFloor(step, h, std::sqrt(g_squares)));
           ++rep.vjp_checks;
-          rep.vjp_passed +=
-              GradCheckRelativeError(fd_dot, (*vjp)[j][c]) <= options.tolerance;
+          rep.vjp_passed += row.relative_error <= options.tolerance;
+          rep.vjp_rows.push_back(row);
         }
         if (attempt == 0 && options.penalty) {
           GradCheckRow row{-1, j, c};

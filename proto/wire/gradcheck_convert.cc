@@ -102,6 +102,9 @@ void ToWire(const GradCheckReport& r, int64_t generation,
   for (const GradCheckRow& row : r.penalty_rows) {
     RowToWire(row, out->add_penalty_rows());
   }
+  for (const GradCheckRow& row : r.vjp_rows) {
+    RowToWire(row, out->add_vjp_rows());
+  }
   out->set_clean(r.clean);
   out->set_passed(r.passed);
   out->set_worst(r.worst);
@@ -120,12 +123,14 @@ void ToWire(const GradCheckReport& r, int64_t generation,
 
 absl::StatusOr<GradCheckReport> FromWire(const v1::GradCheckReport& r) {
   GradCheckReport rep;
-  for (const auto* rows : {&r.rows(), &r.penalty_rows()}) {
-    auto& into = rows == &r.rows() ? rep.rows : rep.penalty_rows;
+  for (const auto& [rows, into] :
+       {std::pair{&r.rows(), &rep.rows},
+        std::pair{&r.penalty_rows(), &rep.penalty_rows},
+        std::pair{&r.vjp_rows(), &rep.vjp_rows}}) {
     for (const v1::GradCheckRow& w : *rows) {
       auto row = RowFromWire(w);
       if (!row.ok()) return row.status();
-      into.push_back(*row);
+      into->push_back(*row);
     }
   }
   rep.clean = r.clean();

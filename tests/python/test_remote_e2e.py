@@ -412,7 +412,10 @@ class RemoteEndToEnd(unittest.TestCase):
                 self.assertEqual(report.verdict, local["verdict"])
                 rows = report.rows + report.penalty_rows
                 self.assertEqual(len(rows), len(local["rows"]))
-                for mine, theirs in zip(rows, local["rows"]):
+                self.assertEqual(len(report.vjp_rows), len(local["vjp_rows"]))
+                self.assertGreater(len(report.vjp_rows), 0)
+                for mine, theirs in zip(rows + report.vjp_rows,
+                                        local["rows"] + local["vjp_rows"]):
                     self.assertEqual((mine.row, mine.vertex, mine.analytic,
                                       mine.fd, mine.clean),
                                      (theirs["row"], theirs["vertex"],

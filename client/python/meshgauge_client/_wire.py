@@ -245,7 +245,8 @@ def gradcheck(r: Any) -> GradCheckReport:
                             f"gradcheck verdict {r.verdict}")
     return GradCheckReport(
         VERDICTS[r.verdict], [_grad_row(x) for x in r.rows],
-        [_grad_row(x) for x in r.penalty_rows], r.clean, r.passed, r.worst,
+        [_grad_row(x) for x in r.penalty_rows],
+        [_grad_row(x) for x in r.vjp_rows], r.clean, r.passed, r.worst,
         r.vjp_checks, r.vjp_passed, r.penalty_clean, r.penalty_passed,
         r.max_abs_derivative, r.median_abs_derivative,
         r.world_frame_vertices, r.rays_traced, r.full_pass_rays,

@@ -167,6 +167,8 @@ class GradCheckReport:
     verdict: str
     rows: List[GradCheckRow]
     penalty_rows: List[GradCheckRow]
+    # One per VJP check (row -1): analytic g^T J against sum_p g_p fd_p.
+    vjp_rows: List[GradCheckRow]
     clean: int
     passed: int
     worst: float
