@@ -137,8 +137,13 @@ TEST(MeshReaderTest, DeviceFilesAreNotRead) {
 }
 
 TEST(MeshReaderTest, IndexOutOfRangeNamesTheLine) {
+  // The index as the file writes it (1-based), not the 0-based one.
   EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/index_out_of_range.obj"))),
-              HasSubstr(": line 4: face 0 refers to vertex 3 but 3 vertices"));
+              HasSubstr(": line 4: vertex index '4' is out of range: 3 "
+                        "vertices are defined before this line"));
+  EXPECT_THAT(
+      Message(io::ParseObj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n", "t.obj")),
+      HasSubstr(": line 4: vertex index '-4' is out of range"));
 }
 
 TEST(MeshReaderTest, ObjIndexFormsAndNegativeIndices) {
@@ -175,7 +180,7 @@ TEST(MeshReaderTest, ObjLineContinuationJoinsTheNextLine) {
   EXPECT_THAT(Message(io::ParseObj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\\n2 3\n"
                                    "f 1 2 9\n",
                                    "t.obj")),
-              HasSubstr(": line 6: face 1 refers to vertex 8"));
+              HasSubstr(": line 6: vertex index '9' is out of range"));
 }
 
 TEST(MeshReaderTest, OffFaceAndVertexMaySpreadOverLines) {
@@ -185,11 +190,90 @@ TEST(MeshReaderTest, OffFaceAndVertexMaySpreadOverLines) {
 TEST(MeshReaderTest, MalformedFaceTokenIsAnErrorNamingTheLine) {
   EXPECT_THAT(Message(ReadMeshFile(Corpus("obj/malformed_texture_index.obj"))),
               HasSubstr(": line 5: '1/x' is not a vertex index"));
-  for (const char* bad : {"1/", "1/2/3/4", "1//", "1/2/x", "x/1"}) {
+  for (const char* bad : {"1/2/3/4", "1/2/x", "x/1", "1/x/", "/1"}) {
     const std::string text =
         absl::StrCat("v 0 0 0\nv 1 0 0\nv 0 1 0\nf ", bad, " 2 3\n");
     EXPECT_FALSE(io::ParseObj(text, "t.obj").ok()) << bad;
   }
+  // Empty texture or normal parts, as some exporters write them.
+  for (const char* empty : {"1/", "1//", "1/2/", "1//3"}) {
+    const std::string text =
+        absl::StrCat("v 0 0 0\nv 1 0 0\nv 0 1 0\nf ", empty, " 2 3\n");
+    auto r = io::ParseObj(text, "t.obj");
+    ASSERT_TRUE(r.ok()) << empty << ": " << r.status();
+    EXPECT_EQ(r->mesh.faces[0].v, (std::array<int32_t, 4>{0, 1, 2, -1}));
+  }
+}
+
+// Outsider report: a tetrahedron with classic Mac OS line ends failed with
+// "'v' is not a finite number" (one long line); trimesh's wireframe OBJ of
+// 3D polylines was called a 2D mesh of mixed dimensions.
+TEST(MeshReaderTest, CrOnlyLineEndsAndThreeDimensionalPolylinesAreNamed) {
+  for (const char* ext : {".obj", ".off"}) {
+    const std::string text = std::string(ext) == ".obj"
+                                 ? "v 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r"
+                                 : "OFF\r3 1 0\r0 0 0\r1 0 0\r0 1 0\r3 0 1 2\r";
+    EXPECT_THAT(Message(ParseMeshContents(text, ext, "t")),
+                HasSubstr("t: its lines end in CR alone (classic Mac OS)"))
+        << ext;
+  }
+  // CR LF is fine.
+  EXPECT_TRUE(
+      io::ParseObj("v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n", "t.obj")
+          .ok());
+  EXPECT_THAT(Message(io::ParseObj("v 0 0 0\nv 1 0 0.5\nl 1 2\n", "t.obj")),
+              HasSubstr("line 2: vertex 1 has z = 0.5, but the file has "
+                        "polylines (l) and no faces (f)"));
+}
+
+// Outsider report: common-3d-test-models' igea.ply holds triangle strips
+// and was read as "no faces"; a PLY cut inside its header was an "unknown
+// header keyword".
+TEST(MeshReaderTest, PlyTriangleStripsAreReadAndACutHeaderIsNamed) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\n"
+      "property float y\nproperty float z\n";
+  const std::string vertices = "0 0 0\n1 0 0\n2 0 0\n0 1 0\n1 1 0\n2 1 0\n";
+  // Every other triangle reversed; -1 restarts; "4 4" turns (no face).
+  auto r = ParseMeshContents(header +
+                                 "element tristrips 1\nproperty list int int "
+                                 "vertex_indices\nend_header\n" +
+                                 vertices + "10 0 3 1 4 -1 1 4 4 2 5\n",
+                             ".ply", "t.ply");
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(r->mesh.num_faces(), 3);
+  EXPECT_EQ(r->mesh.faces[0].v, (std::array<int32_t, 4>{0, 3, 1, -1}));
+  EXPECT_EQ(r->mesh.faces[1].v, (std::array<int32_t, 4>{1, 3, 4, -1}));
+  EXPECT_EQ(r->mesh.faces[2].v, (std::array<int32_t, 4>{4, 2, 5, -1}));
+  EXPECT_THAT(Message(ParseMeshContents(
+                  header +
+                      "element tristrips 1\nproperty list int int "
+                      "vertex_indices\nend_header\n" +
+                      vertices + "4 0 3 1 9\n",
+                  ".ply", "t.ply")),
+              HasSubstr("refers to vertex 9 but 6 vertices"));
+  EXPECT_THAT(
+      Message(ParseMeshContents(
+          header + "element edge 0\nend_header\n" + vertices, ".ply", "t.ply")),
+      HasSubstr("no faces (elements: vertex 6, edge 0; faces are read from "
+                "'face' and 'tristrips')"));
+  EXPECT_THAT(Message(ParseMeshContents("ply\nformat ascii 1.0\nelem", ".ply",
+                                        "t.ply")),
+              HasSubstr("line 3: the header has no end_header line (the file "
+                        "is cut short, or 'elem' is not a header keyword)"));
+}
+
+// Outsider report: trimesh's nancolor.obj has `v x y z nan nan nan`; the
+// colour is not used, and the error called it a coordinate.
+TEST(MeshReaderTest, ObjColoursMayBeNanButCoordinatesMayNot) {
+  auto r = io::ParseObj(
+      "v 0 0 0 nan nan nan\nv 1 0 0 0.5 inf 1\nv 0 1 0 1\nf 1 2 3\n", "t.obj");
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->mesh.positions[1], Vec3(1, 0, 0));
+  EXPECT_THAT(Message(io::ParseObj("v 0 nan 0\n", "t.obj")),
+              HasSubstr("line 1: vertex 0: 'nan' is not a finite number"));
+  EXPECT_THAT(Message(io::ParseObj("v 0 0 0 red\n", "t.obj")),
+              HasSubstr("'red' (w or a colour) is not a number"));
 }
 
 TEST(MeshReaderTest, PolygonsAreTriangulatedAndCounted) {

@@ -1,10 +1,11 @@
 // Wavefront OBJ: `v` vertices (extra numbers such as w or colours are
-// parsed and ignored), `f` faces and `l` polylines (2D curves; a statement
-// may continue on the next line after a backslash), `g ID` with
-// an integer ID sets the region of what follows. Every other statement
+// ignored; they must be numbers, NaN allowed), `f` faces and `l` polylines (2D
+// curves; a statement may continue on the next line after a backslash), `g ID`
+// with an integer ID sets the region of what follows. Every other statement
 // (vt, vn, mtllib, usemtl, o, s, ...) is ignored: no side file is opened.
 #include <vector>
 
+#include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
@@ -17,16 +18,15 @@ namespace {
 
 // The vertex part of `i`, `i/t`, `i//n`, `i/t/n`; 1-based, negative
 // relative to the vertices defined so far. The texture and normal parts
-// are not used but must be indices too (`1/x` is malformed).
+// are not used; they may be empty (`1//`, `2/2/`, as some exporters write)
+// but when present must be indices too (`1/x` is malformed).
 bool ParseObjIndex(absl::string_view token, int64_t defined, int64_t* out) {
   const std::vector<absl::string_view> parts = absl::StrSplit(token, '/');
   int64_t i = 0, unused = 0;
   if (parts.size() > 3 || !ParseInt64(parts[0], &i) || i == 0) return false;
-  if (parts.size() >= 2 && !(parts[1].empty() && parts.size() == 3) &&
-      !ParseInt64(parts[1], &unused)) {
-    return false;
+  for (size_t k = 1; k < parts.size(); ++k) {
+    if (!parts[k].empty() && !ParseInt64(parts[k], &unused)) return false;
   }
-  if (parts.size() == 3 && !ParseInt64(parts[2], &unused)) return false;
   *out = i > 0 ? i - 1 : defined + i;
   return true;
 }
@@ -36,6 +36,7 @@ bool ParseObjIndex(absl::string_view token, int64_t defined, int64_t* out) {
 absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
                                   const std::string& path,
                                   const ReadLimits& limits) {
+  if (absl::Status s = CheckLineEnds(path, text); !s.ok()) return s;
   // Two passes: the first decides 2D (only `l`) or 3D (`f`), so that faces
   // are built for the right dimension.
   bool has_f = false, has_l = false;
@@ -68,13 +69,29 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
       int count = 0;
       while (scan.NextOnLine(&tok)) {
         double value;
+        // w or a colour, not used: any number (a NaN colour is no
+        // coordinate).
+        if (count >= 3 && absl::SimpleAtod(tok, &value)) {
+          ++count;
+          continue;
+        }
         if (!ParseDouble(tok, &value)) {
-          return LineError(path, line,
-                           absl::StrCat("vertex ", builder.num_vertices(), ": ",
-                                        Quote(tok), " is not a finite number"));
+          return LineError(
+              path, line,
+              absl::StrCat("vertex ", builder.num_vertices(), ": ", Quote(tok),
+                           count < 3 ? " is not a finite number"
+                                     : " (w or a colour) is not a number"));
         }
         if (count < 3) xyz[count] = value;
         ++count;
+      }
+      if (dimension == 2 && count >= 3 && xyz[2] != 0) {
+        return LineError(
+            path, line,
+            absl::StrCat("vertex ", builder.num_vertices(), " has z = ", xyz[2],
+                         ", but the file has polylines (l) and no faces (f): "
+                         "meshgauge reads those as a 2D curve in the plane "
+                         "z = 0 (3D curves have no thickness to measure)"));
       }
       if (count < 3 || count > 7) {
         return LineError(
@@ -95,6 +112,14 @@ absl::StatusOr<MeshFile> ParseObj(absl::string_view text,
         if (!ParseObjIndex(tok, builder.num_vertices(), &index)) {
           return LineError(path, line,
                            absl::StrCat(Quote(tok), " is not a vertex index"));
+        }
+        if (index < 0 || index >= builder.num_vertices()) {
+          return LineError(
+              path, line,
+              absl::StrCat("vertex index ", Quote(tok),
+                           " is out of range: ", builder.num_vertices(),
+                           " vertices are defined before this line (OBJ "
+                           "indices start at 1; negative ones count back)"));
         }
         corners.push_back(index);
       }

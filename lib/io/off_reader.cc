@@ -24,6 +24,7 @@ bool ReadCount(TokenScanner& scan, int64_t* out) {
 absl::StatusOr<MeshFile> ParseOff(absl::string_view text,
                                   const std::string& path,
                                   const ReadLimits& limits) {
+  if (absl::Status s = CheckLineEnds(path, text); !s.ok()) return s;
   TokenScanner scan(text, '#');
   absl::string_view tok;
   if (!scan.Next(&tok) ||

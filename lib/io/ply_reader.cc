@@ -1,8 +1,9 @@
 // PLY, ASCII and binary (little and big endian): the header's elements and
 // properties are honoured; `vertex` needs x, y, z (any numeric type;
 // doubles are read exactly), `face` a list named vertex_indices or
-// vertex_index (integer items). Other elements and properties are parsed
-// and skipped.
+// vertex_index (integer items), `tristrips` (triangle strips, as the
+// Stanford scanning repository's files) the same list. Other elements and
+// properties are parsed and skipped.
 #include <cmath>
 #include <cstring>
 #include <vector>
@@ -14,6 +15,36 @@
 
 namespace meshgauge::io {
 namespace {
+
+// The triangles of a strip: index -1 starts a new strip; triangle i of a
+// strip is (s_i, s_i+1, s_i+2), the odd ones reversed so that all keep the
+// strip's orientation. The zero-area triangles a strip uses to turn (a
+// repeated index) are not faces and are skipped.
+class StripDecoder {
+ public:
+  void Restart() { seen_ = 0; }
+  // The triangle that index `v` completes, if any.
+  bool Add(int64_t v, int64_t triangle[3]) {
+    if (v == -1) {
+      Restart();
+      return false;
+    }
+    const bool complete = seen_ >= 2 && a_ != b_ && b_ != v && a_ != v;
+    if (complete) {
+      const bool odd = (seen_ - 2) % 2 == 1;
+      triangle[0] = odd ? b_ : a_;
+      triangle[1] = odd ? a_ : b_;
+      triangle[2] = v;
+    }
+    a_ = b_;
+    b_ = v;
+    ++seen_;
+    return complete;
+  }
+
+ private:
+  int64_t seen_ = 0, a_ = -1, b_ = -1;
+};
 
 enum class Type {
   kInt8,
@@ -258,6 +289,11 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       }
       p.name = std::string(name);
       elements.back().properties.push_back(std::move(p));
+    } else if (data.find("end_header") == absl::string_view::npos) {
+      return LineError(path, line_no,
+                       absl::StrCat("the header has no end_header line (the "
+                                    "file is cut short, or ",
+                                    Quote(w), " is not a header keyword)"));
     } else {
       return LineError(path, line_no,
                        absl::StrCat("unknown header keyword ", Quote(w)));
@@ -288,9 +324,11 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
   bool have_vertices = false;
   std::vector<int64_t> corners;
   std::vector<double> row;
+  StripDecoder strip;
   for (const Element& e : elements) {
     const bool is_vertex = e.name == "vertex";
-    const bool is_face = e.name == "face";
+    const bool is_strips = e.name == "tristrips";
+    const bool is_face = e.name == "face" || is_strips;
     int xyz[3] = {-1, -1, -1};
     int indices = -1;
     for (size_t i = 0; i < e.properties.size(); ++i) {
@@ -303,8 +341,9 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       if (is_face && p.list &&
           (p.name == "vertex_indices" || p.name == "vertex_index")) {
         if (!IsInteger(p.type)) {
-          return absl::InvalidArgumentError(absl::StrCat(
-              path, ": face property ", p.name, " has a non-integer type"));
+          return absl::InvalidArgumentError(
+              absl::StrCat(path, ": ", e.name, " property ", p.name,
+                           " has a non-integer type"));
         }
         indices = static_cast<int>(i);
       }
@@ -321,18 +360,19 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
     }
     if (is_face && indices < 0) {
       return absl::InvalidArgumentError(absl::StrCat(
-          path, ": element face lacks a list property vertex_indices"));
+          path, ": element ", e.name, " lacks a list property vertex_indices"));
     }
     if (is_face && !have_vertices) {
-      return absl::InvalidArgumentError(
-          absl::StrCat(path, ": element face comes before element vertex"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          path, ": element ", e.name, " comes before element vertex"));
     }
-    if (is_face) {
+    if (is_face && !is_strips) {
       if (absl::Status s = builder.ReserveFaces(e.count, 3); !s.ok()) return s;
     }
     row.assign(e.properties.size(), 0.0);
     for (int64_t k = 0; k < e.count; ++k) {
       corners.clear();
+      strip.Restart();
       for (size_t i = 0; i < e.properties.size(); ++i) {
         const Property& p = e.properties[i];
         if (!p.list) {
@@ -362,8 +402,17 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
                 path, ": ", in.Where(), ": ", e.name, " ", k, ": list ", p.name,
                 " has fewer than ", n, " items"));
           }
-          if (static_cast<int>(i) == indices && j <= kMaxCornersPerRecord) {
-            corners.push_back(static_cast<int64_t>(item));
+          if (static_cast<int>(i) != indices) continue;
+          int64_t triangle[3];
+          if (!is_strips) {
+            if (j <= kMaxCornersPerRecord) {
+              corners.push_back(static_cast<int64_t>(item));
+            }
+          } else if (strip.Add(static_cast<int64_t>(item), triangle)) {
+            if (absl::Status s = builder.AddFace(triangle, 0, in.Where());
+                !s.ok()) {
+              return s;
+            }
           }
         }
       }
@@ -373,7 +422,7 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
             !s.ok()) {
           return s;
         }
-      } else if (is_face) {
+      } else if (is_face && !is_strips) {
         if (absl::Status s = builder.AddFace(corners, 0, in.Where()); !s.ok())
           return s;
       }
@@ -385,7 +434,13 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
                      ": unexpected data after the declared elements"));
   }
   if (builder.num_faces() == 0) {
-    return absl::InvalidArgumentError(absl::StrCat(path, ": no faces"));
+    std::string names;
+    for (const Element& e : elements) {
+      absl::StrAppend(&names, names.empty() ? "" : ", ", e.name, " ", e.count);
+    }
+    return absl::InvalidArgumentError(
+        absl::StrCat(path, ": no faces (elements: ", names,
+                     "; faces are read from 'face' and 'tristrips')"));
   }
   return builder.Finish(fmt_name);
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "absl/strings/escaping.h"
+#include "absl/strings/str_cat.h"
 
 namespace meshgauge::io {
 namespace {
@@ -18,8 +19,7 @@ bool IsSpace(char c) {
 size_t TokenScanner::ContinuationAt(size_t at) const {
   if (!continuation_ || at >= text_.size() || text_[at] != '\\') return 0;
   if (at + 1 < text_.size() && text_[at + 1] == '\n') return 2;
-  if (at + 2 < text_.size() && text_[at + 1] == '\r' &&
-      text_[at + 2] == '\n') {
+  if (at + 2 < text_.size() && text_[at + 1] == '\r' && text_[at + 2] == '\n') {
     return 3;
   }
   return 0;
@@ -149,6 +149,16 @@ std::string Quote(absl::string_view token) {
   std::string s = absl::CHexEscape(token.substr(0, 40));
   if (token.size() > 40) s += "...";
   return absl::StrCat("'", s, "'");
+}
+
+absl::Status CheckLineEnds(const std::string& path, absl::string_view text) {
+  if (text.find('\n') != text.npos || text.find('\r') == text.npos) {
+    return absl::OkStatus();
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(path,
+                   ": its lines end in CR alone (classic Mac OS); convert "
+                   "them to LF or CR LF"));
 }
 
 }  // namespace meshgauge::io

@@ -91,4 +91,9 @@ absl::Status CheckDeclaredCount(const std::string& path, absl::string_view what,
 // escaped.
 std::string Quote(absl::string_view token);
 
+// InvalidArgument when `text` has a CR but no LF: lines ended as on classic
+// Mac OS, which a line-based format would read as one line (and name its
+// first bad token). A copy with LF ends would double the bytes held.
+absl::Status CheckLineEnds(const std::string& path, absl::string_view text);
+
 }  // namespace meshgauge::io
