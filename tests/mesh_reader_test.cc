@@ -357,6 +357,18 @@ TEST(MeshReaderTest, StlDefects) {
   ASSERT_TRUE(bin.ok());
   EXPECT_EQ(bin->mesh.num_vertices(), 4);
   EXPECT_EQ(bin->welded_corners, 2);
+  // Outsider report: a binary STL whose header starts with "solid" and
+  // whose size does not match its count was "line 1: missing 'endsolid'".
+  std::ifstream in(Corpus("stl/binary.stl"), std::ios::binary);
+  std::string solid((std::istreambuf_iterator<char>(in)), {});
+  solid.replace(0, 5, "solid");
+  EXPECT_TRUE(ParseMeshContents(solid, ".stl", "s.stl").ok());
+  EXPECT_THAT(Message(ParseMeshContents(solid.substr(0, solid.size() - 10),
+                                        ".stl", "s.stl")),
+              HasSubstr("s.stl: a binary STL whose size does not match its "
+                        "facet count (the header declares 2 facets, 184 "
+                        "bytes, but the file has 174; its header starts with "
+                        "'solid'"));
 }
 
 TEST(MeshReaderTest, EveryTruncationOfAValidFileIsAnErrorOrAMesh) {

@@ -186,17 +186,30 @@ absl::StatusOr<MeshFile> ParseStl(absl::string_view data,
       return ParseBinaryStl(data, path, count, limits);
     }
   }
-  if (data.substr(0, 5) == "solid") return ParseAsciiStl(data, path, limits);
   uint32_t count = 0;
   if (data.size() >= 84) std::memcpy(&count, data.data() + 80, 4);
-  return absl::InvalidArgumentError(absl::StrCat(
-      path, ": not an STL file: not ASCII (no 'solid'), and not binary (",
+  const std::string not_binary =
       data.size() >= 84
           ? absl::StrCat("the header declares ", count, " facets, ",
                          84 + 50 * static_cast<uint64_t>(count),
                          " bytes, but the file has ", data.size())
-          : std::string("shorter than the 84-byte binary header"),
-      ")"));
+          : std::string("shorter than the 84-byte binary header");
+  if (data.substr(0, 5) == "solid") {
+    auto ascii = ParseAsciiStl(data, path, limits);
+    // A NUL byte is no ASCII STL's: a binary one (its header may start with
+    // "solid") whose size does not match its count, truncated or padded.
+    if (ascii.ok() || data.find('\0') == absl::string_view::npos) return ascii;
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": a binary STL whose size does not match its facet count (",
+        not_binary,
+        "; its header starts with 'solid', as some exporters "
+        "write, but it is not ASCII STL)"));
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(path,
+                   ": not an STL file: not ASCII (no 'solid'), and not "
+                   "binary (",
+                   not_binary, ")"));
 }
 
 }  // namespace meshgauge::io
