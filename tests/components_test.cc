@@ -366,6 +366,21 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
   Mesh open = MakeBox(1, 1, 1, 0.5);
   open.faces.resize(open.faces.size() - 8);  // a side removed.
   EXPECT_THAT(absl::StrJoin(WarningsFor(open), ""), HasSubstr("it is open"));
+  // Outsider report: a tetrahedron with one face duplicated, reversed, was
+  // called open; it has no boundary edge.
+  Mesh doubled = MakeBox(1, 1, 1, 0.5);
+  doubled.faces.push_back(doubled.faces[0]);
+  ReverseFace(doubled.faces.back());
+  EXPECT_THAT(absl::StrJoin(WarningsFor(doubled), ""),
+              HasSubstr("it has no boundary, but edges shared by more than "
+                        "two faces"));
+  // The penalty's and face samples' one-line cause too (it said "open or
+  // planar").
+  EXPECT_THAT(LikelyMissingCause(doubled, {.no_hit = 10}),
+              HasSubstr("the mesh has no boundary, but edges shared by more "
+                        "than two faces"));
+  EXPECT_THAT(LikelyMissingCause(open, {.no_hit = 10}),
+              HasSubstr("open or planar"));
   EXPECT_THAT(absl::StrJoin(WarningsFor(MakeIcosphere(1, 3),
                                         VertexStatus::kNoHit, {0, 1, 2}),
                             ""),

@@ -50,7 +50,9 @@ Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
     t.closed = false;
     t.boundary_edges += j - i == 1;
     const int32_t v = EdgeKeyVertex(uses[i].key, mesh.dimension);
-    t.components[index[FindRoot(parent, v)]].closed = false;
+    Component& c = t.components[index[FindRoot(parent, v)]];
+    c.closed = false;
+    c.boundary_edges += j - i == 1;
   }
   for (Component& c : t.components) {
     c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);

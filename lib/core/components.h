@@ -15,6 +15,9 @@ struct Component {
   std::vector<int32_t> faces;  // ascending.
   bool closed = false;         // every edge of its faces used by exactly two.
   double signed_volume = 0;    // 3D volume (2D area); meaningful when closed.
+  // Its edges used by one face (2D: vertices used by one segment); not
+  // closed without any: an edge is shared by more than two faces.
+  int64_t boundary_edges = 0;
 };
 
 // Components of faces joined by shared vertices, ordered by their first

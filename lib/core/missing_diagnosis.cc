@@ -53,6 +53,15 @@ std::string Cause(const Mesh& mesh, const Component& c,
     return "most of its missing vertices have a degenerate normal: "
            "double-sided or folded faces whose normals cancel";
   }
+  if (!c.closed && c.boundary_edges == 0) {
+    return mesh.dimension == 2
+               ? "it has no open end, but vertices shared by more than two "
+                 "segments (a duplicated or touching segment), where normals "
+                 "cancel or point astray (remove the duplicates)"
+               : "it has no boundary, but edges shared by more than two "
+                 "faces (a duplicated, double-sided or touching face), where "
+                 "normals cancel or point astray (remove the duplicates)";
+  }
   if (mesh.dimension == 3 && !c.closed &&
       Norm(m.area_vector) >= (1 - 1e-9) * m.area_norms) {
     return "it is a flat sheet with no inside, so the rays escape (thicken "

@@ -16,12 +16,14 @@ inline constexpr double kWarnMissingFraction = 0.01;
 
 // One sentence per connected component whose faces without values cover
 // more than `warn_fraction` of the whole surface, naming the likely cause
-// for that component: a component too small for the ray tracer's single
-// precision at the mesh's scale (spanning under 2^-16 of its diagonal, as
-// a part far from the others), faces pointing inward (closed, negative volume),
-// neighbours of disagreeing orientation, double-sided or folded faces
-// (degenerate normals), a flat sheet, an open component, or else rays lost
-// at sharp or coarse corners (the one-ring exclusion's shadow). The five
+// for that component, the first that applies: a component too small for
+// the ray tracer's single precision at the mesh's scale (spanning under
+// 2^-16 of its diagonal, as a part far from the others), faces pointing
+// inward (closed, negative volume), neighbours of disagreeing orientation,
+// double-sided or folded faces (degenerate normals), edges shared by more
+// than two faces (not closed, but no boundary), a flat sheet, an open
+// component, or else rays lost at sharp or coarse corners (the one-ring
+// exclusion's shadow). The five
 // components with the most missing area are named, then how many more.
 // values and status: #V, of one ray pass. Precondition: mesh validated.
 // O(F log F).

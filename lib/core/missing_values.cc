@@ -4,6 +4,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "lib/core/components.h"
 #include "lib/core/integrals.h"
 
 namespace meshgauge {
@@ -61,6 +62,11 @@ std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
            "(coincident opposite faces)";
   }
   if (!IsClosed(mesh)) {
+    if (DiagnoseMesh(mesh).boundary_edges == 0) {
+      return "the mesh has no boundary, but edges shared by more than two "
+             "faces (duplicated, double-sided or touching faces), where "
+             "normals cancel or point astray: remove the duplicates";
+    }
     return "the mesh is open or planar, so most rays escape (NO_HIT): close "
            "it, or give the open regions an OUTWARD direction";
   }

@@ -34,8 +34,9 @@ struct MissingCauses {
 
 // A one-sentence likely cause of missing values: inward orientation
 // (negative signed volume of a closed mesh: reorient), a double-sided mesh
-// (most missing vertices have a degenerate normal), or an open or planar mesh
-// (rays escape).
+// (most missing vertices have a degenerate normal), edges shared by more
+// than two faces (not closed, no boundary; a topology pass), or an open or
+// planar mesh (rays escape). Precondition: mesh validated.
 std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes);
 
 // OK when missing.area_fraction <= max_fraction; otherwise
