@@ -147,7 +147,8 @@ TEST(ComponentsTest, CountsDoubleSidedFacesAndBoundaryEdges) {
   const MeshDiagnostics d = DiagnoseMesh(m);
   EXPECT_EQ(d.double_sided_faces, 3);  // 0 and 1 face 2 (a rotation of 0).
   EXPECT_GT(d.boundary_edges, 0);
-  EXPECT_EQ(d.warnings.size(), 2u);
+  EXPECT_EQ(d.shared_edges, 3);  // the three copies' edges.
+  EXPECT_EQ(d.warnings.size(), 3u);
 }
 
 TEST(ComponentsTest, DropDegenerateFacesKeepsVerticesAndRegions) {
@@ -374,6 +375,12 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
   EXPECT_THAT(absl::StrJoin(WarningsFor(doubled), ""),
               HasSubstr("it has no boundary, but edges shared by more than "
                         "two faces"));
+  // And the mesh's own warnings count such edges (a fin on one edge was
+  // only "open, 6 boundary edges").
+  EXPECT_EQ(DiagnoseMesh(doubled).shared_edges, 3);
+  EXPECT_THAT(absl::StrJoin(DiagnoseMesh(doubled).warnings, ""),
+              HasSubstr("3 edges are shared by more than two faces"));
+  EXPECT_EQ(DiagnoseMesh(open).shared_edges, 0);
   // The penalty's and face samples' one-line cause too (it said "open or
   // planar").
   EXPECT_THAT(LikelyMissingCause(doubled, {.no_hit = 10}),

@@ -21,6 +21,7 @@ namespace {
 struct Topology {
   std::vector<Component> components;
   int64_t boundary_edges = 0;
+  int64_t shared_edges = 0;  // used by more than two faces.
   bool closed = true;
 };
 
@@ -49,6 +50,7 @@ Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
     if (j - i == 2) continue;
     t.closed = false;
     t.boundary_edges += j - i == 1;
+    t.shared_edges += j - i > 2;
     const int32_t v = EdgeKeyVertex(uses[i].key, mesh.dimension);
     Component& c = t.components[index[FindRoot(parent, v)]];
     c.closed = false;
@@ -154,6 +156,7 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   }
   d.double_sided_faces = double_sided_faces;
   d.boundary_edges = t.boundary_edges;
+  d.shared_edges = t.shared_edges;
   std::vector<int32_t> component_of(mesh.faces.size());
   for (size_t i = 0; i < t.components.size(); ++i) {
     for (int32_t f : t.components[i].faces)
@@ -217,6 +220,14 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
         absl::StrCat("the mesh is open: ", d.boundary_edges,
                      mesh.dimension == 2 ? " curve ends" : " boundary edges",
                      "; rays may escape through the holes (NO_HIT)"));
+  }
+  if (d.shared_edges > 0) {
+    d.warnings.push_back(absl::StrCat(
+        d.shared_edges,
+        mesh.dimension == 2 ? " vertices are shared by more than two segments"
+                            : " edges are shared by more than two faces",
+        " (non-manifold: duplicated, double-sided or touching faces): normals "
+        "there may cancel or point astray"));
   }
   return d;
 }

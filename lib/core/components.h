@@ -37,6 +37,9 @@ struct MeshDiagnostics {
   int64_t double_sided_faces = 0;
   // Edges used by one face only (3D) or vertices used by one segment (2D).
   int64_t boundary_edges = 0;
+  // Edges used by more than two faces (2D: vertices by more than two
+  // segments): non-manifold.
+  int64_t shared_edges = 0;
   // Edges used by exactly two faces in the same direction (2D: vertices
   // where two segments both start or both end): neighbours whose
   // orientations disagree; and the components (ConnectedComponents order)
