@@ -590,8 +590,19 @@ TEST(CliDerivativesTest, GradAndReportOnMostlyMissingValuesFailNamingTheCause) {
   ASSERT_EQ(allowed.exit_code, 0) << allowed.out;
   const auto j = nlohmann::json::parse(allowed.out);
   EXPECT_NEAR(j["missing_area_fraction"].get<double>(), 0.946, 1e-3);
+  // The mesh's warning, then the pass's, as in `sdf --json`; and penalty's.
+  ASSERT_EQ(j["warnings"].size(), 2u);
   EXPECT_THAT(j["warnings"][0].get<std::string>(),
-              HasSubstr("negative signed volume"));
+              HasSubstr("1 of 1 components are closed with negative signed "
+                        "volume"));
+  EXPECT_THAT(j["warnings"][1].get<std::string>(),
+              HasSubstr("component 0 (96966 faces): 94.6% of its area"));
+  const CliRun penalty = RunCli("penalty " + horse +
+                                    " --t-min 0.01 --rays 10 --json "
+                                    "--max-missing-fraction 1",
+                                false);
+  ASSERT_EQ(penalty.exit_code, 0) << penalty.out;
+  EXPECT_EQ(nlohmann::json::parse(penalty.out)["warnings"], j["warnings"]);
 
   const std::filesystem::path dir = Tmp("missing_report");
   const CliRun report = RunCli("report " + horse +

@@ -9,16 +9,33 @@
 #include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/csv_io.h"
+#include "client/cli/summary.h"
 #include "client/cli/thin_summary.h"
 #include "lib/core/face_sample.h"
-#include "lib/core/missing_diagnosis.h"
 #include "lib/core/missing_values.h"
 
 namespace meshgauge::cli {
 
+namespace {
+
+// The pass's warnings (PassWarnings) as `sdf` gives them: on stderr, or
+// with --json in the JSON only.
+std::vector<std::string> ReportWarnings(const MeshInput& in,
+                                        const Opened& opened,
+                                        const SdfResult& result) {
+  std::vector<std::string> warnings =
+      PassWarnings(opened, result, in.out.warn_missing_fraction);
+  for (const std::string& w : warnings) {
+    if (!in.out.json) std::cerr << "meshgauge: warning: " << w << "\n";
+  }
+  return warnings;
+}
+
+}  // namespace
+
 absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
                      const BackendFactory& make) {
-  auto opened = Open(in, make, /*print_warnings=*/true);
+  auto opened = Open(in, make, /*print_warnings=*/false);  // with the pass's.
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
   const int64_t ns = NumSamples(opened->mesh(), opened->params.samples);
@@ -29,14 +46,10 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
                                                 ? Derivatives::kVjp
                                                 : Derivatives::kJacobian);
   if (!result.ok()) return result.status();
-  // Warnings as `sdf` gives them (in the JSON, or on stderr); derivatives
-  // of a surface mostly without values are refused, as a penalty over it
-  // is (SPEC v2 §7), not written as zeros.
-  const std::vector<std::string> warnings = MissingValueWarnings(
-      opened->mesh(), *result, in.out.warn_missing_fraction);
-  for (const std::string& w : warnings) {
-    if (!in.out.json) std::cerr << "meshgauge: warning: " << w << "\n";
-  }
+  // Derivatives of a surface mostly without values are refused, as a
+  // penalty over it is (SPEC v2 §7), not written as zeros.
+  const std::vector<std::string> warnings =
+      ReportWarnings(in, *opened, *result);
   if (absl::Status s =
           CheckMissing(opened->mesh(), result->missing, result->Causes(),
                        grad.max_missing_fraction, "a gradient");
@@ -92,7 +105,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   auto penalty = ToPenaltyParams(flags);
   if (!penalty.ok()) return penalty.status();
   const PenaltyParams& pp = *penalty;
-  auto opened = Open(in, make, /*print_warnings=*/true);
+  auto opened = Open(in, make, /*print_warnings=*/false);  // with the pass's.
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
   const std::string& grad_path = flags.grad;
@@ -100,6 +113,8 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
       backend.Sdf(opened->params,
                   grad_path.empty() ? Derivatives::kNone : Derivatives::kVjp);
   if (!result.ok()) return result.status();
+  const std::vector<std::string> warnings =
+      ReportWarnings(in, *opened, *result);
   auto pen = backend.Penalty(*result, pp, !grad_path.empty());
   if (!pen.ok()) return pen.status();
   if (!grad_path.empty()) {
@@ -130,6 +145,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   j["thin"].erase("regions");
   j["thin_regions"] = thin->regions.size();
   j["sentence"] = sentence;
+  j["warnings"] = warnings;
   if (in.out.json) {
     std::cout << j.dump() << "\n";
     return absl::OkStatus();

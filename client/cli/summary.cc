@@ -86,13 +86,19 @@ nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
   j["missing_vertices"] = result.missing.vertices;
   j["missing_faces"] = result.missing.faces;
   j["missing_area_fraction"] = result.missing.area_fraction;
-  std::vector<std::string> warnings = loaded.warnings;
+  j["warnings"] = PassWarnings(opened, result, warn_fraction);
+  return j;
+}
+
+std::vector<std::string> PassWarnings(const Opened& opened,
+                                      const SdfResult& result,
+                                      double warn_fraction) {
+  std::vector<std::string> warnings = opened.loaded.warnings;
   for (std::string& w :
        MissingValueWarnings(opened.mesh(), result, warn_fraction)) {
     warnings.push_back(std::move(w));
   }
-  j["warnings"] = warnings;
-  return j;
+  return warnings;
 }
 
 namespace {

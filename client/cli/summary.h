@@ -20,6 +20,13 @@ namespace meshgauge::cli {
 nlohmann::json SummaryJson(const Opened& opened, const SdfResult& result,
                            double seconds, double warn_fraction);
 
+// The mesh's warnings, then a sentence per component whose missing values
+// cover more than warn_fraction of the surface (MissingValueWarnings): the
+// summary's `warnings`, and grad's and penalty's.
+std::vector<std::string> PassWarnings(const Opened& opened,
+                                      const SdfResult& result,
+                                      double warn_fraction);
+
 // Human-readable form of the same summary.
 std::string SummaryText(const nlohmann::json& summary);
 
