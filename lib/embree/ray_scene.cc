@@ -277,7 +277,7 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   fan.rtc.filter = FanFilter;
   fan.excluded = excluded;
   fan.t_min = limits.t_min;
-  fan.near_below = limits.near_below;
+  fan.near_below = NearBelow(limits, reach);
   fan.t_far = limits.t_far;
   fan.segments = dimension_ == 2;
   const float t_near = limits.t_near, t_far = limits.t_far;

@@ -6,6 +6,7 @@
 // precision and only *chooses* the primitive; callers recompute t in double.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -95,13 +96,23 @@ class RayScene {
                 float t_far) const;
   // The distances of a fan's rays (single precision): Embree reports
   // primitives within [t_near, t_far]; those closer than t_min (>= t_near)
-  // are ignored; a primitive closer than near_below marks the ray's
+  // are ignored; a primitive closer than NearBelow marks the ray's
   // candidates near() (SPEC §4's self-hit threshold: t_near a power of two
   // at or below t_min, near_below = 2 t_near, so that a threshold moving
   // within [t_near, near_below) changes only the rays marked).
   struct FanLimits {
     float t_near = 0, t_min = 0, near_below = 0, t_far = 0;
   };
+  // Where candidates are marked near() for a fan from an origin `reach`
+  // from the scene's origin (MaxAbs, tracer coordinates): below
+  // limits.near_below, and below t_min + (reach + t_min) * 2^-16, within
+  // which a candidate's double-precision distance may be below t_min
+  // although its single-precision one is not (HitCandidates' window, far
+  // wider than single-precision rounding; SdfEvaluator measures those).
+  static float NearBelow(const FanLimits& limits, float reach) {
+    return std::max(limits.near_below,
+                    limits.t_min + (reach + limits.t_min) * 0x1p-16f);
+  }
   // For every k, out[k] receives the candidates for the closest hit of
   // origin + t * dirs[k] within `limits`, ignoring the primitives in
   // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
