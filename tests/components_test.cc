@@ -151,6 +151,26 @@ TEST(ComponentsTest, CountsDoubleSidedFacesAndBoundaryEdges) {
   EXPECT_EQ(d.warnings.size(), 3u);
 }
 
+// Outsider report: cubes exported with texture seams (trimesh's
+// cube_blender_uv.ply, BoxTextured.ply) were only called open.
+TEST(ComponentsTest, UnweldedSeamsAreNamed) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0},
+                 {1, 0, 0}, {0, 1, 0}, {1, 1, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(3, 5, 4)};
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  EXPECT_EQ(d.boundary_edges, 6);
+  EXPECT_EQ(d.coincident_boundary_vertices, 4);  // 1 and 3, 2 and 4.
+  EXPECT_THAT(absl::StrJoin(d.warnings, ""),
+              HasSubstr("4 boundary vertices have exactly the position of "
+                        "another (unwelded seams"));
+  // Welded, the square has no such vertex.
+  m.faces[1] = Face::Triangle(1, 5, 2);
+  EXPECT_EQ(DiagnoseMesh(m).coincident_boundary_vertices, 0);
+  EXPECT_EQ(DiagnoseMesh(MakeBox(1, 1, 1, 0.5)).coincident_boundary_vertices,
+            0);
+}
+
 TEST(ComponentsTest, DropDegenerateFacesKeepsVerticesAndRegions) {
   Mesh m;
   m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {2, 0, 0}};

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <numeric>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -23,6 +24,8 @@ struct Topology {
   int64_t boundary_edges = 0;
   int64_t shared_edges = 0;  // used by more than two faces.
   bool closed = true;
+  // The ends of the boundary edges (2D: the curve ends), with repeats.
+  std::vector<int32_t> boundary_vertices;
 };
 
 Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
@@ -51,6 +54,13 @@ Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
     t.closed = false;
     t.boundary_edges += j - i == 1;
     t.shared_edges += j - i > 2;
+    if (j - i == 1) {
+      t.boundary_vertices.push_back(EdgeKeyVertex(uses[i].key, mesh.dimension));
+      if (mesh.dimension == 3) {
+        t.boundary_vertices.push_back(
+            static_cast<int32_t>(uses[i].key & 0xffffffffu));
+      }
+    }
     const int32_t v = EdgeKeyVertex(uses[i].key, mesh.dimension);
     Component& c = t.components[index[FindRoot(parent, v)]];
     c.closed = false;
@@ -139,6 +149,28 @@ std::vector<Component> ConnectedComponents(const Mesh& mesh) {
 
 namespace {
 
+// How many of `vertices` (repeats counted once) share their exact position
+// with another of them. O(n log n).
+int64_t CountCoincident(const std::vector<Vec3>& positions,
+                        std::vector<int32_t> vertices) {
+  std::sort(vertices.begin(), vertices.end());
+  vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+  auto less = [&](int32_t a, int32_t b) {
+    const Vec3 &p = positions[a], &q = positions[b];
+    return std::tie(p.x, p.y, p.z) < std::tie(q.x, q.y, q.z);
+  };
+  std::sort(vertices.begin(), vertices.end(), less);
+  int64_t count = 0;
+  for (size_t i = 0, j = 0; i < vertices.size(); i = j) {
+    while (j < vertices.size() &&
+           positions[vertices[j]] == positions[vertices[i]]) {
+      ++j;
+    }
+    if (j - i > 1) count += static_cast<int64_t>(j - i);
+  }
+  return count;
+}
+
 // DiagnoseMesh from the mesh's topology, manifold neighbours and count of
 // double-sided faces.
 MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
@@ -157,6 +189,8 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   d.double_sided_faces = double_sided_faces;
   d.boundary_edges = t.boundary_edges;
   d.shared_edges = t.shared_edges;
+  d.coincident_boundary_vertices =
+      CountCoincident(mesh.positions, t.boundary_vertices);
   std::vector<int32_t> component_of(mesh.faces.size());
   for (size_t i = 0; i < t.components.size(); ++i) {
     for (int32_t f : t.components[i].faces)
@@ -220,6 +254,14 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
         absl::StrCat("the mesh is open: ", d.boundary_edges,
                      mesh.dimension == 2 ? " curve ends" : " boundary edges",
                      "; rays may escape through the holes (NO_HIT)"));
+  }
+  if (d.coincident_boundary_vertices > 0) {
+    d.warnings.push_back(absl::StrCat(
+        d.coincident_boundary_vertices,
+        " boundary vertices have exactly the position of another (unwelded "
+        "seams, as texture seams leave them): welded, those boundaries would "
+        "join; weld the duplicates before measuring (e.g. trimesh's "
+        "merge_vertices, MeshLab's Merge Close Vertices)"));
   }
   if (d.shared_edges > 0) {
     d.warnings.push_back(absl::StrCat(

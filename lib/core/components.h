@@ -40,6 +40,9 @@ struct MeshDiagnostics {
   // Edges used by more than two faces (2D: vertices by more than two
   // segments): non-manifold.
   int64_t shared_edges = 0;
+  // Ends of boundary edges at exactly the position of another such end:
+  // unwelded seams (welded, the boundaries would join).
+  int64_t coincident_boundary_vertices = 0;
   // Edges used by exactly two faces in the same direction (2D: vertices
   // where two segments both start or both end): neighbours whose
   // orientations disagree; and the components (ConnectedComponents order)
