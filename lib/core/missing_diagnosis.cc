@@ -2,17 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
-#include <limits>
 #include <numeric>
 
 #include "absl/strings/str_format.h"
+#include "lib/core/box.h"
 #include "lib/core/components.h"
 #include "lib/core/integrals.h"
 
 namespace meshgauge {
 namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 struct ComponentMissing {
   int64_t component = 0;
@@ -20,8 +18,7 @@ struct ComponentMissing {
   int64_t missing_vertices = 0, no_hit = 0, degenerate = 0;
   Vec3 area_vector;       // sum of the faces' area vectors (3D).
   double area_norms = 0;  // sum of their lengths.
-  // The bounding box of its faces' vertices.
-  Vec3 lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
+  Box box;                // of its faces' vertices.
 };
 
 // Below this share of the mesh's bounding-box diagonal a component spans
@@ -32,7 +29,7 @@ constexpr double kUnresolvedShare = 0x1p-16;
 std::string Cause(const Mesh& mesh, const Component& c,
                   const ComponentMissing& m, bool inconsistent,
                   double diagonal) {
-  const double span = Norm(m.hi - m.lo);
+  const double span = Norm(m.box.hi - m.box.lo);
   if (span < kUnresolvedShare * diagonal) {
     return absl::StrFormat(
         "it spans %.3g while the mesh spans %.3g, where the ray tracer's "
@@ -105,11 +102,7 @@ std::vector<std::string> MissingValueWarnings(
     total += e.measure;
     m.area += e.measure;
     for (int i = 0; i < e.n; ++i) {
-      const Vec3& p = mesh.positions[e.v[i]];
-      for (int c = 0; c < 3; ++c) {
-        m.lo[c] = std::min(m.lo[c], p[c]);
-        m.hi[c] = std::max(m.hi[c], p[c]);
-      }
+      m.box.Extend(mesh.positions[e.v[i]], mesh.positions[e.v[i]]);
     }
     if (!finite) m.missing_area += e.measure;
     if (e.n == 3) {
