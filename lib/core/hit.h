@@ -41,12 +41,19 @@ inline Vec3 PrimitiveNormalOf(const PrimitiveCorners& pc) {
   return pc.segment ? Perp(ab) : Cross(ab, pc.c - pc.a);
 }
 
-// Hit distance only (the value pass): t = ((a - x) . m) / (d . m), or NaN
-// when d . m == 0 or t is not a finite positive number (a miss).
+// Where the ray x + t d meets the primitive's plane, whatever the sign:
+// t = ((a - x) . m) / (d . m); infinite or NaN when d . m == 0.
+inline double PlaneDistance(const PrimitiveCorners& pc, const Vec3& x,
+                            const Vec3& d) {
+  const Vec3 m = PrimitiveNormalOf(pc);
+  return Dot(pc.a - x, m) / Dot(d, m);
+}
+
+// Hit distance only (the value pass): PlaneDistance, or NaN when it is not
+// a finite positive number (a miss).
 inline double HitDistance(const PrimitiveCorners& pc, const Vec3& x,
                           const Vec3& d) {
-  const Vec3 m = PrimitiveNormalOf(pc);
-  const double t = Dot(pc.a - x, m) / Dot(d, m);
+  const double t = PlaneDistance(pc, x, d);
   return t > 0 && std::isfinite(t) ? t
                                    : std::numeric_limits<double>::quiet_NaN();
 }

@@ -158,10 +158,8 @@ ABSL_ATTRIBUTE_NOINLINE void DropHitsBelowTMin(
   for (;;) {
     const size_t before = dropped->size();
     for (int i = 0; i < c->count() && (*c)[i].t < suspect_below; ++i) {
-      const PrimitiveCorners pc = g.Corners((*c)[i].prim);
-      const Vec3 m = PrimitiveNormalOf(pc);
-      // Not NaN when d . m != 0 (a ray along the plane is left as it is).
-      if (Dot(pc.a - x, m) / Dot(d, m) < t_min) {
+      // A ray along the plane (NaN) is left as it is.
+      if (PlaneDistance(g.Corners((*c)[i].prim), x, d) < t_min) {
         dropped->push_back((*c)[i].prim);
       }
     }
