@@ -51,7 +51,8 @@ MissingValues CountMissingFaces(const Mesh& mesh,
 }
 
 std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
-  if (IsClosed(mesh) && SignedVolume(mesh) < 0) {
+  const bool closed = IsClosed(mesh);
+  if (closed && SignedVolume(mesh) < 0) {
     return "the mesh is closed with a negative signed volume, so its faces "
            "point inward and the cones look outside: reorient it "
            "(--reorient)";
@@ -61,7 +62,7 @@ std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
            "(DEGENERATE_NORMAL): the mesh is probably double-sided "
            "(coincident opposite faces)";
   }
-  if (!IsClosed(mesh)) {
+  if (!closed) {
     if (DiagnoseMesh(mesh).boundary_edges == 0) {
       return "the mesh has no boundary, but edges shared by more than two "
              "faces (duplicated, double-sided or touching faces), where "
