@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "absl/status/status.h"
 #include "client/cli/backend.h"
@@ -33,6 +34,9 @@ struct Opened {
 };
 absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
                             bool print_warnings);
+
+// Each warning on stderr as "meshgauge: warning: ...".
+void PrintWarnings(const std::vector<std::string>& warnings);
 
 // meshgauge sdf MESH: SDF per vertex, summary on stdout.
 absl::Status RunSdf(const MeshInput& in, const BackendFactory& make);

@@ -25,9 +25,7 @@ std::vector<std::string> ReportWarnings(const MeshInput& in,
                                         const SdfResult& result) {
   std::vector<std::string> warnings =
       PassWarnings(opened, result, in.out.warn_missing_fraction);
-  for (const std::string& w : warnings) {
-    if (!in.out.json) std::cerr << "meshgauge: warning: " << w << "\n";
-  }
+  if (!in.out.json) PrintWarnings(warnings);
   return warnings;
 }
 

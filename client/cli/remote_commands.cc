@@ -53,8 +53,7 @@ void Print(const nlohmann::json& j, bool json) {
 absl::Status Upload(client::RemoteClient& c, const RemoteInput& in) {
   auto loaded = LoadMesh(in.target, in.mesh_flags, in.threads);
   if (!loaded.ok()) return loaded.status();
-  for (const auto& w : loaded->warnings)
-    std::cerr << "meshgauge: warning: " << w << "\n";
+  PrintWarnings(loaded->warnings);
   auto info = c.Upload(loaded->mesh, in.session_id);
   if (!info.ok()) return info.status();
   Print(InfoJson(*info), in.json);

@@ -180,9 +180,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
       !s.ok()) {
     return s;
   }
-  for (const auto& w : report["summary"]["warnings"]) {
-    std::cerr << "meshgauge: warning: " << w.get<std::string>() << "\n";
-  }
+  PrintWarnings(report["summary"]["warnings"].get<std::vector<std::string>>());
   std::cout << (in.out.json ? Dump(report, -1) : sentence) << "\n";
   // Written, so that the pictures show where; but a check of a surface
   // mostly without values fails, as a penalty over it does (SPEC v2 §7).

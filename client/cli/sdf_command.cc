@@ -14,14 +14,18 @@ absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
   if (!params.ok()) return params.status();
   auto loaded = LoadMesh(in.mesh, in.mesh_flags, params->threads);
   if (!loaded.ok()) return loaded.status();
-  for (const std::string& w : loaded->warnings) {
-    if (print_warnings) std::cerr << "meshgauge: warning: " << w << "\n";
-  }
+  if (print_warnings) PrintWarnings(loaded->warnings);
   const Stopwatch setup;
   auto backend = make(std::move(loaded->mesh));
   if (!backend.ok()) return backend.status();
   return Opened{std::move(*loaded), std::move(*backend), *params,
                 setup.Seconds()};
+}
+
+void PrintWarnings(const std::vector<std::string>& warnings) {
+  for (const std::string& w : warnings) {
+    std::cerr << "meshgauge: warning: " << w << "\n";
+  }
 }
 
 absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
