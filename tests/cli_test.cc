@@ -627,6 +627,7 @@ TEST(CliDerivativesTest, GradcheckPassesOnKnightAndPrintsTable) {
                           " --rays 20 --samples 4 --seed 3 --t-min 0.3");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   EXPECT_THAT(r.out, HasSubstr("analytic"));
+  EXPECT_THAT(r.out, HasSubstr("   g^T J "));  // each VJP check's row.
   EXPECT_THAT(r.out, HasSubstr("verdict: PASS"));
   const CliRun json = RunCli("gradcheck " + SharedMesh("decimated-knight.off") +
                              " --rays 20 --samples 2 --json");
