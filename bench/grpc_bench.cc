@@ -9,6 +9,8 @@
 //     (UpdatePositions, Compute with hit table, ComputeVjp). Best of N.
 //  2. A position update on a live session (BVH refit) vs re-uploading the
 //     mesh as a new session and building its BVH. Best of N.
+//  3. An upload of the mesh's arrays (MB/s of the wire bytes) beside the
+//     local read of its file (read, validate, diagnose). Best of N.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -50,6 +52,12 @@ void Check(const absl::Status& s) {
 int Run(const std::string& path) {
   auto mesh = ReadMesh(path);
   Check(mesh.status());
+  const int n0 = absl::GetFlag(FLAGS_iterations);
+  const double read = Best(n0, [&](int) {
+    auto file = ReadMeshFile(path);
+    Check(file.status());
+    Check(RepairFileMesh(std::move(*file), {}).status());
+  });
   if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
   const int n = absl::GetFlag(FLAGS_iterations);
   const int64_t nv = mesh->num_vertices();
@@ -118,7 +126,17 @@ int Run(const std::string& path) {
     Check(c.UpdatePositions(id, 0, 3, mesh->positions).status());  // builds
     Check(c.Delete(id));
   });
+  const double upload = Best(n, [&](int i) {
+    const std::string id = "up" + std::to_string(i);
+    Check(c.Upload(*mesh, id).status());
+    Check(c.Delete(id));
+  });
   (*srv)->Shutdown();
+  // The arrays' wire bytes: float64 coordinates, int32 sizes and indices.
+  int64_t indices = 0;
+  for (const Face& f : mesh->faces) indices += f.size;
+  const double megabytes =
+      (24.0 * nv + 4.0 * (mesh->num_faces() + indices)) / 1e6;
 
   std::printf("%s: %lld vertices, %lld faces, best of %d\n",
               path.substr(path.find_last_of('/') + 1).c_str(),
@@ -136,6 +154,10 @@ int Run(const std::string& path) {
       "  position update (refit) %.3f s vs re-upload + rebuild %.3f s: "
       "%.1fx (goal >= 5)\n",
       refit, reupload, reupload / refit);
+  std::printf(
+      "  upload of the arrays %.3f s (%.1f MB, %.1f MB/s) vs reading the file "
+      "locally %.3f s: ratio %.2f\n",
+      upload, megabytes, megabytes / upload, read, upload / read);
   return 0;
 }
 

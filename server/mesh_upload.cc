@@ -46,7 +46,17 @@ absl::Status MeshAssembler::Header(const v1::CreateSessionRequest::Header& h) {
   if (have_header_) return Invalid("a second header");
   have_header_ = true;
   session_id_ = h.session_id();
-  repairs_ = {.drop_degenerate_faces = h.drop_degenerate_faces(),
+  if (h.weld() && !(h.weld_tolerance() == 0 ||
+                    (h.weld_tolerance() >= kMinWeldTolerance &&
+                     h.weld_tolerance() <= kMaxWeldTolerance))) {
+    return Invalid(absl::StrCat(
+        "header.weld_tolerance must be 0 (exact duplicates) or in [",
+        kMinWeldTolerance, ", ", kMaxWeldTolerance, "], got ",
+        h.weld_tolerance()));
+  }
+  repairs_ = {.weld = h.weld(),
+              .weld_tolerance = h.weld_tolerance(),
+              .drop_degenerate_faces = h.drop_degenerate_faces(),
               .reorient = h.reorient()};
   for (const auto& rd : h.region_directions()) {
     if (region_directions_.count(rd.region())) {

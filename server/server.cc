@@ -8,6 +8,7 @@
 #include <openssl/pem.h>
 
 #include <algorithm>
+#include <iostream>
 
 #include "absl/strings/str_cat.h"
 #include "lib/io/text_file.h"
@@ -210,7 +211,9 @@ void MeshGaugeServer::SweepLoop() {
     cv_.wait_for(lock, std::chrono::duration<double>(period));
     if (stopping_) break;
     lock.unlock();
-    uploads_.AbortIdle();
+    for (const std::string& line : uploads_.AbortIdle()) {
+      std::cerr << "meshgauge-server: CreateSession: " << line << std::endl;
+    }
     since_sweep += period;
     if (since_sweep >= options_.sweep_interval_seconds) {
       store_->Sweep();

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <iostream>
 #include <optional>
 
 #include "absl/strings/str_cat.h"
@@ -50,6 +51,13 @@ const char* CodeName(grpc::StatusCode code) {
                                  "UNAUTHENTICATED"};
   const int i = static_cast<int>(code);
   return i >= 0 && i < 17 ? kNames[i] : "UNKNOWN";
+}
+
+// An upload the server ended for one of its limits (size, rate, deadline,
+// memory): logged with what the client had sent.
+bool IsUploadLimit(const absl::Status& s) {
+  return s.code() == absl::StatusCode::kDeadlineExceeded ||
+         s.code() == absl::StatusCode::kResourceExhausted;
 }
 
 int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
@@ -246,6 +254,11 @@ grpc::Status MeshGaugeService::BoundedCreateSession(
         // back to the system (trimming takes every arena's lock, so not for
         // small ones).
         if (!s.ok() && progress.received > kTrimAfterBytes) malloc_trim(0);
+        if (IsUploadLimit(s)) {
+          std::cerr << "meshgauge-server: CreateSession ended after "
+                    << progress.received << " bytes: " << s.message()
+                    << std::endl;
+        }
         return s;
       });
   if (!status.ok() && !progress.ended) DiscardRest(ctx, reader);
@@ -334,14 +347,17 @@ absl::Status MeshGaugeService::ReceiveUpload(
     }
   }
   progress->ended = true;
+  uploads_->Received(upload);
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
   auto mesh = BuildUploadedMesh(ctx, assembler, ticket);
   if (!mesh.ok()) return mesh.status();
   // A caller that gave up (deadline, cancel) gets no orphan session.
   if (ctx->IsCancelled()) return absl::CancelledError("upload cancelled");
+  const std::vector<int32_t> welded = std::move(mesh->weld.welded_vertex);
   auto session = store_->Create(tenant, assembler.session_id(),
                                 std::move(*mesh), std::move(ticket));
   if (!session.ok()) return session.status();
+  response->mutable_welded_vertex()->Assign(welded.begin(), welded.end());
   wire::ToWire(ToSessionInfo((*session)->Snapshot(), clock_->NowSeconds()),
                response->mutable_session());
   return absl::OkStatus();
@@ -575,11 +591,6 @@ grpc::Status MeshGaugeService::ComputePenalty(
                             request->has_expected_generation(),
                             request->expected_generation());
         if (!prep.ok()) return prep.status();
-        if (prep->params.samples != SampleSet::kVertices) {
-          return absl::InvalidArgumentError(
-              "ComputePenalty integrates vertex values (SPEC §7): "
-              "params.samples must be VERTICES");
-        }
         const SdfEvaluator& ev = *prep->reader.evaluator;
         // A thin region is about 18 doubles on the wire (four points, five
         // scalars and their tags).
@@ -601,8 +612,9 @@ grpc::Status MeshGaugeService::ComputePenalty(
             Control(ctx), options_.compute_threads);
         if (!pen.ok()) return Interrupted(ctx, pen.status());
         if (*thin_request) {
-          auto thin =
-              FindThinRegions(ev.mesh(), sdf.values, (*thin_request)->params);
+          ThinRegionParams thin_params = (*thin_request)->params;
+          thin_params.samples = prep->params.samples;
+          auto thin = FindThinRegions(ev.mesh(), sdf.values, thin_params);
           if (!thin.ok()) return thin.status();
           wire::ToWire(*thin, (*thin_request)->max_regions,
                        response->mutable_thin());

@@ -68,6 +68,13 @@ absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
   return absl::OkStatus();
 }
 
+void UploadWatch::Received(int64_t id) {
+  std::lock_guard<std::mutex> lock(mu_);
+  if (auto it = uploads_.find(id); it != uploads_.end()) {
+    it->second.received = true;
+  }
+}
+
 absl::Status UploadWatch::Finish(int64_t id) {
   std::lock_guard<std::mutex> lock(mu_);
   auto it = uploads_.find(id);
@@ -81,20 +88,26 @@ absl::Status UploadWatch::Finish(int64_t id) {
                    options_.upload_idle_seconds, " s (--upload_idle_seconds)"));
 }
 
-int UploadWatch::AbortIdle() {
+std::vector<std::string> UploadWatch::AbortIdle() {
   std::lock_guard<std::mutex> lock(mu_);
   const double now = clock_->NowSeconds();
-  int n = 0;
+  std::vector<std::string> aborted;
   for (auto& [id, e] : uploads_) {
-    const bool over = now - e.last > options_.upload_idle_seconds ||
-                      (e.discard && now - e.start > kMaxDiscardSeconds);
-    if (!e.aborted && over) {
-      e.aborted = true;
-      e.ctx->TryCancel();
-      ++n;
-    }
+    if (e.aborted || e.received) continue;
+    const bool idle = now - e.last > options_.upload_idle_seconds;
+    if (!idle && !(e.discard && now - e.start > kMaxDiscardSeconds)) continue;
+    e.aborted = true;
+    e.ctx->TryCancel();
+    aborted.push_back(
+        e.discard
+            ? absl::StrCat("a refused upload's remainder was cancelled after ",
+                           now - e.start, " s and ", e.bytes, " bytes")
+            : absl::StrCat("an upload was cancelled: silent for ",
+                           now - e.last, " s (--upload_idle_seconds ",
+                           options_.upload_idle_seconds, ") after ", e.bytes,
+                           " bytes in ", now - e.start, " s"));
   }
-  return n;
+  return aborted;
 }
 
 }  // namespace meshgauge::server

@@ -14,6 +14,7 @@
 #include <map>
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "server/clock.h"
@@ -45,11 +46,18 @@ class UploadWatch {
   // the upload is past its deadline or below the minimum rate; for a
   // discard, OUT_OF_RANGE past kMaxDiscardBytes or kMaxDiscardSeconds.
   absl::Status Touch(int64_t id, int64_t bytes);
+  // The upload's last message arrived: from now on the server builds and
+  // checks the mesh, which is not the client's idleness, so AbortIdle and
+  // the rate and deadline checks leave it alone.
+  void Received(int64_t id);
   // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
   absl::Status Finish(int64_t id);
-  // Cancels every upload idle longer than the limit, and every discard older
-  // than kMaxDiscardSeconds (silent or not); returns how many.
-  int AbortIdle();
+  // Cancels every upload idle longer than the limit (still receiving), and
+  // every discard older than kMaxDiscardSeconds (silent or not); returns
+  // one line for the server's log per upload cancelled, naming the flag and
+  // what the client sent. (The synchronous API cannot send a status on a
+  // stream it cancels: the client sees CANCELLED.)
+  std::vector<std::string> AbortIdle();
 
  private:
   struct Entry {
@@ -58,6 +66,7 @@ class UploadWatch {
     int64_t bytes = 0;
     bool aborted = false;
     bool discard = false;
+    bool received = false;  // Received: the stream was read to its end.
   };
   absl::StatusOr<int64_t> Add(grpc::ServerContext* ctx, bool discard);
 

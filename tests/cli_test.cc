@@ -38,6 +38,54 @@ std::string Slurp(const std::filesystem::path& path) {
   return std::string((std::istreambuf_iterator<char>(in)), {});
 }
 
+// An unwelded export (a cube of six grids, every edge a seam): without
+// --weld the normal rays at the seams find no value; --weld merges the
+// seams, every vertex gets one, and the CSV keeps the file's 150 rows with
+// each seam copy carrying its welded vertex's value.
+TEST(CliTest, WeldMeasuresAnUnweldedCubeAndKeepsTheFilesRows) {
+  const std::string obj = Tmp("six_grids.obj");
+  ASSERT_TRUE(WriteObj(obj, testing::SixGridCube()).ok());
+  const CliRun raw = RunCli("sdf " + obj + " --method normal --json");
+  ASSERT_EQ(raw.exit_code, 0) << raw.out;
+  EXPECT_GT(nlohmann::json::parse(raw.out)["no_hit"].get<int64_t>(), 0);
+  const std::string csv = Tmp("six_grids.csv");
+  // --weld before the mesh takes no value: give TOL as --weld=TOL there.
+  const CliRun welded =
+      RunCli("sdf --weld " + obj + " --method normal --json --csv " + csv);
+  EXPECT_NE(welded.exit_code, 0);
+  EXPECT_THAT(welded.out, HasSubstr("--weld=TOL"));
+  const CliRun ok =
+      RunCli("sdf " + obj + " --method normal --json --weld --csv " + csv);
+  ASSERT_EQ(ok.exit_code, 0) << ok.out;
+  const auto j = nlohmann::json::parse(ok.out);
+  EXPECT_EQ(j["vertices"], 98);
+  EXPECT_EQ(j["ok"], 98);
+  EXPECT_THAT(j["warnings"][0].get<std::string>(),
+              HasSubstr("52 vertices welded"));
+  std::ifstream in(csv);
+  std::string line;
+  std::getline(in, line);  // header
+  std::map<std::string, std::string> value_at;  // position -> value
+  int rows = 0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> cells = absl::StrSplit(line, ',');
+    ASSERT_GE(cells.size(), 5u);
+    EXPECT_EQ(cells[0], std::to_string(rows));
+    ASSERT_FALSE(cells[4].empty()) << line;
+    const std::string at = cells[1] + " " + cells[2] + " " + cells[3];
+    auto [it, added] = value_at.try_emplace(at, cells[4]);
+    EXPECT_EQ(it->second, cells[4]) << at;  // seam copies agree.
+    ++rows;
+  }
+  EXPECT_EQ(rows, 150);
+  EXPECT_EQ(value_at.size(), 98u);
+  const CliRun tol = RunCli("sdf " + obj + " --method normal --weld=1e-6");
+  EXPECT_EQ(tol.exit_code, 0) << tol.out;
+  const CliRun bad = RunCli("sdf " + obj + " --weld=0.5");
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_THAT(bad.out, HasSubstr("weld tolerance"));
+}
+
 TEST(CliTest, JsonSummaryHasAllKeys) {
   const CliRun r =
       RunCli("sdf " + SharedMesh("decimated-knight.off") + " --json --rays 20");
@@ -268,10 +316,11 @@ TEST(CliTest, FaceSamplesGiveOneValuePerFace) {
                               " --samples faces --rays 8 --weights " + weights);
   EXPECT_NE(wrong.exit_code, 0);
   EXPECT_THAT(wrong.out, HasSubstr("502 weights but the mesh has 1000 faces"));
+  // The penalty of face samples integrates each face's own value.
   const CliRun penalty =
-      RunCli("penalty " + knight + " --samples faces --t-min 0.1");
-  EXPECT_NE(penalty.exit_code, 0);
-  EXPECT_THAT(penalty.out, HasSubstr("--samples"));
+      RunCli("penalty " + knight + " --samples faces --t-min 0.1 --json");
+  EXPECT_EQ(penalty.exit_code, 0) << penalty.out;
+  EXPECT_THAT(penalty.out, HasSubstr("\"samples\":\"faces\""));
   // gradcheck: --samples names the set, or (its older meaning) a count,
   // which --probes may not contradict.
   const CliRun both =
@@ -317,7 +366,7 @@ TEST(CliTest, SummaryNamesInwardComponentsAndPolygons) {
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["components"], 2);
   EXPECT_EQ(j["inward_components"], nlohmann::json::array({1}));
-  EXPECT_THAT(r.out, HasSubstr("1 of 2 components are closed with negative"));
+  EXPECT_THAT(r.out, HasSubstr("1 of 2 components are closed and turned inside out"));
   const CliRun fixed = RunCli("sdf " + obj + " --rays 8 --json --reorient");
   const auto k = nlohmann::json::parse(fixed.out);
   EXPECT_EQ(k["reoriented_components"], 1);
@@ -569,8 +618,8 @@ TEST(CliDerivativesTest, PenaltyOnMostlyMissingValuesFailsNamingTheCause) {
   EXPECT_EQ(sdf.exit_code, 0);
   EXPECT_THAT(sdf.out, HasSubstr("warning: "));
   EXPECT_THAT(sdf.out, HasSubstr("of its area (94.6% of the mesh's) has no "
-                                 "value, 44984 vertices: it is closed with a "
-                                 "negative signed volume"));
+                                 "value, 44984 vertices: it is closed and "
+                                 "turned inside out"));
 }
 
 // Outsider report: grad wrote an all-zero gradient with exit 0 and report
@@ -593,8 +642,8 @@ TEST(CliDerivativesTest, GradAndReportOnMostlyMissingValuesFailNamingTheCause) {
   // The mesh's warning, then the pass's, as in `sdf --json`; and penalty's.
   ASSERT_EQ(j["warnings"].size(), 2u);
   EXPECT_THAT(j["warnings"][0].get<std::string>(),
-              HasSubstr("1 of 1 components are closed with negative signed "
-                        "volume"));
+              HasSubstr("1 of 1 components are closed and turned inside "
+                        "out"));
   EXPECT_THAT(j["warnings"][1].get<std::string>(),
               HasSubstr("component 0 (96966 faces): 94.6% of its area"));
   const CliRun penalty = RunCli("penalty " + horse +

@@ -18,7 +18,9 @@
 #include "lib/core/missing_diagnosis.h"
 #include "lib/core/missing_values.h"
 #include "lib/core/shapes.h"
+#include "lib/core/weld.h"
 #include "lib/io/mesh_io.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
@@ -58,6 +60,169 @@ TEST(ComponentsTest, FindsTheInwardComponentAndFlipsOnlyIt) {
   }
   EXPECT_TRUE(DiagnoseMesh(m).inward_components.empty());
   EXPECT_NEAR(SignedVolume(m), 2, 1e-12);
+}
+
+// Nested shells: a part's outer shell faces out of the material, a
+// cavity's shell into the cavity (negative signed volume: correct), an
+// island in a cavity out again. `shells` are boxes (origin, size) in
+// order; `inverted` names the one turned inside out (-1: none).
+struct Shell {
+  Vec3 origin;
+  double size;
+  int depth;  // how many of the others enclose it.
+};
+
+Mesh NestedShells(const std::vector<Shell>& shells, int inverted) {
+  Mesh m;
+  for (size_t i = 0; i < shells.size(); ++i) {
+    const Shell& s = shells[i];
+    Mesh b = MakeBox(s.size, s.size, s.size, s.size / 2, /*quads=*/true);
+    const int32_t offset = static_cast<int32_t>(m.positions.size());
+    for (const Vec3& p : b.positions) m.positions.push_back(p + s.origin);
+    // Correct: outward at even depth, into the cavity at odd depth.
+    const bool reverse = (s.depth % 2 == 1) != (static_cast<int>(i) == inverted);
+    for (Face f : b.faces) {
+      for (int k = 0; k < f.size; ++k) f.v[k] += offset;
+      if (reverse) ReverseFace(f);
+      m.faces.push_back(f);
+    }
+  }
+  return m;
+}
+
+TEST(NestingTest, CavitiesFacingIntoThemselvesAreNotInvertedAndStay) {
+  const std::vector<std::vector<Shell>> parts = {
+      // A hollow box: a 2-unit wall around a cavity.
+      {{{0, 0, 0}, 10, 0}, {{2, 2, 2}, 6, 1}},
+      // A box with two cavities.
+      {{{0, 0, 0}, 10, 0}, {{1, 1, 1}, 3, 1}, {{5, 5, 5}, 3, 1}},
+      // A cavity holding an island.
+      {{{0, 0, 0}, 10, 0}, {{2, 2, 2}, 6, 1}, {{4, 4, 4}, 2, 2}},
+  };
+  for (size_t p = 0; p < parts.size(); ++p) {
+    const std::vector<Shell>& shells = parts[p];
+    const Mesh correct = NestedShells(shells, -1);
+    const std::vector<Component> components = ConnectedComponents(correct);
+    ASSERT_EQ(components.size(), shells.size());
+    for (size_t i = 0; i < shells.size(); ++i) {
+      EXPECT_EQ(components[i].nesting_depth, shells[i].depth) << p << " " << i;
+      EXPECT_FALSE(components[i].inverted()) << p << " " << i;
+    }
+    const MeshDiagnostics d = DiagnoseMesh(correct);
+    EXPECT_TRUE(d.inward_components.empty()) << p;
+    EXPECT_TRUE(d.warnings.empty()) << p << ": " << d.warnings[0];
+    Mesh reoriented = correct;
+    const Reorientation r = ReorientComponents(reoriented);
+    EXPECT_EQ(r.components_turned_outward, 0) << p;
+    for (size_t f = 0; f < correct.faces.size(); ++f) {
+      ASSERT_EQ(reoriented.faces[f].v, correct.faces[f].v) << p << " " << f;
+    }
+    // Each shell turned inside out, outer, cavity or island, is named
+    // alone and turned back.
+    for (size_t bad = 0; bad < shells.size(); ++bad) {
+      Mesh wrong = NestedShells(shells, static_cast<int>(bad));
+      const MeshDiagnostics w = DiagnoseMesh(wrong);
+      ASSERT_EQ(w.inward_components, std::vector<int64_t>{int64_t(bad)})
+          << p << " " << bad;
+      ASSERT_FALSE(w.warnings.empty());
+      EXPECT_THAT(w.warnings[0], HasSubstr("turned inside out"));
+      const Reorientation back = ReorientComponents(wrong);
+      EXPECT_EQ(back.components_turned_outward, 1) << p << " " << bad;
+      for (size_t f = 0; f < correct.faces.size(); ++f) {
+        ASSERT_EQ(wrong.faces[f].v, correct.faces[f].v) << p << " " << f;
+      }
+    }
+  }
+}
+
+TEST(NestingTest, ACurveAroundAHoleIsNotInverted) {
+  // The hollow square's hole runs clockwise: into the hole, as it should.
+  const Mesh m = MakeHollowSquare(4, 1, 0.2);
+  const MeshDiagnostics d = DiagnoseMesh(m);
+  EXPECT_TRUE(d.inward_components.empty());
+  Mesh reversed = m;
+  for (Face& f : reversed.faces) ReverseFace(f);
+  EXPECT_EQ(DiagnoseMesh(reversed).inward_components.size(), 2u);
+}
+
+TEST(WeldTest, ExactDuplicatesMergeIntoTheLowestAndFacesFollow) {
+  Mesh m = testing::SixGridCube();
+  const Mesh input = m;
+  ASSERT_EQ(m.num_vertices(), 150);  // 6 x 25
+  auto weld = WeldVertices(m, 0);
+  ASSERT_TRUE(weld.ok()) << weld.status();
+  EXPECT_EQ(m.num_vertices(), 98);  // 6 x 4^2 + 2
+  EXPECT_EQ(weld->merged, 52);
+  ASSERT_EQ(std::ssize(weld->welded_vertex), input.num_vertices());
+  const std::vector<int32_t> kept = KeptInputVertices(*weld);
+  ASSERT_EQ(std::ssize(kept), m.num_vertices());
+  for (int64_t v = 0; v < input.num_vertices(); ++v) {
+    const int32_t w = weld->welded_vertex[v];
+    EXPECT_EQ(m.positions[w], input.positions[v]);
+    EXPECT_LE(kept[w], v);  // the lowest input vertex of its group.
+    EXPECT_EQ(input.positions[kept[w]], input.positions[v]);
+  }
+  for (size_t f = 0; f < m.faces.size(); ++f) {
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_EQ(m.faces[f].v[k], weld->welded_vertex[input.faces[f].v[k]]);
+    }
+  }
+  EXPECT_TRUE(DiagnoseMesh(m).closed);
+  // Values and gradients go back to the input's indexing.
+  std::vector<double> values(m.num_vertices());
+  for (size_t w = 0; w < values.size(); ++w) values[w] = double(w);
+  const std::vector<double> back = Unweld(*weld, values);
+  std::vector<Vec3> grad(m.num_vertices(), Vec3(1, 2, 3));
+  const std::vector<Vec3> g = UnweldGradient(*weld, grad);
+  for (int64_t v = 0; v < input.num_vertices(); ++v) {
+    EXPECT_EQ(back[v], double(weld->welded_vertex[v]));
+    EXPECT_EQ(g[v], kept[weld->welded_vertex[v]] == v ? Vec3(1, 2, 3) : Vec3());
+  }
+  const std::vector<double> summed =
+      WeldWeights(*weld, std::vector<double>(150, 1.0), m.num_vertices());
+  EXPECT_EQ(std::accumulate(summed.begin(), summed.end(), 0.0), 150.0);
+  EXPECT_EQ(*std::max_element(summed.begin(), summed.end()), 3.0);  // corners
+}
+
+TEST(WeldTest, NegativeZeroEqualsZeroAndNothingMergedLeavesTheMesh) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {-0.0, 0, -0.0}, {1, 1, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(3, 4, 2)};
+  auto weld = WeldVertices(m, 0);
+  ASSERT_TRUE(weld.ok()) << weld.status();
+  EXPECT_EQ(weld->merged, 1);
+  EXPECT_EQ(weld->welded_vertex, (std::vector<int32_t>{0, 1, 2, 0, 3}));
+  EXPECT_EQ(m.faces[1].v[0], 0);
+  Mesh tetra = MakeIcosphere(1, 1);
+  const Mesh before = tetra;
+  auto none = WeldVertices(tetra, 0);
+  ASSERT_TRUE(none.ok());
+  EXPECT_EQ(none->merged, 0);
+  EXPECT_TRUE(none->welded_vertex.empty());
+  EXPECT_EQ(tetra.positions, before.positions);
+}
+
+TEST(WeldTest, ATolerancePastAFacesEdgeIsRefusedNamingTheFace) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1e-9, 0, 0}, {1, 1, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(3, 4, 2)};
+  Mesh near = m;
+  auto weld = WeldVertices(near, 1e-6);
+  ASSERT_TRUE(weld.ok()) << weld.status();
+  EXPECT_EQ(weld->merged, 1);
+  EXPECT_EQ(weld->welded_vertex[3], 0);
+  Mesh collapsed = m;
+  collapsed.faces.push_back(Face::Triangle(0, 3, 4));
+  auto refused = WeldVertices(collapsed, 1e-6);
+  ASSERT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(refused.status().message(), HasSubstr("face 2"));
+  EXPECT_THAT(refused.status().message(), HasSubstr("smaller tolerance"));
+  for (double bad : {-1.0, 1e-13, 0.02, std::nan("")}) {
+    Mesh copy = m;
+    EXPECT_EQ(WeldVertices(copy, bad).status().code(),
+              absl::StatusCode::kInvalidArgument)
+        << bad;
+  }
 }
 
 TEST(ComponentsTest, ReversedQuadKeepsItsDiagonal) {
@@ -372,7 +537,7 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
   EXPECT_THAT(absl::StrJoin(WarningsFor(inward), ""),
               HasSubstr("component 0 (48 faces): 100% of its area (100% of "
                         "the mesh's) has no value, 26 vertices: it is closed "
-                        "with a negative signed volume"));
+                        "and turned inside out"));
   Mesh mixed = MakeIcosphere(0.6, 2);
   ReverseFace(mixed.faces[3]);
   EXPECT_THAT(absl::StrJoin(WarningsFor(mixed), ""),
@@ -411,7 +576,7 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
   EXPECT_THAT(absl::StrJoin(WarningsFor(MakeIcosphere(1, 3),
                                         VertexStatus::kNoHit, {0, 1, 2}),
                             ""),
-              HasSubstr("one-ring exclusion"));
+              HasSubstr("rays lost at sharp or coarse corners"));
 }
 
 // Outsider report: two unit parts 2e7 apart lost the far one's values, and
@@ -431,7 +596,7 @@ TEST(MissingValueWarningsTest, APartTooSmallForSinglePrecisionIsNamed) {
   Append(near, MakeIcosphere(1, 2), {0, 0, 0});
   Append(near, MakeIcosphere(1, 2), {1e4, 0, 0});
   EXPECT_THAT(absl::StrJoin(WarningsFor(near, VertexStatus::kNoHit, far), ""),
-              HasSubstr("one-ring exclusion"));
+              HasSubstr("rays lost at sharp or coarse corners"));
 }
 
 TEST(MissingValueWarningsTest, BelowTheThresholdNothingAndBeyondFiveACount) {

@@ -10,6 +10,7 @@
 #include <fstream>
 
 #include "lib/embree/sdf.h"
+#include "lib/io/mesh_builder.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
@@ -213,6 +214,30 @@ TEST_F(MeshFileTest, QualityPlyRoundTripsGeometry) {
   std::ifstream in(path, std::ios::binary);
   std::string header((std::istreambuf_iterator<char>(in)), {});
   EXPECT_NE(header.find("property float quality"), std::string::npos);
+}
+
+// The server's cancellation check is a call into the transport: a builder
+// polls it at a bounded rate, never per element (an upload of igea took
+// 10x a local read when it was polled per face).
+TEST(MeshBuilderTest, CancellationIsPolledEvery65536FacesNotPerFace) {
+  int64_t polls = 0;
+  io::ReadLimits limits{.cancelled = [&polls] {
+    ++polls;
+    return false;
+  }};
+  io::MeshBuilder builder("arrays", 3, &limits);
+  constexpr int64_t kFaces = 300'000;
+  ASSERT_TRUE(builder.ReservePositions(3).ok());
+  for (int k = 0; k < 3; ++k) {
+    ASSERT_TRUE(builder.AddVertex({double(k == 1), double(k == 2), 0}).ok());
+  }
+  const int64_t corners[] = {0, 1, 2};
+  for (int64_t f = 0; f < kFaces; ++f) {
+    ASSERT_TRUE(builder.AddFace(corners, 0, "face_indices").ok());
+  }
+  // Every 65,536 faces, and when an array doubles (about log2 F times).
+  EXPECT_LE(polls, kFaces / 65536 + 3 * 20);
+  EXPECT_GE(polls, kFaces / 65536);
 }
 
 }  // namespace

@@ -23,6 +23,7 @@ namespace meshgauge {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 using testing::SharedMesh;
 
 std::string Corpus(const std::string& name) {
@@ -369,6 +370,114 @@ TEST(MeshReaderTest, StlDefects) {
                         "facet count (the header declares 2 facets, 184 "
                         "bytes, but the file has 174; its header starts with "
                         "'solid'"));
+}
+
+std::string FileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+// `text` in UTF-16: each character then NUL (LE) or NUL then it (BE),
+// after the byte-order mark when `bom`.
+std::string Utf16(absl::string_view text, bool little, bool bom) {
+  std::string out = bom ? (little ? "\xFF\xFE" : "\xFE\xFF") : "";
+  for (char c : text) {
+    out += little ? std::string{c, '\0'} : std::string{'\0', c};
+  }
+  return out;
+}
+
+constexpr absl::string_view kTetObj =
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n"
+    "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+
+// Outsider report: a binary STL, a UTF-16 text file or random bytes named
+// .obj all said "no faces (f) or polylines (l)". The file's real kind is
+// named, with what to do, before the reader's own message.
+TEST(MeshReaderTest, AFileWhoseExtensionLiesIsNamedForWhatItIs) {
+  const std::string stl = FileBytes(Corpus("stl/binary.stl"));  // 2 facets.
+  ASSERT_EQ(stl.size(), 84u + 2 * 50);
+  EXPECT_THAT(
+      Message(ParseMeshContents(stl, ".obj", "part.obj")),
+      HasSubstr("part.obj: this looks like a binary STL (80-byte header, 2 "
+                "triangles), not an OBJ file: rename it .stl (read as an OBJ "
+                "file: part.obj: "));
+  for (bool little : {true, false}) {
+    for (bool bom : {true, false}) {
+      const std::string m =
+          Message(ParseMeshContents(Utf16(kTetObj, little, bom), ".obj", "u.obj"));
+      EXPECT_THAT(m, HasSubstr("u.obj: this looks like UTF-16 text (")) << m;
+      EXPECT_THAT(m, HasSubstr(little ? "little-endian" : "big-endian"));
+      EXPECT_THAT(m, HasSubstr(bom ? "byte-order mark" : "NUL bytes"));
+      EXPECT_THAT(m, HasSubstr("save it as UTF-8 or ASCII"));
+    }
+  }
+  // The same text in UTF-8 reads.
+  EXPECT_TRUE(ParseMeshContents(kTetObj, ".obj", "u.obj").ok());
+  std::string noise(1000, '\0');
+  uint32_t x = 12345;
+  for (char& c : noise) {
+    x = x * 1103515245 + 12345;
+    c = static_cast<char>(x >> 16);
+  }
+  EXPECT_THAT(Message(ParseMeshContents(noise, ".obj", "r.obj")),
+              HasSubstr("r.obj: this looks like binary data, not text, not an "
+                        "OBJ file"));
+  EXPECT_THAT(Message(ParseMeshContents(noise, ".off", "r.off")),
+              HasSubstr("r.off: this looks like binary data, not text"));
+  const std::string ply = FileBytes(Corpus("ply/double_le.ply"));
+  EXPECT_THAT(Message(ParseMeshContents(ply, ".obj", "p.obj")),
+              HasSubstr("p.obj: this looks like a PLY file ('ply' header, "
+                        "format binary_little_endian), not an OBJ file: "
+                        "rename it .ply"));
+  const std::string off = "OFF\n4 4 0\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                          "3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n";
+  EXPECT_THAT(Message(ParseMeshContents(off, ".obj", "o.obj")),
+              HasSubstr("o.obj: this looks like an OFF file ('OFF' header), "
+                        "not an OBJ file: rename it .off"));
+  // The other readers given the wrong kind.
+  EXPECT_THAT(Message(ParseMeshContents(kTetObj, ".off", "t.off")),
+              HasSubstr("t.off: this looks like an OBJ file ('v' and 'f' "
+                        "lines), not an OFF file: rename it .obj"));
+  EXPECT_THAT(Message(ParseMeshContents(kTetObj, ".ply", "t.ply")),
+              HasSubstr("not a PLY file: rename it .obj"));
+  EXPECT_THAT(Message(ParseMeshContents(kTetObj, ".stl", "t.stl")),
+              HasSubstr("not an STL file: rename it .obj"));
+  EXPECT_THAT(Message(ParseMeshContents(ply, ".stl", "p.stl")),
+              HasSubstr("a PLY file ('ply' header, format "
+                        "binary_little_endian), not an STL file"));
+  EXPECT_THAT(Message(ParseMeshContents(stl, ".ply", "s.ply")),
+              HasSubstr("a binary STL (80-byte header, 2 triangles), not a "
+                        "PLY file: rename it .stl"));
+  EXPECT_THAT(Message(ParseMeshContents(off, ".stl", "o.stl")),
+              HasSubstr("an OFF file ('OFF' header), not an STL file"));
+  const std::string ascii_stl = FileBytes(Corpus("stl/ascii.stl"));
+  EXPECT_THAT(Message(ParseMeshContents(ascii_stl, ".off", "a.off")),
+              HasSubstr("an ASCII STL ('solid' and 'facet' lines), not an OFF "
+                        "file: rename it .stl"));
+  EXPECT_THAT(Message(ParseMeshContents(Utf16(ascii_stl, true, true), ".stl",
+                                        "w.stl")),
+              HasSubstr("w.stl: this looks like UTF-16 text"));
+  EXPECT_THAT(Message(ParseMeshContents(std::string("PK\x03\x04", 4) + noise,
+                                        ".stl", "m.stl")),
+              HasSubstr("a ZIP archive (a 3MF file is one)"));
+  // A file of the extension's kind keeps its reader's message alone.
+  EXPECT_EQ(Message(ParseMeshContents("v 0 0 0\nv 1 0 0\n", ".obj", "n.obj")),
+            "n.obj: no faces (f) or polylines (l)");
+  EXPECT_THAT(Message(ParseMeshContents(stl.substr(0, 150), ".stl", "c.stl")),
+              Not(HasSubstr("looks like")));
+}
+
+TEST(MeshReaderTest, SniffingNamesEachKind) {
+  EXPECT_EQ(SniffMeshContents(kTetObj).kind, ".obj");
+  EXPECT_EQ(SniffMeshContents(FileBytes(Corpus("stl/binary.stl"))).kind, ".stl");
+  EXPECT_EQ(SniffMeshContents(FileBytes(Corpus("stl/ascii.stl"))).kind, ".stl");
+  EXPECT_EQ(SniffMeshContents(FileBytes(Corpus("ply/ascii_double.ply"))).kind,
+            ".ply");
+  EXPECT_EQ(SniffMeshContents("# x\nCOFF\n").kind, ".off");
+  EXPECT_EQ(SniffMeshContents(std::string("\xFF\xFE\0\0", 4)).kind, "utf-32");
+  EXPECT_EQ(SniffMeshContents(std::string("\x1F\x8B\x08\0", 4)).kind, "other");
+  EXPECT_EQ(SniffMeshContents("hello world\n").kind, "");
 }
 
 TEST(MeshReaderTest, EveryTruncationOfAValidFileIsAnErrorOrAMesh) {

@@ -9,6 +9,7 @@
 
 #include "lib/core/integrals.h"
 #include "lib/core/shapes.h"
+#include "lib/core/thin_regions.h"
 #include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
@@ -31,11 +32,12 @@ struct PenaltyFd {
 // For `columns` vertices and each coordinate, compares dP/dx with central
 // differences of P wherever the whole hit table (primitives and kept sets) is
 // unchanged at x +- step (lib/gradcheck).
-PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns) {
+PenaltyFd CheckPenalty(const Mesh& mesh, const PenaltyParams& pp, int columns,
+                       const SdfParams& params = {}) {
   GradCheckOptions options;
   options.vertices = testing::SpreadVertices(mesh, columns, 5);
   options.penalty = pp;
-  auto rep = RunGradCheck(mesh, {}, options);
+  auto rep = RunGradCheck(mesh, params, options);
   EXPECT_TRUE(rep.ok()) << rep.status();
   PenaltyFd out;
   if (!rep.ok()) return out;
@@ -89,6 +91,48 @@ TEST(PenaltyTest, OneSidedOnKnightMatchesFd) {
   ASSERT_TRUE(mesh.ok());
   Expect(CheckPenalty(
       *mesh, {.t_min = 0.3, .form = PenaltyForm::kOneSided, .power = 3}, 25));
+}
+
+// Face samples (CAD parts): P = sum over faces of |f| phi(t_f), its
+// gradient through each face's value and area.
+TEST(PenaltyTest, FaceSampledPenaltyAndConstraintOnKnightMatchFd) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok());
+  SdfParams faces;
+  faces.samples = SampleSet::kFaces;
+  Expect(CheckPenalty(
+      *mesh, {.t_min = 0.3, .form = PenaltyForm::kOneSided, .power = 3}, 25,
+      faces));
+  Expect(CheckPenalty(*mesh, {.t_min = 0.3, .form = PenaltyForm::kKs}, 25,
+                      faces));
+}
+
+// On a plate of constant thickness h the face values are h, so the face
+// penalty is the area times phi(h) exactly, and its thin regions join the
+// faces below t_min.
+TEST(PenaltyTest, FaceSampledPenaltyOfAPlateIsItsAreaTimesPhi) {
+  const Mesh plate = MakeBox(4, 4, 0.5, 0.5);
+  auto ev = SdfEvaluator::Create(plate);
+  ASSERT_TRUE(ev.ok());
+  SdfParams sp;
+  sp.method = SdfMethod::kNormalRay;
+  sp.samples = SampleSet::kFaces;
+  auto r = (*ev)->Compute(sp);
+  ASSERT_TRUE(r.ok()) << r.status();
+  ASSERT_EQ(std::ssize(r->values), plate.num_faces());
+  auto pen = ComputePenalty(**ev, *r, {.t_min = 1.0}, nullptr);
+  ASSERT_TRUE(pen.ok()) << pen.status();
+  EXPECT_EQ(std::ssize(pen->dp_dt), plate.num_faces());
+  // Top and bottom (32 + 32 m^2) are 0.5 thick; the sides (4 x 4 x 0.5 =
+  // 8 m^2) 4 across.
+  EXPECT_NEAR(pen->value, 32 * std::pow(1 - 0.5 / 1.0, 2), 1e-9);
+  auto thin = FindThinRegions(plate, r->values,
+                              {.t_min = 1.0, .samples = SampleSet::kFaces});
+  ASSERT_TRUE(thin.ok()) << thin.status();
+  EXPECT_NEAR(thin->thin_area, 32, 1e-9);
+  EXPECT_EQ(thin->regions.size(), 2u);  // top and bottom, not joined.
+  EXPECT_GE(thin->min_face, 0);
+  EXPECT_NEAR(thin->min_thickness, 0.5, 1e-9);
 }
 
 TEST(PenaltyTest, PenaltyAndConstraintOfConstantThicknessAreClosedForm) {

@@ -354,6 +354,133 @@ TEST(RenderViewsTest, FacesWithoutValuesAreGreyAndSizesAreChecked) {
       absl::StatusCode::kInvalidArgument);
 }
 
+TEST(ColorMapTest, TheDefaultRangeIsCentredOnTMinWithAnOverflowColour) {
+  // A 6 mm plate with t_min 2: 1, 2 and 6 mm must not look alike (the
+  // values' range, 1..37, made them three shades of violet).
+  const ColorScale scale = CenteredOnTMin(2);
+  EXPECT_EQ(scale.lo, 0);
+  EXPECT_EQ(scale.hi, 4);
+  EXPECT_TRUE(scale.overflow);
+  EXPECT_DOUBLE_EQ(scale.Position(2), 0.5);  // t_min in the middle.
+  EXPECT_EQ(scale(4), ThicknessColor(1));
+  EXPECT_EQ(scale(6), kOverflowColor);
+  EXPECT_EQ(scale(37), kOverflowColor);
+  EXPECT_EQ(scale(kNaN), kNoValueGrey);
+  EXPECT_GT(OkLightness(scale(2)) - OkLightness(scale(1)), 0.15);
+  // Without overflow the scale clamps, as before.
+  EXPECT_EQ((ColorScale{0, 4}(37)), ThicknessColor(1));
+  // The overflow colour is none of the map's, nor the outline or the grey.
+  const auto dist = [](Rgb a, Rgb b) {
+    return std::abs(a.r - b.r) + std::abs(a.g - b.g) + std::abs(a.b - b.b);
+  };
+  for (int k = 0; k <= 256; ++k) {
+    EXPECT_GT(dist(ThicknessColor(k / 256.0), kOverflowColor), 60) << k;
+  }
+  EXPECT_GT(dist(kNoValueGrey, kOverflowColor), 60);
+  EXPECT_GT(dist(kThinOutline, kOverflowColor), 60);
+  const std::vector<Rgb> colors = ColorsOf(scale, {1.0, 6.0, kNaN});
+  EXPECT_EQ(colors, (std::vector<Rgb>{scale(1), kOverflowColor, kNoValueGrey}));
+}
+
+// A long strip [0, 8] x [0, 1] (z = 0) of two sliver triangles split along
+// its diagonal, seen from the top 200 x 50: x = 1 is column ~30.6 (the
+// strip spans columns 7..193 and rows 14..36).
+Mesh Strip() {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {8, 0, 0}, {8, 1, 0}, {0, 1, 0}};
+  m.faces = {Face::Triangle(0, 1, 2), Face::Triangle(0, 2, 3)};
+  return m;
+}
+
+int ColumnOf(double x) {
+  const double pixel = 8.0 / 200 * 1.08;
+  return static_cast<int>(std::floor(100 + (x - 4) / pixel));
+}
+
+TEST(RenderViewsTest, TheOutlineFollowsTheIsoLineNotTheSliversEdges) {
+  const Mesh strip = Strip();
+  const auto x = ValuesOf(strip, [](const Vec3& p) { return p.x; });
+  auto thin = FindThinRegions(strip, x, {.t_min = 1});
+  ASSERT_TRUE(thin.ok());
+  // Both slivers have a corner at x = 0: both are thin faces.
+  EXPECT_EQ(thin->face_region, (std::vector<int32_t>{0, 0}));
+  RenderOptions options;
+  options.width = 200;
+  options.height = 50;
+  options.outline_below = 1;
+  const ColorScale scale = CenteredOnTMin(1);
+  auto views = RenderViews(strip, x, scale, thin->face_region,
+                           {StandardViews(2)[2]}, options);
+  ASSERT_TRUE(views.ok()) << views.status();
+  const RenderedView& top = (*views)[0];
+  const int iso = ColumnOf(1);
+  for (int y = 17; y <= 33; ++y) {
+    // A red line just right of x = 1 on every row, through both slivers.
+    EXPECT_TRUE(top.image.at(iso + 1, y) == kThinOutline ||
+                top.image.at(iso + 2, y) == kThinOutline)
+        << y;
+    // Left of it the thin part keeps its colours, interpolated per pixel.
+    const int left = ColumnOf(0.5);
+    EXPECT_NE(top.image.at(left, y), kThinOutline) << y;
+    EXPECT_NEAR(top.value[y * 200 + left], 0.5, 0.05) << y;
+    // Right of it no outline: not along the diagonal, not on the edges.
+    for (int col = iso + 4; col < ColumnOf(7.9); ++col) {
+      ASSERT_NE(top.image.at(col, y), kThinOutline) << col << "," << y;
+      // The value follows x across the diagonal, and so does the colour.
+      const double value = top.value[y * 200 + col];
+      ASSERT_NEAR(value, 4 + (col + 0.5 - 100) * 8.0 / 200 * 1.08, 1e-6);
+      ASSERT_EQ(top.image.at(col, y), scale(value));
+    }
+  }
+  // Whole faces marked (no iso-line): the strip is all marked, the red is
+  // outside it.
+  options.outline_below = kNaN;
+  views = RenderViews(strip, x, scale, thin->face_region,
+                      {StandardViews(2)[2]}, options);
+  ASSERT_TRUE(views.ok());
+  EXPECT_NE((*views)[0].image.at(iso + 1, 25), kThinOutline);
+}
+
+TEST(RenderViewsTest, FaceValuesAreFlatAndOutlinedAlongTheFaceEdge) {
+  const Mesh strip = Strip();
+  const std::vector<double> faces = {0.5, 3};  // below, above t_min 1.
+  RenderOptions options;
+  options.width = 200;
+  options.height = 50;
+  options.samples = SampleSet::kFaces;
+  options.outline_below = 1;
+  const ColorScale scale = CenteredOnTMin(1);
+  auto views = RenderViews(strip, faces, scale, {0, -1}, {StandardViews(2)[2]},
+                           options);
+  ASSERT_TRUE(views.ok()) << views.status();
+  const RenderedView& top = (*views)[0];
+  int red = 0;
+  for (int y = 14; y < 37; ++y) {
+    for (int col = 7; col < 193; ++col) {
+      const size_t i = static_cast<size_t>(y) * 200 + col;
+      const Rgb c = top.image.at(col, y);
+      if (c == kThinOutline) {
+        ++red;
+        continue;
+      }
+      if (top.face[i] == 0) {
+        EXPECT_EQ(c, scale(0.5)) << col << "," << y;
+      }
+      if (top.face[i] == 1) {
+        EXPECT_EQ(c, kOverflowColor) << col << "," << y;
+      }
+    }
+  }
+  EXPECT_GT(red, 100);  // along the diagonal, on face 1's side.
+  EXPECT_EQ(top.image.at(ColumnOf(2), 17), kOverflowColor);  // face 1.
+  // Face values are checked against #F.
+  EXPECT_EQ(RenderViews(strip, {1.0, 2.0, 3.0, 4.0}, scale, {},
+                        {StandardViews(2)[2]}, options)
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(PngFileTest, RoundTripsEveryPixel) {
   Image image(7, 5);
   for (int y = 0; y < 5; ++y) {

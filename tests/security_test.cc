@@ -415,6 +415,24 @@ TEST(UploadWatchTest, DiscardsAreCappedApartFromUploadsAndBounded) {
   EXPECT_TRUE(watch.StartDiscard(nullptr).ok());
 }
 
+// Building and checking a received mesh is the server's work: an upload
+// whose last message arrived is never aborted as idle, however long that
+// takes (an outsider saw a valid 1M-vertex upload cancelled exactly
+// --upload_idle_seconds after its last message). One still receiving is.
+TEST(UploadWatchTest, TheIdleTimerStopsAtTheLastByte) {
+  server::ServerOptions o;
+  o.upload_idle_seconds = 30;
+  testing::FakeClock clock;
+  server::UploadWatch watch(o, &clock);
+  auto received = watch.Start(nullptr);  // never cancelled: no context.
+  ASSERT_TRUE(received.ok()) << received.status();
+  ASSERT_TRUE(watch.Touch(*received, 1000).ok());
+  watch.Received(*received);
+  clock.Advance(10 * o.upload_idle_seconds);
+  EXPECT_TRUE(watch.AbortIdle().empty());
+  EXPECT_TRUE(watch.Finish(*received).ok());
+}
+
 // Raw CreateSession streams, as an attacker writes them.
 class UploadAttackTest : public testing::ServerFixture {
  protected:
@@ -578,11 +596,18 @@ TEST_F(UploadAttackTest, AnIdleUploadIsAbortedAndReleased) {
   ASSERT_TRUE(w->Write(Header(3, 1)));
   testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
   ASSERT_EQ(server_->store().reserved_uploads(), 1);
+  ::testing::internal::CaptureStderr();
   clock_.Advance(1);  // the upload is now idle on the server's clock.
-  const grpc::Status s = Close(*w);
-  EXPECT_NE(s.error_code(), grpc::StatusCode::OK);
+  // Aborted while the client still holds the stream open.
   testing::WaitFor([&] { return server_->store().reserved_uploads() == 0; });
   EXPECT_EQ(server_->store().reserved_uploads(), 0);
+  const grpc::Status s = Close(*w);
+  EXPECT_EQ(s.error_code(), grpc::StatusCode::CANCELLED);
+  // The server's log names the flag and what the client sent (the client
+  // itself sees CANCELLED: a stream the server cancels carries no status).
+  const std::string log = ::testing::internal::GetCapturedStderr();
+  EXPECT_THAT(log, HasSubstr("(--upload_idle_seconds 0.2)"));
+  EXPECT_THAT(log, HasSubstr("bytes in"));
 }
 
 TEST_F(UploadAttackTest, ATrickleBelowTheMinimumRateIsAborted) {

@@ -4,11 +4,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <numbers>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "lib/core/mesh.h"
+#include "lib/core/shapes.h"
 
 namespace meshgauge::testing {
 
@@ -44,6 +47,34 @@ inline std::vector<int32_t> Patch(const Mesh& mesh, int64_t centre,
     if (Dot(d, d) < radius * radius) patch.push_back(static_cast<int32_t>(v));
   }
   return patch;
+}
+
+// A cube of six grids, each with vertices of its own (an unwelded export:
+// every edge of the cube is a seam).
+inline Mesh SixGridCube() {
+  const Mesh box = MakeBox(1, 1, 1, 0.25, /*quads=*/true);
+  Mesh out;
+  // Faces of one side share a normal: group by it, copy each group's
+  // vertices.
+  std::map<std::tuple<double, double, double>, std::map<int32_t, int32_t>>
+      sides;
+  for (const Face& f : box.faces) {
+    const Vec3 n = Cross(box.positions[f.v[1]] - box.positions[f.v[0]],
+                         box.positions[f.v[2]] - box.positions[f.v[0]]);
+    auto& copy = sides[{std::round(n.x / Norm(n)), std::round(n.y / Norm(n)),
+                        std::round(n.z / Norm(n))}];
+    Face g = f;
+    for (int k = 0; k < f.size; ++k) {
+      auto [it, added] = copy.try_emplace(f.v[k], 0);
+      if (added) {
+        it->second = static_cast<int32_t>(out.positions.size());
+        out.positions.push_back(box.positions[f.v[k]]);
+      }
+      g.v[k] = it->second;
+    }
+    out.faces.push_back(g);
+  }
+  return out;
 }
 
 // ../shared/meshes/NAME as configured at build time.

@@ -105,6 +105,24 @@ void AddMeshFlags(CLI::App* app, MeshFlags* f) {
   app->add_flag("--drop-degenerate-faces", f->drop_degenerate_faces,
                 "remove zero-area faces (and say how many) instead of "
                 "rejecting the mesh");
+  app->add_option_function<std::vector<std::string>>(
+         "--weld",
+         [f](const std::vector<std::string>& args) {
+           f->weld = true;
+           if (args.empty() || args[0].empty()) return;
+           if (!absl::SimpleAtod(args[0], &f->weld_tolerance)) {
+             throw CLI::ValidationError(
+                 "--weld",
+                 absl::StrCat("'", args[0],
+                              "' is not a tolerance (give it as --weld=TOL, "
+                              "or --weld alone after the mesh)"));
+           }
+         },
+         "merge duplicated vertices (unwelded exports) before measuring; "
+         "TOL: also vertices closer than TOL times the bounding box's "
+         "diagonal (0 to 0.01; default: exact duplicates only); outputs stay "
+         "per input vertex")
+      ->expected(0, 1);
 }
 
 void AddOutputFlags(CLI::App* app, OutputFlags* f, bool files) {
@@ -340,7 +358,9 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
     return s;
   }
   auto repaired = RepairFileMesh(
-      std::move(*read), {.drop_degenerate_faces = flags.drop_degenerate_faces,
+      std::move(*read), {.weld = flags.weld,
+                         .weld_tolerance = flags.weld_tolerance,
+                         .drop_degenerate_faces = flags.drop_degenerate_faces,
                          .reorient = flags.reorient,
                          .threads = threads});
   if (!repaired.ok()) {
@@ -348,6 +368,7 @@ absl::StatusOr<LoadedMesh> LoadMesh(const std::string& path,
         absl::StrCat(path, ": ", repaired.status().message()));
   }
   loaded.mesh = std::move(repaired->mesh);
+  loaded.weld = std::move(repaired->weld);
   loaded.dropped_faces = repaired->dropped_faces;
   loaded.reoriented = repaired->reorientation.components_turned_outward;
   loaded.faces_made_consistent = repaired->reorientation.faces_made_consistent;

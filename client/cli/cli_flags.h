@@ -15,6 +15,7 @@
 #include "lib/core/mesh.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/weld.h"
 
 namespace meshgauge::cli {
 
@@ -39,6 +40,8 @@ struct MeshFlags {
   std::vector<std::string> region_directions;
   bool reorient = false;
   bool drop_degenerate_faces = false;
+  bool weld = false;          // --weld [TOL]
+  double weld_tolerance = 0;  // relative to the bounding box's diagonal.
 };
 
 // --csv --ply --opposite-ply --json --warn-missing-fraction.
@@ -145,6 +148,7 @@ struct LoadedMesh {
   std::string format;
   int64_t polygons_triangulated = 0;
   int64_t polygons_fallback = 0;  // of those, not simple (fallback).
+  Weld weld;  // --weld: the input's vertices in the mesh's.
   int64_t dropped_faces = 0;
   double signed_volume = 0;
   bool closed = false;

@@ -36,10 +36,19 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   auto opened = Open(in, make, /*print_warnings=*/false);  // with the pass's.
   if (!opened.ok()) return opened.status();
   Backend& backend = *opened->backend;
-  const int64_t ns = NumSamples(opened->mesh(), opened->params.samples);
+  // --weld: weights, the VJP and the Jacobian per input vertex.
+  const Weld& weld = opened->loaded.weld;
+  const bool per_vertex = opened->params.samples == SampleSet::kVertices;
+  const Weld none;
+  const Weld& input = per_vertex ? weld : none;
+  const int64_t ns = input.welded_vertex.empty()
+                         ? NumSamples(opened->mesh(), opened->params.samples)
+                         : std::ssize(input.welded_vertex);
   const char* samples = SampleSetName(opened->params.samples);
   auto weights = ReadWeights(grad.weights, ns, samples);
   if (!weights.ok()) return weights.status();
+  *weights = WeldWeights(input, std::move(*weights),
+                         NumSamples(opened->mesh(), opened->params.samples));
   auto result = backend.Sdf(opened->params, grad.jacobian.empty()
                                                 ? Derivatives::kVjp
                                                 : Derivatives::kJacobian);
@@ -66,11 +75,17 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
     if (!out)
       return absl::InternalError(absl::StrCat("cannot write '", path, "'"));
     out << "row,col,dx,dy,dz\n";
-    for (size_t p = 0; p + 1 < jac->row_offsets.size(); ++p) {
+    // Rows per input sample; columns are the vertices whose positions the
+    // mesh kept (--weld: the lowest input vertex of each welded one).
+    const std::vector<int32_t> column = KeptInputVertices(weld);
+    const int64_t rows = std::ssize(jac->row_offsets) - 1;
+    for (int64_t i = 0; i < (input.welded_vertex.empty() ? rows : ns); ++i) {
+      const int64_t p = input.welded_vertex.empty() ? i : input.welded_vertex[i];
       for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1]; ++e) {
         const Vec3& d = jac->values[e];
-        out << absl::StrFormat("%d,%d,%.17g,%.17g,%.17g\n", p, jac->columns[e],
-                               d.x, d.y, d.z);
+        const int32_t c = jac->columns[e];
+        out << absl::StrFormat("%d,%d,%.17g,%.17g,%.17g\n", i,
+                               column.empty() ? c : column[c], d.x, d.y, d.z);
       }
     }
     if (!out)
@@ -79,6 +94,7 @@ absl::Status RunGrad(const MeshInput& in, const GradFlags& grad,
   }
   auto vjp = backend.Vjp(*weights);
   if (!vjp.ok()) return vjp.status();
+  *vjp = UnweldGradient(weld, *vjp);
   j["vjp_max_norm"] = MaxNorm(*vjp);
   j["missing_area_fraction"] = result->missing.area_fraction;
   j["warnings"] = warnings;
@@ -115,6 +131,7 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
       ReportWarnings(in, *opened, *result);
   auto pen = backend.Penalty(*result, pp, !grad_path.empty());
   if (!pen.ok()) return pen.status();
+  pen->gradient = UnweldGradient(opened->loaded.weld, pen->gradient);
   if (!grad_path.empty()) {
     if (absl::Status s = WriteVectorCsv(grad_path, pen->gradient); !s.ok())
       return s;
@@ -129,13 +146,15 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
   } else {
     j["power"] = pp.power;
   }
+  j["samples"] = SampleSetName(opened->params.samples);
   j["skipped_faces"] = pen->missing.faces;
   j["missing_vertices"] = pen->missing.vertices;
   j["missing_area_fraction"] = pen->missing.area_fraction;
   j["world_frame_vertices"] = result->world_frame_vertices;
   if (!grad_path.empty()) j["gradient_max_norm"] = MaxNorm(pen->gradient);
-  auto thin =
-      FindThinRegions(opened->mesh(), result->values, {.t_min = pp.t_min});
+  auto thin = FindThinRegions(
+      opened->mesh(), result->values,
+      {.t_min = pp.t_min, .samples = opened->params.samples});
   if (!thin.ok()) return thin.status();
   const std::string sentence =
       ThinSentence(*thin, opened->mesh().dimension == 2);
@@ -156,11 +175,17 @@ absl::Status RunPenalty(const MeshInput& in, const PenaltyFlags& flags,
                                  pen->value, PenaltyFormName(pp.form), pp.t_min,
                                  pp.power);
   }
-  std::cout << absl::StrFormat(
-      "; %d faces skipped, %.2f%% of the area, %d vertices without a "
-      "value)\n",
-      pen->missing.faces, 100 * pen->missing.area_fraction,
-      pen->missing.vertices);
+  if (opened->params.samples == SampleSet::kFaces) {
+    std::cout << absl::StrFormat(
+        "; face samples: %d faces without a value, %.2f%% of the area)\n",
+        pen->missing.faces, 100 * pen->missing.area_fraction);
+  } else {
+    std::cout << absl::StrFormat(
+        "; %d faces skipped, %.2f%% of the area, %d vertices without a "
+        "value)\n",
+        pen->missing.faces, 100 * pen->missing.area_fraction,
+        pen->missing.vertices);
+  }
   std::cout << sentence << "\n";
   return absl::OkStatus();
 }

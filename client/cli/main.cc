@@ -101,6 +101,7 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
                          "aggregated constraint, and its gradient",
                          &v->in, false);
   AddPenaltyFlags(p, &v->penalty, /*t_min_required=*/true);
+  AddSamplesFlag(p, &v->in.sdf);
   p->callback(with([v](const BackendFactory& make) {
     return RunPenalty(v->in, v->penalty, make);
   }));
@@ -116,6 +117,7 @@ void AddMeshVerbs(CLI::App& app, MeshVerbs* v, BackendSource backend,
                          "regions, a web page and a coloured PLY in --out",
                          &v->in, false);
   AddReportFlags(r, &v->report);
+  AddSamplesFlag(r, &v->in.sdf);
   r->callback(with([v](const BackendFactory& make) {
     return RunReport(v->in, v->report, make);
   }));

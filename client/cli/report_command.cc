@@ -7,9 +7,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <sstream>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/report_draw.h"
@@ -29,26 +31,71 @@ double Since(std::chrono::steady_clock::time_point start) {
       .count();
 }
 
-// The colour map's range: --color-range, or the values' range widened to
-// t_min (never empty).
-absl::StatusOr<ColorScale> ScaleOf(const ReportFlags& flags,
-                                   const std::vector<double>& values) {
+// The colour map's range and where it came from.
+struct ColorRange {
+  ColorScale scale;
+  std::string source;       // "default" or "--color-range".
+  std::string above_label;  // the legend's name of the overflow colour.
+};
+
+// [0, 2 t_min] with values above in the overflow colour, so that the map
+// shows the answer (t_min in its middle) whatever the thickest part; or
+// --color-range LO HI (values above HI in the overflow colour too).
+absl::StatusOr<ColorRange> ColorRangeOf(const ReportFlags& flags) {
   if (flags.color_range.size() == 2) {
     const double lo = flags.color_range[0], hi = flags.color_range[1];
     if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) {
       return absl::InvalidArgumentError(absl::StrCat(
           "--color-range: LO < HI, both finite, got ", lo, " ", hi));
     }
-    return ColorScale{lo, hi};
+    return ColorRange{ColorScale{lo, hi, /*overflow=*/true}, "--color-range",
+                      absl::StrFormat("> %.4g", hi)};
   }
-  ColorScale scale{flags.t_min, flags.t_min};
-  for (double v : values) {
-    if (std::isnan(v)) continue;
-    scale.lo = std::min(scale.lo, v);
-    scale.hi = std::max(scale.hi, v);
+  return ColorRange{CenteredOnTMin(flags.t_min), "default", "> 2 T_MIN"};
+}
+
+// The measure whose interpolated value is above `hi` (faces without values
+// left out): the upper of two bins split at hi, exact for the linear
+// interpolation as the histogram is. The range [0, 2 hi] (or [2 hi, 0])
+// puts the split at hi exactly.
+absl::StatusOr<double> MeasureAbove(const Mesh& mesh,
+                                    const std::vector<double>& values,
+                                    SampleSet samples, double hi) {
+  double lo2 = std::min(0.0, 2 * hi), hi2 = std::max(0.0, 2 * hi);
+  if (hi == 0) lo2 = -1, hi2 = 1;
+  if (!std::isfinite(2 * hi)) {  // near the largest double: nearly at hi.
+    const double room = std::numeric_limits<double>::max() - std::abs(hi);
+    lo2 = hi - room;
+    hi2 = hi + room;
   }
-  if (!(scale.hi > scale.lo)) scale.hi = scale.lo + std::abs(scale.lo) + 1;
-  return scale;
+  auto split = ThicknessAreaHistogram(mesh, values, lo2, hi2, 2, samples);
+  if (!split.ok()) return split.status();
+  return split->area[1];
+}
+
+// What the pictures and the coloured PLY show: the mesh with its vertex
+// values, or for face samples each face flat, on corners of its own that
+// carry its value (faces keep their order, so per-face marks still apply).
+struct Shown {
+  Mesh mesh;
+  std::vector<double> values;
+};
+
+Shown ShownMesh(const Mesh& mesh, const std::vector<double>& values,
+                SampleSet samples) {
+  if (samples != SampleSet::kFaces) return {mesh, values};
+  Shown shown;
+  shown.mesh.dimension = mesh.dimension;
+  for (size_t f = 0; f < mesh.faces.size(); ++f) {
+    Face face = mesh.faces[f];
+    for (int k = 0; k < face.size; ++k) {
+      shown.mesh.positions.push_back(mesh.positions[face.v[k]]);
+      shown.values.push_back(values[f]);
+      face.v[k] = static_cast<int32_t>(shown.mesh.positions.size() - 1);
+    }
+    shown.mesh.faces.push_back(face);
+  }
+  return shown;
 }
 
 absl::StatusOr<std::string> WritePicture(const std::string& path,
@@ -83,7 +130,7 @@ std::string Dump(const nlohmann::json& j, int indent) {
 
 absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
                        const BackendFactory& make) {
-  const ThinRegionParams thin_params{flags.t_min, flags.min_region_area};
+  ThinRegionParams thin_params{flags.t_min, flags.min_region_area};
   std::error_code ec;
   std::filesystem::create_directories(flags.out, ec);
   if (ec || !std::filesystem::is_directory(flags.out)) {
@@ -99,13 +146,19 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   if (!result.ok()) return result.status();
   const double sdf_seconds = Since(start);
   const std::vector<double>& values = result->values;
+  const SampleSet samples = opened->params.samples;
+  thin_params.samples = samples;
 
   auto thin = FindThinRegions(mesh, values, thin_params);
   if (!thin.ok()) return thin.status();
-  auto scale = ScaleOf(flags, values);
-  if (!scale.ok()) return scale.status();
+  auto range = ColorRangeOf(flags);
+  if (!range.ok()) return range.status();
+  const ColorScale* scale = &range->scale;
+  auto above = MeasureAbove(mesh, values, samples, scale->hi);
+  if (!above.ok()) return above.status();
   auto histogram =
-      ThicknessAreaHistogram(mesh, values, scale->lo, scale->hi, flags.bins);
+      ThicknessAreaHistogram(mesh, values, scale->lo, scale->hi, flags.bins,
+                             samples);
   if (!histogram.ok()) return histogram.status();
   std::vector<int32_t> outline(thin->face_region);
   for (int32_t& r : outline) {
@@ -115,7 +168,9 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   RenderOptions render;
   render.width = flags.view_size[0];
   render.height = flags.view_size[1];
-  auto views = RenderViews(mesh, values, *scale, outline,
+  render.outline_below = flags.t_min;  // outlines follow t = t_min.
+  const Shown shown = ShownMesh(mesh, values, samples);
+  auto views = RenderViews(shown.mesh, shown.values, *scale, outline,
                            StandardViews(flags.up == "y" ? 1 : 2), render);
   if (!views.ok()) return views.status();
   const double render_seconds = Since(start);
@@ -123,19 +178,19 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   const bool curve = mesh.dimension == 2;
   const std::filesystem::path dir(flags.out);
   auto views_png = WritePicture((dir / "views.png").string(),
-                                ComposeViews(*views, *scale, flags.t_min));
+                                ComposeViews(*views, *scale, flags.t_min,
+                                             range->above_label));
   if (!views_png.ok()) return views_png.status();
   auto histogram_png = WritePicture(
       (dir / "histogram.png").string(),
       DrawHistogram(
           *histogram, *scale, flags.t_min,
           thin->total_area > 0 ? thin->thin_area / thin->total_area : 0,
-          curve));
+          curve, *above, range->above_label));
   if (!histogram_png.ok()) return histogram_png.status();
-  std::vector<Rgb> colors(values.size());
-  for (size_t i = 0; i < values.size(); ++i) colors[i] = (*scale)(values[i]);
   if (absl::Status s =
-          WriteQualityPly((dir / "colored.ply").string(), mesh, values, colors);
+          WriteQualityPly((dir / "colored.ply").string(), shown.mesh,
+                          shown.values, ColorsOf(*scale, shown.values));
       !s.ok()) {
     return s;
   }
@@ -164,6 +219,14 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   if (result->missing.vertices > 0) {
     report["missing_cause"] = LikelyMissingCause(mesh, result->Causes());
   }
+  report["color_range"] = {
+      {"low", scale->lo},
+      {"high", scale->hi},
+      {"source", range->source},
+      {"above_label", range->above_label},
+      {"above_color", {kOverflowColor.r, kOverflowColor.g, kOverflowColor.b}},
+      {"above_area", *above},
+  };
   report["thin"] = ThinJson(*thin);
   report["histogram"] = {
       {"lo", histogram->lo}, {"hi", histogram->hi}, {"area", histogram->area}};

@@ -118,7 +118,8 @@ void DrawText(Image& image, int x, int y, std::string_view text, Rgb color,
 double Lerp(double lo, double hi, double f) { return lo * (1 - f) + hi * f; }
 
 Image ComposeViews(const std::vector<RenderedView>& views,
-                   const ColorScale& scale, double t_min) {
+                   const ColorScale& scale, double t_min,
+                   std::string_view above_label) {
   const int cols = views.size() > 1 ? 2 : 1;
   const int rows = (static_cast<int>(views.size()) + cols - 1) / cols;
   const int vw = views.empty() ? 0 : views[0].image.width;
@@ -131,6 +132,9 @@ Image ComposeViews(const std::vector<RenderedView>& views,
                       TextWidth(Number(Lerp(scale.lo, scale.hi, k / 4.0)), 2));
   }
   labels = std::max(labels, TextWidth("T_MIN " + Number(t_min), 2));
+  const std::string above =
+      above_label.empty() ? "> " + Number(scale.hi) : std::string(above_label);
+  if (scale.overflow) labels = std::max(labels, TextWidth(above, 2));
   const int kBar = std::max(210, 16 + 28 + 10 + labels + 8);
   const int cell_w = vw + kGap, cell_h = vh + kTitle + kGap;
   Image sheet(cols * cell_w + kBar, std::max(rows * cell_h, 320));
@@ -140,10 +144,15 @@ Image ComposeViews(const std::vector<RenderedView>& views,
     DrawText(sheet, x0 + 4, y0 + 5, views[i].name, kInk, 2);
     Blit(sheet, views[i].image, x0, y0 + kTitle);
   }
-  // The colour bar: hi at the top, lo at the bottom.
+  // The colour bar: hi at the top, lo at the bottom; above it the overflow
+  // colour's swatch, apart, when values above hi have their own colour.
   const int bx = cols * cell_w + 16, bw = 28;
-  const int top = 40, bottom = sheet.height - 70;
+  const int top = scale.overflow ? 70 : 40, bottom = sheet.height - 70;
   DrawText(sheet, bx, 10, "THICKNESS", kInk, 2);
+  if (scale.overflow) {
+    FillRect(sheet, bx, 36, bx + bw, 54, kOverflowColor);
+    DrawText(sheet, bx + bw + 10, 38, above, kInk, 2);
+  }
   for (int y = top; y <= bottom; ++y) {
     const double s = 1.0 - static_cast<double>(y - top) / (bottom - top);
     FillRect(sheet, bx, y, bx + bw, y + 1, ThicknessColor(s));
@@ -179,20 +188,24 @@ Image ComposeViews(const std::vector<RenderedView>& views,
 }
 
 Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
-                    double t_min, double thin_share, bool curve) {
-  const double max_area =
-      histogram.area.empty()
-          ? 0
-          : *std::max_element(histogram.area.begin(), histogram.area.end());
+                    double t_min, double thin_share, bool curve,
+                    double above_area, std::string_view above_label) {
+  // The bins' own areas: the last bin without what lies above the range.
+  std::vector<double> area = histogram.area;
+  above_area = scale.overflow ? std::max(above_area, 0.0) : 0;
+  if (!area.empty()) area.back() = std::max(area.back() - above_area, 0.0);
+  double max_area = above_area;
+  for (double a : area) max_area = std::max(max_area, a);
   int label_width = 0;
   for (int k = 0; k <= 4; ++k) {
     label_width = std::max(label_width, TextWidth(Number(max_area * k / 4), 2));
   }
-  constexpr int kW = 800, kH = 420, kRight = 50, kTop = 50, kBottom = 60;
+  constexpr int kW = 800, kH = 420, kTop = 50, kBottom = 60;
+  const int kRight = scale.overflow ? 130 : 50;
   const int kLeft = label_width + 24;
   Image image(kW, kH);
   const int pw = kW - kLeft - kRight, ph = kH - kTop - kBottom;
-  const int bins = static_cast<int>(histogram.area.size());
+  const int bins = static_cast<int>(area.size());
   auto x_of = [&](double t) {
     const double f = (t - histogram.lo) / (histogram.hi - histogram.lo);
     return kLeft + static_cast<int>(std::lround(f * pw));
@@ -200,7 +213,7 @@ Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
   for (int k = 0; k < bins && max_area > 0; ++k) {
     const int x0 = kLeft + k * pw / bins, x1 = kLeft + (k + 1) * pw / bins;
     const int height =
-        static_cast<int>(std::lround(histogram.area[k] / max_area * ph));
+        static_cast<int>(std::lround(area[k] / max_area * ph));
     const double center = Lerp(histogram.lo, histogram.hi, (k + 0.5) / bins);
     FillRect(image, x0, kTop + ph - height, std::max(x0 + 1, x1 - 1), kTop + ph,
              scale(center));
@@ -220,6 +233,22 @@ Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
     FillRect(image, kLeft - 8, y, kLeft - 2, y + 1, kInk);
     const std::string area = Number(max_area * k / 4);
     DrawText(image, kLeft - 12 - TextWidth(area, 2), y - 7, area, kInk, 2);
+  }
+  if (scale.overflow) {
+    // The measure above the range: one bar apart, named.
+    const int x0 = kLeft + pw + 44, x1 = x0 + 32;
+    const int height =
+        max_area > 0 ? static_cast<int>(std::lround(above_area / max_area * ph))
+                     : 0;
+    FillRect(image, x0, kTop + ph - height, x1, kTop + ph, kOverflowColor);
+    FillRect(image, x0 - 4, kTop + ph, x1 + 4, kTop + ph + 2, kInk);
+    const std::string label = above_label.empty()
+                                  ? "> " + Number(scale.hi)
+                                  : std::string(above_label);
+    DrawText(image,
+             std::min((x0 + x1) / 2 - TextWidth(label, 2) / 2,
+                      kW - 4 - TextWidth(label, 2)),
+             kTop + ph - height - 20, label, kInk, 2);
   }
   if (max_area <= 0) {
     DrawText(image, kLeft + pw / 2 - TextWidth("NO VALUES", 2) / 2,

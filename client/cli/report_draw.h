@@ -21,15 +21,21 @@ void DrawText(Image& image, int x, int y, std::string_view text, Rgb color,
 int TextWidth(std::string_view text, int scale);
 
 // The views in a grid of two columns, each named, and the colour bar of
-// `scale` on the right with t_min marked in kThinOutline and a grey swatch
-// for faces without a value.
+// `scale` on the right with t_min marked in kThinOutline, a grey swatch for
+// faces without a value and, when the scale has an overflow colour, its
+// swatch above the bar named `above_label` (e.g. "> 2 T_MIN").
 Image ComposeViews(const std::vector<RenderedView>& views,
-                   const ColorScale& scale, double t_min);
+                   const ColorScale& scale, double t_min,
+                   std::string_view above_label = {});
 
 // Bars of the area per bin coloured by the map, the t_min line and a title
 // with the share of the whole surface below t_min (thin area / total area).
-// `curve`: the measure is a length (2D).
+// `curve`: the measure is a length (2D). When the scale has an overflow
+// colour, `above_area` (the measure above scale.hi, which the histogram's
+// last bin holds too) is drawn apart, in that colour and named
+// `above_label`, right of the bins.
 Image DrawHistogram(const AreaHistogram& histogram, const ColorScale& scale,
-                    double t_min, double thin_share, bool curve);
+                    double t_min, double thin_share, bool curve,
+                    double above_area = 0, std::string_view above_label = {});
 
 }  // namespace meshgauge::cli

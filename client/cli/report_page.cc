@@ -78,6 +78,33 @@ std::string KeyValues(const nlohmann::json& object) {
   return absl::StrCat("<table class=\"kv\">\n", rows, "</table>\n");
 }
 
+// What the views' colours mean: the map's range, where it came from, the
+// overflow colour above it, the outline and the grey.
+std::string ColourLegend(const nlohmann::json& report) {
+  std::string range;
+  if (report.contains("color_range")) {
+    const nlohmann::json& c = report["color_range"];
+    const bool by_default = c["source"] == "default";
+    const nlohmann::json& rgb = c["above_color"];
+    range = absl::StrFormat(
+        "Colours from %.6g (dark violet) to %.6g (light yellow), %s; "
+        "<span style=\"background:#%02x%02x%02x;padding:0 .3em\">%s</span> "
+        "above %.6g%s. ",
+        c["low"].get<double>(), c["high"].get<double>(),
+        by_default ? "0 to 2&middot;t_min by default" : "set by --color-range",
+        rgb[0].get<int>(), rgb[1].get<int>(), rgb[2].get<int>(),
+        by_default ? "&gt; 2&middot;t_min" : "&gt; " + Text(c["high"]),
+        c["high"].get<double>(),
+        absl::StrFormat(" (%s %% of the surface)",
+                        Percent(report["thin"]["total_area"].get<double>() > 0
+                                    ? c["above_area"].get<double>() /
+                                          report["thin"]["total_area"]
+                                              .get<double>()
+                                    : 0.0)));
+  }
+  return range + "Thin regions outlined in red along t = t_min; grey: no value.";
+}
+
 }  // namespace
 
 std::string ReportHtml(const nlohmann::json& report,
@@ -112,7 +139,7 @@ std::string ReportHtml(const nlohmann::json& report,
       "</style>\n</head>\n<body>\n<h1>Thickness of ",
       Escape(report["mesh"].get<std::string>()), "</h1>\n<p class=\"answer\">",
       Escape(report["sentence"].get<std::string>()), "</p>\n",
-      "<h2>Views</h2>\n<p>Thin regions outlined in red; grey: no value.</p>\n",
+      "<h2>Views</h2>\n<p>", ColourLegend(report), "</p>\n",
       Picture(views_png, "the mesh coloured by thickness"),
       "\n<h2>Histogram</h2>\n",
       Picture(histogram_png, "surface measure per thickness bin"),

@@ -38,7 +38,16 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
   const double seconds = watch.Seconds();
   const Mesh& mesh = opened->mesh();
   if (const std::string& csv = in.out.csv; !csv.empty()) {
-    if (absl::Status s = WriteSdfCsv(csv, mesh, *result); !s.ok()) return s;
+    // A row per input vertex (--weld keeps the file's indexing).
+    const bool welded = !opened->loaded.weld.welded_vertex.empty() &&
+                        opened->params.samples == SampleSet::kVertices;
+    const absl::Status s =
+        welded ? [&] {
+          const InputSamples rows = Unwelded(opened->loaded.weld, mesh, *result);
+          return WriteSdfCsv(csv, rows.points, rows.result);
+        }()
+               : WriteSdfCsv(csv, mesh, *result);
+    if (!s.ok()) return s;
   }
   if (const std::string& ply = in.out.ply; !ply.empty()) {
     const QualityOn on = result->resolved.params.samples == SampleSet::kFaces

@@ -173,6 +173,20 @@ std::vector<Vec3> SamplePoints(const Mesh& mesh, const SdfResult& result) {
   return centroids;
 }
 
+InputSamples Unwelded(const Weld& weld, const Mesh& mesh,
+                      const SdfResult& result) {
+  InputSamples in{.points = {}, .result = result};
+  in.points.positions = Unweld(weld, mesh.positions);
+  SdfResult& r = in.result;
+  r.values = Unweld(weld, r.values);
+  r.normalized = Unweld(weld, r.normalized);
+  r.status = Unweld(weld, r.status);
+  r.hits = Unweld(weld, r.hits);
+  r.kept = Unweld(weld, r.kept);
+  r.opposite = Unweld(weld, r.opposite);
+  return in;
+}
+
 absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
                          const SdfResult& result) {
   std::ofstream out(path);

@@ -36,6 +36,16 @@ std::vector<Vec3> SamplePoints(const Mesh& mesh, const SdfResult& result);
 // CSV: vertex,x,y,z,sdf,normalized,hits,kept,status (sdf and normalized
 // empty unless status is OK; 17 significant digits), then ox,oy,oz with
 // opposite points; face samples: face,x,y,z,... with x,y,z the centroid.
+// A vertex-sample result per input vertex of a welded mesh (--weld: each
+// input vertex gets its welded vertex's row), with the positions to show
+// for them. Precondition: vertex samples.
+struct InputSamples {
+  Mesh points;  // positions only.
+  SdfResult result;
+};
+InputSamples Unwelded(const Weld& weld, const Mesh& mesh,
+                      const SdfResult& result);
+
 absl::Status WriteSdfCsv(const std::string& path, const Mesh& mesh,
                          const SdfResult& result);
 

@@ -24,7 +24,8 @@ std::string ThinSentence(const ThinSurface& thin, bool curve) {
   const char* surface = curve ? "curve" : "surface";
   const char* measure = curve ? "length" : "area";
   if (thin.min_vertex < 0) {
-    return absl::StrFormat("no vertex of the %s has a value", surface);
+    return absl::StrFormat("no %s of the %s has a value",
+                           thin.min_face >= 0 ? "face" : "vertex", surface);
   }
   std::string s = absl::StrFormat(
       "%s %% of the %s (%s %.4g of %.4g) is thinner than %g; thinnest %.4g "
@@ -50,6 +51,7 @@ nlohmann::json ThinJson(const ThinSurface& thin) {
     j["thinnest"] = {{"value", thin.min_thickness},
                      {"vertex", thin.min_vertex},
                      {"point", Point(thin.min_point)}};
+    if (thin.min_face >= 0) j["thinnest"]["face"] = thin.min_face;
   } else {
     j["thinnest"] = nullptr;
   }
@@ -64,6 +66,7 @@ nlohmann::json ThinJson(const ThinSurface& thin) {
                             {"box_min", Point(r.box_min)},
                             {"box_max", Point(r.box_max)},
                             {"speck", r.speck}});
+    if (r.min_face >= 0) j["regions"].back()["min_face"] = r.min_face;
   }
   return j;
 }

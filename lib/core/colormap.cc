@@ -56,6 +56,13 @@ Rgb ThicknessColor(double s) {
   return {Encode(rgb[0]), Encode(rgb[1]), Encode(rgb[2])};
 }
 
+std::vector<Rgb> ColorsOf(const ColorScale& scale,
+                          const std::vector<double>& values) {
+  std::vector<Rgb> colors(values.size());
+  for (size_t i = 0; i < values.size(); ++i) colors[i] = scale(values[i]);
+  return colors;
+}
+
 double OkLightness(Rgb c) {
   const double r = Decode(c.r), g = Decode(c.g), b = Decode(c.b);
   const double l =

@@ -11,6 +11,7 @@
 #include "absl/strings/str_join.h"
 #include "lib/core/bucket_sort.h"
 #include "lib/core/disjoint_sets.h"
+#include "lib/core/nesting.h"
 
 namespace meshgauge {
 namespace {
@@ -68,6 +69,10 @@ Topology AnalyzeTopology(const Mesh& mesh, const std::vector<EdgeUse>& uses) {
   }
   for (Component& c : t.components) {
     c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
+  }
+  const std::vector<int32_t> depths = NestingDepths(mesh, t.components);
+  for (size_t i = 0; i < depths.size(); ++i) {
+    t.components[i].nesting_depth = depths[i];
   }
   return t;
 }
@@ -181,7 +186,7 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   d.closed = t.closed;
   for (size_t i = 0; i < t.components.size(); ++i) {
     const Component& c = t.components[i];
-    if (c.closed && c.signed_volume < 0) {
+    if (c.inverted()) {
       d.inward_components.push_back(static_cast<int64_t>(i));
       d.inward_component_faces.push_back(std::ssize(c.faces));
     }
@@ -209,8 +214,10 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   if (!d.inward_components.empty()) {
     d.warnings.push_back(absl::StrCat(
         d.inward_components.size(), " of ", d.components,
-        " components are closed with negative signed volume (faces point "
-        "into the solid, so INWARD cones look outside): components ",
+        " components are closed and turned inside out (faces point into "
+        "the solid: an outer shell with negative signed volume, or a "
+        "cavity's shell facing out of its cavity; INWARD cones look out of "
+        "the material): components ",
         absl::StrJoin(d.inward_components, ", "), " with ",
         absl::StrJoin(d.inward_component_faces, ", "),
         " faces; reorienting (--reorient, reorient=True) flips exactly those"));
@@ -363,7 +370,7 @@ Reorientation Reorient(Mesh& mesh, Topology& t, std::vector<FacePair>& pairs) {
   for (size_t i = 0; i < changed.size(); ++i) {
     Component& c = t.components[i];
     if (changed[i]) c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
-    if (!c.closed || !(c.signed_volume < 0)) continue;
+    if (!c.inverted()) continue;
     for (int32_t id : c.faces) ReverseFace(mesh.faces[id]);
     c.signed_volume = SignedVolumeOfFaces(mesh, c.faces);
     ++r.components_turned_outward;

@@ -18,6 +18,16 @@ struct Component {
   // Its edges used by one face (2D: vertices used by one segment); not
   // closed without any: an edge is shared by more than two faces.
   int64_t boundary_edges = 0;
+  // Closed components enclosing it (NestingDepths): 0 for a part's outer
+  // shell, 1 for a cavity's shell, 2 for an island inside the cavity.
+  int32_t nesting_depth = 0;
+  // Closed and oriented against its nesting: faces pointing into the solid
+  // (an outer shell or island with negative signed volume, a cavity's
+  // shell with positive), so INWARD cones look out of the material.
+  bool inverted() const {
+    return closed && (nesting_depth % 2 == 0 ? signed_volume < 0
+                                             : signed_volume > 0);
+  }
 };
 
 // Components of faces joined by shared vertices, ordered by their first
@@ -28,8 +38,9 @@ struct MeshDiagnostics {
   int64_t components = 0;
   // Every edge (2D: every used vertex) used exactly twice (IsClosed).
   bool closed = false;
-  // Closed components with negative signed volume (faces point into the
-  // solid), by index in ConnectedComponents order, with their face counts.
+  // Closed components oriented against their nesting (Component::
+  // inverted: faces point into the solid), by index in ConnectedComponents
+  // order, with their face counts.
   std::vector<int64_t> inward_components;
   std::vector<int64_t> inward_component_faces;
   // Faces that have an exactly coincident face of opposite orientation
@@ -62,8 +73,8 @@ struct Reorientation {
   // were in.
   int64_t faces_made_consistent = 0;
   int64_t components_made_consistent = 0;
-  // Closed components then reversed because their signed volume was
-  // negative (faces pointing into the solid).
+  // Closed components then reversed because they were inverted (faces
+  // pointing into the solid, judged with their nesting).
   int64_t components_turned_outward = 0;
   // Components that no choice of orientations makes consistent across
   // their edges of exactly two faces (a Moebius band), left with a few
@@ -74,7 +85,9 @@ struct Reorientation {
 // Makes each component's faces agree across every edge shared by exactly
 // two faces (reversing, in each patch of faces joined by such edges, the
 // smaller set of faces; ties keep the lowest face's orientation), then
-// reverses each closed component with negative signed volume. O(F log F).
+// reverses each inverted closed component (a shell at even nesting depth
+// with negative signed volume, at odd depth with positive: a cavity's
+// shell keeps facing into the cavity). O(F log F), plus NestingDepths'.
 // Precondition: ValidateMesh(mesh) is OK.
 Reorientation ReorientComponents(Mesh& mesh);
 

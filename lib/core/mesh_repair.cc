@@ -13,6 +13,12 @@ namespace {
 
 std::vector<std::string> RepairSentences(const RepairedMesh& r) {
   std::vector<std::string> out;
+  if (r.weld.merged > 0) {
+    out.push_back(absl::StrCat(
+        r.weld.merged, " vertices welded into others (--weld, weld=): ",
+        r.mesh.num_vertices(),
+        " remain; values and gradients are given per input vertex"));
+  }
   if (r.dropped_faces > 0) {
     out.push_back(
         absl::StrCat(r.dropped_faces,
@@ -44,6 +50,11 @@ std::vector<std::string> RepairSentences(const RepairedMesh& r) {
 absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
                                                const RepairOptions& options) {
   RepairedMesh r;
+  if (options.weld) {
+    auto weld = WeldVertices(mesh, options.weld_tolerance);
+    if (!weld.ok()) return weld.status();
+    r.weld = std::move(*weld);
+  }
   if (options.drop_degenerate_faces) {
     r.dropped_faces = DropDegenerateFaces(mesh);
   }
@@ -62,13 +73,13 @@ absl::StatusOr<RepairedMesh> RepairAndDiagnose(Mesh mesh,
                         ? ReorientAndDiagnose(mesh, &r.reorientation)
                         : DiagnoseMesh(mesh);
   });
+  r.signed_volume = SignedVolume(mesh);
+  r.mesh = std::move(mesh);
   std::vector<std::string> warnings = RepairSentences(r);
   for (std::string& w : r.diagnostics.warnings) {
     warnings.push_back(std::move(w));
   }
   r.diagnostics.warnings = std::move(warnings);
-  r.signed_volume = SignedVolume(mesh);
-  r.mesh = std::move(mesh);
   return r;
 }
 

@@ -11,10 +11,14 @@
 #include "absl/status/statusor.h"
 #include "lib/core/components.h"
 #include "lib/core/mesh.h"
+#include "lib/core/weld.h"
 
 namespace meshgauge {
 
 struct RepairOptions {
+  // WeldVertices first, with weld_tolerance (relative; 0: exact duplicates).
+  bool weld = false;
+  double weld_tolerance = 0;
   bool drop_degenerate_faces = false;  // DropDegenerateFaces before checks.
   bool reorient = false;               // ReorientComponents after them.
   int threads = 0;  // for validation and the checks' sorts (0: all).
@@ -23,6 +27,8 @@ struct RepairOptions {
 // A valid mesh and what was done to it.
 struct RepairedMesh {
   Mesh mesh;
+  // With options.weld: the vertices merged and the input's indexing.
+  Weld weld;
   int64_t dropped_faces = 0;
   Reorientation reorientation;
   // Of the repaired mesh; its warnings start with one sentence per repair
@@ -31,7 +37,8 @@ struct RepairedMesh {
   double signed_volume = 0;  // SignedVolume of the repaired mesh.
 };
 
-// Drops zero-area faces (when asked), validates (ValidateMesh), reorients
+// Welds (when asked), drops zero-area faces (when asked), validates
+// (ValidateMesh), reorients
 // (when asked) and diagnoses. O(F log F + V). Errors: InvalidArgument with
 // ValidateMesh's message; for zero-area faces it names the repair that
 // removes them.

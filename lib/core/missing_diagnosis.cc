@@ -4,10 +4,12 @@
 #include <cmath>
 #include <numeric>
 
+#include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "lib/core/box.h"
 #include "lib/core/components.h"
 #include "lib/core/integrals.h"
+#include "lib/core/missing_values.h"
 
 namespace meshgauge {
 namespace {
@@ -37,10 +39,11 @@ std::string Cause(const Mesh& mesh, const Component& c,
         "own, or bring the parts closer)",
         span, diagonal, diagonal * 0x1p-23);
   }
-  if (c.closed && c.signed_volume < 0) {
-    return "it is closed with a negative signed volume: its faces point "
-           "inward and the cones look outside (--reorient, or reorient in "
-           "the Python client)";
+  if (c.inverted()) {
+    return "it is closed and turned inside out (an outer shell with a "
+           "negative signed volume, or a cavity's shell facing out of its "
+           "cavity): its faces point into the solid and the cones look out "
+           "of the material (--reorient, or reorient in the Python client)";
   }
   if (inconsistent) {
     return "neighbouring faces disagree on orientation, so normals there "
@@ -68,9 +71,7 @@ std::string Cause(const Mesh& mesh, const Component& c,
     return "it is open, so rays escape through its holes (close it, or give "
            "open regions an OUTWARD cone)";
   }
-  return "it is closed and outward, so these are rays lost at sharp or "
-         "coarse corners, where the one-ring exclusion hides the nearby "
-         "surface (refine the mesh there, or widen the cone)";
+  return absl::StrCat("it is closed and outward, so ", kCornerRaysLost);
 }
 
 }  // namespace

@@ -71,8 +71,8 @@ std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
     return "the mesh is open or planar, so most rays escape (NO_HIT): close "
            "it, or give the open regions an OUTWARD direction";
   }
-  return "most rays miss (NO_HIT): check max_distance and each region's "
-         "cone direction";
+  return absl::StrCat("the mesh is closed and outward, so ",
+                      kCornerRaysLost);
 }
 
 absl::Status CheckMissing(const Mesh& mesh, const MissingValues& missing,

@@ -32,6 +32,17 @@ struct MissingCauses {
   int64_t degenerate_normal = 0;
 };
 
+// Why a closed, outward mesh loses values, and the fixes (the end of a
+// sentence): at a sharp corner of a coarse mesh the cone leaves the solid
+// through the one-ring's faces, which rays ignore.
+inline constexpr char kCornerRaysLost[] =
+    "these are rays lost at sharp or coarse corners: there the vertex "
+    "normal leans towards the side with more triangles and the cone leaves "
+    "the solid through the vertex's own faces, which rays ignore (NO_HIT); "
+    "measure face samples (--samples faces, samples=\"faces\": each face "
+    "along its own normal, as CAD parts need), refine the mesh there, or "
+    "widen the cone (--cone-angle 60) so that some rays stay inside";
+
 // A one-sentence likely cause of missing values: inward orientation
 // (negative signed volume of a closed mesh: reorient), a double-sided mesh
 // (most missing vertices have a degenerate normal), edges shared by more

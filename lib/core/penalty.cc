@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/integrals.h"
 #include "lib/core/sensitivity.h"
 
@@ -28,18 +29,46 @@ struct Phi {
   }
 };
 
-// I = integral of f(t) over the faces with values, with dI/dt_p and (with
-// `measure_terms`) the explicit dI/dx of the element measures.
+// I = integral of f(t) over the faces with values, with dI/dt_p (per
+// sample) and (with `measure_terms`) the explicit dI/dx of the element
+// measures.
 struct NodalIntegral {
   double value = 0;
   std::vector<double> d_dt;
   std::vector<Vec3> d_measure;
 };
 
+// Face samples (SPEC v2 §5c): t is constant on each face, so the integral
+// is sum over faces of |f| f(t_f); faces without a value are skipped.
+NodalIntegral IntegrateFaces(const Mesh& mesh,
+                             const std::vector<double>& values,
+                             const std::function<double(double)>& f,
+                             const std::function<double(double)>& df,
+                             bool measure_terms) {
+  NodalIntegral r;
+  r.d_dt.assign(mesh.num_faces(), 0.0);
+  if (measure_terms) r.d_measure.assign(mesh.num_vertices(), Vec3());
+  ForEachElement(mesh, [&](int64_t face, const Element& e) {
+    const double t = values[face];
+    if (!std::isfinite(t)) return;
+    const double ft = f(t);
+    r.value += e.measure * ft;
+    r.d_dt[face] += e.measure * df(t);
+    if (measure_terms) {
+      Vec3 grad[3];
+      ElementMeasureGradient(mesh, e, grad);
+      for (int i = 0; i < e.n; ++i) r.d_measure[e.v[i]] += grad[i] * ft;
+    }
+  });
+  return r;
+}
+
+// Values per face (face samples) or per vertex, interpolated linearly.
 NodalIntegral Integrate(const Mesh& mesh, const std::vector<double>& values,
-                        const std::function<double(double)>& f,
+                        bool faces, const std::function<double(double)>& f,
                         const std::function<double(double)>& df,
                         bool measure_terms) {
+  if (faces) return IntegrateFaces(mesh, values, f, df, measure_terms);
   NodalIntegral r;
   r.d_dt.assign(mesh.num_vertices(), 0.0);
   if (measure_terms) r.d_measure.assign(mesh.num_vertices(), Vec3());
@@ -62,24 +91,33 @@ NodalIntegral Integrate(const Mesh& mesh, const std::vector<double>& values,
 }
 
 // G = M + ln(I / A) / rho with I = integral of exp(rho (s - M)), s = 1 -
-// t/t_min, M = max of s over the quadrature points (no exp overflows, and
-// I >= the weight of the point where s = M), A = |Gamma| of the valued faces.
+// t/t_min, M = max of s over the quadrature points (face samples: over the
+// face values; no exp overflows, and I >= the weight of the point where
+// s = M), A = |Gamma| of the valued faces. Values are per vertex, or per
+// face (`faces`).
 NodalIntegral KsConstraint(const Mesh& mesh, const std::vector<double>& values,
-                           const PenaltyParams& p, bool measure_terms) {
+                           bool faces, const PenaltyParams& p,
+                           bool measure_terms) {
   double shift = -std::numeric_limits<double>::infinity();
-  ForEachValuedElement(mesh, values, [&](const Element& e, const double* t) {
-    for (size_t q = 0; q < QuadratureRule(e.n).size(); ++q) {
-      shift = std::max(shift, 1 - t[q] / p.t_min);
+  if (faces) {
+    for (double t : values) {
+      if (std::isfinite(t)) shift = std::max(shift, 1 - t / p.t_min);
     }
-  });
+  } else {
+    ForEachValuedElement(mesh, values, [&](const Element& e, const double* t) {
+      for (size_t q = 0; q < QuadratureRule(e.n).size(); ++q) {
+        shift = std::max(shift, 1 - t[q] / p.t_min);
+      }
+    });
+  }
   auto exp_s = [&](double t) {
     return std::exp(p.rho * ((1 - t / p.t_min) - shift));
   };
   const NodalIntegral ki = Integrate(
-      mesh, values, exp_s,
+      mesh, values, faces, exp_s,
       [&](double t) { return -p.rho / p.t_min * exp_s(t); }, measure_terms);
   const NodalIntegral area = Integrate(
-      mesh, values, [](double) { return 1.0; }, [](double) { return 0.0; },
+      mesh, values, faces, [](double) { return 1.0; }, [](double) { return 0.0; },
       measure_terms);
   NodalIntegral g;
   g.value = shift + std::log(ki.value / area.value) / p.rho;
@@ -149,17 +187,16 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
   const Mesh& mesh = geometry.mesh();
   const std::vector<double>& values = sdf.values;
-  if (sdf.resolved.params.samples != SampleSet::kVertices) {
+  const bool faces = sdf.resolved.params.samples == SampleSet::kFaces;
+  if (const int64_t n = NumSamples(mesh, sdf.resolved.params.samples);
+      std::ssize(values) != n) {
     return absl::InvalidArgumentError(
-        "the penalty and the constraint integrate vertex values (SPEC §7): "
-        "compute them with vertex samples, not face samples");
-  }
-  if (std::ssize(values) != mesh.num_vertices()) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "expected ", mesh.num_vertices(), " values, got ", values.size()));
+        absl::StrCat("expected ", n, " values (one per ",
+                     faces ? "face" : "vertex", "), got ", values.size()));
   }
   PenaltyResult r;
-  r.missing = CountMissing(mesh, values);
+  r.missing =
+      faces ? CountMissingFaces(mesh, values) : CountMissing(mesh, values);
   const char* what = params.form == PenaltyForm::kKs ? "constraint" : "penalty";
   if (absl::Status s = CheckMissing(mesh, r.missing, sdf.Causes(),
                                     params.max_missing_fraction, what);
@@ -168,16 +205,17 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   }
   if (r.missing.faces == mesh.num_faces()) {
     return absl::FailedPreconditionError(absl::StrCat(
-        "no face has values at all its vertices: the ", what, " is undefined; ",
+        faces ? "no face has a value" : "no face has values at all its vertices",
+        ": the ", what, " is undefined; ",
         LikelyMissingCause(mesh, sdf.Causes())));
   }
   NodalIntegral integral;
   if (params.form == PenaltyForm::kKs) {
-    integral = KsConstraint(mesh, values, params, with_gradient);
+    integral = KsConstraint(mesh, values, faces, params, with_gradient);
   } else {
     const Phi phi{params};
     integral = Integrate(
-        mesh, values, [&](double t) { return phi.Value(t); },
+        mesh, values, faces, [&](double t) { return phi.Value(t); },
         [&](double t) { return phi.Derivative(t); }, with_gradient);
   }
   r.value = integral.value;

@@ -41,7 +41,9 @@ absl::Status ValidatePenaltyParams(const PenaltyParams& params);
 struct PenaltyResult {
   double value = 0;       // P in length^(dim-1), or G (dimensionless) for kKs.
   MissingValues missing;  // what the integral skipped.
-  std::vector<double> dp_dt;  // dP/dt_p per vertex (#V).
+  // dP/dt_p per sample: #V, or #F for face samples (SPEC v2 §5c), whose
+  // penalty is the sum over faces of |f| phi(t_f): t is constant on a face.
+  std::vector<double> dp_dt;
   // With gradient: dP/dx per vertex (#V; z = 0 in 2D), and its explicit
   // measure part alone (already included in `gradient`).
   std::vector<Vec3> gradient;

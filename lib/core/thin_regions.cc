@@ -63,25 +63,35 @@ std::pair<double, Vec3> MeasureAndCentroid(const Piece& piece) {
   return {area, area > 0 ? moment / area : piece.p[0]};
 }
 
-// The corner positions and values of an integration element.
+// Values per vertex, or per face (constant on it): the value at a corner.
+struct Field {
+  const std::vector<double>& values;
+  bool faces = false;
+  double At(int64_t face, int32_t vertex) const {
+    return values[faces ? face : vertex];
+  }
+};
+
+// The corner positions and values of an integration element of `face`.
 struct Corners {
   std::array<Vec3, 3> p;
   std::array<double, 3> v;
 };
 
-Corners CornersOf(const Mesh& mesh, const std::vector<double>& values,
+Corners CornersOf(const Mesh& mesh, const Field& field, int64_t face,
                   const Element& e) {
   Corners c;
   for (int k = 0; k < e.n; ++k) {
     c.p[k] = mesh.positions[e.v[k]];
-    c.v[k] = values[e.v[k]];
+    c.v[k] = field.At(face, e.v[k]);
   }
   return c;
 }
 
-bool HasValues(const Face& face, const std::vector<double>& values) {
+bool HasValues(const Mesh& mesh, const Field& field, int64_t f) {
+  const Face& face = mesh.faces[f];
   for (int k = 0; k < face.size; ++k) {
-    if (std::isnan(values[face.v[k]])) return false;
+    if (std::isnan(field.At(f, face.v[k]))) return false;
   }
   return true;
 }
@@ -96,8 +106,9 @@ double MeasureBelow(double measure, const double* v, int n, double s) {
 }
 
 // Joins thin faces that share an edge (3D) or a vertex (2D) whose own
-// interpolation falls below t_min.
-void JoinThinFaces(const Mesh& mesh, const std::vector<double>& values,
+// interpolation falls below t_min (face values: any shared edge or vertex
+// of two thin faces).
+void JoinThinFaces(const Mesh& mesh, const Field& field,
                    const std::vector<char>& thin, double t_min,
                    std::vector<int32_t>& parent) {
   std::vector<std::pair<uint64_t, int32_t>> uses;
@@ -106,13 +117,15 @@ void JoinThinFaces(const Mesh& mesh, const std::vector<double>& values,
     const Face& face = mesh.faces[f];
     if (face.size == 2) {
       for (int k = 0; k < 2; ++k) {
-        if (values[face.v[k]] < t_min) uses.push_back({uint64_t(face.v[k]), f});
+        if (field.At(f, face.v[k]) < t_min) {
+          uses.push_back({uint64_t(face.v[k]), f});
+        }
       }
       continue;
     }
     for (int k = 0; k < face.size; ++k) {
       const int32_t a = face.v[k], b = face.v[(k + 1) % face.size];
-      if (std::min(values[a], values[b]) >= t_min) continue;
+      if (std::min(field.At(f, a), field.At(f, b)) >= t_min) continue;
       uses.push_back({EdgeKey(a, b), f});
     }
   }
@@ -124,13 +137,23 @@ void JoinThinFaces(const Mesh& mesh, const std::vector<double>& values,
   }
 }
 
-absl::Status CheckValues(const Mesh& mesh, const std::vector<double>& values) {
-  if (std::ssize(values) != mesh.num_vertices()) {
+absl::Status CheckValues(const Mesh& mesh, const std::vector<double>& values,
+                         SampleSet samples) {
+  const bool faces = samples == SampleSet::kFaces;
+  if (const int64_t n = faces ? mesh.num_faces() : mesh.num_vertices();
+      std::ssize(values) != n) {
     return absl::InvalidArgumentError(
-        absl::StrCat("values has ", values.size(), " entries for ",
-                     mesh.num_vertices(), " vertices"));
+        absl::StrCat("values has ", values.size(), " entries for ", n,
+                     faces ? " faces" : " vertices"));
   }
   return absl::OkStatus();
+}
+
+Vec3 FaceCentroid(const Mesh& mesh, int32_t f) {
+  const Face& face = mesh.faces[f];
+  Vec3 sum;
+  for (int k = 0; k < face.size; ++k) sum += mesh.positions[face.v[k]];
+  return sum / face.size;
 }
 
 }  // namespace
@@ -158,7 +181,10 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
         absl::StrCat("min_region_area must be >= 0 and finite, got ",
                      params.min_region_area));
   }
-  if (absl::Status s = CheckValues(mesh, values); !s.ok()) return s;
+  if (absl::Status s = CheckValues(mesh, values, params.samples); !s.ok()) {
+    return s;
+  }
+  const Field field{values, params.samples == SampleSet::kFaces};
   const double t_min = params.t_min;
   const int32_t nf = static_cast<int32_t>(mesh.num_faces());
   ThinSurface out;
@@ -168,28 +194,37 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   std::vector<char> valued(nf, 0), thin(nf, 0);
   for (int32_t f = 0; f < nf; ++f) {
     const Face& face = mesh.faces[f];
-    valued[f] = HasValues(face, values);
+    valued[f] = HasValues(mesh, field, f);
     if (!valued[f]) continue;
     for (int k = 0; k < face.size; ++k) {
-      if (values[face.v[k]] < t_min) thin[f] = 1;
+      if (field.At(f, face.v[k]) < t_min) thin[f] = 1;
     }
   }
   ForEachElement(mesh, [&](int64_t f, const Element& e) {
     out.total_area += e.measure;
     if (!valued[f]) out.missing_area += e.measure;
   });
-  for (int32_t v = 0; v < static_cast<int32_t>(values.size()); ++v) {
-    if (!std::isnan(values[v]) &&
-        (out.min_vertex < 0 || values[v] < out.min_thickness)) {
-      out.min_thickness = values[v];
-      out.min_vertex = v;
+  // The smallest value: a vertex's, or a face's (then at its centroid).
+  int32_t min_sample = -1;
+  for (int32_t i = 0; i < static_cast<int32_t>(values.size()); ++i) {
+    if (!std::isnan(values[i]) &&
+        (min_sample < 0 || values[i] < out.min_thickness)) {
+      out.min_thickness = values[i];
+      min_sample = i;
     }
   }
-  if (out.min_vertex >= 0) out.min_point = mesh.positions[out.min_vertex];
+  if (min_sample >= 0 && field.faces) {
+    out.min_face = min_sample;
+    out.min_vertex = mesh.faces[min_sample].v[0];
+    out.min_point = FaceCentroid(mesh, min_sample);
+  } else if (min_sample >= 0) {
+    out.min_vertex = min_sample;
+    out.min_point = mesh.positions[min_sample];
+  }
 
   std::vector<int32_t> parent(nf);
   std::iota(parent.begin(), parent.end(), 0);
-  JoinThinFaces(mesh, values, thin, t_min, parent);
+  JoinThinFaces(mesh, field, thin, t_min, parent);
 
   // Regions in order of their lowest face id, then sorted by area.
   std::vector<int32_t> root_region(nf, -1);
@@ -212,6 +247,14 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
     out.face_region[f] = id;
     ThinRegion& r = regions[id];
     ++r.faces;
+    if (field.faces) {
+      if (r.min_face < 0 || values[f] < r.min_thickness) {
+        r.min_thickness = values[f];
+        r.min_face = f;
+        r.min_vertex = mesh.faces[f].v[0];
+      }
+      continue;
+    }
     const Face& face = mesh.faces[f];
     for (int k = 0; k < face.size; ++k) {
       const int32_t v = face.v[k];
@@ -227,7 +270,7 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   ForEachElement(mesh, [&](int64_t f, const Element& e) {
     const int32_t id = out.face_region[f];
     if (id < 0) return;
-    const Corners c = CornersOf(mesh, values, e);
+    const Corners c = CornersOf(mesh, field, f, e);
     const Piece piece = ClipBelow(c.p.data(), c.v.data(), e.n, t_min);
     if (piece.n == 0) return;
     const auto [m, centre] = MeasureAndCentroid(piece);
@@ -243,7 +286,8 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   });
   for (size_t i = 0; i < regions.size(); ++i) {
     ThinRegion& r = regions[i];
-    r.min_point = mesh.positions[r.min_vertex];
+    r.min_point = r.min_face >= 0 ? FaceCentroid(mesh, r.min_face)
+                                  : mesh.positions[r.min_vertex];
     r.centroid = r.area > 0 ? moment[i] / r.area : r.min_point;
     r.speck = r.area < params.min_region_area;
   }
@@ -269,7 +313,7 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
 
 absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
     const Mesh& mesh, const std::vector<double>& values, double lo, double hi,
-    int bins) {
+    int bins, SampleSet samples) {
   if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi)) {
     return absl::InvalidArgumentError(
         absl::StrCat("histogram range [", lo, ", ", hi, "] is empty"));
@@ -278,7 +322,8 @@ absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
     return absl::InvalidArgumentError(
         absl::StrCat("bins must be in 1..10000, got ", bins));
   }
-  if (absl::Status s = CheckValues(mesh, values); !s.ok()) return s;
+  if (absl::Status s = CheckValues(mesh, values, samples); !s.ok()) return s;
+  const Field field{values, samples == SampleSet::kFaces};
   AreaHistogram h{lo, hi, std::vector<double>(bins, 0.0)};
   auto bin_of = [&](double t) {
     // Clamped in double: far outside [lo, hi] the product overflows int.
@@ -293,8 +338,8 @@ absl::StatusOr<AreaHistogram> ThicknessAreaHistogram(
     return lo + (hi - lo) * k / bins;
   };
   ForEachElement(mesh, [&](int64_t f, const Element& e) {
-    if (!HasValues(mesh.faces[f], values)) return;
-    const Corners c = CornersOf(mesh, values, e);
+    if (!HasValues(mesh, field, f)) return;
+    const Corners c = CornersOf(mesh, field, f, e);
     const double* v = c.v.data();
     const int k0 = bin_of(*std::min_element(v, v + e.n));
     const int k1 = bin_of(*std::max_element(v, v + e.n));

@@ -81,11 +81,6 @@ absl::Status ValidateGradCheck(const Mesh& mesh, const SdfParams& params,
   }
   if (o.penalty) {
     if (absl::Status s = ValidatePenaltyParams(*o.penalty); !s.ok()) return s;
-    if (params.samples != SampleSet::kVertices) {
-      return absl::InvalidArgumentError(
-          "the penalty integrates vertex values: check it with vertex "
-          "samples, not face samples");
-    }
   }
   if (o.vertices.empty() && o.samples < 1) {
     return absl::InvalidArgumentError(

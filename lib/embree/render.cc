@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/topology.h"
@@ -44,15 +46,29 @@ double Interpolate(double a, double b, double c, double u, double w) {
   return (1 - u - w) * a + u * b + w * c;
 }
 
+// A fresh picture: background, no face, no value.
+RenderedView Blank(std::string name, const RenderOptions& options) {
+  const size_t n = static_cast<size_t>(options.width) * options.height;
+  return {std::move(name), Image(options.width, options.height,
+                                 options.background),
+          std::vector<int32_t>(n, -1),
+          std::vector<double>(n, std::numeric_limits<double>::quiet_NaN())};
+}
+
 // Outlines marked regions from outside: an unmarked pixel (a face without
-// a mark, or the background) within 2 pixels of a marked one turns
-// kThinOutline, so the marked pixels keep their colours (two marked regions
-// that touch in the picture are not separated).
-void DrawOutlines(const std::vector<int32_t>& outline, RenderedView& view) {
+// a mark, a pixel of a marked face whose value is not below `below`, or the
+// background) within 2 pixels of a marked one turns kThinOutline, so the
+// marked pixels keep their colours (two marked regions that touch in the
+// picture are not separated). With `below` finite the outline is the
+// contour of the per-pixel values, as smooth as the interpolated field.
+void DrawOutlines(const std::vector<int32_t>& outline, double below,
+                  RenderedView& view) {
   const int w = view.image.width, h = view.image.height;
   std::vector<int32_t> mark(static_cast<size_t>(w) * h, -1);
   for (size_t i = 0; i < mark.size(); ++i) {
-    if (view.face[i] >= 0) mark[i] = outline[view.face[i]];
+    if (view.face[i] < 0) continue;
+    if (!std::isnan(below) && !(view.value[i] < below)) continue;
+    mark[i] = outline[view.face[i]];
   }
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
@@ -102,8 +118,8 @@ absl::StatusOr<RenderedView> RenderSurface(
   const Vec3 center = right * (0.5 * (lo_u + hi_u)) +
                       up * (0.5 * (lo_v + hi_v)) + d * Dot(box.center(), d);
   const Vec3 eye = center - d * (2 * radius);
-  RenderedView out{view.name, Image(w, h, options.background),
-                   std::vector<int32_t>(static_cast<size_t>(w) * h, -1)};
+  RenderedView out = Blank(view.name, options);
+  const bool per_face = options.samples == SampleSet::kFaces;
   tbb::parallel_for(0, h, [&](int y) {
     for (int x = 0; x < w; ++x) {
       const Vec3 origin = eye + right * ((x + 0.5 - 0.5 * w) * pixel) +
@@ -120,11 +136,16 @@ absl::StatusOr<RenderedView> RenderSurface(
       const Vec3 q = origin + d * static_cast<double>(hit.t) - a;
       const double u = std::clamp(Dot(Cross(q, e2), n) / n2, 0.0, 1.0);
       const double v = std::clamp(Dot(Cross(e1, q), n) / n2, 0.0, 1.0 - u);
-      const double t = Interpolate(values[prim.v[0]], values[prim.v[1]],
-                                   values[prim.v[2]], u, v);
+      // Per pixel, not per face: a sliver's colour follows the field
+      // across it instead of streaking along its length.
+      const double t =
+          per_face ? values[prim.face]
+                   : Interpolate(values[prim.v[0]], values[prim.v[1]],
+                                 values[prim.v[2]], u, v);
       const double lambert = std::abs(Dot(n, d)) / std::sqrt(n2);
       out.image.at(x, y) = Shade(scale(t), 0.3 + 0.7 * lambert);
       out.face[static_cast<size_t>(y) * w + x] = prim.face;
+      out.value[static_cast<size_t>(y) * w + x] = t;
     }
   });
   return out;
@@ -136,8 +157,8 @@ RenderedView RenderCurve(const Mesh& mesh, const std::vector<double>& values,
                          const ColorScale& scale, const Box& box,
                          const RenderOptions& options) {
   const int w = options.width, h = options.height;
-  RenderedView out{"plane", Image(w, h, options.background),
-                   std::vector<int32_t>(static_cast<size_t>(w) * h, -1)};
+  RenderedView out = Blank("plane", options);
+  const bool per_face = options.samples == SampleSet::kFaces;
   const double extent =
       std::max({box.hi.x - box.lo.x, box.hi.y - box.lo.y, 1e-300});
   const double pixel = 1.1 * extent / std::min(w, h);
@@ -166,9 +187,12 @@ RenderedView RenderCurve(const Mesh& mesh, const std::vector<double>& values,
         const Vec3 p{x + 0.5, y + 0.5, 0};
         const double s = std::clamp(Dot(p - a, ab) / len2, 0.0, 1.0);
         if (Norm(a + ab * s - p) > half_width) continue;
-        const double t = (1 - s) * values[face.v[0]] + s * values[face.v[1]];
+        const double t =
+            per_face ? values[f]
+                     : (1 - s) * values[face.v[0]] + s * values[face.v[1]];
         out.image.at(x, y) = scale(t);
         out.face[static_cast<size_t>(y) * w + x] = f;
+        out.value[static_cast<size_t>(y) * w + x] = t;
       }
     }
   }
@@ -194,10 +218,13 @@ absl::StatusOr<std::vector<RenderedView>> RenderViews(
     const Mesh& mesh, const std::vector<double>& values,
     const ColorScale& scale, const std::vector<int32_t>& outline,
     const std::vector<View>& views, const RenderOptions& options) {
-  if (std::ssize(values) != mesh.num_vertices()) {
-    return absl::InvalidArgumentError(
-        absl::StrCat("values has ", values.size(), " entries for ",
-                     mesh.num_vertices(), " vertices"));
+  const bool per_face = options.samples == SampleSet::kFaces;
+  if (std::ssize(values) !=
+      (per_face ? mesh.num_faces() : mesh.num_vertices())) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "values has ", values.size(), " entries for ",
+        per_face ? mesh.num_faces() : mesh.num_vertices(),
+        per_face ? " faces" : " vertices"));
   }
   if (!outline.empty() && std::ssize(outline) != mesh.num_faces()) {
     return absl::InvalidArgumentError(
@@ -227,7 +254,9 @@ absl::StatusOr<std::vector<RenderedView>> RenderViews(
     }
   }
   if (!outline.empty()) {
-    for (RenderedView& view : out) DrawOutlines(outline, view);
+    for (RenderedView& view : out) {
+      DrawOutlines(outline, options.outline_below, view);
+    }
   }
   return out;
 }

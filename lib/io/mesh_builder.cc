@@ -111,11 +111,13 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
     polygon_places_.emplace_back(num_faces(), where);
   }
   triangles_ += n > 4 ? n - 2 : 1;
-  // Checked when an array is about to grow, and every 65,536 faces.
+  // Checked when an array is about to grow, and every 65,536 faces: never
+  // per face, as cancelled() may be a call into the transport (the
+  // server's IsCancelled).
   if (limits_ != nullptr &&
       (sizes_.size() == sizes_.capacity() ||
        corners_.size() + n > corners_.capacity() ||
-       polygon_places_.size() == polygon_places_.capacity() ||
+       (n > 4 && polygon_places_.size() == polygon_places_.capacity()) ||
        sizes_.size() % 65536 == 0)) {
     if (absl::Status s = CheckLimits(num_vertices(), triangles_, 0); !s.ok()) {
       return s;

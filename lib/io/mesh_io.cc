@@ -1,11 +1,14 @@
 #include "lib/io/mesh_io.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 
 #include "absl/strings/ascii.h"
+#include "absl/strings/match.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_split.h"
 #include "absl/strings/strip.h"
 #include "lib/io/readers.h"
 #include "lib/io/scan.h"
@@ -39,7 +42,161 @@ absl::Status Unsupported(absl::string_view ext, const std::string& name) {
                    "' (use .obj, .off, .ply or .stl)"));
 }
 
+// "an OBJ file" for ".obj", ...
+std::string FormatName(absl::string_view ext) {
+  if (ext == ".obj") return "an OBJ file";
+  if (ext == ".off") return "an OFF file";
+  if (ext == ".ply") return "a PLY file";
+  return "an STL file";
+}
+
+uint32_t LittleEndian32(absl::string_view bytes) {
+  uint32_t v = 0;
+  for (int k = 3; k >= 0; --k) v = v << 8 | static_cast<uint8_t>(bytes[k]);
+  return v;
+}
+
+// The lines of the first `limit` bytes (split at LF or CR), without the
+// partial last one when the text goes on.
+std::vector<absl::string_view> HeadLines(absl::string_view text,
+                                         size_t limit) {
+  const absl::string_view head = text.substr(0, limit);
+  std::vector<absl::string_view> lines =
+      absl::StrSplit(head, absl::ByAnyChar("\r\n"), absl::SkipEmpty());
+  if (head.size() < text.size() && !lines.empty()) lines.pop_back();
+  return lines;
+}
+
+// The first whitespace-separated token of the text after `#` comment lines.
+absl::string_view FirstToken(absl::string_view text) {
+  for (absl::string_view line : HeadLines(text, 4096)) {
+    line = absl::StripLeadingAsciiWhitespace(line);
+    if (line.empty() || line[0] == '#') continue;
+    return line.substr(0, std::min(line.find_first_of(" \t"), line.size()));
+  }
+  return "";
+}
+
 }  // namespace
+
+io::Sniffed SniffMeshContents(absl::string_view contents) {
+  const absl::string_view all = contents;
+  const size_t n = contents.size();
+  // Byte-order marks of the wide encodings (UTF-32's first: FF FE 00 00
+  // starts as UTF-16 LE's FF FE does).
+  if (absl::StartsWith(contents, absl::string_view("\xFF\xFE\0\0", 4)) ||
+      absl::StartsWith(contents, absl::string_view("\0\0\xFE\xFF", 4))) {
+    return {"utf-32", "UTF-32 text (byte-order mark)",
+            "save it as UTF-8 or ASCII"};
+  }
+  if (absl::StartsWith(contents, "\xFF\xFE") ||
+      absl::StartsWith(contents, "\xFE\xFF")) {
+    return {"utf-16",
+            absl::StrCat("UTF-16 text (byte-order mark ",
+                         contents[0] == '\xFF' ? "FF FE, little" : "FE FF, big",
+                         "-endian)"),
+            "save it as UTF-8 or ASCII"};
+  }
+  // UTF-16 without a mark: ASCII characters each followed (LE) or
+  // preceded (BE) by a NUL byte.
+  if (n >= 8) {
+    const size_t m = std::min<size_t>(n, 512) & ~size_t{1};
+    int nul[2] = {0, 0}, printable[2] = {0, 0};
+    for (size_t i = 0; i < m; ++i) {
+      const unsigned char c = contents[i];
+      nul[i % 2] += c == 0;
+      printable[i % 2] += c == '\t' || c == '\n' || c == '\r' ||
+                          (c >= 0x20 && c < 0x7f);
+    }
+    for (int odd : {0, 1}) {
+      if (nul[odd] * 10 >= static_cast<int>(m / 2) * 9 &&
+          printable[1 - odd] * 10 >= static_cast<int>(m / 2) * 9) {
+        return {"utf-16",
+                absl::StrCat("UTF-16 text (NUL bytes between the characters, ",
+                             odd ? "little" : "big", "-endian, no byte-order mark)"),
+                "save it as UTF-8 or ASCII"};
+      }
+    }
+  }
+  absl::ConsumePrefix(&contents, io::kUtf8Bom);
+  if (absl::StartsWith(contents, "ply\n") ||
+      absl::StartsWith(contents, "ply\r")) {
+    std::string format;
+    for (absl::string_view line : HeadLines(contents, 1024)) {
+      if (absl::ConsumePrefix(&line, "format ")) {
+        format = absl::StrCat(", format ",
+                              line.substr(0, std::min(line.find(' '),
+                                                      line.size())));
+        break;
+      }
+    }
+    return {".ply", absl::StrCat("a PLY file ('ply' header", format, ")"),
+            "rename it .ply"};
+  }
+  const absl::string_view head = contents.substr(0, 4096);
+  const bool has_nul = head.find('\0') != absl::string_view::npos;
+  const absl::string_view stripped = absl::StripLeadingAsciiWhitespace(head);
+  if (absl::StartsWith(stripped, "solid") && !has_nul &&
+      absl::StrContains(head, "facet")) {
+    return {".stl", "an ASCII STL ('solid' and 'facet' lines)",
+            "rename it .stl"};
+  }
+  if (all.size() >= 84) {
+    const uint64_t count = LittleEndian32(all.substr(80, 4));
+    if (84 + 50 * count == all.size()) {
+      return {".stl",
+              absl::StrCat("a binary STL (80-byte header, ", count,
+                           count == 1 ? " triangle)" : " triangles)"),
+              "rename it .stl"};
+    }
+  }
+  if (const absl::string_view first = FirstToken(contents);
+      !has_nul && (first == "OFF" || first == "COFF" || first == "NOFF" ||
+                   first == "CNOFF" || first == "STOFF")) {
+    return {".off", absl::StrCat("an OFF file ('", first, "' header)"),
+            "rename it .off"};
+  }
+  struct Magic {
+    absl::string_view bytes, what, advice;
+  };
+  static constexpr Magic kMagic[] = {
+      {"PK\x03\x04", "a ZIP archive (a 3MF file is one)",
+       "export the mesh as OBJ, OFF, PLY or STL, or unpack it"},
+      {"\x1F\x8B", "gzip-compressed data", "decompress it (gunzip)"},
+      {"glTF", "a binary glTF (.glb)", "export the mesh as OBJ, OFF, PLY or STL"},
+      {"Kaydara FBX Binary", "a binary FBX file",
+       "export the mesh as OBJ, OFF, PLY or STL"},
+      {"\x89PNG", "a PNG image", ""},
+      {"%PDF", "a PDF document", ""},
+  };
+  for (const Magic& m : kMagic) {
+    if (absl::StartsWith(contents, m.bytes)) {
+      return {"other", std::string(m.what), std::string(m.advice)};
+    }
+  }
+  int control = 0;
+  for (unsigned char c : head) {
+    control += (c < 0x20 && c != '\t' && c != '\n' && c != '\r' &&
+                c != '\f' && c != '\v') ||
+               c == 0x7f;
+  }
+  if (has_nul || control * 10 > static_cast<int>(head.size())) {
+    return {"binary", "binary data, not text",
+            "a mesh file of another format or no mesh at all"};
+  }
+  // OBJ: `v` lines and `f` or `l` lines.
+  bool v = false, f = false;
+  for (absl::string_view line : HeadLines(contents, 1 << 16)) {
+    line = absl::StripLeadingAsciiWhitespace(line);
+    v |= absl::StartsWith(line, "v ") || absl::StartsWith(line, "v\t");
+    f |= absl::StartsWith(line, "f ") || absl::StartsWith(line, "f\t") ||
+         absl::StartsWith(line, "l ") || absl::StartsWith(line, "l\t");
+    if (v && f) {
+      return {".obj", "an OBJ file ('v' and 'f' lines)", "rename it .obj"};
+    }
+  }
+  return {};
+}
 
 bool IsMeshExtension(absl::string_view extension) {
   return ParserFor(extension) != nullptr;
@@ -56,8 +213,24 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(absl::string_view contents,
   // binary STL's 80-byte header may start with anything, so STL is read
   // as it is.
   const std::string ext = absl::AsciiStrToLower(extension);
+  const absl::string_view original = contents;
   if (ext != ".stl") absl::ConsumePrefix(&contents, io::kUtf8Bom);
-  return parse(contents, name, limits);
+  auto parsed = parse(contents, name, limits);
+  if (parsed.ok() ||
+      parsed.status().code() != absl::StatusCode::kInvalidArgument) {
+    return parsed;
+  }
+  // Nothing valid: when the contents look like another kind of file (the
+  // extension lies), say which, before the reader's own complaint.
+  const io::Sniffed sniffed = SniffMeshContents(original);
+  if (sniffed.kind.empty() || sniffed.kind == ext ||
+      (sniffed.kind == "binary" && (ext == ".stl" || ext == ".ply"))) {
+    return parsed;
+  }
+  return absl::InvalidArgumentError(absl::StrCat(
+      name, ": this looks like ", sniffed.what, ", not ", FormatName(ext),
+      sniffed.advice.empty() ? "" : ": ", sniffed.advice, " (read as ",
+      FormatName(ext), ": ", parsed.status().message(), ")"));
 }
 
 absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path) {

@@ -46,6 +46,26 @@ absl::StatusOr<io::MeshFile> ParseMeshContents(
     absl::string_view contents, absl::string_view extension,
     const std::string& name, const io::ReadLimits& limits = {});
 
+namespace io {
+// What a file's contents look like, whatever its extension says.
+struct Sniffed {
+  // ".obj", ".off", ".ply", ".stl" (a format we read), "utf-16", "utf-32",
+  // "binary" (not text), "other" (a known format we do not read), or empty
+  // (nothing recognised).
+  std::string kind;
+  std::string what;    // e.g. "a binary STL (80-byte header, 12 triangles)".
+  std::string advice;  // e.g. "rename it .stl"; may be empty.
+};
+}  // namespace io
+
+// Looks at the contents' first bytes (magic numbers, byte-order marks, NUL
+// bytes, the binary STL's size rule, the first statements); O(64 KiB).
+// ParseMeshContents calls it when the extension's reader fails, and names
+// the kind found when it is not the extension's: a binary STL named .obj is
+// "this looks like a binary STL (80-byte header, N triangles), not an OBJ
+// file: rename it .stl (read as an OBJ file: ...the reader's message)".
+io::Sniffed SniffMeshContents(absl::string_view contents);
+
 // One sentence per thing the reader did that a user should know of
 // (polygons triangulated by the fallback), for summaries and SessionInfo.
 std::vector<std::string> ReaderWarnings(const io::MeshFile& file);

@@ -382,6 +382,7 @@ void ToWire(const ThinSurface& t, int max_regions, v1::ThinSurface* out) {
   out->set_thin_area(t.thin_area);
   out->set_min_thickness(t.min_thickness);
   out->set_min_vertex(t.min_vertex);
+  if (t.min_face >= 0) out->set_min_face(t.min_face);
   PointToWire(t.min_point, out->mutable_min_point());
   out->set_region_count(std::ssize(t.regions));
   const int n = std::min<int64_t>(max_regions, std::ssize(t.regions));
@@ -392,6 +393,7 @@ void ToWire(const ThinSurface& t, int max_regions, v1::ThinSurface* out) {
     w->set_area(r.area);
     w->set_min_thickness(r.min_thickness);
     w->set_min_vertex(r.min_vertex);
+    if (r.min_face >= 0) w->set_min_face(r.min_face);
     PointToWire(r.min_point, w->mutable_min_point());
     PointToWire(r.centroid, w->mutable_centroid());
     PointToWire(r.box_min, w->mutable_box_min());
@@ -408,6 +410,7 @@ absl::StatusOr<ThinSurface> FromWire(const v1::ThinSurface& t, double t_min) {
   out.thin_area = t.thin_area();
   out.min_thickness = t.min_thickness();
   out.min_vertex = t.min_vertex();
+  out.min_face = t.has_min_face() ? t.min_face() : -1;
   auto min_point = PointFromWire(t.min_point(), "min_point");
   if (!min_point.ok()) return min_point.status();
   out.min_point = *min_point;
@@ -417,6 +420,7 @@ absl::StatusOr<ThinSurface> FromWire(const v1::ThinSurface& t, double t_min) {
     r.area = w.area();
     r.min_thickness = w.min_thickness();
     r.min_vertex = w.min_vertex();
+    r.min_face = w.has_min_face() ? w.min_face() : -1;
     r.speck = w.speck();
     for (auto [field, point, name] :
          {std::tuple{&w.min_point(), &r.min_point, "min_point"},

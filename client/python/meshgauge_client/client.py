@@ -5,7 +5,10 @@ list of index sequences (2 per segment in 2D; 3 to 256 corners in 3D,
 polygons triangulated by the server). Mesh files are read by the server. Every call
 of a session sends ``x-meshgauge-session`` (the balancer's routing key) and,
 with a token, ``authorization: Bearer <token>``. The channel retries
-UNAVAILABLE with exponential backoff and waits for the server to be ready.
+UNAVAILABLE with exponential backoff; a call keeps retrying UNAVAILABLE for
+``retry_seconds`` (``connect_seconds`` while the server has never answered),
+then raises UnavailableError naming the target. Welded uploads
+(``weld=``) keep the caller's vertex indexing in every result (_weld).
 """
 
 import json
@@ -22,11 +25,12 @@ import grpc
 import numpy as np
 import scipy.sparse
 
-from meshgauge_client import _wire
+from meshgauge_client import _weld, _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
 from meshgauge_client.errors import (DataLossError, MeshGaugeError,
-                                     MissingValuesWarning, from_rpc_error)
+                                     MissingValuesWarning, UnavailableError,
+                                     from_rpc_error)
 from meshgauge_client.options import SdfOptions
 from meshgauge_client.results import (Calibration, FloatArray,
                                       GradCheckReport, MeshData,
@@ -41,11 +45,22 @@ T = TypeVar("T")
 
 # Transparent retries of UNAVAILABLE (a restarting or draining server): the
 # service config the C++ client uses too (proto/meshgauge/v1/
-# service_config.json, shipped beside the stubs). Calls also wait for the
-# channel to be ready (wait_for_ready=True on each).
+# service_config.json, shipped beside the stubs). Calls do not wait for a
+# ready channel (wait_for_ready=False: gRPC would hold them for the whole
+# deadline); MeshGaugeClient._retrying retries UNAVAILABLE within a bounded
+# budget instead.
 with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "_proto",
                        "service_config.json")) as _f:
     _SERVICE_CONFIG = json.dumps(json.load(_f))
+
+# How long a call retries UNAVAILABLE by default: once the server has
+# answered (a restart), and while it never has (a wrong address, a server
+# not running). docs/python.md promises at most 30 s.
+RETRY_SECONDS = 30.0
+CONNECT_SECONDS = 10.0
+# The channel tries to reconnect at least this often while the server is
+# down (gRPC's default backoff grows to 120 s, past any retry budget).
+MAX_RECONNECT_BACKOFF_MS = 2000
 
 
 def mesh_crc32(vertices: Any, faces: Any, regions: Optional[Any] = None) -> int:
@@ -90,7 +105,10 @@ class MeshGaugeClient:
     MESHGAUGE_TOKEN environment variable). tls_ca_file: TLS, trusting that
     PEM CA; tls_cert_file and tls_key_file add a client certificate (mutual
     TLS). deadline: seconds per call. retry_seconds: how long a call keeps
-    retrying UNAVAILABLE (a restarting server) before it fails.
+    retrying UNAVAILABLE (a restarting server) before it fails;
+    connect_seconds: the same while the server has never answered this
+    client (a wrong address, no server), at most retry_seconds. The failure
+    is an UnavailableError naming the target.
     """
 
     def __init__(self, target: str, token: Optional[str] = None, *,
@@ -98,15 +116,21 @@ class MeshGaugeClient:
                  chunk: int = 65536, tls_ca_file: Optional[str] = None,
                  tls_cert_file: Optional[str] = None,
                  tls_key_file: Optional[str] = None,
-                 retry_seconds: float = 30.0) -> None:
+                 retry_seconds: float = RETRY_SECONDS,
+                 connect_seconds: float = CONNECT_SECONDS) -> None:
         if not isinstance(target, str) or not target:
             raise ValueError("target must be 'host:port'")
+        retry_seconds = _wire._number("retry_seconds", retry_seconds, 0,
+                                      np.inf)
+        connect_seconds = _wire._number("connect_seconds", connect_seconds,
+                                        0, np.inf)
         if (tls_cert_file or tls_key_file) and not tls_ca_file:
             raise ValueError("tls_cert_file/tls_key_file need tls_ca_file")
         options = [("grpc.max_send_message_length", max_message_bytes),
                    ("grpc.max_receive_message_length", max_message_bytes),
                    ("grpc.enable_retries", 1),
-                   ("grpc.service_config", _SERVICE_CONFIG)]
+                   ("grpc.service_config", _SERVICE_CONFIG),
+                   ("grpc.max_reconnect_backoff_ms", MAX_RECONNECT_BACKOFF_MS)]
         if tls_ca_file:
             creds = grpc.ssl_channel_credentials(
                 root_certificates=_read(tls_ca_file),
@@ -121,9 +145,14 @@ class MeshGaugeClient:
         self._stub = pb_grpc.MeshGaugeStub(self._channel)
         self._deadline = deadline
         self._chunk = chunk
+        self._target = target
         self._retry_seconds = retry_seconds
+        self._connect_seconds = min(connect_seconds, retry_seconds)
+        self._answered = False  # has the server ever answered a call?
         # Per session: its dimension and vertex count (fixed at upload).
         self._shapes: "dict[str, Tuple[int, int]]" = {}
+        # Per welded session: its map between uploaded and session vertices.
+        self._welds: "dict[str, _weld.WeldMap]" = {}
         self._server_info: Optional[ServerInfo] = None
         self._asked_server_info = False
 
@@ -141,20 +170,50 @@ class MeshGaugeClient:
     def _metadata(self, session_id: str = "") -> List[Tuple[str, str]]:
         return ([(SESSION_KEY, session_id)] if session_id else []) + self._auth
 
+    @property
+    def target(self) -> str:
+        return self._target
+
     def _retrying(self, call: Callable[[], T]) -> T:
         """Runs call(), retrying UNAVAILABLE with backoff for retry_seconds
-        (the channel's own retries cover short blips; this covers a restart)."""
-        stop = time.monotonic() + self._retry_seconds
+        (connect_seconds while the server never answered; the channel's own
+        retries cover short blips, this covers a restart), then raises
+        UnavailableError naming the target."""
+        start = time.monotonic()
+        budget = (self._retry_seconds if self._answered
+                  else self._connect_seconds)
         delay = 0.05
+        attempts = 0
         while True:
+            attempts += 1
             try:
-                return call()
+                result = call()
+                self._answered = True
+                return result
             except grpc.RpcError as e:
-                if (e.code() != grpc.StatusCode.UNAVAILABLE
-                        or time.monotonic() + delay > stop):
+                if e.code() != grpc.StatusCode.UNAVAILABLE:
+                    self._answered = True
                     raise from_rpc_error(e) from None
+                if time.monotonic() + delay > start + budget:
+                    raise self._unavailable(e, attempts, budget,
+                                            time.monotonic() - start) from None
             time.sleep(delay)
             delay = min(2 * delay, 1.0)
+
+    def _unavailable(self, error: grpc.RpcError, attempts: int,
+                     budget: float, seconds: float) -> UnavailableError:
+        """The error of a call that stayed UNAVAILABLE for its budget."""
+        details = error.details() or ""
+        refused = (" (connection refused)" if "refused" in details.lower()
+                   else "")
+        never = ("" if self._answered else
+                 ", connect_seconds: it never answered this client")
+        return UnavailableError(
+            grpc.StatusCode.UNAVAILABLE,
+            f"the server at {self._target} is unavailable{refused}: "
+            f"{attempts} attempt{'s' if attempts > 1 else ''} in "
+            f"{seconds:.1f} s (retry budget {budget:g} s{never}); last "
+            f"error: {details}")
 
     def _call(self, method: Any, request: Any, session_id: str = "",
               read: Optional[Callable[[Any], Any]] = None) -> Any:
@@ -164,7 +223,7 @@ class MeshGaugeClient:
 
         def invoke() -> Any:
             reply = method(request, timeout=self._deadline, metadata=metadata,
-                           wait_for_ready=True)
+                           wait_for_ready=False)
             return read(reply) if read else reply
 
         return self._retrying(invoke)
@@ -347,10 +406,21 @@ class MeshGaugeClient:
         def create() -> Any:
             return self._stub.CreateSession(requests(), timeout=self._deadline,
                                             metadata=metadata,
-                                            wait_for_ready=True)
+                                            wait_for_ready=False)
 
-        info = _wire.session_info(self._retrying(create).session)
+        reply = self._retrying(create)
+        welded = np.asarray(reply.welded_vertex, dtype=np.int64)
+        info = _wire.session_info(reply.session,
+                                  welded if welded.size else None)
         self._shapes[info.session_id] = (info.dimension, info.num_vertices)
+        self._welds.pop(info.session_id, None)
+        if welded.size:
+            try:
+                self._welds[info.session_id] = _weld.weld_map(
+                    welded, info.num_vertices, uploaded)
+            except ValueError as e:
+                raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                                    f"CreateSession: {e}") from None
         return info
 
     def session(self, vertices: Any, faces: Any = None,

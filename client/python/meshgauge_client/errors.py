@@ -87,6 +87,17 @@ class UnauthenticatedError(MeshGaugeError):
     pass
 
 
+class SessionClosedError(MeshGaugeError):
+    """A Session used after close() (or after its ``with`` block): it is
+    deleted on the server and is never re-created (code
+    FAILED_PRECONDITION; no call was made)."""
+
+    def __init__(self, session_id: str) -> None:
+        super().__init__(grpc.StatusCode.FAILED_PRECONDITION,
+                         f"session {session_id} is closed")
+        self.session_id = session_id
+
+
 _BY_CODE: Dict[grpc.StatusCode, Type[MeshGaugeError]] = {
     grpc.StatusCode.CANCELLED: CancelledError,
     grpc.StatusCode.UNKNOWN: UnknownError,
