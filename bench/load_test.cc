@@ -46,6 +46,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/shapes.h"
+#include "server/flags_help.h"
 
 ABSL_FLAG(std::string, target, "127.0.0.1:50051", "server or balancer");
 ABSL_FLAG(int, clients, 4, "concurrent clients, 1..256");
@@ -363,6 +364,7 @@ int Run() {
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage(
       "meshgauge-load --target HOST:PORT [--clients N] [--iterations M] ...");
+  meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/load_test.cc");
   absl::ParseCommandLine(argc, argv);
   return meshgauge::bench::Run();
 }

@@ -14,6 +14,7 @@
 #include "absl/flags/usage_config.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
+#include "server/flags_help.h"
 #include "server/server.h"
 
 ABSL_FLAG(std::string, address, "127.0.0.1:50051",
@@ -179,11 +180,9 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
 
 int main(int argc, char** argv) {
   absl::SetProgramUsageMessage("meshgauge-server [flags]");
-  absl::FlagsUsageConfig usage;
-  usage.version_string = [] {
+  meshgauge::ListOwnFlagsInHelp(argc, argv, "server/main.cc", [] {
     return std::string("meshgauge-server ") + MESHGAUGE_VERSION + "\n";
-  };
-  absl::SetFlagsUsageConfig(usage);
+  });
   if (!NumericFlagsParse(argc, argv)) return 2;
   absl::ParseCommandLine(argc, argv);
   const meshgauge::server::ServerOptions options = OptionsFromFlags();

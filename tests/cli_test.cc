@@ -16,6 +16,7 @@
 #include <string>
 
 #include "absl/strings/str_split.h"
+#include "lib/core/shapes.h"
 #include "lib/core/vec3.h"
 #include "lib/io/mesh_io.h"
 #include "lib/io/png_file.h"
@@ -84,6 +85,20 @@ TEST(CliTest, WeldMeasuresAnUnweldedCubeAndKeepsTheFilesRows) {
   const CliRun bad = RunCli("sdf " + obj + " --weld=0.5");
   EXPECT_NE(bad.exit_code, 0);
   EXPECT_THAT(bad.out, HasSubstr("weld tolerance"));
+}
+
+// A mesh far below the ray tracer's scale gets no value: sdf says why and
+// fails, as grad, penalty and report do on unmeasurable surfaces.
+TEST(CliTest, ATinyMeshFailsNamingItsScale) {
+  Mesh tiny = MakeIcosphere(1, 2);
+  for (Vec3& p : tiny.positions) p *= 1e-17;
+  const std::string obj = Tmp("tiny_sphere.obj");
+  ASSERT_TRUE(WriteObj(obj, tiny).ok());
+  const CliRun r = RunCli("sdf " + obj);
+  EXPECT_EQ(r.exit_code, 1) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("warning: the mesh is tiny: it is 2e-17 across"));
+  EXPECT_THAT(r.out, HasSubstr("error: no vertex has a value: the mesh is tiny"));
+  EXPECT_THAT(r.out, HasSubstr("scale the mesh up"));
 }
 
 TEST(CliTest, JsonSummaryHasAllKeys) {
@@ -396,11 +411,15 @@ TEST(CliTest, DegenerateFacesAreRejectedUnlessDroppingIsAsked) {
 TEST(CliTest, DoubleSidedAndOpenMeshesAreNamed) {
   const std::string obj = Tmp("double.obj");
   std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 3 2\n";
-  const CliRun r = RunCli("sdf " + obj + " --rays 8 --json");
-  ASSERT_EQ(r.exit_code, 0) << r.out;
+  // Nothing can be measured: the summary, then the cause, exit 1.
+  const CliRun r = RunCli("sdf " + obj + " --rays 8 --json", false);
+  ASSERT_EQ(r.exit_code, 1) << r.out;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["double_sided_faces"], 2);
   EXPECT_THAT(r.out, HasSubstr("double-sided"));
+  EXPECT_THAT(RunCliStderr("sdf " + obj + " --rays 8").out,
+              HasSubstr("error: no vertex has a value: most of those vertices "
+                        "have a degenerate normal"));
   const CliRun open =
       RunCli("sdf " + SharedMesh("stanford-bunny.obj") + " --rays 4 --json");
   EXPECT_GT(nlohmann::json::parse(open.out)["boundary_edges"].get<int64_t>(),

@@ -4,9 +4,14 @@
 // of a dead peer and only with retries on.
 #include "client/remote/remote_client.h"
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 
@@ -75,6 +80,32 @@ TEST(RemoteClientTest, OtherCodesAndNoRetriesEndTheCall) {
   Scripted off(grpc::StatusCode::UNKNOWN, 1);
   EXPECT_EQ(off.Call(false), absl::StatusCode::kUnknown);
   EXPECT_EQ(off.service.calls, 1);
+}
+
+// No server: the call fails within the connection wait plus the retries,
+// naming the target, not a bare "failed to connect" or a deadline.
+TEST(RemoteClientTest, NoServerFailsFastNamingTheTarget) {
+  // A loopback port that was free and is closed again.
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  socklen_t len = sizeof(addr);
+  ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&addr), len), 0);
+  ASSERT_EQ(getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  const int port = ntohs(addr.sin_port);
+  close(fd);
+  client::ClientOptions o;
+  o.connect_timeout_seconds = 1;
+  const std::string target = "127.0.0.1:" + std::to_string(port);
+  client::RemoteClient c(target, o);
+  const auto start = std::chrono::steady_clock::now();
+  const absl::Status s = c.Get("s").status();
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(20));
+  EXPECT_EQ(s.code(), absl::StatusCode::kUnavailable);
+  EXPECT_NE(s.message().find("meshgauge server at " + target), std::string::npos)
+      << s.message();
+  EXPECT_NE(s.message().find("is unavailable"), std::string::npos);
 }
 
 }  // namespace

@@ -199,8 +199,8 @@ void AddReportFlags(CLI::App* app, ReportFlags* f) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   app->add_option("--color-range", f->color_range,
-                  "thickness at the ends of the colour map: LO HI (default: "
-                  "the values' range, widened to t_min)")
+                  "thickness at the ends of the colour map: LO HI, thicker in "
+                  "the overflow colour (default: 0 and 2 t_min)")
       ->expected(2)
       ->check(Interval(-kInf, kInf, true, true));
   AddMaxMissingFraction(app, &f->max_missing_fraction);

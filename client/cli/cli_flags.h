@@ -106,7 +106,7 @@ struct ReportFlags {
   std::vector<int> view_size = {500, 400};
   std::string up = "z";
   int bins = 40;
-  std::vector<double> color_range;  // empty: the values' range and t_min.
+  std::vector<double> color_range;  // empty: [0, 2 t_min].
   double max_missing_fraction = 0.5;
 };
 

@@ -1,8 +1,10 @@
 #include <iostream>
 
+#include "absl/strings/str_cat.h"
 #include "client/cli/backend.h"
 #include "client/cli/commands.h"
 #include "client/cli/summary.h"
+#include "lib/core/missing_values.h"
 #include "lib/core/stopwatch.h"
 #include "lib/io/mesh_io.h"
 
@@ -71,6 +73,15 @@ absl::Status RunSdf(const MeshInput& in, const BackendFactory& make) {
     std::cout << summary.dump() << "\n";
   } else {
     std::cout << SummaryText(summary);
+  }
+  // Nothing measured is an error, as grad, penalty and report make it:
+  // written and summarised first, so that the warnings say where.
+  if (!result->values.empty() &&
+      result->CountStatus(VertexStatus::kOk) == 0) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "no ", result->resolved.params.samples == SampleSet::kFaces ? "face"
+                                                                    : "vertex",
+        " has a value: ", LikelyMissingCause(mesh, result->Causes())));
   }
   return absl::OkStatus();
 }

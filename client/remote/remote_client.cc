@@ -56,7 +56,7 @@ std::string NewSessionId() {
 }
 
 RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
-    : options_(options) {
+    : options_(options), target_(target) {
   grpc::ChannelArguments args;
   if (options.retry) {
     args.SetServiceConfigJSON(v1::kServiceConfigJson);
@@ -77,6 +77,19 @@ RemoteClient::RemoteClient(const std::string& target, ClientOptions options)
   }
   channel_ = grpc::CreateCustomChannel(target, creds, args);
   stub_ = v1::MeshGauge::NewStub(channel_);
+}
+
+absl::Status RemoteClient::Checked(const grpc::Status& s) const {
+  absl::Status status = wire::FromGrpc(s);
+  if (status.code() != absl::StatusCode::kUnavailable) return status;
+  return absl::UnavailableError(absl::StrCat(
+      "the meshgauge server at ", target_,
+      " is unavailable (not running, unreachable, or refusing connections; "
+      "retried for about ",
+      static_cast<int>(std::min(options_.connect_timeout_seconds,
+                                options_.deadline_seconds) +
+                       5),
+      " s): ", status.message()));
 }
 
 std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
@@ -123,7 +136,7 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
                       return writer->Write(m);
                     });
   writer->WritesDone();
-  if (absl::Status s = wire::FromGrpc(writer->Finish()); !s.ok()) return s;
+  if (absl::Status s = Checked(writer->Finish()); !s.ok()) return s;
   return wire::FromWire(response.session());
 }
 
@@ -132,7 +145,7 @@ absl::StatusOr<wire::ServerInfo> RemoteClient::GetServerInfo() {
   v1::GetServerInfoRequest req;
   v1::GetServerInfoResponse resp;
   if (absl::Status s =
-          wire::FromGrpc(stub_->GetServerInfo(ctx.get(), req, &resp));
+          Checked(stub_->GetServerInfo(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
@@ -150,7 +163,7 @@ absl::StatusOr<bool> RemoteClient::Serving() {
   stub.UnaryCall(ctx.get(), "/grpc.health.v1.Health/Check", grpc::StubOptions(),
                  &request, &response,
                  [&done](grpc::Status s) { done.set_value(std::move(s)); });
-  if (absl::Status s = wire::FromGrpc(done.get_future().get()); !s.ok())
+  if (absl::Status s = Checked(done.get_future().get()); !s.ok())
     return s;
   std::vector<grpc::Slice> slices;
   if (!response.Dump(&slices).ok()) {
@@ -166,7 +179,7 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Get(const std::string& id) {
   v1::GetSessionRequest req;
   req.set_session_id(id);
   v1::GetSessionResponse resp;
-  if (absl::Status s = wire::FromGrpc(stub_->GetSession(ctx.get(), req, &resp));
+  if (absl::Status s = Checked(stub_->GetSession(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
@@ -182,7 +195,7 @@ absl::StatusOr<std::vector<wire::SessionInfo>> RemoteClient::List(
     auto ctx = Context("");
     v1::ListSessionsResponse resp;
     if (absl::Status s =
-            wire::FromGrpc(stub_->ListSessions(ctx.get(), req, &resp));
+            Checked(stub_->ListSessions(ctx.get(), req, &resp));
         !s.ok()) {
       return s;
     }
@@ -199,7 +212,7 @@ absl::Status RemoteClient::Delete(const std::string& id) {
   v1::DeleteSessionRequest req;
   req.set_session_id(id);
   v1::DeleteSessionResponse resp;
-  return wire::FromGrpc(stub_->DeleteSession(ctx.get(), req, &resp));
+  return Checked(stub_->DeleteSession(ctx.get(), req, &resp));
 }
 
 absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
@@ -213,7 +226,7 @@ absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
   wire::AppendFlattened(positions, dimension, req.mutable_positions());
   v1::UpdatePositionsResponse resp;
   if (absl::Status s =
-          wire::FromGrpc(stub_->UpdatePositions(ctx.get(), req, &resp));
+          Checked(stub_->UpdatePositions(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
@@ -273,7 +286,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdfOnce(
       parsed = wire::AppendChunk(msg.chunk(), &out);
     }
   }
-  if (absl::Status s = wire::FromGrpc(reader->Finish()); !s.ok()) return s;
+  if (absl::Status s = Checked(reader->Finish()); !s.ok()) return s;
   if (!parsed.ok()) return parsed;
   if (!summary) {
     return absl::DataLossError("ComputeSdf stream ended without its summary");
@@ -301,7 +314,7 @@ absl::StatusOr<wire::GradCheckReply> RemoteClient::GradCheck(
       progress(msg.progress().vertices_done(), msg.progress().vertices_total());
     }
   }
-  if (absl::Status s = wire::FromGrpc(reader->Finish()); !s.ok()) return s;
+  if (absl::Status s = Checked(reader->Finish()); !s.ok()) return s;
   if (!report) {
     return absl::DataLossError("GradCheck stream ended without its report");
   }
@@ -322,7 +335,7 @@ absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
   if (expected_generation) req.set_expected_generation(*expected_generation);
   req.mutable_weights()->Add(weights.begin(), weights.end());
   v1::ComputeVjpResponse resp;
-  if (absl::Status s = wire::FromGrpc(stub_->ComputeVjp(ctx.get(), req, &resp));
+  if (absl::Status s = Checked(stub_->ComputeVjp(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
@@ -342,7 +355,7 @@ absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenalty(
   if (expected_generation) req.set_expected_generation(*expected_generation);
   v1::ComputePenaltyResponse resp;
   if (absl::Status s =
-          wire::FromGrpc(stub_->ComputePenalty(ctx.get(), req, &resp));
+          Checked(stub_->ComputePenalty(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }
@@ -356,7 +369,7 @@ absl::StatusOr<CalibrationReport> RemoteClient::Calibrate(
   req.set_session_id(id);
   wire::ToWire(params, &req);
   v1::CalibrateResponse resp;
-  if (absl::Status s = wire::FromGrpc(stub_->Calibrate(ctx.get(), req, &resp));
+  if (absl::Status s = Checked(stub_->Calibrate(ctx.get(), req, &resp));
       !s.ok()) {
     return s;
   }

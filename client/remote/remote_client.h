@@ -150,7 +150,12 @@ class RemoteClient {
                                                 const SdfCall& call,
                                                 bool* started);
 
+  // The call's status; UNAVAILABLE names the target (no server, wrong
+  // address, refused connection).
+  absl::Status Checked(const grpc::Status& s) const;
+
   ClientOptions options_;
+  std::string target_;
   std::shared_ptr<grpc::Channel> channel_;
   std::unique_ptr<v1::MeshGauge::Stub> stub_;
 };

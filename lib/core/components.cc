@@ -11,6 +11,7 @@
 #include "absl/strings/str_join.h"
 #include "lib/core/bucket_sort.h"
 #include "lib/core/disjoint_sets.h"
+#include "lib/core/missing_values.h"
 #include "lib/core/nesting.h"
 
 namespace meshgauge {
@@ -244,17 +245,15 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
   // underflow double precision (subnormal or zero). The extent is the
   // largest side, not the diagonal, whose squares would underflow too.
   constexpr double kTinyExtent = 1e-150;
-  Vec3 lo = mesh.positions.empty() ? Vec3() : mesh.positions[0], hi = lo;
-  for (const Vec3& p : mesh.positions) {
-    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
-    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
-  }
-  if (const double extent = std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+  if (const double extent = BoundingExtent(mesh);
       extent > 0 && extent < kTinyExtent) {
     d.warnings.push_back(absl::StrCat(
         "the coordinates are tiny (bounding box ", extent,
         " across): squared lengths underflow double precision, so normals "
         "and areas degenerate (DEGENERATE_NORMAL); scale the mesh up"));
+  } else if (extent > 0 && extent < kMinTracedExtent) {
+    d.warnings.push_back(
+        absl::StrCat("the mesh is tiny: ", TooSmallToTrace(extent)));
   }
   if (d.boundary_edges > 0) {
     d.warnings.push_back(

@@ -308,6 +308,16 @@ double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces) {
   return sum;
 }
 
+double BoundingExtent(const Mesh& mesh) {
+  if (mesh.positions.empty()) return 0;
+  Vec3 lo = mesh.positions[0], hi = lo;
+  for (const Vec3& p : mesh.positions) {
+    lo = {std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+    hi = {std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+  }
+  return std::max({hi.x - lo.x, hi.y - lo.y, hi.z - lo.z});
+}
+
 double SignedVolume(const Mesh& mesh) {
   std::vector<int32_t> all(mesh.faces.size());
   for (size_t f = 0; f < all.size(); ++f) all[f] = static_cast<int32_t>(f);

@@ -99,6 +99,10 @@ int64_t DropDegenerateFaces(Mesh& mesh);
 // faces point outward. Meaningful only for closed 3D meshes; 2D: the signed
 // area enclosed by the segments (positive for counter-clockwise curves).
 double SignedVolume(const Mesh& mesh);
+
+// The largest side of the vertices' axis-aligned bounding box (0 for no
+// vertex; non-finite coordinates make it non-finite).
+double BoundingExtent(const Mesh& mesh);
 // The same over a subset of faces (a connected component).
 double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces);
 

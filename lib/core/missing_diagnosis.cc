@@ -32,6 +32,7 @@ std::string Cause(const Mesh& mesh, const Component& c,
                   const ComponentMissing& m, bool inconsistent,
                   double diagonal) {
   const double span = Norm(m.box.hi - m.box.lo);
+  if (span > 0 && span < kMinTracedExtent) return TooSmallToTrace(span);
   if (span < kUnresolvedShare * diagonal) {
     return absl::StrFormat(
         "it spans %.3g while the mesh spans %.3g, where the ray tracer's "

@@ -50,7 +50,20 @@ MissingValues CountMissingFaces(const Mesh& mesh,
   return m;
 }
 
+std::string TooSmallToTrace(double extent) {
+  return absl::StrFormat(
+      "it is %.3g across, below the %.0e the ray tracer resolves: its "
+      "single-precision intersection tests underflow there and rays lose "
+      "their hits (NO_HIT); scale the mesh up (e.g. to millimetres or "
+      "micrometres)",
+      extent, kMinTracedExtent);
+}
+
 std::string LikelyMissingCause(const Mesh& mesh, const MissingCauses& causes) {
+  if (const double extent = BoundingExtent(mesh);
+      extent > 0 && extent < kMinTracedExtent) {
+    return absl::StrCat("the mesh is tiny: ", TooSmallToTrace(extent));
+  }
   const bool closed = IsClosed(mesh);
   if (closed && SignedVolume(mesh) < 0) {
     return "the mesh is closed with a negative signed volume, so its faces "

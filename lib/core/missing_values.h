@@ -43,6 +43,16 @@ inline constexpr char kCornerRaysLost[] =
     "along its own normal, as CAD parts need), refine the mesh there, or "
     "widen the cone (--cone-angle 60) so that some rays stay inside";
 
+// Below this bounding-box extent (mesh units) the ray tracer's
+// single-precision intersection tests underflow (products of three
+// coordinates fall under float's smallest normal, about 1e-38, and are
+// flushed to zero): rays find no hits. Measured: a sphere 2e-14 across is
+// measured, one 2e-15 across gets no value; the limit keeps a margin.
+inline constexpr double kMinTracedExtent = 1e-12;
+
+// The sentence that names that cause for a part `extent` across.
+std::string TooSmallToTrace(double extent);
+
 // A one-sentence likely cause of missing values: inward orientation
 // (negative signed volume of a closed mesh: reorient), a double-sided mesh
 // (most missing vertices have a degenerate normal), edges shared by more

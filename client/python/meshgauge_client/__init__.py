@@ -18,16 +18,18 @@ from meshgauge_client.errors import (AbortedError, AlreadyExistsError,
                                      NotFoundError, OutOfRangeError,
                                      PermissionDeniedError,
                                      ResourceExhaustedError,
+                                     SessionClosedError,
                                      UnauthenticatedError, UnavailableError,
                                      UnimplementedError, UnknownError)
 from meshgauge_client.results import (Calibration, GradCheckReport,
                                       GradCheckRow, MeshData, PenaltyResult,
                                       SdfResult,
                                       SdfSummary, ServerInfo, SessionInfo,
-                                      ThinRegion,
+                                      ThicknessCheck, ThinRegion,
                                       ThinSurface, VertexStatus)
 from meshgauge_client.options import SdfOptions
 from meshgauge_client.session import Session
+from meshgauge_client import thickness
 
 from meshgauge_client._version import __version__  # noqa: E402
 
@@ -40,9 +42,9 @@ __all__ = [
     "OutOfRangeError", "PenaltyResult",
     "PermissionDeniedError", "ResourceExhaustedError", "SESSION_KEY",
     "SdfOptions", "SdfResult", "SdfSummary", "ServerInfo", "Session",
-    "SessionInfo",
+    "SessionClosedError", "SessionInfo", "ThicknessCheck",
     "ThinRegion",
     "ThinSurface",
     "UnauthenticatedError", "UnavailableError", "UnimplementedError",
-    "UnknownError", "VertexStatus", "mesh_crc32",
+    "UnknownError", "VertexStatus", "mesh_crc32", "thickness",
 ]

@@ -22,7 +22,7 @@ so none is dropped), so face samples need no mapping.
 """
 
 from dataclasses import dataclass
-from typing import Any, List, Optional, Sequence, Tuple
+from typing import Any, List, Optional, Tuple
 
 import math
 
@@ -69,7 +69,7 @@ class WeldMap:
         return int(self.first.size)
 
 
-def weld_map(welded: Sequence[int], session_vertices: int,
+def weld_map(welded: Any, session_vertices: int,
              uploaded: Optional[int] = None) -> WeldMap:
     """The WeldMap of the server's welded_vertex for a session of
     `session_vertices` vertices (and `uploaded` vertices sent, when known).
@@ -107,8 +107,8 @@ def sum_weights(per_uploaded: Any, m: WeldMap) -> FloatArray:
     if g.shape != (m.uploaded,):
         raise ValueError(f"weights must have one entry per uploaded vertex "
                          f"({m.uploaded}), got shape {g.shape}")
-    out: FloatArray = np.bincount(m.vertex, weights=g, minlength=m.session)
-    return out
+    out = np.bincount(m.vertex, weights=g, minlength=m.session)
+    return np.asarray(out, dtype=np.float64)
 
 
 def scatter_gradient(per_session: Any, m: WeldMap) -> FloatArray:

@@ -178,11 +178,11 @@ def mesh_data(r: Any) -> MeshData:
                     r.generation)
 
 
-def session_info(s: Any) -> SessionInfo:
+def session_info(s: Any, welded_vertex: Optional[Any] = None) -> SessionInfo:
     return SessionInfo(s.session_id, s.dimension, s.num_vertices, s.num_faces,
                        s.generation, s.memory_bytes, s.bvh_builds,
                        s.bvh_refits, s.idle_seconds, s.signed_volume, s.closed,
-                       tuple(s.warnings))
+                       tuple(s.warnings), welded_vertex)
 
 
 def summary(s: Any) -> SdfSummary:

@@ -11,8 +11,10 @@ then raises UnavailableError naming the target. Welded uploads
 (``weld=``) keep the caller's vertex indexing in every result (_weld).
 """
 
+import dataclasses
 import json
 import os
+import socket
 import stat
 import warnings
 import time
@@ -28,8 +30,9 @@ import scipy.sparse
 from meshgauge_client import _weld, _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
-from meshgauge_client.errors import (DataLossError, MeshGaugeError,
-                                     MissingValuesWarning, UnavailableError,
+from meshgauge_client.errors import (DataLossError, InvalidArgumentError,
+                                     MeshGaugeError, MissingValuesWarning,
+                                     ResourceExhaustedError, UnavailableError,
                                      from_rpc_error)
 from meshgauge_client.options import SdfOptions
 from meshgauge_client.results import (Calibration, FloatArray,
@@ -92,6 +95,13 @@ def _last_bytes(text: str, n: int) -> str:
     return text.encode("utf-8", "replace")[-n:].decode("utf-8", "ignore")
 
 
+def _with_path(error: OSError, path: str) -> OSError:
+    """`error` (from stat or open) naming `path` in its message."""
+    if error.filename is not None:
+        return error
+    return type(error)(error.errno, error.strerror or str(error), path)
+
+
 def _read(path: str) -> bytes:
     """The file's bytes (OSError as open() raises it)."""
     with open(path, "rb") as f:
@@ -105,10 +115,11 @@ class MeshGaugeClient:
     MESHGAUGE_TOKEN environment variable). tls_ca_file: TLS, trusting that
     PEM CA; tls_cert_file and tls_key_file add a client certificate (mutual
     TLS). deadline: seconds per call. retry_seconds: how long a call keeps
-    retrying UNAVAILABLE (a restarting server) before it fails;
-    connect_seconds: the same while the server has never answered this
-    client (a wrong address, no server), at most retry_seconds. The failure
-    is an UnavailableError naming the target.
+    retrying UNAVAILABLE or waiting for a connection (a restarting server)
+    before it fails; connect_seconds: the same while the server has never
+    answered this client (a wrong address, no server), and the least a
+    call waits for a connection. The failure is an UnavailableError naming
+    the target and why (connection refused, ...).
     """
 
     def __init__(self, target: str, token: Optional[str] = None, *,
@@ -147,8 +158,11 @@ class MeshGaugeClient:
         self._chunk = chunk
         self._target = target
         self._retry_seconds = retry_seconds
-        self._connect_seconds = min(connect_seconds, retry_seconds)
+        self._connect_seconds = connect_seconds
         self._answered = False  # has the server ever answered a call?
+        # The channel's connectivity, kept by gRPC's callback.
+        self._state: Any = None
+        self._channel.subscribe(self._on_state, try_to_connect=False)
         # Per session: its dimension and vertex count (fixed at upload).
         self._shapes: "dict[str, Tuple[int, int]]" = {}
         # Per welded session: its map between uploaded and session vertices.
@@ -157,6 +171,7 @@ class MeshGaugeClient:
         self._asked_server_info = False
 
     def close(self) -> None:
+        self._channel.unsubscribe(self._on_state)
         self._channel.close()
 
     def __enter__(self) -> "MeshGaugeClient":
@@ -174,17 +189,47 @@ class MeshGaugeClient:
     def target(self) -> str:
         return self._target
 
+    def _on_state(self, state: Any) -> None:
+        self._state = state
+
+    def _wait_ready(self, timeout: float) -> bool:
+        """Waits up to `timeout` seconds for the channel to be READY (asking
+        it to connect); False when it is not."""
+        if self._state == grpc.ChannelConnectivity.READY:
+            return True
+        if timeout <= 0:
+            return False
+        ready = grpc.channel_ready_future(self._channel)
+        try:
+            ready.result(timeout=timeout)
+            return True
+        except grpc.FutureTimeoutError:
+            ready.cancel()
+            return False
+
     def _retrying(self, call: Callable[[], T]) -> T:
-        """Runs call(), retrying UNAVAILABLE with backoff for retry_seconds
-        (connect_seconds while the server never answered; the channel's own
-        retries cover short blips, this covers a restart), then raises
-        UnavailableError naming the target."""
+        """Runs call() once the channel is ready, retrying UNAVAILABLE with
+        backoff; gives up retry_seconds after the start (connect_seconds
+        while the server never answered this client) with an
+        UnavailableError naming the target. Each call may wait
+        connect_seconds for a connection however small retry_seconds is.
+        Calls never wait for readiness inside gRPC (wait_for_ready=False),
+        which would hold them for the whole deadline."""
         start = time.monotonic()
         budget = (self._retry_seconds if self._answered
                   else self._connect_seconds)
+        stop = start + budget
         delay = 0.05
         attempts = 0
         while True:
+            if self._state != grpc.ChannelConnectivity.READY:
+                wait = stop - time.monotonic()
+                if attempts == 0:
+                    wait = max(wait, self._connect_seconds)
+                if not self._wait_ready(wait):
+                    raise self._unavailable(
+                        f"no connection within {time.monotonic() - start:.1f}"
+                        f" s{self._budget_note(budget)}{self._diagnosis()}")
             attempts += 1
             try:
                 result = call()
@@ -194,26 +239,44 @@ class MeshGaugeClient:
                 if e.code() != grpc.StatusCode.UNAVAILABLE:
                     self._answered = True
                     raise from_rpc_error(e) from None
-                if time.monotonic() + delay > start + budget:
-                    raise self._unavailable(e, attempts, budget,
-                                            time.monotonic() - start) from None
+                if time.monotonic() + delay > stop:
+                    raise self._unavailable(
+                        f"UNAVAILABLE {attempts} time"
+                        f"{'' if attempts == 1 else 's'} in "
+                        f"{time.monotonic() - start:.1f} s"
+                        f"{self._budget_note(budget)}; last error: "
+                        f"{e.details() or ''}") from None
             time.sleep(delay)
             delay = min(2 * delay, 1.0)
 
-    def _unavailable(self, error: grpc.RpcError, attempts: int,
-                     budget: float, seconds: float) -> UnavailableError:
-        """The error of a call that stayed UNAVAILABLE for its budget."""
-        details = error.details() or ""
-        refused = (" (connection refused)" if "refused" in details.lower()
-                   else "")
-        never = ("" if self._answered else
-                 ", connect_seconds: it never answered this client")
+    def _diagnosis(self) -> str:
+        """Why a plain host:port target does not connect (one TCP connect,
+        at most 1 s): "; connection refused", ...; "" for other targets."""
+        host, sep, port = self._target.rpartition(":")
+        if not sep or not port.isdigit() or "/" in host:
+            return ""
+        host = host.strip("[]")
+        try:
+            with socket.create_connection((host, int(port)), timeout=1.0):
+                return "; TCP connects (a TLS or HTTP/2 handshake fails?)"
+        except ConnectionRefusedError:
+            return f"; connection refused by {self._target}"
+        except socket.timeout:
+            return f"; no answer from {self._target} within 1 s"
+        except OSError as e:
+            return f"; {e.strerror or e}"
+
+    def _budget_note(self, budget: float) -> str:
+        if self._answered:
+            return f" (retry_seconds={budget:g})"
+        return (f" (connect_seconds={self._connect_seconds:g}: it never "
+                "answered this client)")
+
+    def _unavailable(self, why: str) -> UnavailableError:
+        """The error of a call without a reply within its budget."""
         return UnavailableError(
             grpc.StatusCode.UNAVAILABLE,
-            f"the server at {self._target} is unavailable{refused}: "
-            f"{attempts} attempt{'s' if attempts > 1 else ''} in "
-            f"{seconds:.1f} s (retry budget {budget:g} s{never}); last "
-            f"error: {details}")
+            f"the server at {self._target} is unavailable: {why}")
 
     def _call(self, method: Any, request: Any, session_id: str = "",
               read: Optional[Callable[[Any], Any]] = None) -> Any:
@@ -276,7 +339,8 @@ class MeshGaugeClient:
                regions: Optional[Sequence[int]] = None,
                outward_regions: Sequence[int] = (), *,
                reorient: bool = False,
-               drop_degenerate_faces: bool = False) -> SessionInfo:
+               drop_degenerate_faces: bool = False,
+               weld: "bool | float" = False) -> SessionInfo:
         """Creates a session from vertices (N, d) and faces; returns its
         SessionInfo. session_id: [A-Za-z0-9._-]{1,64}; None generates a
         UUID-based one (every call then carries its routing key). regions:
@@ -285,7 +349,11 @@ class MeshGaugeClient:
         by the server. reorient: make each component's faces agree, then
         turn closed components outward; drop_degenerate_faces: remove
         zero-area faces (as the CLI's flags; SessionInfo.warnings says what
-        changed)."""
+        changed). weld: merge duplicate vertices first (True: exact
+        duplicates; a number: within that fraction of the bounding box's
+        diagonal, at most 0.01); every later call of this client on the
+        session keeps the uploaded vertices' indexing
+        (SessionInfo.welded_vertex maps them to the session's)."""
         v = _wire.points(vertices, "vertices")
         dim = v.shape[1]
         face_list = _wire.faces_list(faces, dim)
@@ -294,7 +362,7 @@ class MeshGaugeClient:
                              f"({len(face_list)}), got {len(regions)}")
         header = self._header(
             session_id, outward_regions, reorient, drop_degenerate_faces,
-            dimension=dim, num_vertices=len(v), num_faces=len(face_list),
+            weld, dimension=dim, num_vertices=len(v), num_faces=len(face_list),
             num_face_indices=sum(len(f) for f in face_list))
         crc = mesh_crc32(v, face_list, regions)
 
@@ -322,30 +390,38 @@ class MeshGaugeClient:
 
         footer = pb.CreateSessionRequest.Footer(
             num_vertices=len(v), num_faces=len(face_list), crc32=crc)
-        return self._create(header, chunks, footer)
+        return self._create(header, chunks, footer, len(v))
 
     def upload_file(self, path: "str | os.PathLike[str]",
                     session_id: Optional[str] = None,
                     outward_regions: Sequence[int] = (), *,
                     reorient: bool = False,
-                    drop_degenerate_faces: bool = False) -> SessionInfo:
+                    drop_degenerate_faces: bool = False,
+                    weld: "bool | float" = False) -> SessionInfo:
         """Creates a session from a mesh file (.obj .off .ply .stl), read by
         the server's readers exactly as the CLI reads it (BOM, polygons,
         regions from OBJ groups); returns its SessionInfo, whose warnings
         name what the reader and the repairs did. The file may be at most
         the server's max_upload_file_bytes (ServerInfo); it is checked, as a
-        regular file, before it is read."""
+        regular file, before it is read. Every error about the file (local
+        checks, the server's INVALID_ARGUMENT and RESOURCE_EXHAUSTED) names
+        its path. weld: as upload() (the file's vertices are the uploaded
+        ones)."""
         name, data = self._read_mesh_file(path)
         return self.upload_file_bytes(
             name, data, session_id, outward_regions, reorient=reorient,
-            drop_degenerate_faces=drop_degenerate_faces)
+            drop_degenerate_faces=drop_degenerate_faces, weld=weld)
 
     def _read_mesh_file(self, path: "str | os.PathLike[str]"
                         ) -> Tuple[str, bytes]:
-        """(the file's name, its bytes), checked before reading."""
+        """(the file's path, its bytes), checked before reading; every error
+        names the path."""
         path = os.fspath(path)
         _format_of(path)
-        st = os.stat(path)
+        try:
+            st = os.stat(path)
+        except OSError as e:
+            raise _with_path(e, path) from None
         if not stat.S_ISREG(st.st_mode):
             raise ValueError(f"{path}: not a regular file")
         if st.st_size == 0:
@@ -356,20 +432,26 @@ class MeshGaugeClient:
                 f"{path}: {st.st_size} bytes exceed this server's limit of "
                 f"{info.max_upload_file_bytes} bytes for a file "
                 "(--max_upload_file_bytes, or 1/8 of its memory budget)")
-        return os.path.basename(path), _read(path)
+        try:
+            return path, _read(path)
+        except OSError as e:
+            raise _with_path(e, path) from None
 
     def upload_file_bytes(self, name: str, data: bytes,
                           session_id: Optional[str] = None,
                           outward_regions: Sequence[int] = (), *,
                           reorient: bool = False,
-                          drop_degenerate_faces: bool = False) -> SessionInfo:
-        """upload_file() of a file's bytes; `name` gives the format by its
-        extension and names the file in the server's messages."""
+                          drop_degenerate_faces: bool = False,
+                          weld: "bool | float" = False) -> SessionInfo:
+        """upload_file() of a file's bytes; `name` (a path or a file name)
+        gives the format by its extension and names the file in the
+        server's messages (its last 256 bytes) and in every error about
+        the file."""
         fmt = _format_of(name)
         if not data:
             raise ValueError(f"{name}: the file is empty")
         header = self._header(session_id, outward_regions, reorient,
-                              drop_degenerate_faces, file_format=fmt,
+                              drop_degenerate_faces, weld, file_format=fmt,
                               file_bytes=len(data), file_name=_last_bytes(name, 256))
         step = max(self._chunk * 8, 1 << 16)
 
@@ -379,22 +461,34 @@ class MeshGaugeClient:
 
         footer = pb.CreateSessionRequest.Footer(
             crc32=zlib.crc32(data) & 0xFFFFFFFF)
-        return self._create(header, chunks, footer)
+        try:
+            return self._create(header, chunks, footer)
+        except (InvalidArgumentError, ResourceExhaustedError) as e:
+            # The server names the file by the (possibly cut) name sent; a
+            # message about the mesh it read may not name it at all.
+            if name in e.details:
+                raise
+            raise type(e)(e.code, f"{name}: {e.details}") from None
 
     def _header(self, session_id: Optional[str],
                 outward_regions: Sequence[int], reorient: bool,
-                drop_degenerate_faces: bool, **fields: Any) -> Any:
+                drop_degenerate_faces: bool, weld: "bool | float",
+                **fields: Any) -> Any:
         sid = session_id if session_id is not None else f"py-{uuid.uuid4().hex}"
+        welding, tolerance = _weld.options(weld)
         return pb.CreateSessionRequest.Header(
             session_id=sid, reorient=reorient,
             drop_degenerate_faces=drop_degenerate_faces,
+            weld=welding, weld_tolerance=tolerance,
             region_directions=[pb.RegionDirection(
                 region=r, direction=pb.CONE_DIRECTION_OUTWARD)
                 for r in outward_regions], **fields)
 
     def _create(self, header: Any, chunks: Callable[[], Iterator[Any]],
-                footer: Any) -> SessionInfo:
-        """Streams header, chunks and footer (again on each retry)."""
+                footer: Any, uploaded: Optional[int] = None) -> SessionInfo:
+        """Streams header, chunks and footer (again on each retry); keeps
+        the weld map of a welded upload (of `uploaded` vertices, when
+        known)."""
         def requests() -> Iterator[Any]:
             yield pb.CreateSessionRequest(header=header)
             for chunk in chunks():
@@ -428,13 +522,15 @@ class MeshGaugeClient:
                 regions: Optional[Sequence[int]] = None,
                 outward_regions: Sequence[int] = (), *,
                 reorient: bool = False,
-                drop_degenerate_faces: bool = False) -> "Session":
+                drop_degenerate_faces: bool = False,
+                weld: "bool | float" = False) -> "Session":
         """Uploads the mesh and returns a Session (a context manager that
         deletes it on exit and re-creates it if the server lost it).
         vertices and faces are arrays, or `vertices` is a mesh object and
         faces is omitted: trimesh (.vertices, .faces), Open3D (.vertices,
         .triangles) or meshio (.points, .cells); polygons included. The
-        keyword options are upload()'s."""
+        keyword options are upload()'s; with weld, the Session's positions,
+        values and gradients stay one per vertex given."""
         from meshgauge_client.session import Session
         if faces is None:
             vertices, faces = _wire.mesh_arrays(vertices)
@@ -445,7 +541,8 @@ class MeshGaugeClient:
         def create(sid: Optional[str]) -> SessionInfo:
             return self.upload(v, face_list, sid, region_list, outward_regions,
                                reorient=reorient,
-                               drop_degenerate_faces=drop_degenerate_faces)
+                               drop_degenerate_faces=drop_degenerate_faces,
+                               weld=weld)
 
         # The server's mesh differs from the arrays when polygons were
         # triangulated or a repair changed faces: it is fetched then.
@@ -458,18 +555,21 @@ class MeshGaugeClient:
                           session_id: Optional[str] = None,
                           outward_regions: Sequence[int] = (), *,
                           reorient: bool = False,
-                          drop_degenerate_faces: bool = False) -> "Session":
+                          drop_degenerate_faces: bool = False,
+                          weld: "bool | float" = False) -> "Session":
         """upload_file() as a Session; its positions and faces are the
-        server's reading of the file (fetched once with mesh()). The file's
-        bytes are kept: a session the server lost is re-created from them,
-        whatever happened to the file since."""
+        server's reading of the file (fetched once with mesh(); with weld,
+        one position per vertex of the file, each face's corners the
+        lowest-numbered copies). The file's bytes are kept: a session the
+        server lost is re-created from them, whatever happened to the file
+        since. Every error about the file names its path."""
         from meshgauge_client.session import Session
         name, data = self._read_mesh_file(path)
 
         def create(sid: Optional[str]) -> SessionInfo:
             return self.upload_file_bytes(
                 name, data, sid, outward_regions, reorient=reorient,
-                drop_degenerate_faces=drop_degenerate_faces)
+                drop_degenerate_faces=drop_degenerate_faces, weld=weld)
 
         return Session(self, create, session_id)
 
@@ -502,20 +602,37 @@ class MeshGaugeClient:
         self._call(self._stub.DeleteSession,
                    pb.DeleteSessionRequest(session_id=session_id), session_id)
         self._shapes.pop(session_id, None)
+        self._welds.pop(session_id, None)
+
+    def weld_map(self, session_id: str) -> Optional[_weld.WeldMap]:
+        """The map between the uploaded and the session's vertices of a
+        session this client uploaded welded (None when nothing merged)."""
+        return self._welds.get(session_id)
 
     def update_positions(self, session_id: str, positions: Any,
                          expected_generation: int,
                          indices: Optional[Sequence[int]] = None) -> int:
         """Moves all vertices ((N, d) positions) or those of ``indices``;
         returns the new generation. AbortedError when the session is not at
-        expected_generation (another writer moved it)."""
+        expected_generation (another writer moved it). A welded session
+        takes one position per uploaded vertex (indices of uploaded
+        vertices) and moves each of its vertices to the position of its
+        lowest-numbered copy; the other copies' positions are not sent."""
         p = _wire.points(positions, "positions",
                          len(indices) if indices is not None else None)
+        listed = (None if indices is None else
+                  _wire._indices(np.asarray(indices).ravel(), "indices"))
+        m = self._welds.get(session_id)
+        if m is not None:
+            if listed is None:
+                p = _weld.gather_positions(p, m)
+            else:
+                listed, p = _weld.session_update(listed, p, m)
         req = pb.UpdatePositionsRequest(
             session_id=session_id, expected_generation=int(expected_generation),
             positions=p.ravel())
-        if indices is not None:
-            req.indices.extend(int(i) for i in indices)
+        if listed is not None:
+            req.indices.extend(int(i) for i in listed)
         return int(self._call(self._stub.UpdatePositions, req,
                               session_id).generation)
 
@@ -526,7 +643,11 @@ class MeshGaugeClient:
         """SDF per vertex, or per face with samples="faces" (SdfResult).
         params: options=SdfOptions(...), or its fields as keywords (method,
         cone_angle_degrees, rays, kappa, max_distance, normals, samples; the
-        CLI's flags). jacobian=True adds the sparse Jacobian (N, V*d)."""
+        CLI's flags). jacobian=True adds the sparse Jacobian (N, V*d).
+        Welded session: one vertex sample per uploaded vertex (each its
+        session vertex's; the summary counts the session's vertices), the
+        Jacobian's columns those of the uploaded vertices (a session
+        vertex's at its lowest-numbered copy)."""
         wire_params = self._params(params)
         faces = wire_params.samples == pb.SAMPLE_SET_FACES
         req = pb.ComputeSdfRequest(session_id=session_id, params=wire_params,
@@ -614,22 +735,45 @@ class MeshGaugeClient:
 
         result: SdfResult = self._call(self._stub.ComputeSdf, req, session_id,
                                        stream)
-        return result
+        m = self._welds.get(session_id)
+        if m is None:
+            return result
+        d = self._dim(session_id)
+        jac = (None if result.jacobian is None else
+               _weld.jacobian(result.jacobian, m, d, vertex_rows=not faces))
+        if faces:
+            return dataclasses.replace(result, jacobian=jac)
+        return dataclasses.replace(
+            result, values=_weld.expand(result.values, m),
+            status=_weld.expand(result.status, m),
+            hits=_weld.expand(result.hits, m),
+            kept=_weld.expand(result.kept, m),
+            normalized=_weld.expand(result.normalized, m), jacobian=jac,
+            opposite=None if result.opposite is None
+            else _weld.expand(result.opposite, m))
 
     def vjp(self, session_id: str, weights: Any, *,
             expected_generation: Optional[int] = None,
             **params: Any) -> FloatArray:
         """g^T dSDF/dx for weights g (N,), one per sample (vertex, or face
-        with samples="faces"): a (V, d) array, one row per vertex."""
+        with samples="faces"): a (V, d) array, one row per vertex. Welded
+        session: one weight per uploaded vertex (summed onto its session
+        vertex), and each session vertex's row at its lowest-numbered
+        uploaded vertex (zeros at the other copies)."""
         g = np.asarray(weights, dtype=np.float64)
         if g.ndim != 1 or not np.all(np.isfinite(g)):
             raise ValueError("weights must be a finite (N,) array")
+        wire_params = self._params(params)
+        m = self._welds.get(session_id)
+        if m is not None and wire_params.samples != pb.SAMPLE_SET_FACES:
+            g = _weld.sum_weights(g, m)
         req = pb.ComputeVjpRequest(session_id=session_id,
-                                   params=self._params(params), weights=g)
+                                   params=wire_params, weights=g)
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputeVjp, req, session_id)
-        return _wire.flat(resp.gradient, self._dim(session_id))
+        out = _wire.flat(resp.gradient, self._dim(session_id))
+        return out if m is None else _weld.scatter_gradient(out, m)
 
     def penalty(self, session_id: str, t_min: float, *, form: str = "one-sided",
                 power: float = 2.0, rho: float = 50.0,
@@ -642,6 +786,13 @@ class MeshGaugeClient:
         or the aggregated KS constraint (form "ks", rho > 0), with its
         gradient (N, d). FailedPreconditionError when faces without values
         cover more than max_missing_fraction of the surface.
+
+        samples="faces" (in params) integrates the face samples (each
+        face's value constant on it, SPEC v2 §5c) instead of the vertex
+        values interpolated linearly; the gradient stays one row per vertex.
+        Welded session: the gradient's row of a session vertex is at its
+        lowest-numbered uploaded vertex (zeros at the other copies), and
+        thin regions' min_vertex are uploaded vertices.
 
         thin_regions: also PenaltyResult.thin, where the surface is thinner
         than t_min (ThinSurface; the max_thin_regions largest regions,
@@ -669,13 +820,34 @@ class MeshGaugeClient:
         if expected_generation is not None:
             req.expected_generation = expected_generation
         resp = self._call(self._stub.ComputePenalty, req, session_id)
-        return _wire.penalty(resp, self._dim(session_id), form, t,
-                             thin_regions)
+        result = _wire.penalty(resp, self._dim(session_id), form, t,
+                               thin_regions)
+        m = self._welds.get(session_id)
+        if m is None:
+            return result
+        thin = result.thin
+        if thin is not None:
+            thin = dataclasses.replace(
+                thin, min_vertex=_weld.uploaded_vertex(thin.min_vertex, m),
+                regions=[dataclasses.replace(
+                    r, min_vertex=_weld.uploaded_vertex(r.min_vertex, m))
+                    for r in thin.regions])
+        return dataclasses.replace(
+            result, thin=thin, gradient=None if result.gradient is None
+            else _weld.scatter_gradient(result.gradient, m))
 
     def constraint(self, session_id: str, t_min: float, *, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:
         """The aggregated constraint G (penalty with form "ks"): bound it by
-        0 in the optimiser."""
+        0 in the optimiser. samples="faces" aggregates the face samples.
+
+        G <= 0 is an area mean: it still allows the thinnest spot to be
+        thinner than t_min by up to t_min ln(1/a)/rho, a the thin spot's
+        share of the surface (rho = 50, one face of 400: 12 %). For a
+        margin that holds, constrain at ks_t_min(t_min, rho, a_min) (module
+        meshgauge_client.thickness; with face samples every face's value is
+        then >= t_min), or check the result with
+        Session.check_thickness(t_min) and raise t_min by its ratio."""
         return self.penalty(session_id, t_min, form="ks", rho=rho, **kwargs)
 
     def calibrate(self, session_id: str, t_min: float, *,
@@ -729,12 +901,14 @@ class MeshGaugeClient:
                                     lo_open=True),
             min_clean_fraction=_wire._number(
                 "min_clean_fraction", min_clean_fraction, 0, 1))
+        m = self._welds.get(session_id)
         if vertices is not None:
             listed = _wire._indices(np.asarray(vertices).ravel(), "vertices")
             if listed.size > 1000:
                 raise ValueError("at most 1000 vertices, got "
                                  f"{listed.size}")
-            req.vertices.extend(int(v) for v in listed)
+            req.vertices.extend([int(v) for v in listed] if m is None
+                                else _weld.session_vertices(listed, m))
         if penalty is not None:
             p = dict(penalty)
             req.penalty.t_min = _wire._number("t_min", p.pop("t_min", 0), 0,
@@ -766,7 +940,21 @@ class MeshGaugeClient:
 
         result: GradCheckReport = self._call(self._stub.GradCheck, req,
                                              session_id, read)
-        return result
+        if m is None:
+            return result
+        weld = m
+        vertex_rows = req.params.samples != pb.SAMPLE_SET_FACES
+
+        def row(r: Any) -> Any:
+            return dataclasses.replace(
+                r, vertex=_weld.uploaded_vertex(r.vertex, weld),
+                row=_weld.uploaded_vertex(r.row, weld) if vertex_rows
+                else r.row)
+
+        return dataclasses.replace(
+            result, rows=[row(r) for r in result.rows],
+            penalty_rows=[row(r) for r in result.penalty_rows],
+            vjp_rows=[row(r) for r in result.vjp_rows])
 
 
 __all__ = ["MeshGaugeClient", "MeshGaugeError", "mesh_crc32", "SESSION_KEY"]

@@ -255,3 +255,25 @@ class SessionInfo:
     signed_volume: float
     closed: bool
     warnings: Tuple[str, ...] = field(default_factory=tuple)
+    # A welded upload's map (CreateSessionResponse.welded_vertex): the
+    # session vertex of each uploaded vertex; None when nothing merged (or
+    # not from an upload). num_vertices counts the session's vertices.
+    welded_vertex: Optional[IntArray] = field(default=None, compare=False)
+
+
+@dataclass(frozen=True)
+class ThicknessCheck:
+    """The final check of a minimum-thickness optimisation
+    (Session.check_thickness, thickness.check): `measured` is the
+    `quantile` of the values with a value (0: the minimum), `missing` the
+    samples without one; ok when none is missing and measured >= t_min.
+    ratio = t_min / measured when short (else 1): the factor to raise the
+    constraint's t_min by before running the optimiser again."""
+
+    t_min: float
+    quantile: float
+    measured: float
+    missing: int
+    ok: bool
+    ratio: float
+    samples: str = "vertices"

@@ -10,7 +10,12 @@ and when the server lost the session (restarted, evicted) it re-creates it
 transparently: re-upload the original mesh, re-apply the latest positions
 (so results stay bit-identical to an undisturbed run), and retry the call.
 UNAVAILABLE is retried with backoff by the client. The session is deleted on
-exit.
+exit; a closed Session refuses every call (SessionClosedError) rather than
+re-create itself.
+
+A welded session (weld=...) speaks the uploaded vertices' indexing:
+positions, values and gradients have one row per uploaded vertex (see
+meshgauge_client._weld).
 """
 
 import contextlib
@@ -18,12 +23,12 @@ from typing import Any, Callable, Optional, Tuple, TypeVar
 
 import scipy.sparse
 
-from meshgauge_client import _wire
+from meshgauge_client import _weld, _wire, thickness
 from meshgauge_client.client import MeshGaugeClient
-from meshgauge_client.errors import NotFoundError
+from meshgauge_client.errors import NotFoundError, SessionClosedError
 from meshgauge_client.results import (Calibration, FloatArray,
                                       GradCheckReport, PenaltyResult,
-                                      SdfResult, SessionInfo)
+                                      SdfResult, SessionInfo, ThicknessCheck)
 
 T = TypeVar("T")
 
@@ -32,8 +37,11 @@ class Session:
     """A server-side session (see the module docstring). Made by
     MeshGaugeClient.session() or session_from_file(): `create(session_id)`
     uploads the mesh (again when the server lost it); `mesh` is its
-    (vertices, faces) as the server holds them, or None to ask the server
-    (GetMesh) once it is created."""
+    (vertices, faces) as the caller gave them (the uploaded vertices), or
+    None to ask the server (GetMesh) once it is created.
+
+    After close() (or the end of its ``with`` block) every call raises
+    SessionClosedError; positions and faces stay readable."""
 
     def __init__(self, client: MeshGaugeClient,
                  create: Callable[[Optional[str]], SessionInfo],
@@ -48,6 +56,7 @@ class Session:
         # What the reader, the repairs and the diagnostics said at upload.
         self.warnings: Tuple[str, ...] = info.warnings
         self.recreated = 0  # how often the server lost it and it came back.
+        self._closed = False
         if mesh is None:
             try:
                 data = client.mesh(self.session_id)
@@ -56,19 +65,36 @@ class Session:
                     self.close()
                 raise
             mesh = (data.vertices, data.faces)
+            weld = client.weld_map(self.session_id)
+            if weld is not None:  # the server's mesh in the upload's indexing.
+                mesh = _weld.uploaded_mesh(mesh[0], mesh[1], weld)
         self._original = mesh[0].copy()
         self._faces = list(mesh[1])
         self._positions = self._original.copy()
         self._moved = False
 
     def __enter__(self) -> "Session":
+        self._check_open()
         return self
 
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise SessionClosedError(self.session_id)
+
     def close(self) -> None:
-        """Deletes the session (a session the server already lost is fine)."""
+        """Deletes the session (a session the server already lost is fine;
+        closing again does nothing). Any later call raises
+        SessionClosedError."""
+        if self._closed:
+            return
+        self._closed = True
         try:
             self._client.delete(self.session_id)
         except NotFoundError:
@@ -95,6 +121,7 @@ class Session:
         self.recreated += 1
 
     def _with_session(self, call: Callable[[], T]) -> T:
+        self._check_open()
         try:
             return call()
         except NotFoundError:
@@ -102,7 +129,10 @@ class Session:
             return call()
 
     def update(self, positions: Any) -> int:
-        """Moves every vertex to positions (N, d); returns the generation."""
+        """Moves every vertex to positions (N, d); returns the generation.
+        Welded: one row per uploaded vertex; each session vertex takes its
+        lowest-numbered copy's."""
+        self._check_open()
         p = _wire.points(positions, "positions", len(self._original))
         if p.shape[1] != self._original.shape[1]:
             raise ValueError(f"positions must have {self._original.shape[1]} "
@@ -145,8 +175,35 @@ class Session:
 
     def constraint(self, t_min: float, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:
-        """The aggregated KS constraint G (bound it by 0) and dG/dx."""
+        """The aggregated KS constraint G (bound it by 0) and dG/dx;
+        samples="faces" aggregates the face samples (the gradient stays per
+        vertex).
+
+        G <= 0 still allows spots thinner than t_min by up to
+        t_min ln(1/a)/rho (a: the spot's share of the surface; 12 % with
+        rho = 50 and one face of 400). A margin that holds: constrain at
+        ks_t_min(t_min, rho) (with samples="faces", every face's value is
+        then >= t_min), and check the end with check_thickness(t_min)."""
         return self.penalty(t_min, form="ks", rho=rho, **kwargs)
+
+    def ks_t_min(self, t_min: float, rho: float = 50.0,
+                 samples: str = "faces") -> float:
+        """The t_min to give constraint() so that G <= 0 keeps every face
+        value (samples "faces"), or the value at every quadrature point
+        (samples "vertices"; vertices can still be below), >= t_min:
+        t_min / (1 - ln(1/w)/rho), w the smallest point's share of the
+        surface at the latest positions (thickness.ks_t_min)."""
+        return thickness.ks_t_min(t_min, rho, thickness.min_weight_fraction(
+            self._positions, self._faces, samples))
+
+    def check_thickness(self, t_min: float, quantile: float = 0.0,
+                        **params: Any) -> ThicknessCheck:
+        """The final check of an optimisation: the SDF at the latest
+        positions (params as sdf(); give the constraint's, e.g. its
+        samples and method), its `quantile` (0: the minimum) against
+        t_min. When not ok, multiply the constraint's t_min by .ratio and
+        run the optimiser again."""
+        return thickness.check(self.sdf(**params), t_min, quantile)
 
     def gradcheck(self, **kwargs: Any) -> GradCheckReport:
         """MeshGaugeClient.gradcheck at the latest positions."""
