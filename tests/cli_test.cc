@@ -776,6 +776,37 @@ TEST(CliReportTest, WritesThePicturesTheTableThePageAndTheColouredPly) {
   std::filesystem::remove_all(dir);
 }
 
+// A CAD export (trimesh's 1002_tray_bottom, a uniform 3.175 mm sheet of
+// long triangles): its vertices sit on sharp edges, where the inscribed
+// ball is small, so vertex samples call a quarter of it thin; face samples
+// (each face's centroid along its own normal) measure the sheet.
+TEST(CliReportTest, FaceSamplesMeasureACadSheet) {
+  const std::string tray = SharedMesh("1002_tray_bottom.STL");
+  const std::string out = Tmp("tray_report");
+  const CliRun faces = RunCli("report " + tray +
+                              " --method sphere --samples faces --t-min 3 "
+                              "--json --out " +
+                              out);
+  ASSERT_EQ(faces.exit_code, 0) << faces.out;
+  const auto j = nlohmann::json::parse(Slurp(out + "/report.json"));
+  EXPECT_LT(j["thin"]["thin_fraction"].get<double>(), 0.05);
+  EXPECT_EQ(j["summary"]["samples"], "faces");
+  EXPECT_TRUE(j["thin"]["thinnest"].contains("face"));
+  const CliRun penalty = RunCli("penalty " + tray +
+                                " --method sphere --samples faces --t-min 3 "
+                                "--json");
+  ASSERT_EQ(penalty.exit_code, 0) << penalty.out;
+  const auto p = nlohmann::json::parse(penalty.out);
+  EXPECT_NEAR(p["thin"]["thin_fraction"].get<double>(),
+              j["thin"]["thin_fraction"].get<double>(), 1e-12);
+  const CliRun vertices = RunCli("penalty " + tray +
+                                 " --method sphere --t-min 3 --json");
+  ASSERT_EQ(vertices.exit_code, 0) << vertices.out;
+  EXPECT_GT(nlohmann::json::parse(vertices.out)["thin"]["thin_fraction"]
+                .get<double>(),
+            0.2);
+}
+
 TEST(CliReportTest, PenaltyAnswersWhereAndHowMuch) {
   const CliRun r = RunCli("penalty " + SharedMesh("decimated-knight.off") +
                           " --t-min 0.1 --rays 20");

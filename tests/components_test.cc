@@ -577,6 +577,14 @@ TEST(MissingValueWarningsTest, NamesEachComponentsCause) {
                                         VertexStatus::kNoHit, {0, 1, 2}),
                             ""),
               HasSubstr("rays lost at sharp or coarse corners"));
+  // The closing error of a closed, outward mesh names the same cause and its
+  // fixes (it blamed max_distance and the cone's direction).
+  const std::string cause =
+      LikelyMissingCause(MakeBox(1, 1, 1, 1), {.no_hit = 2});
+  EXPECT_THAT(cause, HasSubstr("closed and outward"));
+  EXPECT_THAT(cause, HasSubstr("--samples faces"));
+  EXPECT_THAT(cause, HasSubstr("--cone-angle 60"));
+  EXPECT_THAT(cause, Not(HasSubstr("max_distance")));
 }
 
 // Outsider report: two unit parts 2e7 apart lost the far one's values, and

@@ -10,6 +10,7 @@
 #include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
+#include "lib/core/weld.h"
 #include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
@@ -140,6 +141,57 @@ TEST_F(ServerTest, KsConstraintMatchesLibraryAndReportsMissingValues) {
   EXPECT_EQ(sdf->result.missing.area_fraction, 0.0);
   EXPECT_EQ(SummarizeValues(sdf->result.values).median,
             SummarizeValues(values->values).median);
+}
+
+// header.weld merges an unwelded export's seams on the server and answers
+// the map of the uploaded vertices; a tolerance out of range is refused.
+TEST_F(ServerTest, AWeldedUploadAnswersTheMapOfItsVertices) {
+  const Mesh cube = testing::SixGridCube();
+  std::vector<v1::CreateSessionRequest> msgs =
+      testing::UploadMessages(cube, "welded");
+  msgs[0].mutable_header()->set_weld(true);
+  auto r = testing::RawUploadResponse(*client_, msgs);
+  ASSERT_TRUE(r.ok()) << r.status();
+  EXPECT_EQ(r->session().num_vertices(), 98);
+  ASSERT_EQ(r->welded_vertex_size(), 150);
+  Mesh welded = cube;
+  auto local = WeldVertices(welded, 0);
+  ASSERT_TRUE(local.ok());
+  for (int v = 0; v < 150; ++v) {
+    EXPECT_EQ(r->welded_vertex(v), local->welded_vertex[v]) << v;
+  }
+  EXPECT_THAT(r->session().warnings(0), HasSubstr("52 vertices welded"));
+  EXPECT_TRUE(r->session().closed());
+  msgs = testing::UploadMessages(cube, "too_loose");
+  msgs[0].mutable_header()->set_weld(true);
+  msgs[0].mutable_header()->set_weld_tolerance(0.5);
+  EXPECT_EQ(testing::RawUploadResponse(*client_, msgs).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  // Without weld nothing merges and the map stays empty.
+  auto plain = testing::RawUploadResponse(
+      *client_, testing::UploadMessages(cube, "plain"));
+  ASSERT_TRUE(plain.ok()) << plain.status();
+  EXPECT_EQ(plain->session().num_vertices(), 150);
+  EXPECT_EQ(plain->welded_vertex_size(), 0);
+}
+
+// Face samples through ComputePenalty: the library's value and gradient.
+TEST_F(ServerTest, FaceSampledPenaltyMatchesTheLibrary) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "faces").ok());
+  SdfParams faces;
+  faces.samples = SampleSet::kFaces;
+  auto ev = SdfEvaluator::Create(mesh);
+  HitTable hits;
+  auto values = (*ev)->Compute(faces, {}, &hits);
+  ASSERT_TRUE(values.ok());
+  const PenaltyParams p{.t_min = 0.3};
+  auto local = ComputePenalty(**ev, *values, p, &hits);
+  ASSERT_TRUE(local.ok()) << local.status();
+  auto remote = client_->ComputePenalty("faces", faces, p, true);
+  ASSERT_TRUE(remote.ok()) << remote.status();
+  EXPECT_EQ(remote->penalty.value, local->value);
+  EXPECT_EQ(remote->penalty.gradient, local->gradient);
 }
 
 TEST_F(ServerTest, PenaltyOverMostlyMissingValuesIsFailedPrecondition) {

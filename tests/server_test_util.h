@@ -9,6 +9,7 @@
 
 #include "client/remote/remote_client.h"
 #include "proto/wire/convert.h"
+#include "proto/wire/upload_convert.h"
 #include "server/server.h"
 #include "tests/fake_clock.h"
 #include "tests/wait_for.h"
@@ -57,8 +58,8 @@ inline double MetricValue(const std::string& text, const std::string& name) {
 }
 
 // Streams raw CreateSession messages (headers, chunks and footers as a
-// test writes them) and returns the server's reply.
-inline absl::StatusOr<v1::SessionInfo> RawUpload(
+// test writes them) and returns the server's whole reply.
+inline absl::StatusOr<v1::CreateSessionResponse> RawUploadResponse(
     client::RemoteClient& c,
     const std::vector<v1::CreateSessionRequest>& msgs) {
   auto ctx = c.Context("raw");
@@ -67,7 +68,28 @@ inline absl::StatusOr<v1::SessionInfo> RawUpload(
   for (const auto& m : msgs) w->Write(m);
   w->WritesDone();
   if (absl::Status s = wire::FromGrpc(w->Finish()); !s.ok()) return s;
-  return response.session();
+  return response;
+}
+
+// The same, returning the new session.
+inline absl::StatusOr<v1::SessionInfo> RawUpload(
+    client::RemoteClient& c,
+    const std::vector<v1::CreateSessionRequest>& msgs) {
+  auto response = RawUploadResponse(c, msgs);
+  if (!response.ok()) return response.status();
+  return response->session();
+}
+
+// The CreateSession messages of `mesh` as the clients write them.
+inline std::vector<v1::CreateSessionRequest> UploadMessages(
+    const Mesh& mesh, const std::string& session_id) {
+  std::vector<v1::CreateSessionRequest> msgs;
+  wire::WriteUpload(mesh, session_id, 1 << 16,
+                    [&](const v1::CreateSessionRequest& m) {
+                      msgs.push_back(m);
+                      return true;
+                    });
+  return msgs;
 }
 
 }  // namespace meshgauge::testing

@@ -130,7 +130,7 @@ class WeldMapTest(unittest.TestCase):
         self.assertEqual(_weld.options(False), (False, 0.0))
         self.assertEqual(_weld.options(True), (True, 0.0))
         self.assertEqual(_weld.options(1e-4), (True, 1e-4))
-        for bad in (0.02, -1e-3, math.nan):
+        for bad in (0.02, -1e-3, 1e-13, math.nan):
             with self.assertRaises(ValueError):
                 _weld.options(bad)
         with self.assertRaises(TypeError):
@@ -199,14 +199,14 @@ class ThicknessTest(unittest.TestCase):
                              SdfSummary(0, len(v), 0, 0, 0, 0, 0, 0, 0, 0, 0,
                                         0, False, 0, 0, 0, 0.0))
 
-        values = np.linspace(0.9, 2.0, 101)
+        values = np.linspace(0.9, 3.0, 101)
         c = thickness.check(result(values), 1.0)
         self.assertFalse(c.ok)
         self.assertAlmostEqual(c.measured, 0.9)
         self.assertAlmostEqual(c.ratio, 1 / 0.9)
         c5 = thickness.check(result(values), 1.0, quantile=0.05)
         self.assertTrue(c5.ok)
-        self.assertAlmostEqual(c5.measured, 0.955)
+        self.assertAlmostEqual(c5.measured, 1.005)
         self.assertEqual(c5.ratio, 1.0)
         missing = thickness.check(result([1.5, np.nan]), 1.0)
         self.assertEqual(missing.missing, 1)
@@ -286,6 +286,7 @@ class FakeServer(pb_grpc.MeshGaugeServicer):
         self.session_vertices = 4
         self.mesh: Any = None
         self.deleted: List[str] = []
+        self.live: "set[str]" = set()
         self.values: List[float] = []
         self.gradient: List[float] = []
         self.thin_vertex = -1
@@ -298,6 +299,7 @@ class FakeServer(pb_grpc.MeshGaugeServicer):
         self.headers.append(header)
         if self.create_error:
             context.abort(*self.create_error)
+        self.live.add(header.session_id)
         return pb.CreateSessionResponse(
             session=pb.SessionInfo(session_id=header.session_id, dimension=3,
                                    num_vertices=self.session_vertices,
@@ -306,6 +308,7 @@ class FakeServer(pb_grpc.MeshGaugeServicer):
 
     def DeleteSession(self, request: Any, context: Any) -> Any:
         self.deleted.append(request.session_id)
+        self.live.discard(request.session_id)
         return pb.DeleteSessionResponse()
 
     def GetMesh(self, request: Any, context: Any) -> Any:
@@ -318,6 +321,9 @@ class FakeServer(pb_grpc.MeshGaugeServicer):
 
     def ComputeSdf(self, request: Any, context: Any) -> Any:
         self.requests.append(request)
+        if request.session_id not in self.live:
+            context.abort(grpc.StatusCode.NOT_FOUND,
+                          f"no session '{request.session_id}'")
         n = len(self.values)
         ok = [pb.VERTEX_STATUS_OK if math.isfinite(x) else
               pb.VERTEX_STATUS_NO_HIT for x in self.values]
@@ -372,8 +378,11 @@ class FakeServerTest(unittest.TestCase):
         self.fake.values = [1.0] * 4
         with self.client.session(v, f, session_id="closed") as s:
             self.assertEqual(len(s.sdf().values), 4)
-        self.assertTrue(s.closed)
-        self.assertEqual(self.fake.deleted, ["closed"])
+            # Lost by the server while open: re-created.
+            self.client.delete("closed")
+            self.assertEqual(len(s.sdf().values), 4)
+            self.assertEqual(s.recreated, 1)
+        self.assertEqual(self.fake.deleted, ["closed", "closed"])
         calls = [s.sdf, s.info, s.jacobian, lambda: s.update(v),
                  lambda: s.vjp(np.ones(4)), lambda: s.penalty(1.0),
                  lambda: s.constraint(1.0), lambda: s.calibrate(1.0),
@@ -385,14 +394,15 @@ class FakeServerTest(unittest.TestCase):
             self.assertIn("session closed is closed", str(e.exception))
         # Never re-created, and closing again does nothing.
         s.close()
-        self.assertEqual(len(self.fake.headers), 1)
-        self.assertEqual(self.fake.deleted, ["closed"])
+        self.assertEqual(len(self.fake.headers), 2)
+        self.assertEqual(self.fake.deleted, ["closed", "closed"])
+        self.assertTrue(s.closed)
         np.testing.assert_array_equal(s.positions, v)  # still readable.
         s2 = self.client.session(v, f, session_id="closed-2")
         s2.close()
         with self.assertRaises(SessionClosedError):
             s2.sdf()
-        self.assertEqual(len(self.fake.headers), 2)
+        self.assertEqual(len(self.fake.headers), 3)
 
     def test_file_errors_name_the_path(self) -> None:
         with tempfile.TemporaryDirectory() as tmp:

@@ -19,6 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
 import thicken_plate  # noqa: E402
+import min_thickness_slsqp  # noqa: E402
 from server_fixture import ServerProcess  # noqa: E402
 
 import grpc  # noqa: E402
@@ -30,6 +31,29 @@ def octahedron(scale=1.0):
     f = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4],
                   [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
     return v, f
+
+
+def unwelded_cube(n):
+    """The unit cube as six n x n quad grids, each with its own (n+1)^2
+    vertices, faces outward."""
+    g = np.linspace(0.0, 1.0, n + 1)
+    vertices, faces = [], []
+    for axis in range(3):
+        b, c = (axis + 1) % 3, (axis + 2) % 3  # e_b x e_c = e_axis
+        for side in (0.0, 1.0):
+            base = len(vertices)
+            for i in range(n + 1):
+                for j in range(n + 1):
+                    p = [0.0, 0.0, 0.0]
+                    p[axis], p[b], p[c] = side, g[i], g[j]
+                    vertices.append(p)
+            for i in range(n):
+                for j in range(n):
+                    q = [base + i * (n + 1) + j, base + (i + 1) * (n + 1) + j,
+                         base + (i + 1) * (n + 1) + j + 1,
+                         base + i * (n + 1) + j + 1]
+                    faces.append(q if side == 1.0 else q[::-1])
+    return np.array(vertices), np.array(faces)
 
 
 class RemoteEndToEnd(unittest.TestCase):
@@ -118,8 +142,27 @@ class RemoteEndToEnd(unittest.TestCase):
         with self.assertRaises(InvalidArgumentError) as e:
             self.client.vjp(sid, np.ones(6), samples="faces")
         self.assertIn("one per face", e.exception.details)
-        with self.assertRaises(InvalidArgumentError):
-            self.client.penalty(sid, 1.0, samples="faces")
+        # The penalty and the constraint of the face samples, their
+        # gradient per vertex: d/ds P(s x) at s = 1 is g . x (central
+        # differences through UpdatePositions).
+        for form in ("one-sided", "ks"):
+            pen = self.client.penalty(sid, 5.0, form=form, samples="faces",
+                                      method="normal")
+            self.assertEqual(pen.gradient.shape, (6, 3))
+            self.assertAlmostEqual(pen.sdf_min, 2 / np.sqrt(3), places=12)
+            h = 1e-6
+            gen = self.client.info(sid).generation
+            ends = []
+            for scale in (1 + h, 1 - h):
+                gen = self.client.update_positions(sid, scale * v, gen)
+                ends.append(self.client.penalty(
+                    sid, 5.0, form=form, samples="faces", method="normal",
+                    gradient=False).value)
+            gen = self.client.update_positions(sid, v, gen)
+            self.assertAlmostEqual((ends[0] - ends[1]) / (2 * h),
+                                   float(np.sum(pen.gradient * v)), places=5)
+        self.assertEqual(self.client.constraint(
+            sid, 5.0, samples="faces", method="normal").form, "ks")
         with self.assertRaises(ValueError):
             self.client.sdf(sid, samples="edges")
         # The server's finite-difference check of the face derivatives.
@@ -130,6 +173,70 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertTrue(all(r.row < 8 for r in report.rows))
         with self.assertRaises(TypeError):
             self.client.gradcheck(sid, samples=3, probes=12)
+
+    def test_1d_welded_cube_of_six_grids(self):
+        # A unit cube exported as six separate 4 x 4 quad grids (each with
+        # its own vertices, as per-face exports are): 150 vertices, 98 once
+        # welded. Every result keeps the 150 uploaded vertices' indexing.
+        v, f = unwelded_cube(4)
+        self.assertEqual(len(v), 150)
+        info = self.client.upload(v, f, weld=True, session_id="cube-weld")
+        self.assertEqual(info.num_vertices, 98)
+        self.assertEqual(len(info.welded_vertex), 150)
+        np.testing.assert_array_equal(
+            v, v[self.client.weld_map("cube-weld").first][info.welded_vertex])
+        self.client.delete("cube-weld")
+        with self.client.session(v, f, weld=True) as s:
+            r = s.sdf(method="normal")
+            self.assertEqual(r.values.shape, (150,))
+            # A face's inner vertices: the normal ray crosses the cube.
+            inner = np.sum((v > 0) & (v < 1), axis=1) == 2
+            self.assertEqual(int(inner.sum()), 6 * 9)
+            np.testing.assert_allclose(r.values[inner], 1.0, rtol=1e-12)
+            # Copies share their vertex's value.
+            same = np.all(v[:, None] == v[None, :], axis=2)
+            for i, j in zip(*np.nonzero(same)):
+                self.assertTrue(r.values[i] == r.values[j]
+                                or np.isnan(r.values[i]) and
+                                np.isnan(r.values[j]))
+            # Degree-1 homogeneity through weights per uploaded vertex:
+            # sum_i g_i . x_i = sum_i w_i SDF_i (the gradient of each
+            # welded vertex at its lowest-numbered copy, 0 at the others).
+            w = np.where(np.isfinite(r.values), 1.0, 0.0)
+            g = s.vjp(w, method="normal")
+            self.assertEqual(g.shape, (150, 3))
+            first = self.client.weld_map(s.session_id).first
+            others = np.setdiff1d(np.arange(150), first)
+            self.assertEqual(len(others), 52)
+            np.testing.assert_array_equal(g[others], 0)
+            self.assertAlmostEqual(float(np.sum(g * v)),
+                                   float(np.nansum(r.values)), places=9)
+            pen = s.penalty(2.0, method="normal")
+            self.assertEqual(pen.gradient.shape, (150, 3))
+            np.testing.assert_array_equal(pen.gradient[others], 0)
+            # Positions per uploaded vertex: twice the cube, twice the SDF.
+            s.update(2 * v)
+            np.testing.assert_allclose(s.sdf(method="normal").values,
+                                       2 * r.values, rtol=1e-12)
+        # A relative tolerance merges copies a little apart; True only
+        # exact duplicates (none here: nothing merged, no map).
+        rng = np.random.default_rng(5)
+        near = v + rng.uniform(-1e-9, 1e-9, v.shape)
+        self.assertEqual(self.client.upload(near, f, weld=1e-6).num_vertices,
+                         98)
+        exact = self.client.upload(near, f, weld=True)
+        self.assertEqual(exact.num_vertices, 150)
+        self.assertIsNone(exact.welded_vertex)
+        # The same cube from a file: the file's vertices are the uploaded.
+        path = os.path.join(self.tmp, "cube.obj")
+        with open(path, "w") as out:
+            out.writelines(f"v {x!r} {y!r} {z!r}\n" for x, y, z in v)
+            out.writelines("f " + " ".join(str(i + 1) for i in q) + "\n"
+                           for q in f)
+        with self.client.session_from_file(path, weld=True) as s:
+            np.testing.assert_array_equal(s.positions, v)
+            np.testing.assert_array_equal(s.sdf(method="normal").values,
+                                          r.values)
 
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:
@@ -185,6 +292,23 @@ class RemoteEndToEnd(unittest.TestCase):
         # target had to grow past t_min, where the KS slack left ~10 % below.
         self.assertGreaterEqual(sdf_min, 0.99 * 0.15)
         self.assertGreater(target, 0.15)
+
+    def test_3b2_slsqp_minimum_thickness_holds(self):
+        # min_thickness_slsqp.py: the measured minimum (of the samples the
+        # constraint used) ends >= t_min, not within a tolerance. With
+        # face samples the a-priori margin (ks_t_min) does it in one run.
+        for samples, runs in (("faces", 1), ("vertices", 4)):
+            out = open(os.path.join(self.tmp, f"min-{samples}.log"), "w")
+            check, targets, moved = min_thickness_slsqp.optimise(
+                self.client, t_min=0.15, samples=samples, out=out)
+            out.close()
+            self.assertTrue(check.ok, (samples, check, targets))
+            self.assertGreaterEqual(check.measured, 0.15)
+            self.assertEqual(check.missing, 0)
+            self.assertLessEqual(len(targets), runs)
+            self.assertGreater(targets[-1], 0.15)
+        self.assertEqual(min_thickness_slsqp.main(
+            ["--server", self.target]), 0)
 
     def test_3c_ks_form_and_missing_values(self):
         v, f = octahedron()

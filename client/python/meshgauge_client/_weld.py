@@ -32,23 +32,28 @@ import numpy.typing as npt
 IntArray = npt.NDArray[np.int64]
 FloatArray = npt.NDArray[np.float64]
 
+# The server's range (lib/core/weld.h): 0 (exact duplicates) or in
+# [MIN_TOLERANCE, MAX_TOLERANCE].
 MAX_TOLERANCE = 0.01
+MIN_TOLERANCE = 1e-12
 
 
 def options(weld: Any) -> Tuple[bool, float]:
     """(header.weld, header.weld_tolerance) of the ``weld`` argument: False
     (no welding), True (exact duplicates: tolerance 0) or a number, the
-    tolerance relative to the bounding box's diagonal in [0, 0.01]."""
+    tolerance relative to the bounding box's diagonal: 0 (exact
+    duplicates) or in [1e-12, 0.01]."""
     if isinstance(weld, (bool, np.bool_)):
         return bool(weld), 0.0
     if not isinstance(weld, (int, float, np.integer, np.floating)):
         raise TypeError("weld must be a bool or a relative tolerance (a "
                         f"number), got {type(weld).__name__}")
     t = float(weld)
-    if not math.isfinite(t) or not 0 <= t <= MAX_TOLERANCE:
-        raise ValueError(f"weld tolerance must be in [0, {MAX_TOLERANCE}] "
-                         f"(relative to the bounding box's diagonal), got "
-                         f"{weld}")
+    if not math.isfinite(t) or not (
+            t == 0 or MIN_TOLERANCE <= t <= MAX_TOLERANCE):
+        raise ValueError(f"weld tolerance must be 0 (exact duplicates) or in "
+                         f"[{MIN_TOLERANCE:g}, {MAX_TOLERANCE:g}] (relative "
+                         f"to the bounding box's diagonal), got {weld}")
     return True, t
 
 

@@ -21,7 +21,8 @@ class SdfOptions:
     diagonal); normals: "area" or "angle" vertex-normal weighting;
     samples: "vertices" or "faces" (each face's centroid along its own
     normal, SPEC v2 §5c; values, VJP weights and Jacobian rows are then per
-    face; penalties refuse it).
+    face; penalty and constraint integrate the face values, their gradient
+    still per vertex).
 
     Invalid values raise ValueError or TypeError when the options are made.
     """
