@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
+#include "lib/embree/ray_scene.h"
 
 namespace meshgauge::server {
 
@@ -165,7 +166,11 @@ absl::StatusOr<wire::UpdateResult> RecordedSessionStore::UpdatePositions(
                !v.ok()) {
       return v;
     }
-    if (absl::Status v = ValidateMesh(moved); !v.ok()) {
+    // What the evaluator would refuse after the commit: the mesh's rules
+    // and the ray tracer's range (a refused update must change nothing).
+    absl::Status v = ValidateMesh(moved);
+    if (v.ok()) v = CheckTraceable(moved);
+    if (!v.ok()) {
       return absl::InvalidArgumentError(
           absl::StrCat("position update rejected: ", v.message()));
     }

@@ -16,6 +16,7 @@
 #include "lib/core/thin_regions.h"
 #include "lib/embree/calibration.h"
 #include "lib/embree/gradcheck.h"
+#include "lib/embree/ray_scene.h"
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
@@ -312,6 +313,11 @@ absl::StatusOr<RepairedMesh> MeshGaugeService::BuildUploadedMesh(
   if (!repaired.ok()) {
     return absl::InvalidArgumentError(
         absl::StrCat("CreateSession: ", repaired.status().message()));
+  }
+  // A mesh the ray tracer cannot take is refused now, not by every call.
+  if (absl::Status s = CheckTraceable(repaired->mesh); !s.ok()) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("CreateSession: ", s.message()));
   }
   return repaired;
 }

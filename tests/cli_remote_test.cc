@@ -224,6 +224,19 @@ TEST_F(CliRemoteTest, ReportIsTheLocalOne) {
     return j;
   };
   EXPECT_EQ(untimed("local_report").dump(), untimed("remote_report").dump());
+  EXPECT_TRUE(untimed("remote_report").contains("bands"));
+  // index.html: the interactive view's data (the mesh, its values, the
+  // regions) is the local page's.
+  auto view_data = [](const std::string& dir) {
+    const std::string page = Slurp(Tmp(dir + "/index.html"));
+    const std::string open = "<script id=\"mg-data\" type=\"application/json\">";
+    const size_t begin = page.find(open);
+    if (begin == std::string::npos) return std::string();
+    const size_t end = page.find("</script>", begin);
+    return page.substr(begin + open.size(), end - begin - open.size());
+  };
+  EXPECT_FALSE(view_data("remote_report").empty());
+  EXPECT_TRUE(view_data("local_report") == view_data("remote_report"));
   std::filesystem::remove_all(Tmp("local_report"));
   std::filesystem::remove_all(Tmp("remote_report"));
 }

@@ -240,6 +240,58 @@ TEST_F(RedisStoreTest, SubsetUpdateOnOneReplicaIsSeenByTheOther) {
   EXPECT_EQ(a_->client->Get("sub")->generation, 1);
 }
 
+// Every store commits an update only after the library would accept it:
+// a refused update changes nothing anywhere (an outside tester's x1e14
+// update, beyond the ray tracer's range, moved the Redis record to
+// generation 1 and broke the session on every replica).
+TEST_F(RedisStoreTest, RefusedUpdatesChangeNothingOnEitherBackend) {
+  const Mesh mesh = Knight();
+  std::vector<Vec3> far = mesh.positions;
+  for (Vec3& p : far) p *= 1e14;
+  std::vector<Vec3> nan = mesh.positions;
+  nan[7].y = std::nan("");
+  const std::vector<Vec3> short_by_one(mesh.positions.begin() + 1,
+                                       mesh.positions.end());
+  for (Replica* r : {memory_.get(), a_.get()}) {
+    const std::string id = r == a_.get() ? "redis" : "memory";
+    ASSERT_TRUE(r->client->Upload(mesh, id).ok());
+    auto before = r->client->ComputeSdf(id, SdfParams{});
+    ASSERT_TRUE(before.ok()) << before.status();
+    for (const auto& [what, positions] :
+         {std::pair{"x1e14", far}, std::pair{"NaN", nan},
+          std::pair{"one short", short_by_one}}) {
+      auto refused = r->client->UpdatePositions(id, 0, 3, positions);
+      EXPECT_EQ(Code(refused), absl::StatusCode::kInvalidArgument)
+          << id << " " << what;
+    }
+    EXPECT_EQ(Code(r->client->UpdatePositions(
+                  id, 0, 3, {mesh.positions[3], mesh.positions[3]}, {3, 3})),
+              absl::StatusCode::kInvalidArgument)
+        << id;
+    // Nothing moved: generation 0 everywhere, the same values, and the
+    // next valid update is generation 1.
+    for (Replica* any : {r, r == a_.get() ? b_.get() : r}) {
+      EXPECT_EQ(any->client->Get(id)->generation, 0) << id;
+      auto after = any->client->ComputeSdf(id, SdfParams{});
+      ASSERT_TRUE(after.ok()) << id << ": " << after.status();
+      EXPECT_TRUE(SameBits(after->result.values, before->result.values)) << id;
+    }
+    auto next = r->client->UpdatePositions(id, 0, 3, Moved(mesh, 1));
+    ASSERT_TRUE(next.ok()) << id << ": " << next.status();
+    EXPECT_EQ(next->generation, 1);
+  }
+  // An upload beyond the ray tracer's range is refused with the reason,
+  // rather than accepted and failing every call.
+  Mesh huge = mesh;
+  for (Vec3& p : huge.positions) p *= 1e14;
+  for (Replica* r : {memory_.get(), a_.get()}) {
+    const auto up = r->client->Upload(huge, "huge");
+    EXPECT_EQ(Code(up), absl::StatusCode::kInvalidArgument);
+    EXPECT_THAT(std::string(up.status().message()),
+                HasSubstr("single-precision ray tracing"));
+  }
+}
+
 TEST_F(RedisStoreTest, DeleteAndListAreGlobal) {
   const Mesh mesh = Knight();
   ASSERT_TRUE(a_->client->Upload(mesh, "one").ok());

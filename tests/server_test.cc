@@ -175,6 +175,25 @@ TEST_F(ServerTest, AWeldedUploadAnswersTheMapOfItsVertices) {
   EXPECT_EQ(plain->welded_vertex_size(), 0);
 }
 
+// An outside tester's six concurrent uploads of igea all ended CANCELLED
+// after about 34 s with the default flags (cancellation polled per face, the
+// idle timer running while the server built each mesh): with the defaults
+// they all succeed.
+TEST_F(ServerTest, SixConcurrentUploadsOfIgeaSucceedWithDefaults) {
+  auto igea = ReadMesh(testing::SharedMesh("igea-triangles.ply"));
+  ASSERT_TRUE(igea.ok());
+  std::vector<absl::Status> results(6);
+  std::vector<std::thread> uploads;
+  for (int i = 0; i < 6; ++i) {
+    uploads.emplace_back([&, i] {
+      client::RemoteClient c(target_);
+      results[i] = c.Upload(*igea, "igea" + std::to_string(i)).status();
+    });
+  }
+  for (std::thread& t : uploads) t.join();
+  for (int i = 0; i < 6; ++i) EXPECT_TRUE(results[i].ok()) << results[i];
+}
+
 // Face samples through ComputePenalty: the library's value and gradient.
 TEST_F(ServerTest, FaceSampledPenaltyMatchesTheLibrary) {
   const Mesh mesh = Knight();

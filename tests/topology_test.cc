@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -19,6 +20,59 @@ namespace {
 std::vector<Mesh> Meshes() {
   return {MakeIcosphere(1.0, 3), MakeBox(1.0, 2.0, 0.5, 0.25, /*quads=*/true),
           MakeHollowSquare(2.0, 0.5, 0.1)};
+}
+
+// A closed cone: apex 0, base centre 1, `n` rim vertices 2.., fan
+// triangles on the mantle (apex, rim i, rim i+1) and the base.
+Mesh FanCone(int n) {
+  Mesh m;
+  m.positions = {{0, 0, 1}, {0, 0, 0}};
+  for (int i = 0; i < n; ++i) {
+    const double a = 2 * M_PI * i / n;
+    m.positions.push_back({std::cos(a), std::sin(a), 0});
+  }
+  for (int i = 0; i < n; ++i) {
+    const int32_t r = 2 + i, s = 2 + (i + 1) % n;
+    m.faces.push_back(Face::Triangle(0, r, s));
+    m.faces.push_back(Face::Triangle(1, s, r));
+  }
+  return m;
+}
+
+// The primitives a hit near an edge must consider are those across that
+// edge, whatever the valence of its ends (counted, not timed: every
+// primitive of both ends made a pass quadratic on fan caps).
+TEST(TopologyTest, PrimitivesNearAPointAreAcrossItsEdgeNotAroundAHub) {
+  for (int n : {4000, 16000}) {
+    const Mesh cone = FanCone(n);
+    const MeshTopology topo = MeshTopology::Build(cone);
+    std::vector<int32_t> out;
+    // Mantle triangle 0 = (apex, rim 0, rim 1); a point halfway up its edge
+    // apex-rim 0, just inside.
+    const Vec3 apex = cone.positions[0], rim = cone.positions[2];
+    const Vec3 mid = (apex + rim) * 0.5;
+    AppendPrimitivesNear(topo, cone, 0, mid, 1e-9, &out);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    // This triangle and the mantle triangle across the edge.
+    EXPECT_EQ(out.size(), 2u) << n;
+    // Near the rim vertex: its one ring (two mantle, two base triangles).
+    out.clear();
+    AppendPrimitivesNear(topo, cone, 0, rim + (apex - rim) * 1e-12, 1e-9,
+                         &out);
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    EXPECT_EQ(out.size(), 4u) << n;
+    // Only a point at the apex itself gets the apex's whole fan.
+    out.clear();
+    AppendPrimitivesNear(topo, cone, 0, apex, 1e-9, &out);
+    EXPECT_EQ(std::ssize(out), n);
+    // Far from every edge and corner: nothing.
+    out.clear();
+    AppendPrimitivesNear(topo, cone, 0, (apex + rim + cone.positions[3]) / 3,
+                         1e-9, &out);
+    EXPECT_TRUE(out.empty()) << n;
+  }
 }
 
 TEST(TopologyTest, PrimitivesOfAVertexAreThoseContainingIt) {

@@ -16,8 +16,10 @@
 #include "client/cli/commands.h"
 #include "client/cli/report_draw.h"
 #include "client/cli/report_page.h"
+#include "client/cli/report_viewer.h"
 #include "client/cli/summary.h"
 #include "client/cli/thin_summary.h"
+#include "lib/core/integrals.h"
 #include "lib/core/missing_values.h"
 #include "lib/embree/render.h"
 #include "lib/io/mesh_io.h"
@@ -96,6 +98,53 @@ Shown ShownMesh(const Mesh& mesh, const std::vector<double>& values,
     shown.mesh.faces.push_back(face);
   }
   return shown;
+}
+
+// The range table around t_min: the measure below t_min, from t_min up to
+// (not including) 1.1 t_min, from there up, and without a value; exact for
+// the linear interpolation (face samples: whole faces by their value), each
+// with its share of the whole measure (the four sum to it).
+nlohmann::json Bands(const Mesh& mesh, const std::vector<double>& values,
+                     SampleSet samples, double t_min, double total) {
+  const bool faces = samples == SampleSet::kFaces;
+  const double edge = t_min * 1.1;
+  double below = 0, below_edge = 0, valued = 0, missing = 0;
+  auto measure_below = [](const Element& e, const double* v, double s) {
+    if (e.n == 3) return TriangleAreaBelow(e.measure, v[0], v[1], v[2], s);
+    const double lo = std::min(v[0], v[1]), hi = std::max(v[0], v[1]);
+    if (s <= lo) return 0.0;
+    if (s >= hi) return e.measure;
+    return e.measure * (s - lo) / (hi - lo);
+  };
+  ForEachElement(mesh, [&](int64_t f, const Element& e) {
+    const Face& face = mesh.faces[f];
+    bool has = true;
+    for (int k = 0; k < face.size; ++k) {
+      has &= !std::isnan(values[faces ? f : face.v[k]]);
+    }
+    if (!has) {
+      missing += e.measure;
+      return;
+    }
+    double v[3];
+    for (int k = 0; k < e.n; ++k) v[k] = values[faces ? f : e.v[k]];
+    valued += e.measure;
+    below += measure_below(e, v, t_min);
+    below_edge += measure_below(e, v, edge);
+  });
+  auto row = [&](const char* band, nlohmann::json lo, nlohmann::json hi,
+                 double area) {
+    return nlohmann::json{{"band", band},
+                          {"lo", lo},
+                          {"hi", hi},
+                          {"area", area},
+                          {"share", total > 0 ? area / total : 0.0}};
+  };
+  return nlohmann::json::array(
+      {row("below", nullptr, t_min, below),
+       row("within", t_min, edge, below_edge - below),
+       row("above", edge, nullptr, valued - below_edge),
+       row("no value", nullptr, nullptr, missing)});
 }
 
 absl::StatusOr<std::string> WritePicture(const std::string& path,
@@ -228,6 +277,8 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
       {"above_area", *above},
   };
   report["thin"] = ThinJson(*thin);
+  report["bands"] =
+      Bands(mesh, values, samples, flags.t_min, thin->total_area);
   report["histogram"] = {
       {"lo", histogram->lo}, {"hi", histogram->hi}, {"area", histogram->area}};
   report["timing"] = {{"sdf_seconds", sdf_seconds},
@@ -239,7 +290,8 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   }
   if (absl::Status s =
           WriteText((dir / "index.html").string(),
-                    ReportHtml(report, *views_png, *histogram_png));
+                    ReportHtml(report, *views_png, *histogram_png,
+                               ViewerData(mesh, values, samples, report)));
       !s.ok()) {
     return s;
   }

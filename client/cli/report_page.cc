@@ -6,6 +6,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
 #include "absl/strings/str_replace.h"
+#include "client/cli/report_viewer.h"
 #include "client/cli/thin_summary.h"
 
 namespace meshgauge::cli {
@@ -51,14 +52,16 @@ std::string RegionTable(const nlohmann::json& thin, bool curve) {
     const double area = r["area"].get<double>();
     absl::StrAppendFormat(
         &rows,
-        "<tr%s><td>%d</td><td>%.6g</td><td>%s %%</td><td>%.6g</td>"
+        "<tr data-region=\"%d\"%s><td>%d</td><td>%.6g</td><td>%s %%</td><td>%.6g</td>"
         "<td>%s</td><td>%s</td><td>%s &ndash; %s</td><td>%d</td><td>%s</td>"
         "</tr>\n",
-        r["speck"].get<bool>() ? " class=\"speck\"" : "", ++rank, area,
+        rank, r["speck"].get<bool>() ? " class=\"speck\"" : "", rank + 1,
+        area,
         Percent(total > 0 ? area / total : 0.0),
         r["min_thickness"].get<double>(), Point(r["min_point"]),
         Point(r["centroid"]), Point(r["box_min"]), Point(r["box_max"]),
         r["faces"].get<int64_t>(), r["speck"].get<bool>() ? "speck" : "");
+    ++rank;
   }
   if (rank == 0) rows = "<tr><td colspan=\"9\">no thin region</td></tr>\n";
   return absl::StrCat(
@@ -67,6 +70,37 @@ std::string RegionTable(const nlohmann::json& thin, bool curve) {
       "<th>bounding box</th><th>",
       curve ? "segments" : "faces", "</th><th></th></tr>\n", rows,
       "</table>\n");
+}
+
+// The range table: the measure (and share of the whole) per band around
+// t_min, rows that the page's script updates as t_min moves.
+std::string BandTable(const nlohmann::json& bands, bool curve) {
+  std::string rows;
+  for (const nlohmann::json& b : bands) {
+    const std::string name = b["band"].get<std::string>();
+    std::string range = "no value";
+    if (name == "below") {
+      range = absl::StrFormat("t &lt; %.6g", b["hi"].get<double>());
+    } else if (name == "within") {
+      range = absl::StrFormat("%.6g &le; t &lt; %.6g", b["lo"].get<double>(),
+                              b["hi"].get<double>());
+    } else if (name == "above") {
+      range = absl::StrFormat("t &ge; %.6g", b["lo"].get<double>());
+    }
+    const char* what = name == "below"    ? "thinner than t_min"
+                       : name == "within" ? "within 10 % above t_min"
+                       : name == "above"  ? "thicker"
+                                          : "without a value";
+    absl::StrAppendFormat(
+        &rows,
+        "<tr data-band=\"%s\"><th>%s</th><td class=\"range\">%s</td>"
+        "<td class=\"area\">%.6g</td><td class=\"share\">%s %%</td></tr>\n",
+        name, what, range, b["area"].get<double>(),
+        Percent(b["share"].get<double>()));
+  }
+  return absl::StrCat("<table id=\"mg-bands\"><tr><th>band</th><th>thickness</th><th>",
+                      curve ? "length" : "area", "</th><th>share</th></tr>\n",
+                      rows, "</table>\n");
 }
 
 std::string KeyValues(const nlohmann::json& object) {
@@ -109,7 +143,8 @@ std::string ColourLegend(const nlohmann::json& report) {
 
 std::string ReportHtml(const nlohmann::json& report,
                        const std::string& views_png,
-                       const std::string& histogram_png) {
+                       const std::string& histogram_png,
+                       const nlohmann::json& viewer_data) {
   const nlohmann::json& summary = report["summary"];
   nlohmann::json missing = {
       {"vertices without a value", summary["missing_vertices"]},
@@ -137,8 +172,11 @@ std::string ReportHtml(const nlohmann::json& report,
       ".kv th{text-align:left}\n.speck{color:#888}\n"
       ".answer{font-size:1.2em;font-weight:bold}\n"
       "</style>\n</head>\n<body>\n<h1>Thickness of ",
-      Escape(report["mesh"].get<std::string>()), "</h1>\n<p class=\"answer\">",
+      Escape(report["mesh"].get<std::string>()),
+      "</h1>\n<p class=\"answer\" id=\"mg-answer\">",
       Escape(report["sentence"].get<std::string>()), "</p>\n",
+      std::string(web::kViewerMarkup), "<h2>Thickness bands</h2>\n",
+      BandTable(report["bands"], summary["dimension"].get<int>() == 2),
       "<h2>Views</h2>\n<p>", ColourLegend(report), "</p>\n",
       Picture(views_png, "the mesh coloured by thickness"),
       "\n<h2>Histogram</h2>\n",
@@ -157,7 +195,7 @@ std::string ReportHtml(const nlohmann::json& report,
       }),
       "<h2>Missing values</h2>\n", KeyValues(missing),
       warnings.empty() ? "" : absl::StrCat("<ul>\n", warnings, "</ul>\n"),
-      "</body>\n</html>\n");
+      ViewerScripts(viewer_data), "</body>\n</html>\n");
 }
 
 }  // namespace meshgauge::cli

@@ -1,6 +1,7 @@
 #include "lib/core/topology.h"
 
 #include <algorithm>
+#include <cmath>
 
 namespace meshgauge {
 namespace {
@@ -98,6 +99,42 @@ void OneRingPrimitives(const MeshTopology& topo, int64_t p,
   for (int32_t f : topo.vertex_faces.Of(p)) topo.AppendPrimitivesOfFace(f, out);
   std::sort(out->begin(), out->end());
   out->erase(std::unique(out->begin(), out->end()), out->end());
+}
+
+void AppendPrimitivesNear(const MeshTopology& topo, const Mesh& mesh,
+                          int32_t prim, const Vec3& y, double near,
+                          std::vector<int32_t>* out) {
+  const std::array<int32_t, 3>& v = topo.primitives[prim].v;
+  if (v[2] < 0 || !std::isfinite(near)) {
+    for (int32_t corner : v) {
+      if (corner < 0) continue;
+      for (int32_t q : topo.PrimitivesOf(corner)) out->push_back(q);
+    }
+    return;
+  }
+  bool corner_near[3];
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 r = y - mesh.positions[v[k]];
+    corner_near[k] = Dot(r, r) <= near * near;
+    if (!corner_near[k]) continue;
+    for (int32_t q : topo.PrimitivesOf(v[k])) out->push_back(q);
+  }
+  for (int k = 0; k < 3; ++k) {
+    // An edge with a near end: its primitives are among that end's.
+    if (corner_near[k] || corner_near[(k + 1) % 3]) continue;
+    const int32_t a = v[k], b = v[(k + 1) % 3];
+    const Vec3 pa = mesh.positions[a], e = mesh.positions[b] - pa;
+    const double s =
+        std::clamp(Dot(y - pa, e) / std::max(Dot(e, e), 1e-300), 0.0, 1.0);
+    const Vec3 r = y - (pa + e * s);
+    if (Dot(r, r) > near * near) continue;
+    absl::Span<const int32_t> small = topo.PrimitivesOf(a),
+                              large = topo.PrimitivesOf(b);
+    if (small.size() > large.size()) std::swap(small, large);
+    for (int32_t q : small) {
+      if (std::binary_search(large.begin(), large.end(), q)) out->push_back(q);
+    }
+  }
 }
 
 }  // namespace meshgauge

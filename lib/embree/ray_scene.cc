@@ -109,6 +109,11 @@ Vec3 SceneOrigin(const Mesh& mesh) {
   return OriginOf(mesh, BoundingBoxDiagonal(mesh));
 }
 
+absl::Status CheckTraceable(const Mesh& mesh) {
+  const double diagonal = BoundingBoxDiagonal(mesh);
+  return CheckSpan(mesh, OriginOf(mesh, diagonal), diagonal);
+}
+
 absl::Status RayScene::Init(const Mesh& mesh) {
   dimension_ = mesh.dimension;
   device_ = SharedDevice();

@@ -44,6 +44,11 @@ enum class BvhUpdatePolicy {
 // it changes only when the mesh moves by about its size.
 Vec3 SceneOrigin(const Mesh& mesh);
 
+// OK when the ray tracer can take the mesh's positions: the check RayScene
+// makes on Create and UpdatePositions (its errors), without a scene, so that
+// a store can refuse positions before it commits them.
+absl::Status CheckTraceable(const Mesh& mesh);
+
 // The ray-primitive test Embree runs.
 enum class RayTest {
   // Embree's ROBUST mode, a watertight test: a ray through an edge or

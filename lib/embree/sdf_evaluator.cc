@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -59,6 +60,8 @@ bool HitPlane(const PrimitiveCorners& pc, const Vec3& x, const Vec3& d,
   return true;
 }
 
+constexpr double kNearHitMargin = 16;
+
 // The hit of a ray among its candidates (SPEC §3, §4), in double
 // precision: a primitive that contains the hit point before one that does
 // not, then the smallest distance, then the lower primitive index. Where
@@ -83,6 +86,8 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
   int32_t best = -1;
   bool best_inside = false;
   *t = kNaN;
+  // Each candidate's distance (NaN: none), for the neighbours below.
+  std::array<double, HitCandidates::kMax> distance;
   auto consider = [&](int32_t prim, double ti, bool inside) {
     bool better = best < 0;
     if (!better && !std::isnan(ti)) {
@@ -100,26 +105,34 @@ int32_t PickClosest(const MeshGeometry& g, const HitCandidates& c,
   };
   around->clear();
   double closest = std::numeric_limits<double>::infinity();
+  bool any_edge = false;
   for (int i = 0; i < c.count(); ++i) {
     PlaneHit h;
+    distance[i] = kNaN;
+    any_edge |= c[i].edge;
     if (!HitPlane(g.Corners(c[i].prim), x, d, &h)) {
       consider(c[i].prim, kNaN, false);
       continue;
     }
+    distance[i] = h.t;
     consider(c[i].prim, h.t, h.inside >= 0);
     closest = std::min(closest, h.t);
+  }
+  if (!any_edge) return best;
+  const double slack = (reach + closest) * 0x1p-16;
+  for (int i = 0; i < c.count(); ++i) {
     if (!c[i].edge) continue;
-    for (int32_t v : g.topology().primitives[c[i].prim].v) {
-      if (v < 0) continue;
-      for (int32_t q : g.topology().PrimitivesOf(v)) {
-        around->push_back(q);
-      }
-    }
+    // Where the ray could pass within slack of another primitive: near an
+    // edge or a corner of this one, with a margin (kNearHitMargin) for the
+    // distance's change between the primitives on either side of an edge,
+    // so that the set does not depend on which one Embree reported.
+    const double ti = std::isnan(distance[i]) ? closest : distance[i];
+    AppendPrimitivesNear(g.topology(), g.mesh(), c[i].prim, x + d * ti,
+                         kNearHitMargin * slack, around);
   }
   if (around->empty()) return best;
   std::sort(around->begin(), around->end());
   around->erase(std::unique(around->begin(), around->end()), around->end());
-  const double slack = (reach + closest) * 0x1p-16;
   for (int32_t q : *around) {
     if (std::binary_search(excluded.begin(), excluded.end(), q)) continue;
     bool listed = false;

@@ -294,9 +294,12 @@ class VenvInstallTest(unittest.TestCase):
         lines = re.search(r"```sh\n(\S*python3 -m venv[^\n]*\n[^\n]*pip "
                           r"install[^\n]*)\n```", readme).group(1)
         work = tempfile.mkdtemp()
-        for part in ("client", "proto"):
+        # web/: the report page's scripts (Session.report), bundled by
+        # scripts/install_web_deps.sh.
+        for part in ("client", "proto", "web"):
             shutil.copytree(os.path.join(SOURCE, part), os.path.join(work, part),
-                            ignore=shutil.ignore_patterns("build", "*.egg-info"))
+                            ignore=shutil.ignore_patterns("build", "*.egg-info",
+                                                          "node_modules"))
         shutil.copy(os.path.join(SOURCE, "VERSION"), work)
         p = subprocess.run(["bash", "-ec", lines + " -q"], cwd=work,
                            capture_output=True, text=True, timeout=300)

@@ -23,6 +23,7 @@ import min_thickness_slsqp  # noqa: E402
 from server_fixture import ServerProcess  # noqa: E402
 
 import grpc  # noqa: E402
+from html import unescape as html_unescape  # noqa: E402
 
 
 def octahedron(scale=1.0):
@@ -414,6 +415,52 @@ class RemoteEndToEnd(unittest.TestCase):
         with self.assertRaises(ValueError):
             self.client.penalty("thin", 0.1, thin_regions=True,
                                 min_region_area=-1)
+
+    def test_6b_session_report_writes_the_interactive_page(self):
+        """Session.report writes the CLI's interactive page for the
+        session's iteration: bands adding up, the server's thin share; in
+        headless Chromium (when installed) its slider's thin share for
+        another t_min is the server's penalty's for it."""
+        import re
+        import shutil
+        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+                              "decimated-knight.off")
+        out = os.path.join(self.tmp, "py_report")
+        with self.client.session_from_file(knight) as s:
+            report = s.report(out, t_min=0.1, rays=20)
+            other = s.penalty(0.05, rays=20, thin_regions=True,
+                              gradient=False).thin.thin_fraction
+        with open(os.path.join(out, "report.json")) as f:
+            self.assertEqual(json.load(f)["thin"], report["thin"])
+        total = report["thin"]["total_area"]
+        self.assertAlmostEqual(sum(b["area"] for b in report["bands"]),
+                               total, delta=1e-12 * total)
+        self.assertAlmostEqual(report["bands"][0]["area"],
+                               report["thin"]["thin_area"],
+                               delta=1e-12 * total)
+        with open(os.path.join(out, "index.html")) as f:
+            page = f.read()
+        for part in ('id="mg-data"', 'id="mg-bands"', 'data-region="0"',
+                     "MIT License", report["sentence"]):
+            self.assertIn(part, page)
+        chromium = shutil.which("chromium")
+        if not chromium:
+            return
+        run = subprocess.run(
+            [chromium, "--headless", "--no-sandbox", "--disable-gpu",
+             "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+             "--disable-background-networking", "--no-first-run",
+             "--user-data-dir=" + os.path.join(self.tmp, "chromium"),
+             "--dump-dom", "file://" + os.path.join(out, "index.html") +
+             "#selftest=0.05"], capture_output=True, text=True, timeout=120)
+        m = re.search(r'<pre id="mg-selftest">(.*?)</pre>', run.stdout)
+        self.assertIsNotNone(m, run.stderr[-2000:])
+        result = json.loads(html_unescape(m.group(1)))
+        self.assertEqual(result["errors"], [])
+        self.assertTrue(result["webgl"])
+        self.assertAlmostEqual(result["steps"][0]["thin_fraction"], other,
+                               delta=1e-9 * other)
+        self.assertTrue(result["clicked_row"])
 
     def test_7_missing_values_warn_with_their_cause(self):
         import warnings

@@ -19,7 +19,9 @@ meshgauge_client._weld).
 """
 
 import contextlib
-from typing import Any, Callable, Optional, Tuple, TypeVar
+import os
+from typing import (Any, Callable, Dict, Optional, Sequence, Tuple,
+                    TypeVar)
 
 import scipy.sparse
 
@@ -172,6 +174,22 @@ class Session:
         return self._with_session(lambda: self._client.penalty(
             self.session_id, t_min, expected_generation=self.generation,
             **kwargs))
+
+    def report(self, path: "str | os.PathLike[str]", t_min: float, *,
+               min_region_area: float = 0.0,
+               color_range: Optional[Sequence[float]] = None,
+               up: str = "z", **params: Any) -> Dict[str, Any]:
+        """Writes the interactive page of `meshgauge report` (index.html,
+        the view of this iteration's values, the t_min slider, the bands
+        and the thin-region table) and its report.json into the directory
+        `path` (made if needed); returns report.json's object. Numbers from
+        the server (the SDF, the thin regions); params as sdf (rays,
+        samples, ...). No pictures: `meshgauge remote report --session-id`
+        draws them. See meshgauge_client.report and docs/report.md."""
+        from meshgauge_client import report as _report
+        return _report.write(self, path, t_min,
+                             min_region_area=min_region_area,
+                             color_range=color_range, up=up, **params)
 
     def constraint(self, t_min: float, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:
