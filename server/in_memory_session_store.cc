@@ -56,8 +56,9 @@ absl::Status InMemorySessionStore::Delete(const std::string& tenant,
 absl::StatusOr<wire::UpdateResult> InMemorySessionStore::UpdatePositions(
     const std::string& /*tenant*/, const std::shared_ptr<Session>& session,
     int64_t expected_generation, const std::vector<int32_t>& indices,
-    const std::vector<Vec3>& positions) {
-  return session->UpdatePositions(expected_generation, indices, positions);
+    const std::vector<Vec3>& positions, const UpdateControl& control) {
+  return session->UpdatePositions(expected_generation, indices, positions,
+                                   control);
 }
 
 absl::StatusOr<std::vector<SessionSnapshot>> InMemorySessionStore::List(

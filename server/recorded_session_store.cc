@@ -133,7 +133,7 @@ absl::Status RecordedSessionStore::Delete(const std::string& tenant,
 absl::StatusOr<wire::UpdateResult> RecordedSessionStore::UpdatePositions(
     const std::string& tenant, const std::shared_ptr<Session>& session,
     int64_t expected_generation, const std::vector<int32_t>& indices,
-    const std::vector<Vec3>& positions) {
+    const std::vector<Vec3>& positions, const UpdateControl& control) {
   Session& s = *session;
   const std::string& id = s.id();
   std::lock_guard<std::mutex> update_lock(s.update_mutex());
@@ -175,6 +175,15 @@ absl::StatusOr<wire::UpdateResult> RecordedSessionStore::UpdatePositions(
           absl::StrCat("position update rejected: ", v.message()));
     }
     all = std::move(moved.positions);
+  }
+  // A caller that gave up while it waited is never applied: checked before
+  // the record moves (after it, the update is made whatever the wait).
+  if (control.cancelled && control.cancelled()) {
+    return absl::CancelledError("the caller left before the update's turn");
+  }
+  if (std::chrono::system_clock::now() >= control.deadline) {
+    return absl::DeadlineExceededError(
+        "the update's deadline passed before its turn; nothing was changed");
   }
   // The positions were checked against this incarnation's mesh: the record
   // takes them only if it is still that incarnation.

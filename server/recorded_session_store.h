@@ -27,7 +27,8 @@ class RecordedSessionStore final : public SessionCache {
   absl::StatusOr<wire::UpdateResult> UpdatePositions(
       const std::string& tenant, const std::shared_ptr<Session>& session,
       int64_t expected_generation, const std::vector<int32_t>& indices,
-      const std::vector<Vec3>& positions) override;
+      const std::vector<Vec3>& positions,
+      const UpdateControl& control) override;
   absl::StatusOr<std::vector<SessionSnapshot>> List(
       const std::string& tenant, const std::string& page_token, int page_size,
       std::string* next_token) override;

@@ -437,7 +437,9 @@ grpc::Status MeshGaugeService::UpdatePositions(
         std::vector<int32_t> indices(request->indices().begin(),
                                      request->indices().end());
         auto outcome = store_->UpdatePositions(
-            tenant, *session, request->expected_generation(), indices, *points);
+            tenant, *session, request->expected_generation(), indices, *points,
+            {.deadline = ctx->deadline(),
+             .cancelled = [ctx] { return ctx->IsCancelled(); }});
         if (!outcome.ok()) return outcome.status();
         wire::ToWire(*outcome, response);
         return absl::OkStatus();
@@ -505,6 +507,19 @@ grpc::Status MeshGaugeService::ComputeSdf(
                 "the VJP instead"));
           }
         }
+        // The summary, then no more use of the session: its lock is let go
+        // before streaming, so a client that stops reading the stream holds
+        // back no update (the values are the cached pass's, kept by `pass`).
+        v1::ComputeSdfResponse last;
+        wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
+                            {ev.generation(), pass->reused, Seconds(start)},
+                            last.mutable_summary());
+        // Without a topology pass unless the missing share of the surface
+        // is over the warning's.
+        for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
+          last.mutable_summary()->add_warnings(std::move(w));
+        }
+        prep->reader.lock.unlock();
         for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
           if (ctx->IsCancelled()) {
             return Interrupted(ctx, absl::CancelledError("cancelled"));
@@ -527,15 +542,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
             return absl::CancelledError("client went away during the stream");
           }
         }
-        v1::ComputeSdfResponse last;
-        wire::ToWireSummary(r, IntegrateSdf(ev.mesh(), r).value,
-                            {ev.generation(), pass->reused, Seconds(start)},
-                            last.mutable_summary());
-        // Without a topology pass unless the missing share of the surface
-        // is over the warning's.
-        for (std::string& w : MissingValueWarnings(ev.mesh(), r)) {
-          last.mutable_summary()->add_warnings(std::move(w));
-        }
+        last.mutable_summary()->set_seconds(Seconds(start));
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
         }

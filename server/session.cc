@@ -122,21 +122,34 @@ absl::Status Session::EnsureEvaluator() {
 
 absl::StatusOr<Session::Reader> Session::Read() {
   {
-    std::shared_lock<std::shared_mutex> lock(mu_);
+    std::shared_lock<WriterFirstMutex> lock(mu_);
     if (evaluator_) return Reader{std::move(lock), evaluator_.get()};
   }
   {
-    std::unique_lock<std::shared_mutex> lock(mu_);
+    std::unique_lock<WriterFirstMutex> lock(mu_);
     if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
   }
-  std::shared_lock<std::shared_mutex> lock(mu_);
+  std::shared_lock<WriterFirstMutex> lock(mu_);
   return Reader{std::move(lock), evaluator_.get()};
 }
 
 absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
     int64_t expected_generation, absl::Span<const int32_t> indices,
-    absl::Span<const Vec3> positions) {
-  std::unique_lock<std::shared_mutex> lock(mu_);
+    absl::Span<const Vec3> positions, const UpdateControl& control) {
+  std::unique_lock<WriterFirstMutex> lock(mu_, std::defer_lock);
+  if (control.deadline == std::chrono::system_clock::time_point::max()) {
+    lock.lock();
+  } else if (!lock.try_lock_until(control.deadline)) {
+    return absl::DeadlineExceededError(absl::StrCat(
+        "session '", id_,
+        "': the update's deadline passed while computations already running "
+        "on it finished; nothing was changed"));
+  }
+  if (control.cancelled && control.cancelled()) {
+    return absl::CancelledError(absl::StrCat(
+        "session '", id_, "': the caller left before the update's turn; "
+        "nothing was changed"));
+  }
   if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
   if (expected_generation != evaluator_->generation()) {
     return GenerationMismatch(id_, evaluator_->generation(),

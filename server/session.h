@@ -8,6 +8,8 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <shared_mutex>
@@ -23,6 +25,7 @@
 #include "server/metrics.h"
 #include "server/server_options.h"
 #include "server/session_records.h"
+#include "server/writer_first_mutex.h"
 
 namespace meshgauge::server {
 
@@ -33,6 +36,13 @@ struct CachedPass {
   SdfResult result;
   HitTable hits;
   int64_t bytes = 0;
+};
+
+// Whether a position update is still wanted when its turn comes.
+struct UpdateControl {
+  std::chrono::system_clock::time_point deadline =
+      std::chrono::system_clock::time_point::max();
+  std::function<bool()> cancelled = nullptr;  // the caller left.
 };
 
 struct SessionSnapshot {
@@ -64,18 +74,22 @@ class Session {
   // Shared access to the evaluator for computations (builds it on first
   // use). Hold the returned object for the whole computation.
   struct Reader {
-    std::shared_lock<std::shared_mutex> lock;
+    std::shared_lock<WriterFirstMutex> lock;
     const SdfEvaluator* evaluator = nullptr;
     int64_t generation() const { return evaluator->generation(); }
   };
   absl::StatusOr<Reader> Read();
 
   // Exclusive: moves vertices and refits the BVH, or rebuilds it when the
-  // new generation is a BVH base (IsBvhBase). Errors: ABORTED on a
-  // generation mismatch, INVALID_ARGUMENT for bad positions.
+  // new generation is a BVH base (IsBvhBase). It waits for the computations
+  // already running (WriterFirstMutex: later ones wait for it) until
+  // control.deadline, and is not applied when the caller gave up meanwhile.
+  // Errors: ABORTED on a generation mismatch, INVALID_ARGUMENT for bad
+  // positions, DEADLINE_EXCEEDED (nothing changed) when the deadline passed
+  // first, CANCELLED when the caller left.
   absl::StatusOr<wire::UpdateResult> UpdatePositions(
       int64_t expected_generation, absl::Span<const int32_t> indices,
-      absl::Span<const Vec3> positions);
+      absl::Span<const Vec3> positions, const UpdateControl& control = {});
 
   // The cached pass for these parameters at this generation, or null.
   std::shared_ptr<const CachedPass> FindPass(const SdfParams& params,
@@ -118,7 +132,7 @@ class Session {
   // At upload (or from the record): closed and the warnings are used.
   const MeshDiagnostics diagnostics_;
   const int64_t base_bytes_;
-  mutable std::shared_mutex mu_;
+  mutable WriterFirstMutex mu_;
   // Until the evaluator takes them: the mesh at the BVH base and, when they
   // differ, the current positions.
   Mesh pending_mesh_;

@@ -133,7 +133,7 @@ class SessionStore {
   virtual absl::StatusOr<wire::UpdateResult> UpdatePositions(
       const std::string& tenant, const std::shared_ptr<Session>& session,
       int64_t expected_generation, const std::vector<int32_t>& indices,
-      const std::vector<Vec3>& positions) = 0;
+      const std::vector<Vec3>& positions, const UpdateControl& control) = 0;
 
   // The tenant's sessions with id > page_token, in id order, at most
   // page_size. Errors: only from records (UNAVAILABLE).

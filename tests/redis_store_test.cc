@@ -383,7 +383,7 @@ TEST_F(RedisStoreTest, AnUpdateSizedForAnotherIncarnationIsRefusedAtTheStore) {
   auto session = a_->server->store().Get("", "sized");
   ASSERT_TRUE(session.ok()) << session.status();
   auto update = a_->server->store().UpdatePositions("", *session, 0, {},
-                                                    sphere.positions);
+                                                    sphere.positions, {});
   EXPECT_EQ(Code(update), absl::StatusCode::kInvalidArgument);
   EXPECT_THAT(std::string(update.status().message()),
               HasSubstr("expected 502 (one per vertex of the session)"));

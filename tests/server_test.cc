@@ -3,7 +3,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstring>
+#include <mutex>
 #include <thread>
 
 #include "absl/strings/str_cat.h"
@@ -16,6 +19,7 @@
 #include "lib/io/mesh_io.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/upload_convert.h"
+#include "server/writer_first_mutex.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
 
@@ -825,6 +829,154 @@ TEST_F(ServerTest, ConcurrentClientsGetLibraryResults) {
   for (auto& t : threads) t.join();
   EXPECT_EQ(errors, 0);
   EXPECT_EQ(mismatches, 0);
+}
+
+// A waiting writer goes before readers that come after it: by order, not
+// by time (glibc's rwlock let new readers in while a writer waited).
+TEST(WriterFirstMutexTest, AWaitingWriterGoesBeforeLaterReaders) {
+  server::WriterFirstMutex mu;
+  std::vector<std::string> order;
+  std::mutex order_mu;
+  auto note = [&](const char* what) {
+    std::lock_guard<std::mutex> lock(order_mu);
+    order.push_back(what);
+  };
+  mu.lock_shared();  // a computation running.
+  std::thread writer([&] {
+    mu.lock();
+    note("writer");
+    mu.unlock();
+  });
+  while (mu.writers_waiting() == 0) std::this_thread::yield();
+  std::thread reader([&] {
+    mu.lock_shared();
+    note("later reader");
+    mu.unlock_shared();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  {
+    std::lock_guard<std::mutex> lock(order_mu);
+    EXPECT_TRUE(order.empty());  // neither passed the running reader.
+  }
+  mu.unlock_shared();
+  writer.join();
+  reader.join();
+  EXPECT_EQ(order, (std::vector<std::string>{"writer", "later reader"}));
+  // A writer whose deadline passes holds nothing and lets readers in.
+  mu.lock_shared();
+  EXPECT_FALSE(mu.try_lock_until(std::chrono::steady_clock::now() +
+                                 std::chrono::milliseconds(20)));
+  std::thread another([&] {
+    mu.lock_shared();
+    mu.unlock_shared();
+  });
+  another.join();
+  mu.unlock_shared();
+}
+
+// An update is applied only if it is still wanted when its turn comes: one
+// whose deadline passes while computations run changes nothing (an outside
+// tester saw an update applied after its client got DEADLINE_EXCEEDED).
+TEST_F(ServerTest, AnUpdatePastItsDeadlineIsNeverApplied) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "held").ok());
+  auto session = server_->store().Get("", "held");
+  ASSERT_TRUE(session.ok()) << session.status();
+  std::vector<Vec3> moved = mesh.positions;
+  for (Vec3& p : moved) p *= 1.01;
+  {
+    auto reader = (*session)->Read();  // a computation in progress.
+    ASSERT_TRUE(reader.ok());
+    auto late = (*session)->UpdatePositions(
+        0, {}, moved,
+        {.deadline = std::chrono::system_clock::now() +
+                     std::chrono::milliseconds(100)});
+    EXPECT_EQ(late.status().code(), absl::StatusCode::kDeadlineExceeded);
+  }
+  auto gone = (*session)->UpdatePositions(0, {}, moved,
+                                          {.cancelled = [] { return true; }});
+  EXPECT_EQ(gone.status().code(), absl::StatusCode::kCancelled);
+  EXPECT_EQ(client_->Get("held")->generation, 0);
+  // Through the wire: a deadline shorter than a running computation.
+  grpc::ClientContext ctx;
+  ctx.set_deadline(std::chrono::system_clock::now() +
+                   std::chrono::milliseconds(200));
+  v1::UpdatePositionsRequest req;
+  req.set_session_id("held");
+  for (const Vec3& p : moved) {
+    req.add_positions(p.x);
+    req.add_positions(p.y);
+    req.add_positions(p.z);
+  }
+  v1::UpdatePositionsResponse resp;
+  {
+    auto reader = (*session)->Read();
+    EXPECT_EQ(client_->stub().UpdatePositions(&ctx, req, &resp).error_code(),
+              grpc::StatusCode::DEADLINE_EXCEEDED);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }
+  EXPECT_EQ(client_->Get("held")->generation, 0);
+  ASSERT_TRUE(client_->UpdatePositions("held", 0, 3, moved).ok());
+}
+
+// 32 clients computing (each pass holds the session's lock shared) do not
+// starve an update: it waits for the passes already running, not for the
+// readers to stop (an outside tester's 8 of 8 updates hit their 120 s
+// deadline). Checked by order: the update returns while the readers still
+// have most of their calls to make.
+TEST_F(ServerTest, ThirtyTwoReadersDoNotStarveAnUpdate) {
+  const Mesh mesh = Knight();
+  ASSERT_TRUE(client_->Upload(mesh, "busy").ok());
+  constexpr int kReaders = 32, kCalls = 30;
+  std::atomic<int> done{0}, started{0};
+  std::vector<std::thread> readers;
+  for (int i = 0; i < kReaders; ++i) {
+    readers.emplace_back([&, i] {
+      client::RemoteClient c(target_);
+      for (int k = 0; k < kCalls; ++k) {
+        SdfParams p;
+        p.rays = 16 + (i + k) % 7;  // a new pass each time (one cached).
+        ++started;
+        EXPECT_TRUE(c.ComputeSdf("busy", p).ok());
+        ++done;
+      }
+    });
+  }
+  while (started < 2 * kReaders) std::this_thread::yield();
+  std::vector<Vec3> moved = mesh.positions;
+  for (Vec3& v : moved) v *= 1.01;
+  client::ClientOptions o;
+  o.deadline_seconds = 60;
+  client::RemoteClient writer(target_, o);
+  auto update = writer.UpdatePositions("busy", 0, 3, moved);
+  const int done_at_update = done;
+  for (std::thread& t : readers) t.join();
+  ASSERT_TRUE(update.ok()) << update.status();
+  EXPECT_LT(done_at_update, kReaders * kCalls / 2);
+}
+
+// A client that stops reading a ComputeSdf stream holds back no update:
+// the session's lock is let go before the values are streamed.
+TEST_F(ServerTest, AStalledStreamDoesNotBlockAnUpdate) {
+  const Mesh sphere = MakeIcosphere(1, 120);  // 144,002 vertices.
+  ASSERT_TRUE(client_->Upload(sphere, "stall").ok());
+  grpc::ClientContext stalled;
+  v1::ComputeSdfRequest req;
+  req.set_session_id("stall");
+  req.mutable_params()->set_rays(1);
+  req.set_chunk_vertices(1);  // ~144k messages: more than any window.
+  auto stream = client_->stub().ComputeSdf(&stalled, req);
+  v1::ComputeSdfResponse first;
+  ASSERT_TRUE(stream->Read(&first));  // then never read again.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  std::vector<Vec3> moved = sphere.positions;
+  for (Vec3& p : moved) p *= 1.01;
+  client::ClientOptions o;
+  o.deadline_seconds = 20;
+  client::RemoteClient c(target_, o);
+  auto update = c.UpdatePositions("stall", 0, 3, moved);
+  EXPECT_TRUE(update.ok()) << update.status();
+  stalled.TryCancel();
 }
 
 TEST_F(ServerTest, ConcurrentUpdatesOnOneSessionAreSerialised) {
