@@ -64,6 +64,12 @@ ABSL_FLAG(double, session_ttl_seconds, 3600, "idle time before eviction");
 ABSL_FLAG(int, rebuild_every_updates, 32,
           "position updates refit the BVH; every Nth rebuilds it");
 ABSL_FLAG(int, compute_threads, 0, "threads per computation (0 = all cores)");
+ABSL_FLAG(int, max_computations_per_tenant, 0,
+          "computations (ray passes, sensitivities, checks) one tenant runs at "
+          "once; more wait their turn (0: the number of cores)");
+ABSL_FLAG(int, max_concurrent_computations, 0,
+          "computations running at once in all; waiting calls get freed slots "
+          "tenant by tenant in turn (0: 4 x the number of cores)");
 ABSL_FLAG(double, drain_notice_seconds, 1,
           "on SIGTERM, health says NOT_SERVING this long before draining");
 ABSL_FLAG(double, shutdown_grace_seconds, 20,
@@ -138,6 +144,10 @@ meshgauge::server::ServerOptions OptionsFromFlags() {
   o.session_ttl_seconds = absl::GetFlag(FLAGS_session_ttl_seconds);
   o.rebuild_every_updates = absl::GetFlag(FLAGS_rebuild_every_updates);
   o.compute_threads = absl::GetFlag(FLAGS_compute_threads);
+  o.max_computations_per_tenant =
+      absl::GetFlag(FLAGS_max_computations_per_tenant);
+  o.max_concurrent_computations =
+      absl::GetFlag(FLAGS_max_concurrent_computations);
   o.shutdown_grace_seconds = absl::GetFlag(FLAGS_shutdown_grace_seconds);
   o.drain_notice_seconds = absl::GetFlag(FLAGS_drain_notice_seconds);
   return o;
@@ -166,6 +176,8 @@ std::string Describe(const meshgauge::server::ServerOptions& o, int port) {
       " session_ttl_seconds=", o.session_ttl_seconds,
       " rebuild_every_updates=", o.rebuild_every_updates,
       " compute_threads=", o.compute_threads,
+      " max_computations_per_tenant=", o.ComputationsPerTenant(),
+      " max_concurrent_computations=", o.ConcurrentComputations(),
       " max_sessions_per_tenant=", o.max_sessions_per_tenant,
       " memory_budget_bytes_per_tenant=", o.memory_budget_bytes_per_tenant,
       " max_concurrent_uploads=", o.max_concurrent_uploads,

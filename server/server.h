@@ -37,6 +37,7 @@ class MeshGaugeServer {
 
   int port() const { return port_; }
   SessionStore& store() { return *store_; }
+  MeshGaugeService& service() { return service_; }
 
   // Graceful drain: health turns NOT_SERVING (calls are still served for
   // options.drain_notice_seconds), then new calls are refused with

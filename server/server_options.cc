@@ -1,6 +1,8 @@
 #include "server/server_options.h"
 
+#include <algorithm>
 #include <cmath>
+#include <thread>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -51,6 +53,16 @@ absl::Status CheckListenAddress(const std::string& address) {
   return absl::OkStatus();
 }
 
+int ServerOptions::ComputationsPerTenant() const {
+  if (max_computations_per_tenant > 0) return max_computations_per_tenant;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+int ServerOptions::ConcurrentComputations() const {
+  if (max_concurrent_computations > 0) return max_concurrent_computations;
+  return 4 * std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
 absl::Status ValidateServerOptions(const ServerOptions& o) {
   constexpr int64_t kInt32 = 2147483647;
   const absl::Status checks[] = {
@@ -81,6 +93,10 @@ absl::Status ValidateServerOptions(const ServerOptions& o) {
       InRange<int>("rebuild_every_updates", o.rebuild_every_updates, 1,
                    1'000'000),
       InRange<int>("compute_threads", o.compute_threads, 0, 1024),
+      InRange<int>("max_computations_per_tenant",
+                   o.max_computations_per_tenant, 0, 4096),
+      InRange<int>("max_concurrent_computations",
+                   o.max_concurrent_computations, 0, 4096),
       InRange<double>("drain_notice_seconds", o.drain_notice_seconds, 0, 3600),
       InRange<double>("shutdown_grace_seconds", o.shutdown_grace_seconds, 0,
                       3600),

@@ -45,12 +45,19 @@ struct ServerOptions {
   double session_ttl_seconds = 3600;  // idle sessions are evicted.
   int rebuild_every_updates = 32;     // BVH refits between full rebuilds.
   int compute_threads = 0;            // per computation; 0 = all cores.
+  // Computations (ray passes, sensitivities, checks) running at once per
+  // tenant and in all; more wait in a queue served round robin across
+  // tenants (ComputeSlots). 0: the cores, and 4 x the cores.
+  int max_computations_per_tenant = 0;
+  int max_concurrent_computations = 0;
   // On shutdown, health reports NOT_SERVING for this long while calls are
   // still accepted (so balancers stop routing), then the server drains.
   double drain_notice_seconds = 1;
   double shutdown_grace_seconds = 20;  // in-flight calls may finish.
   double sweep_interval_seconds = 5;   // TTL sweep period.
 
+  int ComputationsPerTenant() const;
+  int ConcurrentComputations() const;
   int64_t SessionsPerTenant() const {
     return max_sessions_per_tenant > 0 ? max_sessions_per_tenant : max_sessions;
   }

@@ -82,7 +82,9 @@ MeshGaugeService::MeshGaugeService(const ServerOptions& options,
       uploads_(uploads),
       auth_(auth),
       metrics_(metrics),
-      clock_(clock) {
+      clock_(clock),
+      slots_(options.ComputationsPerTenant(),
+             options.ConcurrentComputations()) {
   // Method 0 of the generated service is CreateSession (the proto's first
   // rpc): its handler reads UploadMessage instead of the parsed request.
   MarkMethodStreamed(
@@ -203,6 +205,16 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
                               "request");
   }
   return Prepared{std::move(*session), std::move(*reader), *sdf_params};
+}
+
+absl::StatusOr<ComputeSlots::Slot> MeshGaugeService::TakeSlot(
+    const std::string& tenant, grpc::ServerContext* ctx) {
+  auto slot = slots_.Take(tenant, [ctx] {
+    return ctx->IsCancelled() ||
+           std::chrono::system_clock::now() >= ctx->deadline();
+  });
+  if (!slot.ok()) return Interrupted(ctx, slot.status());
+  return slot;
 }
 
 absl::StatusOr<MeshGaugeService::Pass> MeshGaugeService::EnsurePass(
@@ -459,6 +471,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
               absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
                            "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
         }
+        // A computation slot before the session (ComputeSlots).
+        auto slot = TakeSlot(tenant, ctx);
+        if (!slot.ok()) return slot.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
                             request->expected_generation());
@@ -520,6 +535,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
           last.mutable_summary()->add_warnings(std::move(w));
         }
         prep->reader.lock.unlock();
+        slot->Release();
         for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
           if (ctx->IsCancelled()) {
             return Interrupted(ctx, absl::CancelledError("cancelled"));
@@ -556,6 +572,9 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
   return Instrumented(
       "ComputeVjp", ctx, [&](const std::string& tenant) -> absl::Status {
         const auto start = std::chrono::steady_clock::now();
+        // A computation slot before the session (ComputeSlots).
+        auto slot = TakeSlot(tenant, ctx);
+        if (!slot.ok()) return slot.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
                             request->expected_generation());
@@ -600,6 +619,9 @@ grpc::Status MeshGaugeService::ComputePenalty(
         if (!pp.ok()) return pp.status();
         auto thin_request = wire::ThinFromWire(*request);
         if (!thin_request.ok()) return thin_request.status();
+        // A computation slot before the session (ComputeSlots).
+        auto slot = TakeSlot(tenant, ctx);
+        if (!slot.ok()) return slot.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
                             request->expected_generation());
@@ -647,6 +669,9 @@ grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
                                          v1::CalibrateResponse* response) {
   return Instrumented(
       "Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
+        // A computation slot before the session (ComputeSlots).
+        auto slot = TakeSlot(tenant, ctx);
+        if (!slot.ok()) return slot.status();
         auto prep =
             Prepare(tenant, request->session_id(), request->params(), false, 0);
         if (!prep.ok()) return prep.status();
@@ -714,6 +739,9 @@ grpc::Status MeshGaugeService::GradCheck(
         const auto start = std::chrono::steady_clock::now();
         auto options = wire::GradCheckFromWire(*request);
         if (!options.ok()) return options.status();
+        // A computation slot before the session (ComputeSlots).
+        auto slot = TakeSlot(tenant, ctx);
+        if (!slot.ok()) return slot.status();
         auto prep = Prepare(tenant, request->session_id(), request->params(),
                             request->has_expected_generation(),
                             request->expected_generation());

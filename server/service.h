@@ -13,6 +13,7 @@
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 #include "server/auth.h"
 #include "server/clock.h"
+#include "server/compute_slots.h"
 #include "server/mesh_upload.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
@@ -69,6 +70,9 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
       grpc::ServerContext* ctx, const v1::GradCheckRequest* request,
       grpc::ServerWriter<v1::GradCheckResponse>* writer) override;
 
+  // The computation slots (for tests and diagnostics).
+  const ComputeSlots& slots() const { return slots_; }
+
   // From now on every new call fails UNAVAILABLE ("draining"); returns when
   // the calls in flight have finished or at `deadline`.
   void Drain(std::chrono::system_clock::time_point deadline);
@@ -93,6 +97,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                                   const std::string& tenant,
                                   const Prepared& prep,
                                   const ComputeControl& control);
+  // A computation slot for `tenant` (ComputeSlots), waiting while ctx
+  // lives. Take it before Prepare: a queued call holds no session lock.
+  absl::StatusOr<ComputeSlots::Slot> TakeSlot(const std::string& tenant,
+                                              grpc::ServerContext* ctx);
   absl::StatusOr<Prepared> Prepare(const std::string& tenant,
                                    const std::string& session_id,
                                    const v1::SdfParameters& params,
@@ -148,6 +156,7 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
   const Authenticator* auth_;
   Metrics* metrics_;
   const Clock* clock_;
+  ComputeSlots slots_;
   std::mutex drain_mu_;
   std::condition_variable drain_cv_;
   bool draining_ = false;

@@ -122,7 +122,14 @@ absl::Status SessionCache::CheckBytesLocked(const std::string& tenant,
   if (absl::Status s = CheckTenantBudgetLocked(tenant, bytes); !s.ok()) {
     return s;
   }
-  if (reserved_total_.bytes + bytes > options_.memory_budget_bytes) {
+  // Against the server's budget: this tenant's reservations, and only the
+  // bytes other tenants' uploads received (reserved but unsent bytes hold
+  // no memory: a tenant that declares a large upload and sends nothing
+  // blocks its own share, never another tenant's upload).
+  auto mine = reserved_.find(tenant);
+  const int64_t own =
+      mine == reserved_.end() ? 0 : mine->second.bytes - mine->second.arrived;
+  if (reserved_total_.arrived + own + bytes > options_.memory_budget_bytes) {
     return absl::ResourceExhaustedError(
         "uploads in flight hold the server's memory budget; retry later");
   }

@@ -1,5 +1,7 @@
 #include "server/upload_watch.h"
 
+#include <algorithm>
+
 #include "absl/strings/str_cat.h"
 
 namespace meshgauge::server {
@@ -44,6 +46,7 @@ absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
   const double now = clock_->NowSeconds();
   e.last = now;
   e.bytes += bytes;
+  ++e.messages;
   const double elapsed = now - e.start;
   if (e.discard) {
     if (e.bytes <= kMaxDiscardBytes && elapsed <= kMaxDiscardSeconds) {
@@ -52,6 +55,17 @@ absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
     return absl::OutOfRangeError(
         absl::StrCat("a refused upload's remainder reached ", e.bytes,
                      " bytes in ", elapsed, " s"));
+  }
+  // An eighth of the message limits when they are small.
+  const int64_t min_average =
+      std::min({kMinAverageMessageBytes, options_.max_message_bytes / 8,
+                options_.max_upload_message_bytes / 8});
+  if (e.messages > kTinyMessagesAllowed &&
+      e.bytes < min_average * e.messages) {
+    return absl::ResourceExhaustedError(absl::StrCat(
+        "CreateSession: ", e.messages, " messages averaging ",
+        e.bytes / e.messages, " bytes: send chunks of at least ", min_average,
+        " bytes on average"));
   }
   if (elapsed > options_.upload_deadline_seconds) {
     return absl::DeadlineExceededError(absl::StrCat(

@@ -22,6 +22,16 @@
 
 namespace meshgauge::server {
 
+// Past its first kTinyMessagesAllowed messages, an upload's messages must
+// average kMinAverageMessageBytes (an eighth of --max_message_bytes or
+// --max_upload_message_bytes when smaller): a message costs the server about
+// 50-80 us
+// whatever its size, so a trickle of tiny messages above the minimum rate
+// would otherwise hold a core (the clients send chunks of 64k vertices or
+// 1 MiB of file).
+inline constexpr int64_t kTinyMessagesAllowed = 16;
+inline constexpr int64_t kMinAverageMessageBytes = 4096;
+
 // Bounds on the remainder of a refused upload read and dropped before the
 // refusal is sent (StartDiscard): at most kMaxDiscards at once, each at
 // most kMaxDiscardBytes and kMaxDiscardSeconds.
@@ -43,8 +53,10 @@ class UploadWatch {
   // max_concurrent_uploads, so refused callers take no upload slot.
   absl::StatusOr<int64_t> StartDiscard(grpc::ServerContext* ctx);
   // A message of `bytes` arrived. DEADLINE_EXCEEDED, naming the flag, when
-  // the upload is past its deadline or below the minimum rate; for a
-  // discard, OUT_OF_RANGE past kMaxDiscardBytes or kMaxDiscardSeconds.
+  // the upload is past its deadline or below the minimum rate;
+  // RESOURCE_EXHAUSTED when its messages are too small on average
+  // (kMinAverageMessageBytes); for a discard, OUT_OF_RANGE past
+  // kMaxDiscardBytes or kMaxDiscardSeconds.
   absl::Status Touch(int64_t id, int64_t bytes);
   // The upload's last message arrived: from now on the server builds and
   // checks the mesh, which is not the client's idleness, so AbortIdle and
@@ -64,6 +76,7 @@ class UploadWatch {
     grpc::ServerContext* ctx;
     double start, last;
     int64_t bytes = 0;
+    int64_t messages = 0;
     bool aborted = false;
     bool discard = false;
     bool received = false;  // Received: the stream was read to its end.

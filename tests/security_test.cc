@@ -10,9 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <algorithm>
+#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "absl/strings/str_join.h"
 #include "absl/strings/str_replace.h"
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
@@ -86,6 +89,79 @@ class SecurityTest : public testing::ServerFixture {
   }
   std::unique_ptr<RemoteClient> alice_, bob_;
 };
+
+// Tenants never slow each other much: alice's eight passes run two at a
+// time (--max_computations_per_tenant 2), so bob's pass of the same size,
+// sent after hers started, shares the cores with two passes, not eight,
+// and ends before most of hers. Checked by order of completion: without the
+// cap all nine share the cores and bob, last to start, ends among the last.
+TEST_F(SecurityTest, ATenantsCallIsNotQueuedBehindAnothersPasses) {
+  server::ServerOptions o = options_;
+  o.max_computations_per_tenant = 2;
+  o.max_concurrent_computations = 16;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  const Mesh mesh = MakeIcosphere(1, 40);  // 16,002 vertices.
+  ASSERT_TRUE(alice_->Upload(mesh, "a").ok());
+  ASSERT_TRUE(bob_->Upload(mesh, "b").ok());
+  std::mutex mu;
+  std::vector<std::string> finished;
+  auto note = [&](const std::string& who) {
+    std::lock_guard<std::mutex> lock(mu);
+    finished.push_back(who);
+  };
+  std::vector<std::thread> calls;
+  for (int i = 0; i < 8; ++i) {
+    calls.emplace_back([&, i] {
+      auto c = Client("alice-secret");
+      SdfParams p;
+      p.rays = 20 + i;  // eight different passes.
+      EXPECT_TRUE(c->ComputeSdf("a", p).ok());
+      note("alice");
+    });
+  }
+  // Bob's call once alice's fill her slots and queue.
+  for (int k = 0; k < 500 && server_->service().slots().waiting() < 6; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  SdfParams p;
+  p.rays = 24;
+  EXPECT_TRUE(bob_->ComputeSdf("b", p).ok());
+  note("bob");
+  for (std::thread& t : calls) t.join();
+  const auto bob = std::find(finished.begin(), finished.end(), "bob");
+  EXPECT_LE(bob - finished.begin(), 4) << absl::StrJoin(finished, " ");
+}
+
+// A tenant's reserved but unsent bytes count against its own share: its
+// header-only upload of a large file (8 bytes reserved per declared byte:
+// the whole server's budget) refuses none of another tenant's uploads
+// (they were RESOURCE_EXHAUSTED until its idle timeout).
+TEST_F(SecurityTest, ASilentReservationBlocksNoOtherTenant) {
+  server::ServerOptions o = options_;
+  o.memory_budget_bytes = int64_t{64} << 20;
+  RestartServer(o);
+  alice_ = Client("alice-secret");
+  bob_ = Client("bob-secret");
+  grpc::ClientContext ctx;
+  ctx.AddMetadata("authorization", "Bearer alice-secret");
+  v1::CreateSessionResponse resp;
+  auto w = alice_->stub().CreateSession(&ctx, &resp);
+  v1::CreateSessionRequest header;
+  header.mutable_header()->set_file_format("obj");
+  header.mutable_header()->set_file_bytes(int64_t{8} << 20);  // x8: 64 MiB.
+  ASSERT_TRUE(w->Write(header));
+  testing::WaitFor([&] { return server_->store().reserved_uploads() >= 1; });
+  ASSERT_EQ(server_->store().reserved_uploads(), 1);
+  auto bob = bob_->Upload(MakeIcosphere(1, 20), "bob");
+  EXPECT_TRUE(bob.ok()) << bob.status();
+  // Alice's own next upload meets her reservation.
+  auto alice = alice_->Upload(MakeIcosphere(1, 20), "alice");
+  EXPECT_EQ(Code(alice), absl::StatusCode::kResourceExhausted);
+  ctx.TryCancel();
+  w->Finish();
+}
 
 TEST_F(SecurityTest, CallsWithoutAValidTokenAreUnauthenticated) {
   const Mesh m = MakeIcosphere(1, 2);
@@ -431,6 +507,26 @@ TEST(UploadWatchTest, TheIdleTimerStopsAtTheLastByte) {
   clock.Advance(10 * o.upload_idle_seconds);
   EXPECT_TRUE(watch.AbortIdle().empty());
   EXPECT_TRUE(watch.Finish(*received).ok());
+}
+
+// Tiny messages cost the server per message, not per byte: past the first
+// 16, an upload's messages must average 4096 bytes.
+TEST(UploadWatchTest, TinyMessagesAreRefusedPastTheFirstSixteen) {
+  server::ServerOptions o;
+  testing::FakeClock clock;
+  server::UploadWatch watch(o, &clock);
+  auto tiny = watch.Start(nullptr);
+  ASSERT_TRUE(tiny.ok());
+  for (int i = 0; i < server::kTinyMessagesAllowed; ++i) {
+    ASSERT_TRUE(watch.Touch(*tiny, 10).ok()) << i;
+  }
+  const absl::Status refused = watch.Touch(*tiny, 10);
+  EXPECT_EQ(refused.code(), absl::StatusCode::kResourceExhausted);
+  EXPECT_THAT(std::string(refused.message()), HasSubstr("averaging 10 bytes"));
+  auto chunks = watch.Start(nullptr);
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_TRUE(watch.Touch(*chunks, i == 0 ? 100 : 70000).ok()) << i;
+  }
 }
 
 // Raw CreateSession streams, as an attacker writes them.
