@@ -136,7 +136,16 @@ absl::StatusOr<wire::SessionInfo> RemoteClient::Upload(
                       return writer->Write(m);
                     });
   writer->WritesDone();
-  if (absl::Status s = Checked(writer->Finish()); !s.ok()) return s;
+  absl::Status s = Checked(writer->Finish());
+  if (s.code() == absl::StatusCode::kCancelled) {
+    // This client cancels no upload: the server stopped it.
+    return absl::CancelledError(absl::StrCat(
+        "the server cancelled the upload: it stops an upload silent for "
+        "longer than its --upload_idle_seconds (30 s by default), and cancels "
+        "calls when it shuts down; its log names which: ",
+        s.message()));
+  }
+  if (!s.ok()) return s;
   return wire::FromWire(response.session());
 }
 

@@ -19,7 +19,8 @@ import grpc
 import numpy as np
 import scipy.sparse
 
-from meshgauge_client import (InvalidArgumentError, MeshGaugeClient,
+from meshgauge_client import (CancelledError, InvalidArgumentError,
+                              MeshGaugeClient,
                               SessionClosedError, UnavailableError,
                               thickness)
 from meshgauge_client import _weld
@@ -371,6 +372,16 @@ class FakeServerTest(unittest.TestCase):
     V7 = np.array([[0.0, 0, 0], [1, 0, 0], [0, 0, 0], [0, 1, 0], [1, 0, 0],
                    [0, 0, 1], [0, 0, 0]])
     F7 = [[0, 3, 1], [2, 4, 5], [1, 3, 5], [6, 5, 3]]
+
+    def test_an_upload_the_server_cancelled_says_so(self) -> None:
+        # A stream the server cancels carries no status of its own: the
+        # client, which never cancels an upload, names the likely reasons.
+        self.fake.create_error = (grpc.StatusCode.CANCELLED,
+                                  "Cancelled on the server side")
+        with self.assertRaises(CancelledError) as e:
+            self.client.upload(self.V7, self.F7, session_id="c")
+        self.assertIn("--upload_idle_seconds", str(e.exception))
+        self.assertIn("server cancelled the upload", e.exception.details)
 
     def test_a_closed_session_refuses_every_call(self) -> None:
         v, f = self.V7[[0, 1, 3, 5]], [[0, 2, 1], [0, 1, 3], [1, 2, 3],

@@ -30,7 +30,8 @@ import scipy.sparse
 from meshgauge_client import _weld, _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
-from meshgauge_client.errors import (DataLossError, InvalidArgumentError,
+from meshgauge_client.errors import (CancelledError, DataLossError,
+                                     InvalidArgumentError,
                                      MeshGaugeError, MissingValuesWarning,
                                      ResourceExhaustedError, UnavailableError,
                                      from_rpc_error)
@@ -44,6 +45,12 @@ if TYPE_CHECKING:
     from meshgauge_client.session import Session
 
 SESSION_KEY = "x-meshgauge-session"
+# The prefix of a CANCELLED upload: the client never cancels one, so the
+# server stopped it (the C++ client says the same).
+UPLOAD_CANCELLED_BY_SERVER = (
+    "the server cancelled the upload: it stops an upload silent for longer "
+    "than its --upload_idle_seconds (30 s by default), and cancels calls "
+    "when it shuts down; its log names which: ")
 T = TypeVar("T")
 
 # Transparent retries of UNAVAILABLE (a restarting or draining server): the
@@ -502,7 +509,12 @@ class MeshGaugeClient:
                                             metadata=metadata,
                                             wait_for_ready=False)
 
-        reply = self._retrying(create)
+        try:
+            reply = self._retrying(create)
+        except CancelledError as e:
+            # This client cancels no upload: the server stopped it.
+            raise CancelledError(e.code, UPLOAD_CANCELLED_BY_SERVER
+                                 + e.details) from None
         welded = np.asarray(reply.welded_vertex, dtype=np.int64)
         info = _wire.session_info(reply.session,
                                   welded if welded.size else None)
