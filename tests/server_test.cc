@@ -33,6 +33,13 @@ using testing::SameBits;
 
 Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
 
+// The mesh's positions scaled by 1.01: a valid update.
+std::vector<Vec3> Grown(const Mesh& mesh) {
+  std::vector<Vec3> p = mesh.positions;
+  for (Vec3& v : p) v *= 1.01;
+  return p;
+}
+
 void ExpectSameRows(const std::vector<GradCheckRow>& a,
                     const std::vector<GradCheckRow>& b) {
   ASSERT_EQ(a.size(), b.size());
@@ -882,8 +889,7 @@ TEST_F(ServerTest, AnUpdatePastItsDeadlineIsNeverApplied) {
   ASSERT_TRUE(client_->Upload(mesh, "held").ok());
   auto session = server_->store().Get("", "held");
   ASSERT_TRUE(session.ok()) << session.status();
-  std::vector<Vec3> moved = mesh.positions;
-  for (Vec3& p : moved) p *= 1.01;
+  const std::vector<Vec3> moved = Grown(mesh);
   {
     auto reader = (*session)->Read();  // a computation in progress.
     ASSERT_TRUE(reader.ok());
@@ -943,12 +949,7 @@ TEST_F(ServerTest, ThirtyTwoReadersDoNotStarveAnUpdate) {
     });
   }
   while (started < 2 * kReaders) std::this_thread::yield();
-  std::vector<Vec3> moved = mesh.positions;
-  for (Vec3& v : moved) v *= 1.01;
-  client::ClientOptions o;
-  o.deadline_seconds = 60;
-  client::RemoteClient writer(target_, o);
-  auto update = writer.UpdatePositions("busy", 0, 3, moved);
+  auto update = client_->UpdatePositions("busy", 0, 3, Grown(mesh));
   const int done_at_update = done;
   for (std::thread& t : readers) t.join();
   ASSERT_TRUE(update.ok()) << update.status();
@@ -969,12 +970,10 @@ TEST_F(ServerTest, AStalledStreamDoesNotBlockAnUpdate) {
   v1::ComputeSdfResponse first;
   ASSERT_TRUE(stream->Read(&first));  // then never read again.
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  std::vector<Vec3> moved = sphere.positions;
-  for (Vec3& p : moved) p *= 1.01;
   client::ClientOptions o;
   o.deadline_seconds = 20;
   client::RemoteClient c(target_, o);
-  auto update = c.UpdatePositions("stall", 0, 3, moved);
+  auto update = c.UpdatePositions("stall", 0, 3, Grown(sphere));
   EXPECT_TRUE(update.ok()) << update.status();
   stalled.TryCancel();
 }
