@@ -443,6 +443,17 @@ class RemoteEndToEnd(unittest.TestCase):
         for part in ('id="mg-data"', 'id="mg-bands"', 'data-region="0"',
                      "MIT License", report["sentence"]):
             self.assertIn(part, page)
+        # With the CLI ($MESHGAUGE_CLI here) the page is the CLI's, its
+        # pictures included; without one, the interactive page alone.
+        for picture in ("views.png", "histogram.png", "colored.ply"):
+            self.assertTrue(os.path.exists(os.path.join(out, picture)))
+        self.assertTrue("data:image/png;base64," in page)
+        bare = os.path.join(self.tmp, "py_report_bare")
+        with self.client.session_from_file(knight) as s:
+            alone = s.report(bare, t_min=0.1, rays=20, cli="")
+        self.assertFalse(os.path.exists(os.path.join(bare, "views.png")))
+        self.assertEqual(alone["thin"]["thin_fraction"],
+                         report["thin"]["thin_fraction"])
         chromium = shutil.which("chromium")
         if not chromium:
             return

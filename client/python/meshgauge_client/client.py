@@ -160,6 +160,8 @@ class MeshGaugeClient:
         if token is None:
             token = os.environ.get("MESHGAUGE_TOKEN") or None
         self._auth = [("authorization", "Bearer " + token)] if token else []
+        self._token = token
+        self._tls_files = (tls_ca_file, tls_cert_file, tls_key_file)
         self._stub = pb_grpc.MeshGaugeStub(self._channel)
         self._deadline = deadline
         self._chunk = chunk
@@ -195,6 +197,21 @@ class MeshGaugeClient:
     @property
     def target(self) -> str:
         return self._target
+
+    @property
+    def token(self) -> Optional[str]:
+        """The token sent, or None (open mode)."""
+        return self._token
+
+    def cli_tls_flags(self) -> List[str]:
+        """The `meshgauge remote` flags of this client's TLS files."""
+        flags: List[str] = []
+        for flag, path in (("--tls-ca-file", self._tls_files[0]),
+                           ("--tls-cert-file", self._tls_files[1]),
+                           ("--tls-key-file", self._tls_files[2])):
+            if path:
+                flags += [flag, os.fspath(path)]
+        return flags
 
     def _on_state(self, state: Any) -> None:
         self._state = state

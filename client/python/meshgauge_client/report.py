@@ -16,6 +16,9 @@ import html
 import json
 import math
 import os
+import shutil
+import subprocess
+import tempfile
 from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
@@ -290,13 +293,85 @@ def sentence(thin: Any, curve: bool) -> str:
     return s
 
 
+# SdfOptions' names and the CLI's flags for them (0 or None: the default).
+_CLI_FLAGS = {"method": "--method", "cone_angle_degrees": "--cone-angle",
+              "rays": "--rays", "kappa": "--kappa",
+              "max_distance": "--max-distance", "normals": "--normals",
+              "contact_angle_degrees": "--contact-angle",
+              "samples": "--samples"}
+
+
+def find_cli(cli: Optional[str]) -> Optional[str]:
+    """The meshgauge CLI to draw the report's pictures: `cli` ("" for
+    none), else $MESHGAUGE_CLI, else `meshgauge` on PATH; None when there is
+    none."""
+    if cli is not None:
+        return cli or None
+    return os.environ.get("MESHGAUGE_CLI") or shutil.which("meshgauge")
+
+
+def _write_obj(mesh: Any, path: str) -> None:
+    """The session's mesh as an OBJ whose coordinates read back exactly
+    (2D: `l` segments)."""
+    v = np.asarray(mesh.vertices, dtype=float)
+    with open(path, "w", encoding="ascii") as f:
+        for p in v:
+            f.write("v " + " ".join(repr(float(x)) for x in p) +
+                    (" 0" if v.shape[1] == 2 else "") + "\n")
+        for face in mesh.faces:
+            f.write(("l " if len(face) == 2 else "f ") +
+                    " ".join(str(int(i) + 1) for i in face) + "\n")
+
+
+def _write_with_cli(cli: str, session: Any, path: "str | os.PathLike[str]",
+                    t_min: float, min_region_area: float,
+                    color_range: Optional[Sequence[float]], up: str,
+                    params: Dict[str, Any]) -> Dict[str, Any]:
+    """`meshgauge remote report` on the session (its current generation):
+    the CLI's whole page, pictures included, from the server's numbers."""
+    client = session._client
+    with tempfile.TemporaryDirectory() as tmp:
+        obj = os.path.join(tmp, "session.obj")
+        _write_obj(client.mesh(session.session_id), obj)
+        args = [cli, "remote", "--server", client.target]
+        args += client.cli_tls_flags()
+        args += ["report", obj, "--session-id", session.session_id,
+                 "--t-min", repr(float(t_min)), "--out", os.fspath(path),
+                 "--min-region-area", repr(float(min_region_area)),
+                 "--up", up, "--progress", "never"]
+        if color_range is not None:
+            args += ["--color-range", repr(float(color_range[0])),
+                     repr(float(color_range[1]))]
+        for name, value in params.items():
+            if name not in _CLI_FLAGS:
+                raise ValueError(f"report: unknown parameter {name!r}")
+            if value in (None, 0, 0.0):
+                continue
+            args += [_CLI_FLAGS[name], str(value)]
+        env = dict(os.environ)
+        if client.token:
+            env["MESHGAUGE_TOKEN"] = client.token
+        run = subprocess.run(args, capture_output=True, text=True, env=env)
+        report_json = os.path.join(path, "report.json")
+        if run.returncode != 0 and not os.path.exists(report_json):
+            raise RuntimeError(f"{cli} remote report failed: "
+                               + (run.stdout + run.stderr).strip()[-2000:])
+    with open(report_json, encoding="utf-8") as f:
+        report: Dict[str, Any] = json.load(f)
+    return report
+
+
 def write(session: Any, path: "str | os.PathLike[str]", t_min: float,
           min_region_area: float = 0.0,
           color_range: Optional[Sequence[float]] = None, up: str = "z",
-          **params: Any) -> Dict[str, Any]:
+          cli: Optional[str] = None, **params: Any) -> Dict[str, Any]:
     """Session.report: see there."""
     if up not in ("y", "z"):
         raise ValueError(f"up must be 'y' or 'z', got {up!r}")
+    exe = find_cli(cli)
+    if exe:
+        return _write_with_cli(exe, session, path, t_min, min_region_area,
+                               color_range, up, params)
     face_samples = params.get("samples", "vertices") == "faces"
     values = session.sdf(**params).values
     pen = session.penalty(t_min, thin_regions=True,

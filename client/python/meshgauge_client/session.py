@@ -178,18 +178,23 @@ class Session:
     def report(self, path: "str | os.PathLike[str]", t_min: float, *,
                min_region_area: float = 0.0,
                color_range: Optional[Sequence[float]] = None,
-               up: str = "z", **params: Any) -> Dict[str, Any]:
-        """Writes the interactive page of `meshgauge report` (index.html,
-        the view of this iteration's values, the t_min slider, the bands
-        and the thin-region table) and its report.json into the directory
-        `path` (made if needed); returns report.json's object. Numbers from
-        the server (the SDF, the thin regions); params as sdf (rays,
-        samples, ...). No pictures: `meshgauge remote report --session-id`
-        draws them. See meshgauge_client.report and docs/report.md."""
+               up: str = "z", cli: Optional[str] = None,
+               **params: Any) -> Dict[str, Any]:
+        """Writes `meshgauge report`'s page of this iteration into the
+        directory `path` (made if needed) and returns report.json's object;
+        numbers from the server (the SDF, the thin regions), params as sdf
+        (rays, samples, ...). With the meshgauge CLI (`cli`, else
+        $MESHGAUGE_CLI, else `meshgauge` on PATH) it runs `meshgauge remote
+        report --session-id` on the session: the same page as the CLI's,
+        pictures included. Without one (cli=""), the page has the
+        interactive view, the bands and the thin-region table but no
+        pictures. See meshgauge_client.report and docs/report.md."""
+        self._check_open()
         from meshgauge_client import report as _report
         return _report.write(self, path, t_min,
                              min_region_area=min_region_area,
-                             color_range=color_range, up=up, **params)
+                             color_range=color_range, up=up, cli=cli,
+                             **params)
 
     def constraint(self, t_min: float, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:
