@@ -100,8 +100,9 @@ void AddMeshFlags(CLI::App* app, MeshFlags* f) {
       ->delimiter(',');
   app->add_flag("--reorient", f->reorient,
                 "make each component's faces agree with their neighbours, "
-                "then reverse each closed component whose signed volume is "
-                "negative");
+                "then reverse each closed component turned inside out for "
+                "its nesting (an outer shell with negative signed volume; a "
+                "cavity's wall faces into its cavity)");
   app->add_flag("--drop-degenerate-faces", f->drop_degenerate_faces,
                 "remove zero-area faces (and say how many) instead of "
                 "rejecting the mesh");
