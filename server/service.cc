@@ -189,9 +189,12 @@ absl::Status MeshGaugeService::Interrupted(grpc::ServerContext* ctx,
 }
 
 absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
-    const std::string& tenant, const std::string& session_id,
-    const v1::SdfParameters& params, bool has_expected_generation,
-    int64_t expected_generation) {
+    grpc::ServerContext* ctx, const std::string& tenant,
+    const std::string& session_id, const v1::SdfParameters& params,
+    bool has_expected_generation, int64_t expected_generation) {
+  // The slot first: a queued call holds no session lock.
+  auto slot = TakeSlot(tenant, ctx);
+  if (!slot.ok()) return slot.status();
   auto session = store_->Get(tenant, session_id);
   if (!session.ok()) return session.status();
   auto sdf_params =
@@ -204,7 +207,8 @@ absl::StatusOr<MeshGaugeService::Prepared> MeshGaugeService::Prepare(
     return GenerationMismatch(session_id, generation, expected_generation,
                               "request");
   }
-  return Prepared{std::move(*session), std::move(*reader), *sdf_params};
+  return Prepared{std::move(*slot), std::move(*session), std::move(*reader),
+                  *sdf_params};
 }
 
 absl::StatusOr<ComputeSlots::Slot> MeshGaugeService::TakeSlot(
@@ -471,12 +475,9 @@ grpc::Status MeshGaugeService::ComputeSdf(
               absl::StrCat("chunk_vertices must be in [1, ", kMaxChunkVertices,
                            "] (0 = ", kDefaultChunkVertices, "), got ", chunk));
         }
-        // A computation slot before the session (ComputeSlots).
-        auto slot = TakeSlot(tenant, ctx);
-        if (!slot.ok()) return slot.status();
-        auto prep = Prepare(tenant, request->session_id(), request->params(),
-                            request->has_expected_generation(),
-                            request->expected_generation());
+        auto prep = Prepare(
+            ctx, tenant, request->session_id(), request->params(),
+            request->has_expected_generation(), request->expected_generation());
         if (!prep.ok()) return prep.status();
         ComputeControl control = Control(ctx);
         if (request->report_progress()) {
@@ -535,7 +536,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
           last.mutable_summary()->add_warnings(std::move(w));
         }
         prep->reader.lock.unlock();
-        slot->Release();
+        prep->slot.Release();
         for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
           if (ctx->IsCancelled()) {
             return Interrupted(ctx, absl::CancelledError("cancelled"));
@@ -572,12 +573,9 @@ grpc::Status MeshGaugeService::ComputeVjp(grpc::ServerContext* ctx,
   return Instrumented(
       "ComputeVjp", ctx, [&](const std::string& tenant) -> absl::Status {
         const auto start = std::chrono::steady_clock::now();
-        // A computation slot before the session (ComputeSlots).
-        auto slot = TakeSlot(tenant, ctx);
-        if (!slot.ok()) return slot.status();
-        auto prep = Prepare(tenant, request->session_id(), request->params(),
-                            request->has_expected_generation(),
-                            request->expected_generation());
+        auto prep = Prepare(
+            ctx, tenant, request->session_id(), request->params(),
+            request->has_expected_generation(), request->expected_generation());
         if (!prep.ok()) return prep.status();
         const SdfEvaluator& ev = *prep->reader.evaluator;
         if (absl::Status s =
@@ -619,12 +617,9 @@ grpc::Status MeshGaugeService::ComputePenalty(
         if (!pp.ok()) return pp.status();
         auto thin_request = wire::ThinFromWire(*request);
         if (!thin_request.ok()) return thin_request.status();
-        // A computation slot before the session (ComputeSlots).
-        auto slot = TakeSlot(tenant, ctx);
-        if (!slot.ok()) return slot.status();
-        auto prep = Prepare(tenant, request->session_id(), request->params(),
-                            request->has_expected_generation(),
-                            request->expected_generation());
+        auto prep = Prepare(
+            ctx, tenant, request->session_id(), request->params(),
+            request->has_expected_generation(), request->expected_generation());
         if (!prep.ok()) return prep.status();
         const SdfEvaluator& ev = *prep->reader.evaluator;
         // A thin region is about 18 doubles on the wire (four points, five
@@ -669,11 +664,8 @@ grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
                                          v1::CalibrateResponse* response) {
   return Instrumented(
       "Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
-        // A computation slot before the session (ComputeSlots).
-        auto slot = TakeSlot(tenant, ctx);
-        if (!slot.ok()) return slot.status();
-        auto prep =
-            Prepare(tenant, request->session_id(), request->params(), false, 0);
+        auto prep = Prepare(ctx, tenant, request->session_id(),
+                            request->params(), false, 0);
         if (!prep.ok()) return prep.status();
         auto rep = meshgauge::Calibrate(
             *prep->reader.evaluator,
@@ -739,12 +731,9 @@ grpc::Status MeshGaugeService::GradCheck(
         const auto start = std::chrono::steady_clock::now();
         auto options = wire::GradCheckFromWire(*request);
         if (!options.ok()) return options.status();
-        // A computation slot before the session (ComputeSlots).
-        auto slot = TakeSlot(tenant, ctx);
-        if (!slot.ok()) return slot.status();
-        auto prep = Prepare(tenant, request->session_id(), request->params(),
-                            request->has_expected_generation(),
-                            request->expected_generation());
+        auto prep = Prepare(
+            ctx, tenant, request->session_id(), request->params(),
+            request->has_expected_generation(), request->expected_generation());
         if (!prep.ok()) return prep.status();
         const int64_t generation = prep->reader.generation();
         const Mesh& mesh = prep->reader.evaluator->mesh();

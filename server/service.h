@@ -82,8 +82,10 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
     std::shared_ptr<const CachedPass> pass;
     bool reused = false;
   };
-  // Shared front half of the compute calls: session, params, generation.
+  // Shared front half of the compute calls: a computation slot, session,
+  // params, generation.
   struct Prepared {
+    ComputeSlots::Slot slot;  // released last, after the session's lock.
     std::shared_ptr<Session> session;
     Session::Reader reader;
     SdfParams params;
@@ -98,10 +100,13 @@ class MeshGaugeService final : public v1::MeshGauge::Service {
                                   const Prepared& prep,
                                   const ComputeControl& control);
   // A computation slot for `tenant` (ComputeSlots), waiting while ctx
-  // lives. Take it before Prepare: a queued call holds no session lock.
+  // lives.
   absl::StatusOr<ComputeSlots::Slot> TakeSlot(const std::string& tenant,
                                               grpc::ServerContext* ctx);
-  absl::StatusOr<Prepared> Prepare(const std::string& tenant,
+  // A computation slot (TakeSlot), then the session, its parameters and
+  // its reader at the expected generation.
+  absl::StatusOr<Prepared> Prepare(grpc::ServerContext* ctx,
+                                   const std::string& tenant,
                                    const std::string& session_id,
                                    const v1::SdfParameters& params,
                                    bool has_expected_generation,
