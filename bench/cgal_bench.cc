@@ -24,10 +24,12 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
 #include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf.h"
+#include "server/flags_help.h"
 
 ABSL_FLAG(int, rays, 25, "rays per cone (CGAL's default is 25)");
 ABSL_FLAG(double, cone_angle, 120, "cone angle in degrees (CGAL: 2/3 pi)");
@@ -108,6 +110,10 @@ void Row(const std::string& name, const Mesh& mesh) {
 
 int main(int argc, char** argv) {
   using namespace meshgauge;
+  absl::SetProgramUsageMessage(
+      "meshgauge_cgal_bench [--rays K] [--cone_angle DEG] [MESH...]");
+  // --help lists this file's flags (absl's own finds none: No flags matched).
+  meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/cgal_bench.cc");
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   std::printf(
       "rays %d, cone %g degrees; CGAL single-threaded (per facet), "

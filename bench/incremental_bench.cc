@@ -13,9 +13,11 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
 #include "bench/bench_mesh.h"
 #include "lib/core/stopwatch.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "server/flags_help.h"
 
 ABSL_FLAG(int, repeat, 3, "rounds of every pass; the best of each is kept");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
@@ -106,6 +108,10 @@ int Bench(const std::string& name, const Mesh& mesh) {
 
 int main(int argc, char** argv) {
   using namespace meshgauge;
+  absl::SetProgramUsageMessage(
+      "meshgauge_incremental_bench [--repeat N] [--threads T] MESH...");
+  // --help lists this file's flags (absl's own finds none: No flags matched).
+  meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/incremental_bench.cc");
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {

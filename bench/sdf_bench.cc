@@ -33,6 +33,7 @@
 
 #include "absl/flags/flag.h"
 #include "absl/flags/parse.h"
+#include "absl/flags/usage.h"
 #include "absl/strings/str_cat.h"
 #include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
@@ -43,6 +44,7 @@
 #include "lib/embree/render.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
+#include "server/flags_help.h"
 
 ABSL_FLAG(int, repeat, 2, "rounds of every pass; the best of each is kept");
 ABSL_FLAG(int, threads, 0, "threads (0 = all cores)");
@@ -340,6 +342,10 @@ std::string Written(const Mesh& mesh, const std::string& name) {
 int main(int argc, char** argv) {
   using namespace meshgauge;
   using namespace meshgauge::bench;
+  absl::SetProgramUsageMessage(
+      "meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S] [--generated_vertices N] [--cli PATH] MESH...\n  meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...");
+  // --help lists this file's flags (absl's own finds none: No flags matched).
+  meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/sdf_bench.cc");
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {
