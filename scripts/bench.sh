@@ -16,16 +16,16 @@ CLI="$PWD/build/client/meshgauge"
 # the ray pass visits vertices in Morton order, so a scrambled order costs
 # little.
 build/bench/meshgauge_bench --cli "$CLI" --permute_seed 7 "$@" \
-  ../shared/meshes/igea-triangles.ply
-build/bench/meshgauge_bench --cli "$CLI" "$@" ../shared/meshes/horse.ply \
-  ../shared/meshes/stanford-bunny.obj ../shared/meshes/rocker-arm.obj
+  data/meshes/igea-triangles.ply
+build/bench/meshgauge_bench --cli "$CLI" "$@" data/meshes/horse.ply \
+  data/meshes/stanford-bunny.obj data/meshes/rocker-arm.obj
 build/bench/meshgauge_bench --cli "$CLI" --rays 25 --repeat 1 \
   --generated_vertices 1000000 "$@"
 # Embree's watertight ray test (meshgauge's) against its fast one on every
 # shared mesh: both rates, hit fractions, vertices whose value differs.
-build/bench/meshgauge_bench --ray_tests_only "$@" ../shared/meshes/*.ply \
-  ../shared/meshes/*.obj ../shared/meshes/*.off ../shared/meshes/*.STL
+build/bench/meshgauge_bench --ray_tests_only "$@" data/meshes/*.ply \
+  data/meshes/*.obj data/meshes/*.off data/meshes/*.STL
 # Incremental passes (issue 25's goals): 1 % and 10 % patches and every
 # vertex moved, against a full pass.
-build/bench/meshgauge_incremental_bench ../shared/meshes/igea-triangles.ply \
-  ../shared/meshes/rocker-arm.obj
+build/bench/meshgauge_incremental_bench data/meshes/igea-triangles.ply \
+  data/meshes/rocker-arm.obj

@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh libcgal-dev
 scripts/build.sh
-M=../shared/meshes
+M=data/meshes
 build/bench/meshgauge_cgal_bench "$@" $M/decimated-knight.off \
   $M/spot_triangulated.obj $M/fandisk.obj $M/rocker-arm.obj $M/horse.ply \
   $M/igea-triangles.ply

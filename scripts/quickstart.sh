@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 scripts/build.sh
 echo "meshgauge: try, from another terminal:"
-echo "  build/client/meshgauge remote sdf ../shared/meshes/spot_triangulated.obj"
+echo "  build/client/meshgauge remote sdf data/meshes/spot_triangulated.obj"
 echo "  PYTHONPATH=build/python /usr/bin/python3 client/python/examples/thicken_dumbbell.py"
 exec build/server/meshgauge-server --address 127.0.0.1:50051 \
   --metrics_address 127.0.0.1:9464 "$@"

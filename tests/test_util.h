@@ -77,9 +77,10 @@ inline Mesh SixGridCube() {
   return out;
 }
 
-// ../shared/meshes/NAME as configured at build time.
+// data/meshes/NAME (MESHGAUGE_MESH_DIR as configured at build time): one of
+// the public test meshes the repository holds (data/meshes/README.md).
 inline std::string SharedMesh(const std::string& name) {
-  return std::string(MESHGAUGE_SHARED_DIR) + "/meshes/" + name;
+  return std::string(MESHGAUGE_MESH_DIR) + "/" + name;
 }
 
 // Closed form D_est(alpha, K) of SPEC §9 for diameter 1, computed here

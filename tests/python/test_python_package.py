@@ -24,8 +24,8 @@ from meshgauge_client import (FailedPreconditionError, InvalidArgumentError,
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SOURCE = os.path.abspath(os.path.join(HERE, "..", ".."))
-SHARED = os.environ.get("MESHGAUGE_SHARED_DIR",
-                        os.path.join(SOURCE, "..", "shared"))
+MESHES = os.environ.get("MESHGAUGE_MESH_DIR",
+                        os.path.join(SOURCE, "data", "meshes"))
 sys.path.insert(0, os.path.join(SOURCE, "client", "python", "examples"))
 import thicken_dumbbell  # noqa: E402
 from server_fixture import ServerProcess  # noqa: E402
@@ -131,7 +131,7 @@ class PackageTest(unittest.TestCase):
         self.assertNotIn(sid, [i.session_id for i in self.client.list()])
 
     def test_a_file_session_reads_as_the_cli_and_survives_loss(self):
-        path = os.path.join(SHARED, "meshes", "fandisk.obj")
+        path = os.path.join(MESHES, "fandisk.obj")
         with self.client.session_from_file(path, reorient=True) as s:
             info = s.info()
             self.assertEqual(s.positions.shape, (info.num_vertices, 3))
@@ -246,7 +246,7 @@ class PackageTest(unittest.TestCase):
                                 f.read(), re.S).group(1)
         snippet = snippet.replace("127.0.0.1:50051", self.server.target)
         snippet = snippet.replace(
-            '"part.obj"', repr(os.path.join(SHARED, "meshes", "fandisk.obj")))
+            '"part.obj"', repr(os.path.join(MESHES, "fandisk.obj")))
         p = subprocess.run([sys.executable, "-c", snippet],
                            capture_output=True, text=True, timeout=120)
         self.assertEqual(p.returncode, 0, p.stderr)

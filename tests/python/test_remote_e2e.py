@@ -340,7 +340,7 @@ class RemoteEndToEnd(unittest.TestCase):
 
     def test_5_cli_remote_verbs(self):
         cli = os.environ["MESHGAUGE_CLI"]
-        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
                               "decimated-knight.off")
 
         def run(*args, ok=True):
@@ -377,7 +377,7 @@ class RemoteEndToEnd(unittest.TestCase):
     def test_6_thin_regions_are_the_cli_reports_typed(self):
         from meshgauge_client import ThinRegion, ThinSurface
         cli = os.environ["MESHGAUGE_CLI"]
-        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
                               "decimated-knight.off")
         subprocess.run([cli, "remote", "upload", knight, "--session-id",
                         "thin", "--server", self.target], check=True,
@@ -423,7 +423,7 @@ class RemoteEndToEnd(unittest.TestCase):
         another t_min is the server's penalty's for it."""
         import re
         import shutil
-        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
                               "decimated-knight.off")
         out = os.path.join(self.tmp, "py_report")
         with self.client.session_from_file(knight) as s:
@@ -578,7 +578,7 @@ class RemoteEndToEnd(unittest.TestCase):
         bit for bit), with and without a penalty; bad options are
         ValueError before any call."""
         cli = os.environ["MESHGAUGE_CLI"]
-        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
                               "decimated-knight.off")
         with self.client.session_from_file(knight) as s:
             for flags, kwargs in [

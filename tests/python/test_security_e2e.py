@@ -398,7 +398,7 @@ class TlsAndTokens(unittest.TestCase):
             self.assertEqual(e.exception.code, grpc.StatusCode.UNAUTHENTICATED)
 
     def test_cli_with_tls_and_token_file_or_environment(self):
-        knight = os.path.join(os.environ["MESHGAUGE_SHARED_DIR"], "meshes",
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
                               "decimated-knight.off")
         token_file = os.path.join(self.pki, "alice.token")
         with open(token_file, "w") as f:
