@@ -2,9 +2,9 @@
 # Benchmarks (not part of the test run), in one run on the same rays: every
 # raw Embree configuration (bench/raw_embree_pass.h), meshgauge's ray pass and
 # the whole `meshgauge sdf` run (wall time, stages, memory and peak RSS) with
-# their ratios to the fastest raw pass, on the shared meshes, on igea with its
+# their ratios to the fastest raw pass, on the test meshes (data/meshes), on igea with its
 # vertices permuted and on a generated mesh of a million vertices (25 rays);
-# Embree's watertight ray test against its fast one on every shared mesh;
+# Embree's watertight ray test against its fast one on every test mesh;
 # then incremental passes after patch updates (meshgauge_incremental_bench).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
@@ -22,7 +22,7 @@ build/bench/meshgauge_bench --cli "$CLI" "$@" data/meshes/horse.ply \
 build/bench/meshgauge_bench --cli "$CLI" --rays 25 --repeat 1 \
   --generated_vertices 1000000 "$@"
 # Embree's watertight ray test (meshgauge's) against its fast one on every
-# shared mesh: both rates, hit fractions, vertices whose value differs.
+# test mesh: both rates, hit fractions, vertices whose value differs.
 build/bench/meshgauge_bench --ray_tests_only "$@" data/meshes/*.ply \
   data/meshes/*.obj data/meshes/*.off data/meshes/*.STL
 # Incremental passes (issue 25's goals): 1 % and 10 % patches and every

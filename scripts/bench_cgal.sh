@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # meshgauge vs CGAL's sdf_values vs raw Embree (docs/benchmarks.md): installs
 # Debian's libcgal-dev (header-only; not needed by anything else), builds
-# meshgauge_cgal_bench and runs it on the shared meshes and the generated
+# meshgauge_cgal_bench and runs it on the test meshes (data/meshes) and the generated
 # ones (CGAL single-threaded: about 5 minutes on 2 cores). Extra arguments
 # go to meshgauge_cgal_bench.
 set -euo pipefail

@@ -554,7 +554,7 @@ Mesh PlateWithHoles() {
 
 // SPEC §6 on the inscribed ball (one test per group, so that they run in
 // parallel): a box and a torus, plates with holes (3D, and 2D with an
-// OUTWARD region), two shared meshes.
+// OUTWARD region), two test meshes.
 TEST(InscribedBallTest, DerivativesMatchFiniteDifferencesOnABoxAndATorus) {
   ExpectFdAgreement(CheckJacobian(Jitter(MakeBox(2, 1, 0.5, 0.25), 0.01),
                                   Sphere(), 40, "box sphere"));

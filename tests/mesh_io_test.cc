@@ -1,4 +1,4 @@
-// Mesh files: every shared mesh loads with the README's exact counts, no face
+// Mesh files: every test mesh loads with data/meshes/README.md's exact counts, no face
 // is lost, and 2D OBJ polylines are read.
 #include "lib/io/mesh_io.h"
 

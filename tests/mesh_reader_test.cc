@@ -3,7 +3,7 @@
 // OpenMesh-based readers; each must give its precise error (never a crash,
 // a hang, an allocation from a header, or a silently shifted index), and
 // coordinates must round-trip in double precision. OpenMesh reads every
-// shared mesh as an independent cross-check.
+// test mesh as an independent cross-check.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 

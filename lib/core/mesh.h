@@ -107,7 +107,7 @@ double BoundingExtent(const Mesh& mesh);
 double SignedVolumeOfFaces(const Mesh& mesh, absl::Span<const int32_t> faces);
 
 // True when every undirected edge (3D) is used by exactly two faces, or every
-// vertex (2D) by exactly two segments: the "closed" of shared/meshes/README.
+// vertex (2D) by exactly two segments: the "closed" of data/meshes/README.md.
 bool IsClosed(const Mesh& mesh);
 
 // One use of an undirected edge by a face (3D: key = the two corners,
