@@ -2,8 +2,9 @@
 # Benchmarks (not part of the test run), in one run on the same rays: every
 # raw Embree configuration (bench/raw_embree_pass.h), meshgauge's ray pass and
 # the whole `meshgauge sdf` run (wall time, stages, memory and peak RSS) with
-# their ratios to the fastest raw pass, on the test meshes (data/meshes), on igea with its
-# vertices permuted and on a generated mesh of a million vertices (25 rays);
+# their ratios to the fastest raw pass, on the test meshes (data/meshes), on
+# igea with its vertices permuted and on a generated mesh of a million
+# vertices (25 rays);
 # Embree's watertight ray test against its fast one on every test mesh;
 # then incremental passes after patch updates (meshgauge_incremental_bench).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.

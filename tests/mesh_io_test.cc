@@ -1,5 +1,5 @@
-// Mesh files: every test mesh loads with data/meshes/README.md's exact counts, no face
-// is lost, and 2D OBJ polylines are read.
+// Mesh files: every test mesh loads with data/meshes/README.md's exact
+// counts, no face is lost, and 2D OBJ polylines are read.
 #include "lib/io/mesh_io.h"
 
 #include <gmock/gmock.h>
