@@ -46,7 +46,7 @@ class Authenticator {
   // authorization metadata, unknown token) without echoing the token.
   absl::StatusOr<std::string> Authenticate(
       const grpc::ServerContext& ctx) const;
-  // The same from a call's metadata (interceptors). A call with more than
+  // The same from a call's metadata (call_auth.h). A call with more than
   // one authorization entry is UNAUTHENTICATED.
   absl::StatusOr<std::string> AuthenticateMetadata(
       const std::multimap<grpc::string_ref, grpc::string_ref>& md) const;

@@ -13,7 +13,7 @@
 #include "absl/strings/str_cat.h"
 #include "lib/io/text_file.h"
 #include "server/redis_records.h"
-#include "server/reflection_guard.h"
+#include "server/call_auth.h"
 
 namespace meshgauge::server {
 namespace {
@@ -90,23 +90,21 @@ class BindLog {
   }
 };
 
-absl::StatusOr<std::shared_ptr<grpc::ServerCredentials>> Credentials(
-    const ServerOptions& o) {
-  if (o.tls_cert_file.empty()) return grpc::InsecureServerCredentials();
+absl::StatusOr<TlsMaterial> ReadTls(const ServerOptions& o) {
+  TlsMaterial tls;
+  if (o.tls_cert_file.empty()) return tls;
   auto cert = ReadPem(o.tls_cert_file, "tls_cert_file", false);
   if (!cert.ok()) return cert.status();
   auto key = ReadPem(o.tls_key_file, "tls_key_file", true);
   if (!key.ok()) return key.status();
-  grpc::SslServerCredentialsOptions ssl;
-  ssl.pem_key_cert_pairs.push_back({*key, *cert});
+  tls.cert_chain = *std::move(cert);
+  tls.private_key = *std::move(key);
   if (!o.tls_client_ca_file.empty()) {
     auto ca = ReadPem(o.tls_client_ca_file, "tls_client_ca_file", false);
     if (!ca.ok()) return ca.status();
-    ssl.pem_root_certs = *ca;
-    ssl.client_certificate_request =
-        GRPC_SSL_REQUEST_AND_REQUIRE_CLIENT_CERTIFICATE_AND_VERIFY;
+    tls.client_ca = *std::move(ca);
   }
-  return grpc::SslServerCredentials(ssl);
+  return tls;
 }
 
 // gRPC's reflection library registers its plugin for every server when it
@@ -145,8 +143,8 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
     if (!loaded.ok()) return loaded.status();
     auth = std::move(*loaded);
   }
-  auto creds = Credentials(options);
-  if (!creds.ok()) return creds.status();
+  auto tls = ReadTls(options);
+  if (!tls.ok()) return tls.status();
   if (options.reflection) {
     if (absl::Status s = LoadReflection(); !s.ok()) return s;
   }
@@ -164,17 +162,11 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
       options, std::move(auth), std::move(records), metrics, clock));
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
-  builder.AddListeningPort(options.address, *creds, &s->port_);
+  builder.AddListeningPort(options.address,
+                           CallAuthCredentials(*tls, &s->auth_), &s->port_);
   // A second server on a taken port must fail, not split the clients.
   builder.AddChannelArgument(GRPC_ARG_ALLOW_REUSEPORT, 0);
   builder.RegisterService(&s->service_);
-  if (options.reflection && s->auth_.has_tokens()) {
-    std::vector<
-        std::unique_ptr<grpc::experimental::ServerInterceptorFactoryInterface>>
-        guards;
-    guards.push_back(std::make_unique<ReflectionGuardFactory>(&s->auth_));
-    builder.experimental().SetInterceptorCreators(std::move(guards));
-  }
   const int max_bytes =
       static_cast<int>(std::min<int64_t>(options.max_message_bytes, INT32_MAX));
   builder.SetMaxReceiveMessageSize(max_bytes);
