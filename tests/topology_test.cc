@@ -22,29 +22,12 @@ std::vector<Mesh> Meshes() {
           MakeHollowSquare(2.0, 0.5, 0.1)};
 }
 
-// A closed cone: apex 0, base centre 1, `n` rim vertices 2.., fan
-// triangles on the mantle (apex, rim i, rim i+1) and the base.
-Mesh FanCone(int n) {
-  Mesh m;
-  m.positions = {{0, 0, 1}, {0, 0, 0}};
-  for (int i = 0; i < n; ++i) {
-    const double a = 2 * M_PI * i / n;
-    m.positions.push_back({std::cos(a), std::sin(a), 0});
-  }
-  for (int i = 0; i < n; ++i) {
-    const int32_t r = 2 + i, s = 2 + (i + 1) % n;
-    m.faces.push_back(Face::Triangle(0, r, s));
-    m.faces.push_back(Face::Triangle(1, s, r));
-  }
-  return m;
-}
-
 // The primitives a hit near an edge must consider are those across that
 // edge, whatever the valence of its ends (counted, not timed: every
 // primitive of both ends made a pass quadratic on fan caps).
 TEST(TopologyTest, PrimitivesNearAPointAreAcrossItsEdgeNotAroundAHub) {
   for (int n : {4000, 16000}) {
-    const Mesh cone = FanCone(n);
+    const Mesh cone = MakeFanCone(n);
     const MeshTopology topo = MeshTopology::Build(cone);
     std::vector<int32_t> out;
     // Mantle triangle 0 = (apex, rim 0, rim 1); a point halfway up its edge

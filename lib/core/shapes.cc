@@ -107,6 +107,21 @@ Mesh MakeIcosphere(double radius, int frequency) {
   return mesh;
 }
 
+Mesh MakeFanCone(int rim) {
+  Mesh m;
+  m.positions = {{0, 0, 1}, {0, 0, 0}};
+  for (int i = 0; i < rim; ++i) {
+    const double a = 2 * M_PI * i / rim;
+    m.positions.push_back({std::cos(a), std::sin(a), 0});
+  }
+  for (int i = 0; i < rim; ++i) {
+    const int32_t r = 2 + i, s = 2 + (i + 1) % rim;
+    m.faces.push_back(Face::Triangle(0, r, s));
+    m.faces.push_back(Face::Triangle(1, s, r));
+  }
+  return m;
+}
+
 Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv) {
   Mesh mesh;
   for (int i = 0; i < nu; ++i) {

@@ -17,6 +17,13 @@ Mesh MakeCircle(double radius, int segments);
 // 1.05 * radius / frequency. frequency >= 1.
 Mesh MakeIcosphere(double radius, int frequency);
 
+// Closed cone of height 1 over the unit circle in z = 0, as CAD exports cap
+// it: apex 0 at (0, 0, 1), base centre 1 at the origin, `rim` vertices 2..
+// on the circle, and two fans of triangles (apex, rim i, rim i + 1) and
+// (centre, rim i + 1, rim i): the apex and the centre are in `rim`
+// triangles each. rim >= 3.
+Mesh MakeFanCone(int rim);
+
 // Torus around z with tube centre radius R and tube radius r, nu x nv quads
 // split into triangles.
 Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv);
