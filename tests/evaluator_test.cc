@@ -120,6 +120,45 @@ TEST(EvaluatorTest, AnUpdatedEvaluatorMatchesOneCreatedAtThosePositions) {
   }
 }
 
+// An extreme move (one vertex 1e5 bounding-box diagonals away, as an
+// attacker sent; from 1e4 on the refitted values differed from fresh ones):
+// the updated evaluator equals one created at those positions, or both
+// refuse them alike (an edge over 2^16 typical edges, CheckTraceable).
+TEST(EvaluatorTest, AnExtremeMoveGivesTheFreshValuesOrTheFreshRefusal) {
+  auto knight = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(knight.ok());
+  const double d = BoundingBoxDiagonal(*knight);
+  for (double away : {1e2, 1e3, 1e4, 1e5, 1e7}) {
+    Mesh moved = *knight;
+    moved.positions[0] += Vec3(away * d, 0.5 * away * d, 0);
+    for (BvhUpdatePolicy policy :
+         {BvhUpdatePolicy::kRefit, BvhUpdatePolicy::kRebuild}) {
+      SCOPED_TRACE(::testing::Message() << "away " << away << " policy "
+                                        << static_cast<int>(policy));
+      auto ev = SdfEvaluator::Create(*knight, {.bvh_policy = policy});
+      ASSERT_TRUE(ev.ok());
+      const absl::Status update = (*ev)->UpdatePositions(moved.positions);
+      auto fresh = SdfEvaluator::Create(moved, {.bvh_policy = policy});
+      ASSERT_EQ(update.ok(), fresh.ok()) << update << " vs " << fresh.status();
+      EXPECT_EQ(update.ok(), away < 1e4) << update;
+      if (!update.ok()) {
+        EXPECT_EQ(update.code(), fresh.status().code());
+        EXPECT_THAT(std::string(update.message()), HasSubstr("median"));
+        continue;
+      }
+      auto a = (*ev)->Compute({});
+      auto b = (*fresh)->Compute({});
+      ASSERT_TRUE(a.ok() && b.ok());
+      int differ = 0;
+      for (int64_t v = 0; v < knight->num_vertices(); ++v) {
+        differ += std::memcmp(&a->values[v], &b->values[v], 8) != 0;
+      }
+      EXPECT_EQ(differ, 0);
+      EXPECT_TRUE(BitIdentical(*a, *b));
+    }
+  }
+}
+
 // The same positions through two BVHs: one built at them, one built at other
 // positions (same centroid) and refitted, so that the traversal meets tied
 // primitives in other orders. The pick does not depend on that order.

@@ -48,16 +48,57 @@ namespace {
 constexpr double kMaxSpanTimesEdgeSquared = 1e38;
 constexpr double kMaxSpan = 1e17;
 
+// A single-precision hit on a triangle errs by about its longest edge times
+// 2^-24. Where one edge is 2^16 times the typical edge (a stray vertex far
+// from the rest, as an attacker's update sent) that error exceeds 1/256 of
+// a typical edge and the hits, so the values, depend on the BVH: an updated
+// session then differed from a fresh upload of the same positions (from a
+// vertex 1e4 bounding-box diagonals away on the knight). The test compares
+// binary exponents: the squared longest edge's against the median of the
+// squared edges' (so "2^16 times" is exact to a factor of 2, and the check is
+// one pass with no sort).
+constexpr int kMaxEdgeSpreadExponent = 16;
+
+// The median of the binary exponents (ilogb) counted in `histogram`, whose
+// index i counts exponent i + kExponentBias.
+constexpr int kExponentBias = 1100;
+int MedianExponent(const std::vector<int64_t>& histogram, int64_t count) {
+  int64_t seen = 0;
+  for (size_t i = 0; i < histogram.size(); ++i) {
+    seen += histogram[i];
+    if (2 * seen >= count) return static_cast<int>(i) - kExponentBias;
+  }
+  return 0;
+}
+
 // `span` is the mesh's bounding-box diagonal.
 absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
   double edge2 = 0, reach = 0;
+  std::vector<int64_t> exponents(2 * kExponentBias, 0);
+  int64_t edges = 0;
   for (const Face& f : mesh.faces) {
     for (int k = 0; k < f.size; ++k) {
       const Vec3& p = mesh.positions[f.v[k]];
       const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
-      edge2 = std::max(edge2, Dot(e, e));
+      const double e2 = Dot(e, e);
+      edge2 = std::max(edge2, e2);
       reach = std::max(reach, MaxAbs(p - origin));
+      if (e2 > 0 && std::isfinite(e2)) {
+        ++exponents[std::ilogb(e2) + kExponentBias];
+        ++edges;
+      }
     }
+  }
+  if (edges > 0 &&
+      std::ilogb(edge2) - MedianExponent(exponents, edges) >
+          2 * kMaxEdgeSpreadExponent) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the longest edge (", std::sqrt(edge2), ") is more than 2^",
+        kMaxEdgeSpreadExponent,
+        " times the typical (median) edge: single-precision hits on it would "
+        "err by more than 1/256 of a typical edge, so values would depend on "
+        "the ray tracer's BVH; a vertex far from the rest? (such meshes are "
+        "refused at upload and update alike)"));
   }
   if (reach > kMaxSpan) {
     return absl::InvalidArgumentError(absl::StrCat(
