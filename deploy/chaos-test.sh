@@ -28,13 +28,26 @@
 # retried attempts (the replicas' meshgauge_rpc_retried_attempts_total in
 # Prometheus) and p50/p99 latency per RPC. Brings the stack down at the end
 # with `down --prune` and checks that the build stage is gone.
+# Its stack is its own (project meshgauge-chaos, ports 50251, 9290, 9293,
+# secrets in /tmp/meshgauge-chaos-test, run directory
+# deploy/.run/meshgauge-chaos): an operator's
+# stack (deploy/stack.sh's defaults) beside it is not touched.
 set -euo pipefail
 cd "$(dirname "$0")"
 source ../scripts/lib.sh
-COMPOSE="docker-compose -p meshgauge -f docker-compose.yml"
+CHAOS_HOME=${CHAOS_HOME:-/tmp/meshgauge-chaos-test}
+export MESHGAUGE_PROJECT=${CHAOS_PROJECT:-meshgauge-chaos}
+export MESHGAUGE_GRPC_PORT=${CHAOS_GRPC_PORT:-50251}
+export MESHGAUGE_PROMETHEUS_PORT=${CHAOS_PROMETHEUS_PORT:-9290}
+export MESHGAUGE_ALERTMANAGER_PORT=${CHAOS_ALERTMANAGER_PORT:-9293}
+export MESHGAUGE_SECRETS_DIR=$CHAOS_HOME/secrets MESHGAUGE_RUN_DIR=$PWD/.run/$MESHGAUGE_PROJECT
+# No receiver: this test does not look at notifications.
+export MESHGAUGE_ALERT_WEBHOOK_URL=http://127.0.0.1:9/none
+source ./stack-lib.sh
 MESHGAUGE_VERSION=$(meshgauge_version)
 export MESHGAUGE_VERSION
-PROM=http://127.0.0.1:9090
+FRONT=127.0.0.1:$MESHGAUGE_GRPC_PORT
+PROM=http://127.0.0.1:$MESHGAUGE_PROMETHEUS_PORT
 # The reference's iterations, whose positions the clients cycle through.
 ITERATIONS=${CHAOS_ITERATIONS:-30}
 RESTARTS=${CHAOS_RESTARTS:-2}
@@ -43,6 +56,11 @@ MAX_LATENCY=${CHAOS_MAX_LATENCY:-10}
 REPORT=/tmp/meshgauge-chaos
 mkdir -p "$REPORT"
 
+# What an interrupted run left behind (this project only) goes first.
+./stack.sh down --volumes >/dev/null 2>&1 || true
+rm -rf "$CHAOS_HOME" "$MESHGAUGE_RUN_DIR"
+mkdir -p "$CHAOS_HOME"
+chmod 0755 "$CHAOS_HOME"
 ./stack.sh up 2
 PLAIN_PID=
 cleanup() {
@@ -56,14 +74,14 @@ retried() {  # retried attempts over the last $1 seconds, all replicas
     "round(sum(increase(meshgauge_rpc_retried_attempts_total[${1}s])))"
 }
 
-/usr/bin/python3 plain_client.py --target 127.0.0.1:50051 --ca secrets/ca.crt \
-  --token-file secrets/token --sessions 2 --out "$REPORT/plain.json" \
+/usr/bin/python3 plain_client.py --target "$FRONT" --ca "$MESHGAUGE_SECRETS_DIR/ca.crt" \
+  --token-file "$MESHGAUGE_SECRETS_DIR/token" --sessions 2 --out "$REPORT/plain.json" \
   >"$REPORT/plain.log" 2>&1 &
 PLAIN_PID=$!
 
 healthy() {  # waits until N replicas report healthy
   for _ in $(seq 1 120); do
-    [ "$(docker ps --filter label=com.docker.compose.project=meshgauge \
+    [ "$(docker ps --filter "label=com.docker.compose.project=$MESHGAUGE_PROJECT" \
           --filter label=com.docker.compose.service=meshgauge \
           --filter health=healthy -q | wc -l)" -ge "$1" ] && return 0
     sleep 1
@@ -77,7 +95,7 @@ phase() {  # NAME "FAULT COMMAND" [LOAD FLAG...] (fault evaluated once the clien
   shift 2
   local out="$REPORT/$name.txt" container="meshgauge-chaos-load-$name-$$"
   STACK_TOOL_NAME=$container stack_tool meshgauge-load \
-    --target 127.0.0.1:50051 --tls_ca_file /secrets/ca.crt \
+    --target "$FRONT" --tls_ca_file /secrets/ca.crt \
     --token_file /secrets/token --clients 6 --iterations "$ITERATIONS" \
     --until_signal --frequency 16 --session_prefix "chaos-$name" \
     --time_limit_seconds 600 --progress_every 6 "$@" >"$out" 2>&1 &
@@ -143,7 +161,7 @@ hang() {  # replica $1's server process stops for PAUSE_SECONDS, then goes on
 phase pause 'hang 2' --max_latency_seconds "$MAX_LATENCY"
 healthy 3
 phase stop 'docker stop -t 30 "$(stack_replica 1)" >/dev/null'
-phase redis 'docker restart -t 10 "$($COMPOSE ps -q redis)" >/dev/null'
+phase redis 'docker restart -t 10 "$(stack_containers redis)" >/dev/null'
 
 kill -TERM "$PLAIN_PID"
 wait "$PLAIN_PID" || true

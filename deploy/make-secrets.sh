@@ -1,9 +1,13 @@
 #!/usr/bin/env bash
-# The stack's secrets in deploy/secrets (not committed):
+# The stack's secrets in $MESHGAUGE_SECRETS_DIR (default deploy/secrets, not
+# committed):
 #   ca.key, ca.crt            the stack's CA (MESHGAUGE_CA_DAYS, default 3650)
-#   server.key, server.crt    the balancer's certificate for 127.0.0.1 and
-#                             localhost, signed by the CA (MESHGAUGE_CERT_DAYS,
-#                             default 365)
+#   server.key, server.crt    the balancer's certificate, signed by the CA
+#                             (MESHGAUGE_CERT_DAYS, default 365), for the
+#                             names of MESHGAUGE_CERT_NAMES: a comma-separated
+#                             list of DNS names and IP addresses (default
+#                             "127.0.0.1,localhost"; the clients' --server
+#                             host must be one of them)
 #   server.pem                certificate and key in one file, for HAProxy
 #   token                     the bearer token of the tenant "stack"
 #   balancer/server.pem       the copy the balancer container reads (owned by
@@ -14,7 +18,8 @@
 # directories balancer/ and replicas/, so a file replaced there is seen.
 #   make-secrets.sh           make what is missing; renew a certificate (the
 #                             CA's: and the server's) when under 30 days
-#                             remain
+#                             remain, and the server's when its names are
+#                             not MESHGAUGE_CERT_NAMES
 #   make-secrets.sh rotate    a new server key and certificate (same CA: the
 #                             clients' trust holds) and a new token in
 #                             token.next; the tokens file lists both tokens
@@ -25,10 +30,33 @@
 # Production: bring your own certificate and tokens instead.
 set -euo pipefail
 cd "$(dirname "$0")"
+SECRETS=${MESHGAUGE_SECRETS_DIR:-secrets}
 umask 077
-mkdir -p secrets/balancer secrets/replicas
-chmod 0755 secrets secrets/balancer secrets/replicas
-cd secrets
+mkdir -p "$SECRETS/balancer" "$SECRETS/replicas"
+chmod 0755 "$SECRETS" "$SECRETS/balancer" "$SECRETS/replicas"
+cd "$SECRETS"
+
+# subjectAltName of MESHGAUGE_CERT_NAMES: IP:... for addresses, DNS:... else.
+alt_names() {
+  local n out=() names
+  IFS=, read -ra names <<<"${MESHGAUGE_CERT_NAMES:-127.0.0.1,localhost}"
+  for n in "${names[@]}"; do
+    n=$(tr -d ' ' <<<"$n")
+    [ -n "$n" ] || continue
+    if [[ "$n" =~ ^[0-9.]+$ || "$n" == *:* ]]; then out+=("IP:$n"); else out+=("DNS:$n"); fi
+  done
+  [ ${#out[@]} -gt 0 ] || { echo "make-secrets: MESHGAUGE_CERT_NAMES names nothing" >&2; exit 2; }
+  (IFS=,; echo "${out[*]}")
+}
+
+# The names server.crt was made for, in alt_names' form: server.names,
+# written with it (or, for a certificate of an earlier release, its
+# subjectAltName as OpenSSL prints it: "IP Address:1.2.3.4, DNS:x").
+cert_names() {
+  cat server.names 2>/dev/null ||
+    openssl x509 -noout -ext subjectAltName -in server.crt 2>/dev/null | sed 1d |
+      tr -d ' ' | sed 's/IPAddress:/IP:/g'
+}
 BALANCER_UID=10080
 key=(-newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes)
 
@@ -41,7 +69,9 @@ new_ca() {
 new_server_certificate() {
   openssl req "${key[@]}" -keyout server.key -out server.csr \
     -subj /CN=meshgauge-balancer 2>/dev/null
-  printf 'subjectAltName=IP:127.0.0.1,DNS:localhost\n' >server.ext
+  alt_names >server.names
+  chmod 0644 server.names
+  printf 'subjectAltName=%s\n' "$(cat server.names)" >server.ext
   openssl x509 -req -in server.csr -CA ca.crt -CAkey ca.key -CAcreateserial \
     -days "${MESHGAUGE_CERT_DAYS:-365}" -extfile server.ext -out server.crt \
     2>/dev/null
@@ -85,7 +115,7 @@ case "${1:-}" in
     renew=0
     if [ ! -f ca.key ] || ! lasts_a_month ca.crt; then new_ca; renew=1; fi
     if [ "$renew" = 1 ] || [ ! -f balancer/server.pem ] ||
-       ! lasts_a_month server.crt; then
+       ! lasts_a_month server.crt || [ "$(cert_names)" != "$(alt_names)" ]; then
       new_server_certificate
     fi
     [ -f token ] || new_token token
