@@ -12,6 +12,9 @@ namespace meshgauge::server {
 namespace {
 
 constexpr absl::string_view kOpenPrefix = "/grpc.health.v1.Health/";
+// The streamed upload: its handler authenticates before it reads a message.
+constexpr absl::string_view kHandlerChecked =
+    "/meshgauge.v1.MeshGauge/CreateSession";
 
 // gRPC core calls this for each call's initial metadata (":path" among it)
 // on the transport's thread; the answer is synchronous (a hash and a map
@@ -29,9 +32,9 @@ void Process(void* state, grpc_auth_context* /*context*/,
     const grpc::string_ref value(
         reinterpret_cast<const char*>(GRPC_SLICE_START_PTR(md[i].value)),
         GRPC_SLICE_LENGTH(md[i].value));
+    const absl::string_view path(value.data(), value.size());
     if (key == ":path" &&
-        absl::StartsWith(absl::string_view(value.data(), value.size()),
-                         kOpenPrefix)) {
+        (absl::StartsWith(path, kOpenPrefix) || path == kHandlerChecked)) {
       open = true;
     }
     entries.emplace(key, value);

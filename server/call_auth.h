@@ -12,9 +12,14 @@
 //
 // The standard health service (grpc.health.v1.Health) stays open: load
 // balancers probe it without a token and it reveals nothing but
-// SERVING/NOT_SERVING. Everything else, reflection included, needs a token
-// when the server has tokens. The handlers still authenticate (to learn the
-// tenant and to refuse a token revoked in between).
+// SERVING/NOT_SERVING. The streamed upload (CreateSession) is let through to
+// its handler, which authenticates before it reads any message (gRPC does
+// not read a stream ahead of the handler) and then drains the stream, so
+// the client sees UNAUTHENTICATED even through a balancer (refused here, a
+// client still sending met a reset stream, CANCELLED, behind HAProxy).
+// Everything else, reflection included, needs a token when the server has
+// tokens. The handlers still authenticate (to learn the tenant and to
+// refuse a token revoked in between).
 #pragma once
 
 #include <grpcpp/security/server_credentials.h>
