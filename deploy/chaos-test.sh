@@ -20,6 +20,11 @@
 #            checks (haproxy.cfg), and they are retried elsewhere.
 #   stop     a replica is stopped gracefully (drain) and stays down
 #   redis    Redis is restarted (its AOF keeps the sessions)
+#   attack   deploy/attacker.py, against the measured clients' sessions:
+#            updates of every position x 1e14 (refused, and nothing may
+#            change), ComputeSdf streams left unread for 15 s, two anonymous
+#            100 MiB UpdatePositions (UNAUTHENTICATED, unread); no call of
+#            the measured clients over CHAOS_MAX_LATENCY
 # A plain gRPC client written from the proto (deploy/plain_client.py, only
 # gRPC's UNAVAILABLE retry policy) runs through all phases.
 # Pass: every phase with 0 client-visible errors, 0 mismatches, 0 sessions
@@ -162,6 +167,13 @@ phase pause 'hang 2' --max_latency_seconds "$MAX_LATENCY"
 healthy 3
 phase stop 'docker stop -t 30 "$(stack_replica 1)" >/dev/null'
 phase redis 'docker restart -t 10 "$(stack_containers redis)" >/dev/null'
+attack() {
+  /usr/bin/python3 attacker.py --target "$FRONT" \
+    --ca "$MESHGAUGE_SECRETS_DIR/ca.crt" \
+    --token-file "$MESHGAUGE_SECRETS_DIR/token" \
+    --sessions "$(seq -s, -f 'chaos-attack-%g' 0 5)" | tee "$REPORT/attack.json"
+}
+phase attack attack --max_latency_seconds "$MAX_LATENCY"
 
 kill -TERM "$PLAIN_PID"
 wait "$PLAIN_PID" || true
