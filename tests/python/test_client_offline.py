@@ -40,6 +40,55 @@ def free_port() -> int:
 MAP = [0, 1, 0, 2, 1, 3, 0]
 
 
+class ImportGraphTest(unittest.TestCase):
+    """The package's modules import each other without a cycle, counting
+    imports inside functions too (only `if TYPE_CHECKING:` blocks, which
+    never run, are left out): client.py and session.py used to import each
+    other, one of them from inside functions."""
+
+    def test_the_modules_import_each_other_without_a_cycle(self):
+        import ast
+        import meshgauge_client
+        package = os.path.dirname(meshgauge_client.__file__)
+        graph = {}
+        for name in os.listdir(package):
+            if not name.endswith(".py") or name == "__init__.py":
+                continue
+            with open(os.path.join(package, name)) as f:
+                tree = ast.parse(f.read())
+            skipped = set()
+            for node in ast.walk(tree):
+                if (isinstance(node, ast.If) and
+                        "TYPE_CHECKING" in ast.unparse(node.test)):
+                    skipped.update(id(n) for b in node.body
+                                   for n in ast.walk(b))
+            deps = set()
+            for node in ast.walk(tree):
+                if id(node) in skipped:
+                    continue
+                if isinstance(node, ast.ImportFrom) and node.module:
+                    if node.module == "meshgauge_client":
+                        deps.update(a.name for a in node.names)
+                    elif node.module.startswith("meshgauge_client."):
+                        deps.add(node.module.split(".")[1])
+            graph[name[:-3]] = deps & {n[:-3] for n in os.listdir(package)}
+        state = {}
+
+        def visit(module, path):
+            if state.get(module) == "done":
+                return
+            self.assertNotEqual(state.get(module), "open",
+                                " -> ".join(path + [module]))
+            state[module] = "open"
+            for dep in sorted(graph.get(module, ())):
+                visit(dep, path + [module])
+            state[module] = "done"
+
+        self.assertIn("session", graph["client"])  # the test sees imports.
+        for module in sorted(graph):
+            visit(module, [])
+
+
 class WeldMapTest(unittest.TestCase):
     def setUp(self) -> None:
         self.m = _weld.weld_map(MAP, 4, 7)

@@ -20,7 +20,7 @@ import warnings
 import time
 import uuid
 import zlib
-from typing import (TYPE_CHECKING, Any, Callable, Iterator, List, Optional,
+from typing import (Any, Callable, Iterator, List, Optional,
                     Sequence, Tuple, TypeVar)
 
 import grpc
@@ -36,13 +36,11 @@ from meshgauge_client.errors import (CancelledError, DataLossError,
                                      ResourceExhaustedError, UnavailableError,
                                      from_rpc_error)
 from meshgauge_client.options import SdfOptions
+from meshgauge_client.session import Session
 from meshgauge_client.results import (Calibration, FloatArray,
                                       GradCheckReport, MeshData,
                                       PenaltyResult, SdfResult, ServerInfo,
                                       SessionInfo)
-
-if TYPE_CHECKING:
-    from meshgauge_client.session import Session
 
 SESSION_KEY = "x-meshgauge-session"
 # The prefix of a CANCELLED upload: the client never cancels one, so the
@@ -560,7 +558,6 @@ class MeshGaugeClient:
         .triangles) or meshio (.points, .cells); polygons included. The
         keyword options are upload()'s; with weld, the Session's positions,
         values and gradients stay one per vertex given."""
-        from meshgauge_client.session import Session
         if faces is None:
             vertices, faces = _wire.mesh_arrays(vertices)
         v = _wire.points(vertices, "vertices")
@@ -592,7 +589,6 @@ class MeshGaugeClient:
         lowest-numbered copies). The file's bytes are kept: a session the
         server lost is re-created from them, whatever happened to the file
         since. Every error about the file names its path."""
-        from meshgauge_client.session import Session
         name, data = self._read_mesh_file(path)
 
         def create(sid: Optional[str]) -> SessionInfo:

@@ -20,17 +20,19 @@ meshgauge_client._weld).
 
 import contextlib
 import os
-from typing import (Any, Callable, Dict, Optional, Sequence, Tuple,
-                    TypeVar)
+from typing import (TYPE_CHECKING, Any, Callable, Dict, Optional, Sequence,
+                    Tuple, TypeVar)
 
 import scipy.sparse
 
 from meshgauge_client import _weld, _wire, thickness
-from meshgauge_client.client import MeshGaugeClient
 from meshgauge_client.errors import NotFoundError, SessionClosedError
 from meshgauge_client.results import (Calibration, FloatArray,
                                       GradCheckReport, PenaltyResult,
                                       SdfResult, SessionInfo, ThicknessCheck)
+
+if TYPE_CHECKING:  # client.py imports this module: no import back.
+    from meshgauge_client.client import MeshGaugeClient
 
 T = TypeVar("T")
 
@@ -45,7 +47,7 @@ class Session:
     After close() (or the end of its ``with`` block) every call raises
     SessionClosedError; positions and faces stay readable."""
 
-    def __init__(self, client: MeshGaugeClient,
+    def __init__(self, client: "MeshGaugeClient",
                  create: Callable[[Optional[str]], SessionInfo],
                  session_id: Optional[str] = None,
                  mesh: Optional[Tuple[FloatArray, "list[Any]"]] = None
