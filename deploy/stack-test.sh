@@ -17,11 +17,12 @@
 # --finish); after rotate-secrets, reload-balancer and scale (the verbs that
 # signal containers) it SIGKILLs a replica, the balancer and Prometheus and
 # requires each back by its restart policy; a second `up` must build
-# nothing; checks Prometheus (replicas found by DNS, both serving, Redis,
+# nothing. Before those it checks Prometheus (replicas found by DNS, both serving, Redis,
 # the balancer and its certificate scraped, the alert rules loaded), Redis'
 # memory policy and private network, the containers' log rotation; backs
-# Redis up three times under write load and restores a backup
-# (stack.sh backup-redis/restore-redis); kills one replica and restarts the
+# Redis up three times under write load and restores a backup while the
+# load runs (stack.sh backup-redis/restore-redis: no client error but the
+# rollback's ABORTED); kills one replica and restarts the
 # other three times and waits for the alerts MeshgaugeReplicasBelowDesired
 # and MeshgaugeReplicaRestarting to fire, and for Alertmanager's
 # notification of the first at a webhook (deploy/webhook_catcher.py);
