@@ -35,7 +35,7 @@ import time
 
 import grpc
 
-from plain_client import stubs
+from plain_client import open_channel, stubs
 
 
 def main():
@@ -48,14 +48,9 @@ def main():
     ap.add_argument("--anonymous-mib", type=int, default=100)
     args = ap.parse_args()
     pb, pb_grpc = stubs()
-    options = [("grpc.max_send_message_length", -1),
-               ("grpc.max_receive_message_length", -1)]
-    if args.ca:
-        with open(args.ca, "rb") as f:
-            creds = grpc.ssl_channel_credentials(root_certificates=f.read())
-        channel = grpc.secure_channel(args.target, creds, options=options)
-    else:
-        channel = grpc.insecure_channel(args.target, options=options)
+    channel = open_channel(args.target, args.ca, [
+        ("grpc.max_send_message_length", -1),
+        ("grpc.max_receive_message_length", -1)])
     with open(args.token_file) as f:
         token = f.read().strip()
     stub = pb_grpc.MeshGaugeStub(channel)

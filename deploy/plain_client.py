@@ -52,6 +52,15 @@ def stubs():
     return meshgauge_pb2, meshgauge_pb2_grpc
 
 
+def open_channel(target, ca, options):
+    """A channel to target: TLS trusting the CA file `ca`, else plaintext."""
+    if ca:
+        with open(ca, "rb") as f:
+            creds = grpc.ssl_channel_credentials(root_certificates=f.read())
+        return grpc.secure_channel(target, creds, options=options)
+    return grpc.insecure_channel(target, options=options)
+
+
 def octahedron_sphere(levels):
     """A unit sphere: an octahedron subdivided `levels` times."""
     verts = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
@@ -85,13 +94,8 @@ def main():
     ap.add_argument("--out", required=True, help="JSON counts written here")
     args = ap.parse_args()
     pb, pb_grpc = stubs()
-    options = [("grpc.enable_retries", 1), ("grpc.service_config", RETRY)]
-    if args.ca:
-        with open(args.ca, "rb") as f:
-            creds = grpc.ssl_channel_credentials(root_certificates=f.read())
-        channel = grpc.secure_channel(args.target, creds, options=options)
-    else:
-        channel = grpc.insecure_channel(args.target, options=options)
+    channel = open_channel(args.target, args.ca, [
+        ("grpc.enable_retries", 1), ("grpc.service_config", RETRY)])
     token = ""
     if args.token_file:
         with open(args.token_file) as f:

@@ -1,7 +1,6 @@
 # The stack's settings and shell helpers, for deploy/stack.sh and the stack
-# tests; source it (after scripts/lib.sh, whose stack_* helpers these
-# replace). Every setting is an environment variable, defaulting to the
-# operator's stack:
+# tests; source it after scripts/lib.sh. Every setting is an environment
+# variable, defaulting to the operator's stack:
 #   MESHGAUGE_PROJECT             compose project name (meshgauge): names the
 #                                 containers, networks and volumes
 #   MESHGAUGE_GRPC_PORT           127.0.0.1 port of the balancer (50051)
@@ -69,4 +68,10 @@ stack_accepts_token() {
   MESHGAUGE_TOKEN="$1" stack_tool meshgauge remote list \
     --server "127.0.0.1:$MESHGAUGE_GRPC_PORT" --tls-ca-file /secrets/ca.crt \
     >/dev/null 2>&1
+}
+
+# The newest image of the stack's build stage (label meshgauge.stage=build:
+# the cache of the next `deploy/stack.sh up`), empty when there is none.
+stack_build_stage() {
+  docker images -q --filter label=meshgauge.stage=build | head -1
 }

@@ -70,37 +70,6 @@ await_prom() {
   return 1
 }
 
-# The Nth running replica's container id in the compose stack
-# (deploy/stack.sh up).
-stack_replica() {
-  docker ps -q --filter label=com.docker.compose.project=meshgauge \
-    --filter label=com.docker.compose.service=meshgauge | sed -n "${1}p"
-}
-
-# The newest image of the stack's build stage (label meshgauge.stage=build:
-# the cache of the next `deploy/stack.sh up`), empty when there is none.
-stack_build_stage() {
-  docker images -q --filter label=meshgauge.stage=build | head -1
-}
-
-# Runs the meshgauge image's program $1 with arguments $2... on the host
-# network as the caller's user, with the stack's secrets (./secrets, run
-# from deploy/) at /secrets and MESHGAUGE_TOKEN passed on when set; the
-# container is named $STACK_TOOL_NAME when set (to signal it).
-stack_tool() {
-  docker run --rm --no-healthcheck --network host --user "$(id -u):$(id -g)" \
-    ${STACK_TOOL_NAME:+--name "$STACK_TOOL_NAME"} \
-    -v "$PWD/secrets:/secrets:ro" ${MESHGAUGE_TOKEN:+-e MESHGAUGE_TOKEN} \
-    --entrypoint "$1" "meshgauge:$(meshgauge_version)" "${@:2}"
-}
-
-# Succeeds when a ListSessions call through the stack's balancer with token
-# $1 passes.
-stack_accepts_token() {
-  MESHGAUGE_TOKEN="$1" stack_tool meshgauge remote list \
-    --server 127.0.0.1:50051 --tls-ca-file /secrets/ca.crt >/dev/null 2>&1
-}
-
 # The release (the one line of VERSION at the repository's root).
 meshgauge_version() {
   head -1 "$(dirname "${BASH_SOURCE[0]}")/../VERSION"
