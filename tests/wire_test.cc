@@ -552,8 +552,7 @@ TEST(WireTest, UnaryRepliesRoundTripAndMalformedOnesAreDataLoss) {
 }
 
 TEST(ServiceConfigTest, TheCompiledConfigIsTheFileNextToTheProto) {
-  std::ifstream in(std::string(MESHGAUGE_SOURCE_DIR) +
-                   "/proto/meshgauge/v1/service_config.json");
+  std::ifstream in(MESHGAUGE_SOURCE_DIR "/proto/meshgauge/v1/service_config.json");
   std::stringstream file;
   file << in.rdbuf();
   ASSERT_FALSE(file.str().empty());
