@@ -1,6 +1,15 @@
 #!/usr/bin/env bash
-# Configures and builds meshgauge (Release, -O2) into ./build.
+# Configures and builds meshgauge (Release, -O2) into ./build (or DIR).
+# A new build folder is configured for Ninja when it is installed (Debian's
+# ninja-build, from scripts/install_deps.sh); an existing one keeps the
+# generator it was configured with.
+#   scripts/build.sh [DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j"$(nproc)"
+dir="${1:-build}"
+generator=()
+if [ ! -f "$dir/CMakeCache.txt" ] && command -v ninja >/dev/null; then
+  generator=(-G Ninja)
+fi
+cmake -S . -B "$dir" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$dir" -j"$(nproc)"

@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Fuzzes each mesh reader with libFuzzer (clang-14, ASan + UBSan) for
-# SECONDS each (default 60), starting from the committed seed corpus
-# tests/fuzz/corpus/FORMAT. Exits non-zero on any finding (crash, sanitizer
-# report, leak, timeout, out-of-memory); the reproducer is left in
-# build-fuzz/. Prints the executions run per reader.
+# SECONDS each (default 60; one reader per core at a time), starting from
+# the committed seed corpus tests/fuzz/corpus/FORMAT. Exits non-zero on any
+# finding (crash, sanitizer report, leak, timeout, out-of-memory); the
+# reproducer is left in build-fuzz/. Prints the executions run per reader.
 #   scripts/fuzz.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -22,25 +22,67 @@ SOURCES=(lib/io/mesh_builder.cc lib/io/mesh_io.cc lib/io/obj_reader.cc
          lib/core/components.cc lib/core/mesh_repair.cc
          lib/core/nesting.cc lib/core/weld.cc lib/core/missing_values.cc
          lib/core/integrals.cc)
+# Objects and fuzzers are built, and the readers fuzzed, JOBS at a time
+# (one per core: each fuzzer is one process on one core, for SECONDS_EACH).
+JOBS="$(nproc)"
+pids=()
+drain() {  # waits for the background jobs in pids; fails when one did
+  local pid failed=0
+  for pid in "${pids[@]}"; do wait "$pid" || failed=1; done
+  pids=()
+  return "$failed"
+}
+throttle() {  # waits for the oldest job once JOBS of them run
+  if [ "${#pids[@]}" -ge "$JOBS" ]; then
+    local first=${pids[0]}
+    pids=("${pids[@]:1}")
+    wait "$first"
+  fi
+}
 OBJECTS=()
 for src in "${SOURCES[@]}"; do
   obj="$OUT/obj/$(echo "$src" | tr / _).o"
   if [ ! -f "$obj" ] || [ "$src" -nt "$obj" ]; then
-    "$CXX" "${FLAGS[@]}" -c "$src" -o "$obj"
+    throttle
+    "$CXX" "${FLAGS[@]}" -c "$src" -o "$obj" &
+    pids+=($!)
   fi
   OBJECTS+=("$obj")
 done
-status=0
-for fmt in obj off ply stl; do
-  bin="$OUT/fuzz_$fmt"
+drain
+FORMATS=(obj off ply stl)
+for fmt in "${FORMATS[@]}"; do
+  throttle
   "$CXX" "${FLAGS[@]}" -fsanitize=fuzzer "-DMESHGAUGE_FUZZ_FORMAT=\".$fmt\"" \
-    tests/fuzz/fuzz_reader.cc "${OBJECTS[@]}" "${LIBS[@]}" -o "$bin"
-  work="$OUT/corpus_$fmt"
-  mkdir -p "$work"
+    tests/fuzz/fuzz_reader.cc "${OBJECTS[@]}" "${LIBS[@]}" -o "$OUT/fuzz_$fmt" &
+  pids+=($!)
+done
+drain
+fuzz() {  # FORMAT: fuzzes one reader, its output in $OUT/fuzz_FORMAT.log
+  local fmt=$1
+  mkdir -p "$OUT/corpus_$fmt"
+  (cd "$OUT" && "./fuzz_$fmt" -max_total_time="$SECONDS_EACH" \
+     -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
+     "corpus_$fmt" "../tests/fuzz/corpus/$fmt") >"$OUT/fuzz_$fmt.log" 2>&1
+}
+declare -A fuzz_rc
+for ((i = 0; i < ${#FORMATS[@]}; i += JOBS)); do
+  batch=("${FORMATS[@]:i:JOBS}")
+  for fmt in "${batch[@]}"; do
+    fuzz "$fmt" &
+    pids+=($!)
+  done
+  for j in "${!batch[@]}"; do
+    rc=0
+    wait "${pids[$j]}" || rc=$?
+    fuzz_rc[${batch[$j]}]=$rc
+  done
+  pids=()
+done
+status=0
+for fmt in "${FORMATS[@]}"; do
   log="$OUT/fuzz_$fmt.log"
-  if (cd "$OUT" && "./fuzz_$fmt" -max_total_time="$SECONDS_EACH" \
-        -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1 \
-        "corpus_$fmt" "../tests/fuzz/corpus/$fmt") >"$log" 2>&1; then
+  if [ "${fuzz_rc[$fmt]}" -eq 0 ]; then
     execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo "?")
     echo "fuzz $fmt: ${SECONDS_EACH} s, $execs executions, no findings"
   else

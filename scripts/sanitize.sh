@@ -8,7 +8,12 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/install_deps.sh
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer"
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+# A new build-asan is configured for Ninja, as scripts/build.sh does.
+generator=()
+if [ ! -f build-asan/CMakeCache.txt ] && command -v ninja >/dev/null; then
+  generator=(-G Ninja)
+fi
+cmake -S . -B build-asan "${generator[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DMESHGAUGE_BENCHMARKS=OFF \
   -DCMAKE_CXX_FLAGS="$SAN" -DCMAKE_EXE_LINKER_FLAGS="$SAN" \
   -DCMAKE_SHARED_LINKER_FLAGS="$SAN" >/dev/null
