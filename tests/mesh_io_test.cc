@@ -5,9 +5,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <ostream>
+#include <string>
 
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_builder.h"
@@ -24,6 +27,10 @@ struct Expected {
   int64_t vertices, faces;
   bool closed;
 };
+
+// The test's name and CTest's show the file (a struct would print as its
+// bytes, pointer included: names that changed from build to build).
+void PrintTo(const Expected& e, std::ostream* os) { *os << e.file; }
 
 class SharedMeshTest : public ::testing::TestWithParam<Expected> {};
 
@@ -48,7 +55,14 @@ INSTANTIATE_TEST_SUITE_P(
                       Expected{"rocker-arm.obj", 10044, 20088, true},
                       Expected{"stanford-bunny.obj", 35947, 69451, false},
                       Expected{"horse.ply", 48485, 96966, true},
-                      Expected{"igea-triangles.ply", 134345, 268686, true}));
+                      Expected{"igea-triangles.ply", 134345, 268686, true}),
+    [](const ::testing::TestParamInfo<Expected>& info) {
+      std::string name = info.param.file;
+      for (char& c : name) {
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      }
+      return name;
+    });
 
 TEST(MeshIoTest, HorseIsInwardOriented) {
   auto mesh = ReadMesh(SharedMesh("horse.ply"));
