@@ -166,49 +166,6 @@ int64_t RaysLostAtSharedEdges(RayTest test) {
 // The watertight test (the default) loses none of them; Embree's fast test
 // lets some slip through (640 of 7694 on this project's machines), so the
 // rays do meet the case the watertight test guards against.
-// A fan cap's hub makes a rebuilt scene use spatial splits (its long thin
-// triangles' boxes each hold the cap's middle); an ordinary mesh and a
-// refitted scene do not; the candidates of every ray are those of the
-// scene without splits.
-TEST(RaySceneTest, AHubGetsSpatialSplitsWithTheSameCandidates) {
-  const Mesh cone = MakeFanCone(RayScene::kSpatialSplitValence + 1);
-  const MeshTopology topo = MeshTopology::Build(cone);
-  auto split = RayScene::Create(cone, topo, BvhUpdatePolicy::kRebuild);
-  auto plain = RayScene::Create(cone, topo, BvhUpdatePolicy::kRefit);
-  ASSERT_TRUE(split.ok() && plain.ok());
-  EXPECT_TRUE((*split)->spatial_splits());
-  EXPECT_FALSE((*plain)->spatial_splits());
-  const Mesh small_cone = MakeFanCone(RayScene::kSpatialSplitValence);
-  const MeshTopology small_topo = MeshTopology::Build(small_cone);
-  auto small = RayScene::Create(small_cone, small_topo,
-                                BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(small.ok());
-  EXPECT_FALSE((*small)->spatial_splits());
-  std::mt19937 rng(3);
-  const int n = 20;
-  std::vector<HitCandidates> a(n), b(n);
-  int64_t hits = 0;
-  for (int64_t v = 0; v < cone.num_vertices(); ++v) {
-    const std::vector<Vec3> dirs = RandomDirections(n, 3, rng);
-    std::vector<int32_t> ring;
-    OneRingPrimitives(topo, v, &ring);
-    const RayScene::FanLimits limits = {1e-6f, 1e-6f, 0, 1e30f};
-    (*split)->IntersectFan(cone.positions[v], dirs, limits, ring,
-                           absl::MakeSpan(a));
-    (*plain)->IntersectFan(cone.positions[v], dirs, limits, ring,
-                           absl::MakeSpan(b));
-    for (int k = 0; k < n; ++k) {
-      ASSERT_EQ(a[k].count(), b[k].count()) << "vertex " << v << " ray " << k;
-      for (int i = 0; i < a[k].count(); ++i) {
-        ASSERT_EQ(a[k][i].prim, b[k][i].prim);
-        ASSERT_EQ(a[k][i].t, b[k][i].t);
-      }
-      hits += a[k].count() > 0;
-    }
-  }
-  EXPECT_GT(hits, cone.num_vertices() * n / 10);  // the test sees hits.
-}
-
 TEST(RaySceneTest, RaysThroughSharedEdgesAndVerticesAreNotLost) {
   EXPECT_EQ(RaysLostAtSharedEdges(RayTest::kWatertight), 0);
   EXPECT_GT(RaysLostAtSharedEdges(RayTest::kFast), 0);

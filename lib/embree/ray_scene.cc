@@ -144,15 +144,6 @@ Vec3 OriginOf(const Mesh& mesh, double diagonal) {
               std::round(c.z / q) * q);
 }
 
-// The most primitives any vertex is in.
-size_t MaxValence(const MeshTopology& topo, size_t num_vertices) {
-  size_t most = 0;
-  for (size_t v = 0; v < num_vertices; ++v) {
-    most = std::max(most, topo.PrimitivesOf(static_cast<int64_t>(v)).size());
-  }
-  return most;
-}
-
 }  // namespace
 
 Vec3 SceneOrigin(const Mesh& mesh) {
@@ -178,13 +169,9 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   if (test_ == RayTest::kWatertight) flags |= RTC_SCENE_FLAG_ROBUST;
   if (policy_ == BvhUpdatePolicy::kRefit) flags |= RTC_SCENE_FLAG_DYNAMIC;
   rtcSetSceneFlags(scene_, static_cast<RTCSceneFlags>(flags));
-  spatial_splits_ = policy_ == BvhUpdatePolicy::kRebuild &&
-                    MaxValence(topo_, mesh.positions.size()) >
-                        kSpatialSplitValence;
   rtcSetSceneBuildQuality(scene_, policy_ == BvhUpdatePolicy::kRefit
                                       ? RTC_BUILD_QUALITY_LOW
-                                  : spatial_splits_ ? RTC_BUILD_QUALITY_HIGH
-                                                    : RTC_BUILD_QUALITY_MEDIUM);
+                                      : RTC_BUILD_QUALITY_MEDIUM);
   const size_t nv = mesh.positions.size();
   const size_t np = topo_.primitives.size();
   if (dimension_ == 3) {

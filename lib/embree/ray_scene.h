@@ -26,8 +26,7 @@ struct RTCGeometryTy;
 namespace meshgauge {
 
 enum class BvhUpdatePolicy {
-  // Each UpdatePositions rebuilds the BVH (scene quality MEDIUM; HIGH for a
-  // mesh with a hub: RayScene::spatial_splits()).
+  // Each UpdatePositions rebuilds the BVH (scene quality MEDIUM).
   kRebuild,
   // The geometry is built once (SAH) and UpdatePositions only refits its
   // bounds (scene quality LOW + geometry quality REFIT, a two-level BVH).
@@ -88,16 +87,6 @@ class RayScene {
   // extrusion's half height: what a hit depends on besides the geometry.
   const Vec3& origin() const { return origin_; }
   float extrude_half_height() const { return extrude_half_height_; }
-  // Whether the BVH was built with spatial splits (Embree's HIGH quality).
-  // A rebuilt (not refitted) scene whose mesh has a vertex in more than
-  // kSpatialSplitValence primitives gets them: the boxes of the long thin
-  // triangles of a fan cap each hold the whole cap's middle, so without
-  // splits every ray passing near the hub visits them all (a closed cone of
-  // 4,000 rim vertices: 5.8x faster with splits, 16 rays per vertex).
-  // Refitted scenes cannot have them (a split box cannot be refitted);
-  // values do not depend on the BVH either way.
-  bool spatial_splits() const { return spatial_splits_; }
-  static constexpr int kSpatialSplitValence = 64;
 
   // Closest hit of origin + t * dir with t in [t_near, t_far] as Embree
   // reports it (single precision, plain rtcIntersect1; among primitives at
@@ -159,7 +148,6 @@ class RayScene {
   RTCSceneTy* scene_ = nullptr;
   RTCGeometryTy* geometry_ = nullptr;
   float* vertex_buffer_ = nullptr;  // owned by geometry_.
-  bool spatial_splits_ = false;
 };
 
 }  // namespace meshgauge
