@@ -100,7 +100,7 @@ absl::StatusOr<Authenticator> Authenticator::FromFile(const std::string& path) {
 }
 
 absl::StatusOr<std::string> Authenticator::Authenticate(
-    const grpc::ServerContext& ctx) const {
+    const grpc::ServerContextBase& ctx) const {
   return AuthenticateMetadata(ctx.client_metadata());
 }
 

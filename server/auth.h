@@ -45,7 +45,7 @@ class Authenticator {
   // The caller's tenant. Errors: UNAUTHENTICATED (no or malformed
   // authorization metadata, unknown token) without echoing the token.
   absl::StatusOr<std::string> Authenticate(
-      const grpc::ServerContext& ctx) const;
+      const grpc::ServerContextBase& ctx) const;
   // The same from a call's metadata (call_auth.h). A call with more than
   // one authorization entry is UNAUTHENTICATED.
   absl::StatusOr<std::string> AuthenticateMetadata(

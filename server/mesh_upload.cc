@@ -435,12 +435,8 @@ int64_t LargestField(grpc::ByteBuffer* buffer, uint32_t field) {
 }
 
 }  // namespace
-}  // namespace meshgauge::server
 
-grpc::Status
-grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Deserialize(
-    grpc::ByteBuffer* buffer, meshgauge::server::UploadMessage* msg) {
-  using meshgauge::server::kMaxUploadHeaderBytes;
+bool ParseUploadMessage(grpc::ByteBuffer* buffer, UploadMessage* msg) {
   msg->request.Clear();
   msg->refused.clear();
   msg->received_bytes = static_cast<int64_t>(buffer->Length());
@@ -450,7 +446,7 @@ grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Deserialize(
         " bytes exceeds the upload limit of ", msg->limit,
         " bytes per message (--max_upload_message_bytes); send smaller "
         "chunks");
-  } else if (const int64_t header = meshgauge::server::LargestField(buffer, 1);
+  } else if (const int64_t header = LargestField(buffer, 1);
              header > kMaxUploadHeaderBytes) {
     msg->refused = absl::StrCat(
         "CreateSession: a header of ", header, " bytes exceeds the limit of ",
@@ -458,16 +454,12 @@ grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Deserialize(
   }
   if (!msg->refused.empty()) {
     buffer->Clear();
-    return grpc::Status::OK;
+    return true;
   }
   return grpc::GenericDeserialize<grpc::ProtoBufferReader,
-                                  meshgauge::v1::CreateSessionRequest>(
-      buffer, &msg->request);
+                                  v1::CreateSessionRequest>(buffer,
+                                                            &msg->request)
+      .ok();
 }
 
-grpc::Status
-grpc::SerializationTraits<meshgauge::server::UploadMessage, void>::Serialize(
-    const meshgauge::server::UploadMessage&, grpc::ByteBuffer*, bool*) {
-  return grpc::Status(grpc::StatusCode::UNIMPLEMENTED,
-                      "UploadMessage is only read");
-}
+}  // namespace meshgauge::server

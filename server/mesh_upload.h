@@ -5,10 +5,7 @@
 // made into faces, and files read, by lib/io's builder and readers.
 #pragma once
 
-#include <grpcpp/impl/codegen/serialization_traits.h>
 #include <grpcpp/support/byte_buffer.h>
-#include <grpcpp/support/config.h>
-#include <grpcpp/support/status.h>
 
 #include <algorithm>
 #include <map>
@@ -114,15 +111,10 @@ class MeshAssembler {
   uint32_t footer_crc_ = 0;
 };
 
-}  // namespace meshgauge::server
+// Reads one CreateSession message of `buffer` into `msg` (consuming the
+// buffer): `refused` says why when it is over msg->limit or its header over
+// kMaxUploadHeaderBytes (then nothing is parsed). False when the bytes are
+// not a CreateSessionRequest.
+bool ParseUploadMessage(grpc::ByteBuffer* buffer, UploadMessage* msg);
 
-// The server reads CreateSession as UploadMessage (see service.cc).
-template <>
-class grpc::SerializationTraits<meshgauge::server::UploadMessage, void> {
- public:
-  static grpc::Status Deserialize(grpc::ByteBuffer* buffer,
-                                  meshgauge::server::UploadMessage* msg);
-  // Never sent; present for the handler's template.
-  static grpc::Status Serialize(const meshgauge::server::UploadMessage&,
-                                grpc::ByteBuffer*, bool*);
-};
+}  // namespace meshgauge::server

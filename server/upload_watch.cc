@@ -6,15 +6,16 @@
 
 namespace meshgauge::server {
 
-absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContext* ctx) {
+absl::StatusOr<int64_t> UploadWatch::Start(grpc::ServerContextBase* ctx) {
   return Add(ctx, /*discard=*/false);
 }
 
-absl::StatusOr<int64_t> UploadWatch::StartDiscard(grpc::ServerContext* ctx) {
+absl::StatusOr<int64_t> UploadWatch::StartDiscard(
+    grpc::ServerContextBase* ctx) {
   return Add(ctx, /*discard=*/true);
 }
 
-absl::StatusOr<int64_t> UploadWatch::Add(grpc::ServerContext* ctx,
+absl::StatusOr<int64_t> UploadWatch::Add(grpc::ServerContextBase* ctx,
                                          bool discard) {
   std::lock_guard<std::mutex> lock(mu_);
   if (discard ? discards_ >= kMaxDiscards

@@ -46,12 +46,12 @@ class UploadWatch {
       : options_(options), clock_(clock) {}
 
   // Registers an upload; RESOURCE_EXHAUSTED when max_concurrent are running.
-  absl::StatusOr<int64_t> Start(grpc::ServerContext* ctx);
+  absl::StatusOr<int64_t> Start(grpc::ServerContextBase* ctx);
   // Registers the remainder of a refused upload, to be read and dropped
-  // (see MeshGaugeService::DiscardRest); RESOURCE_EXHAUSTED when
+  // (see UploadReception::DiscardRest); RESOURCE_EXHAUSTED when
   // kMaxDiscards are running. Discards do not count against
   // max_concurrent_uploads, so refused callers take no upload slot.
-  absl::StatusOr<int64_t> StartDiscard(grpc::ServerContext* ctx);
+  absl::StatusOr<int64_t> StartDiscard(grpc::ServerContextBase* ctx);
   // A message of `bytes` arrived. DEADLINE_EXCEEDED, naming the flag, when
   // the upload is past its deadline or below the minimum rate;
   // RESOURCE_EXHAUSTED when its messages are too small on average
@@ -67,13 +67,13 @@ class UploadWatch {
   // Cancels every upload idle longer than the limit (still receiving), and
   // every discard older than kMaxDiscardSeconds (silent or not); returns
   // one line for the server's log per upload cancelled, naming the flag and
-  // what the client sent. (The synchronous API cannot send a status on a
-  // stream it cancels: the client sees CANCELLED.)
+  // what the client sent. (A cancelled call carries no status of the
+  // server's: the client sees CANCELLED.)
   std::vector<std::string> AbortIdle();
 
  private:
   struct Entry {
-    grpc::ServerContext* ctx;
+    grpc::ServerContextBase* ctx;
     double start, last;
     int64_t bytes = 0;
     int64_t messages = 0;
@@ -81,7 +81,7 @@ class UploadWatch {
     bool discard = false;
     bool received = false;  // Received: the stream was read to its end.
   };
-  absl::StatusOr<int64_t> Add(grpc::ServerContext* ctx, bool discard);
+  absl::StatusOr<int64_t> Add(grpc::ServerContextBase* ctx, bool discard);
 
   const ServerOptions& options_;
   const Clock* clock_;

@@ -546,7 +546,7 @@ class UploadAttackTest : public testing::ServerFixture {
     return client_->stub().CreateSession(ctx, resp);
   }
   // Ends the stream as clients do (a refusal waits for the client's end of
-  // stream: see MeshGaugeService::DiscardRest) and returns the status.
+  // stream: see UploadReception::DiscardRest) and returns the status.
   static grpc::Status Close(Writer& w) {
     w.WritesDone();
     return w.Finish();

@@ -1,0 +1,282 @@
+#include "server/session_calls.h"
+
+#include <utility>
+
+#include "absl/strings/str_cat.h"
+#include "lib/core/face_sample.h"
+#include "lib/core/integrals.h"
+#include "lib/core/missing_diagnosis.h"
+#include "lib/embree/calibration.h"
+#include "lib/embree/gradcheck.h"
+#include "lib/embree/ray_scene.h"
+#include "proto/wire/reply_bytes.h"
+#include "server/session_messages.h"
+
+namespace meshgauge::server {
+namespace {
+
+int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
+  return NumSamples(ev.mesh(), params.samples) *
+         int64_t{ResolveParams(params, ev.mesh().dimension).rays};
+}
+
+double Seconds(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+// The library's control of `control`; with `rays_total` (> 0) its progress
+// too.
+ComputeControl LibraryControl(const CallControl& control,
+                              int64_t rays_total = 0) {
+  ComputeControl c;
+  c.cancelled = control.cancelled;
+  if (control.progress && rays_total > 0) {
+    c.progress = [progress = control.progress, rays_total](int64_t done,
+                                                           int64_t total) {
+      progress({done, total, rays_total});
+    };
+  }
+  return c;
+}
+
+}  // namespace
+
+absl::Status CallControl::Interrupted(absl::Status s) const {
+  if (s.code() != absl::StatusCode::kCancelled) return s;
+  if (deadline <= std::chrono::system_clock::now()) {
+    return absl::DeadlineExceededError("deadline exceeded during computation");
+  }
+  return absl::CancelledError("call cancelled by the client");
+}
+
+SessionCalls::SessionCalls(const ServerOptions& options, SessionStore* store,
+                           Metrics* metrics)
+    : options_(options),
+      store_(store),
+      metrics_(metrics),
+      slots_(options.ComputationsPerTenant(),
+             options.ConcurrentComputations()) {}
+
+absl::StatusOr<SessionCalls::Prepared> SessionCalls::Prepare(
+    const std::string& tenant, const SessionTarget& target,
+    const CallControl& control) {
+  // The slot first: a queued call holds no session lock.
+  auto slot = slots_.Take(tenant, [&control] {
+    return control.cancelled() ||
+           std::chrono::system_clock::now() >= control.deadline;
+  });
+  if (!slot.ok()) return control.Interrupted(slot.status());
+  auto session = store_->Get(tenant, target.session_id);
+  if (!session.ok()) return session.status();
+  auto reader = (*session)->Read();
+  if (!reader.ok()) return reader.status();
+  const int64_t generation = reader->generation();
+  if (target.expected_generation && *target.expected_generation != generation) {
+    return GenerationMismatch(target.session_id, generation,
+                              *target.expected_generation, "request");
+  }
+  return Prepared{std::move(*slot), std::move(*session), std::move(*reader),
+                  target.params};
+}
+
+absl::StatusOr<SessionCalls::Pass> SessionCalls::EnsurePass(
+    const std::string& tenant, const Prepared& prep, const CallControl& control,
+    bool with_progress) {
+  const SdfEvaluator& ev = prep.evaluator();
+  const SdfParams& params = prep.params;
+  Session& session = *prep.session;
+  if (auto cached = session.FindPass(params, ev.generation())) {
+    return Pass{std::move(cached), true};
+  }
+  // Counted in the session's memory once stored; until then a claim.
+  auto claim = store_->ClaimScratch(tenant, prep.session,
+                                    EstimatePassBytes(ev.mesh(), params),
+                                    "this ray pass's hit table and values");
+  if (!claim.ok()) return claim.status();
+  // The rays of the session's last pass with these parameters (an earlier
+  // generation's) are reused where they cannot have changed.
+  const std::shared_ptr<const CachedPass> last = session.LatestPass(params);
+  const PreviousPass previous{last ? &last->result : nullptr,
+                              last ? &last->hits : nullptr};
+  auto pass = std::make_shared<CachedPass>();
+  auto result = ev.Compute(
+      params,
+      LibraryControl(control, with_progress ? FullPassRays(ev, params) : 0),
+      &pass->hits, &previous);
+  if (!result.ok()) return control.Interrupted(result.status());
+  metrics_->AddRays(static_cast<double>(result->rays_traced));
+  pass->params = params;
+  pass->generation = ev.generation();
+  pass->result = std::move(*result);
+  pass->bytes = PassBytes(pass->result, pass->hits);
+  session.StorePass(pass);
+  claim->reset();  // the session's memory now counts the pass.
+  store_->EnforceBudget(&session);
+  return Pass{std::move(pass), false};
+}
+
+absl::StatusOr<SdfOutcome> SessionCalls::Sdf(const std::string& tenant,
+                                             const SessionTarget& target,
+                                             bool with_jacobian,
+                                             const CallControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  auto prep = Prepare(tenant, target, control);
+  if (!prep.ok()) return prep.status();
+  auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/true);
+  if (!pass.ok()) return pass.status();
+  const SdfEvaluator& ev = prep->evaluator();
+  const SdfResult& r = pass->pass->result;
+  SdfOutcome out;
+  if (with_jacobian) {
+    auto bytes = JacobianBytesBound(ev, pass->pass->hits);
+    if (!bytes.ok()) return bytes.status();
+    auto claim =
+        store_->ClaimScratch(tenant, prep->session, *bytes, "this Jacobian");
+    if (!claim.ok()) return claim.status();
+    out.jacobian_claim = std::move(*claim);
+    auto j = ComputeJacobian(ev, pass->pass->hits, LibraryControl(control),
+                             options_.compute_threads);
+    if (!j.ok()) return control.Interrupted(j.status());
+    out.jacobian = std::move(*j);
+  }
+  out.dimension = ev.mesh().dimension;
+  out.integral = IntegrateSdf(ev.mesh(), r).value;
+  // Without a topology pass unless the missing share of the surface is over
+  // the warning's.
+  out.warnings = MissingValueWarnings(ev.mesh(), r);
+  out.facts = {ev.generation(), pass->reused, Seconds(start)};
+  out.pass = std::move(pass->pass);
+  return out;
+}
+
+absl::StatusOr<VjpOutcome> SessionCalls::Vjp(const std::string& tenant,
+                                             const SessionTarget& target,
+                                             absl::Span<const double> weights,
+                                             const CallControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  auto prep = Prepare(tenant, target, control);
+  if (!prep.ok()) return prep.status();
+  const SdfEvaluator& ev = prep->evaluator();
+  if (absl::Status s = wire::CheckReplyBytes(wire::VjpReplyBytes(ev.mesh()),
+                                             options_.max_message_bytes);
+      !s.ok()) {
+    return s;
+  }
+  const int64_t samples = NumSamples(ev.mesh(), prep->params.samples);
+  if (std::ssize(weights) != samples) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "weights holds ", weights.size(), " values, expected one per ",
+        SampleName(prep->params.samples), " (", samples, ")"));
+  }
+  auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/false);
+  if (!pass.ok()) return pass.status();
+  metrics_->RecordHitCache(pass->reused);
+  auto vjp = ComputeVjp(ev, pass->pass->hits, weights, LibraryControl(control),
+                        options_.compute_threads);
+  if (!vjp.ok()) return control.Interrupted(vjp.status());
+  return VjpOutcome{
+      {std::move(*vjp), {ev.generation(), pass->reused, Seconds(start)}},
+      ev.mesh().dimension};
+}
+
+absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
+    const std::string& tenant, const SessionTarget& target,
+    const PenaltyParams& penalty, const std::optional<wire::ThinRequest>& thin,
+    bool with_gradient, const CallControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  auto prep = Prepare(tenant, target, control);
+  if (!prep.ok()) return prep.status();
+  const SdfEvaluator& ev = prep->evaluator();
+  if (absl::Status s = wire::CheckReplyBytes(
+          wire::PenaltyReplyBytes(ev.mesh(), with_gradient,
+                                  thin ? thin->max_regions : 0),
+          options_.max_message_bytes);
+      !s.ok()) {
+    return s;
+  }
+  auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/false);
+  if (!pass.ok()) return pass.status();
+  metrics_->RecordHitCache(pass->reused);
+  const SdfResult& sdf = pass->pass->result;
+  auto pen = ComputePenalty(ev, sdf, penalty,
+                            with_gradient ? &pass->pass->hits : nullptr,
+                            LibraryControl(control), options_.compute_threads);
+  if (!pen.ok()) return control.Interrupted(pen.status());
+  PenaltyOutcome out;
+  out.dimension = ev.mesh().dimension;
+  if (thin) {
+    ThinRegionParams thin_params = thin->params;
+    thin_params.samples = prep->params.samples;
+    auto regions = FindThinRegions(ev.mesh(), sdf.values, thin_params);
+    if (!regions.ok()) return regions.status();
+    out.thin = std::move(*regions);
+  }
+  out.reply = {std::move(*pen),
+               SummarizeValues(sdf.values).min,
+               sdf.world_frame_vertices,
+               {ev.generation(), pass->reused, Seconds(start)}};
+  return out;
+}
+
+absl::StatusOr<CalibrationReport> SessionCalls::Calibrate(
+    const std::string& tenant, const std::string& session_id,
+    const CalibrationParams& params, const CallControl& control) {
+  auto prep = Prepare(tenant, {session_id, params.sdf, std::nullopt}, control);
+  if (!prep.ok()) return prep.status();
+  auto report =
+      meshgauge::Calibrate(prep->evaluator(), params, LibraryControl(control));
+  if (!report.ok()) return control.Interrupted(report.status());
+  return report;
+}
+
+absl::StatusOr<GradCheckOutcome> SessionCalls::GradCheck(
+    const std::string& tenant, const SessionTarget& target,
+    const GradCheckOptions& options, const CallControl& control) {
+  const auto start = std::chrono::steady_clock::now();
+  auto prep = Prepare(tenant, target, control);
+  if (!prep.ok()) return prep.status();
+  const int64_t generation = prep->reader.generation();
+  const Mesh& mesh = prep->evaluator().mesh();
+  if (absl::Status s = ValidateGradCheck(mesh, prep->params, options);
+      !s.ok()) {
+    return s;
+  }
+  const int64_t rays_total = GradCheckPasses(mesh, options) *
+                             FullPassRays(prep->evaluator(), prep->params);
+  // The probes move the vertices of a private evaluator: its memory is
+  // claimed before it is made, and the session's lock is released once the
+  // mesh is copied (before the copy's BVH is built).
+  auto claim = store_->ClaimScratch(
+      tenant, prep->session,
+      Session::EstimateBaseBytes(mesh) + GradCheckWorkBytes(mesh, prep->params),
+      "this check's private copy of the mesh and its passes");
+  if (!claim.ok()) return claim.status();
+  Mesh copy = mesh;
+  prep->reader.lock.unlock();  // updates of the session go on.
+  auto ev = SdfEvaluator::Create(std::move(copy));
+  if (!ev.ok()) return ev.status();
+  auto report = RunGradCheck(**ev, prep->params, options,
+                             LibraryControl(control, rays_total));
+  if (!report.ok()) return control.Interrupted(report.status());
+  metrics_->AddRays(static_cast<double>(report->rays_traced));
+  return GradCheckOutcome{std::move(*report),
+                          {generation, false, Seconds(start)}};
+}
+
+absl::StatusOr<MeshView> SessionCalls::GetMesh(const std::string& tenant,
+                                               const std::string& session_id) {
+  auto session = store_->Get(tenant, session_id);
+  if (!session.ok()) return session.status();
+  auto reader = (*session)->Read();
+  if (!reader.ok()) return reader.status();
+  MeshView view{std::move(*session), std::move(*reader)};
+  if (absl::Status s = wire::CheckReplyBytes(wire::MeshReplyBytes(view.mesh()),
+                                             options_.max_message_bytes);
+      !s.ok()) {
+    return s;
+  }
+  return view;
+}
+
+}  // namespace meshgauge::server
