@@ -1,7 +1,8 @@
 #include "server/compute_slots.h"
 
 #include <algorithm>
-#include <chrono>
+
+#include "absl/time/time.h"
 
 namespace meshgauge::server {
 
@@ -22,40 +23,43 @@ bool ComputeSlots::MayStart(const std::string& tenant, uint64_t ticket) const {
   return false;
 }
 
+void ComputeSlots::Dequeue(const std::string& tenant, uint64_t ticket) {
+  std::deque<uint64_t>& q = queued_[tenant];
+  q.erase(std::find(q.begin(), q.end(), ticket));
+  if (q.empty()) {
+    queued_.erase(tenant);
+    turns_.erase(std::find(turns_.begin(), turns_.end(), tenant));
+  }
+}
+
 absl::StatusOr<ComputeSlots::Slot> ComputeSlots::Take(
     const std::string& tenant, const std::function<bool()>& abandoned) {
-  std::unique_lock<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   const uint64_t ticket = next_ticket_++;
   std::deque<uint64_t>& queue = queued_[tenant];
   if (queue.empty()) turns_.push_back(tenant);
   queue.push_back(ticket);
   while (!MayStart(tenant, ticket)) {
-    cv_.wait_for(lock, std::chrono::milliseconds(50));
+    cv_.WaitWithTimeout(&mu_, absl::Milliseconds(50));
     if (MayStart(tenant, ticket)) break;
     if (abandoned && abandoned()) {
-      std::deque<uint64_t>& q = queued_[tenant];
-      q.erase(std::find(q.begin(), q.end(), ticket));
-      if (q.empty()) {
-        queued_.erase(tenant);
-        turns_.erase(std::find(turns_.begin(), turns_.end(), tenant));
-      }
-      cv_.notify_all();
+      Dequeue(tenant, ticket);
+      cv_.SignalAll();
       return absl::CancelledError(
           "the call left while it waited for a computation slot "
           "(--max_computations_per_tenant, --max_concurrent_computations)");
     }
   }
-  // Started: out of the queue; the tenant's turn moves to the back.
-  queue.pop_front();
-  turns_.erase(std::find(turns_.begin(), turns_.end(), tenant));
-  if (queue.empty()) {
-    queued_.erase(tenant);
-  } else {
+  // Started: out of the queue; the tenant's turn moves to the back if it
+  // has more calls waiting.
+  Dequeue(tenant, ticket);
+  if (queued_.count(tenant) > 0) {
+    turns_.erase(std::find(turns_.begin(), turns_.end(), tenant));
     turns_.push_back(tenant);
   }
   ++running_;
   ++running_by_tenant_[tenant];
-  cv_.notify_all();
+  cv_.SignalAll();
   Slot slot;
   slot.owner_ = this;
   slot.tenant_ = tenant;
@@ -63,19 +67,19 @@ absl::StatusOr<ComputeSlots::Slot> ComputeSlots::Take(
 }
 
 void ComputeSlots::Give(const std::string& tenant) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   --running_;
   if (--running_by_tenant_[tenant] == 0) running_by_tenant_.erase(tenant);
-  cv_.notify_all();
+  cv_.SignalAll();
 }
 
 int ComputeSlots::running() const {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   return running_;
 }
 
 int ComputeSlots::waiting() const {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   int n = 0;
   for (const auto& [tenant, queue] : queued_) n += static_cast<int>(queue.size());
   return n;

@@ -8,15 +8,15 @@
 // per tenant the small call shares the cores with two passes, not 32.
 #pragma once
 
-#include <condition_variable>
 #include <cstdint>
 #include <deque>
 #include <functional>
 #include <map>
-#include <mutex>
 #include <string>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 
 namespace meshgauge::server {
 
@@ -63,19 +63,23 @@ class ComputeSlots {
 
  private:
   void Give(const std::string& tenant);
-  // Whether the call `ticket` of `tenant` may start now (under mu_).
-  bool MayStart(const std::string& tenant, uint64_t ticket) const;
+  // Whether the call `ticket` of `tenant` may start now.
+  bool MayStart(const std::string& tenant, uint64_t ticket) const
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  // Takes `ticket` of `tenant` out of the queue (it leaves or starts).
+  void Dequeue(const std::string& tenant, uint64_t ticket)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const int per_tenant_, total_;
-  mutable std::mutex mu_;
-  std::condition_variable cv_;
-  int running_ = 0;
-  std::map<std::string, int> running_by_tenant_;
+  mutable absl::Mutex mu_;
+  absl::CondVar cv_;
+  int running_ ABSL_GUARDED_BY(mu_) = 0;
+  std::map<std::string, int> running_by_tenant_ ABSL_GUARDED_BY(mu_);
   // Waiting calls per tenant, in arrival order, and the tenants in the
   // order their turn comes.
-  std::map<std::string, std::deque<uint64_t>> queued_;
-  std::deque<std::string> turns_;
-  uint64_t next_ticket_ = 0;
+  std::map<std::string, std::deque<uint64_t>> queued_ ABSL_GUARDED_BY(mu_);
+  std::deque<std::string> turns_ ABSL_GUARDED_BY(mu_);
+  uint64_t next_ticket_ ABSL_GUARDED_BY(mu_) = 0;
 };
 
 }  // namespace meshgauge::server
