@@ -1,5 +1,7 @@
 #include "server/service.h"
 
+#include "absl/time/time.h"
+
 #include <chrono>
 #include <memory>
 #include <optional>
@@ -103,7 +105,7 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
                                             Body body) {
   const auto start = std::chrono::steady_clock::now();
   {
-    std::lock_guard<std::mutex> lock(drain_mu_);
+    absl::MutexLock lock(&drain_mu_);
     if (draining_) {
       const grpc::Status refused(
           grpc::StatusCode::UNAVAILABLE,
@@ -129,22 +131,22 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
 }
 
 void MeshGaugeService::EnterInFlight() {
-  std::lock_guard<std::mutex> lock(drain_mu_);
+  absl::MutexLock lock(&drain_mu_);
   ++in_flight_;
 }
 
 void MeshGaugeService::LeaveInFlight() {
-  {
-    std::lock_guard<std::mutex> lock(drain_mu_);
-    --in_flight_;
-  }
-  drain_cv_.notify_all();
+  absl::MutexLock lock(&drain_mu_);
+  --in_flight_;
 }
 
 void MeshGaugeService::Drain(std::chrono::system_clock::time_point deadline) {
-  std::unique_lock<std::mutex> lock(drain_mu_);
+  absl::MutexLock lock(&drain_mu_);
   draining_ = true;
-  drain_cv_.wait_until(lock, deadline, [this] { return in_flight_ == 0; });
+  // absl::Mutex evaluates the condition whenever drain_mu_ is released.
+  drain_mu_.AwaitWithDeadline(
+      absl::Condition(this, &MeshGaugeService::Drained),
+      absl::FromChrono(deadline));
 }
 
 grpc::ServerReadReactor<grpc::ByteBuffer>* MeshGaugeService::CreateSession(

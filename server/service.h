@@ -8,9 +8,10 @@
 #include <grpcpp/grpcpp.h>
 
 #include <chrono>
-#include <condition_variable>
-#include <mutex>
 #include <string>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 
 #include "meshgauge/v1/meshgauge.grpc.pb.h"
 #include "server/auth.h"
@@ -93,6 +94,9 @@ class MeshGaugeService final
   // A call (or discard) enters or leaves in_flight_ (leaving wakes Drain).
   void EnterInFlight();
   void LeaveInFlight();
+  bool Drained() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(drain_mu_) {
+    return in_flight_ == 0;
+  }
 
   const ServerOptions& options_;
   SessionStore* store_;
@@ -101,10 +105,9 @@ class MeshGaugeService final
   const Clock* clock_;
   SessionCalls calls_;
   UploadReception reception_;
-  std::mutex drain_mu_;
-  std::condition_variable drain_cv_;
-  bool draining_ = false;
-  int64_t in_flight_ = 0;
+  absl::Mutex drain_mu_;
+  bool draining_ ABSL_GUARDED_BY(drain_mu_) = false;
+  int64_t in_flight_ ABSL_GUARDED_BY(drain_mu_) = 0;
   // Declared last, so destroyed first: joins the upload calls' threads
   // before what they use goes.
   UploadCalls upload_calls_;

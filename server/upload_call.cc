@@ -8,12 +8,12 @@ UploadCall::UploadCall(grpc::CallbackServerContext* ctx,
                        grpc::ByteBuffer* response, Body body,
                        std::function<void(UploadCall*)> done)
     : ctx_(ctx), response_(response), done_(std::move(done)) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   thread_ = std::thread([this, body = std::move(body)] { Run(body); });
 }
 
 void UploadCall::Run(const Body& body) {
-  { std::lock_guard<std::mutex> lock(mu_); }  // thread_ is assigned.
+  { absl::MutexLock lock(&mu_); }  // thread_ is assigned.
   grpc::Status status;
   {
     v1::CreateSessionResponse response;
@@ -32,8 +32,8 @@ bool UploadCall::Read(UploadMessage* message) {
   StartRead(&buffer);
   bool ok;
   {
-    std::unique_lock<std::mutex> lock(mu_);
-    read_cv_.wait(lock, [this] { return read_done_; });
+    absl::MutexLock lock(&mu_);
+    mu_.Await(absl::Condition(&read_done_));
     read_done_ = false;
     ok = read_ok_;
   }
@@ -44,12 +44,9 @@ bool UploadCall::Read(UploadMessage* message) {
 }
 
 void UploadCall::OnReadDone(bool ok) {
-  {
-    std::lock_guard<std::mutex> lock(mu_);
-    read_done_ = true;
-    read_ok_ = ok;
-  }
-  read_cv_.notify_one();
+  absl::MutexLock lock(&mu_);
+  read_done_ = true;
+  read_ok_ = ok;
 }
 
 void UploadCall::OnDone() { done_(this); }
@@ -72,7 +69,7 @@ grpc::ServerReadReactor<grpc::ByteBuffer>* UploadCalls::Start(
   Reap();
   return new UploadCall(ctx, response, std::move(body),
                         [this](UploadCall* call) {
-                          std::lock_guard<std::mutex> lock(mu_);
+                          absl::MutexLock lock(&mu_);
                           done_.emplace_back(call);
                         });
 }
@@ -80,7 +77,7 @@ grpc::ServerReadReactor<grpc::ByteBuffer>* UploadCalls::Start(
 void UploadCalls::Reap() {
   std::vector<std::unique_ptr<UploadCall>> reaped;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     for (auto& call : done_) {
       if (!call->OnOwnThread()) reaped.push_back(std::move(call));
     }

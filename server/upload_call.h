@@ -9,13 +9,13 @@
 
 #include <grpcpp/grpcpp.h>
 
-#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <thread>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "meshgauge/v1/meshgauge.pb.h"
 #include "server/upload_reception.h"
 
@@ -54,10 +54,11 @@ class UploadCall final : public grpc::ServerReadReactor<grpc::ByteBuffer>,
   grpc::ByteBuffer* const response_;
   const std::function<void(UploadCall*)> done_;
   bool ended_ = false;
-  std::mutex mu_;  // also held while thread_ is assigned.
-  std::condition_variable read_cv_;
-  bool read_done_ = false;  // guarded by mu_, as read_ok_.
-  bool read_ok_ = false;
+  absl::Mutex mu_;  // also held while thread_ is assigned.
+  bool read_done_ ABSL_GUARDED_BY(mu_) = false;
+  bool read_ok_ ABSL_GUARDED_BY(mu_) = false;
+  // Assigned in the constructor (under mu_, which the thread takes first),
+  // then only read.
   std::thread thread_;
 };
 
@@ -80,8 +81,8 @@ class UploadCalls {
   // Joins and deletes the calls that are done (not the caller's own).
   void Reap();
 
-  std::mutex mu_;
-  std::vector<std::unique_ptr<UploadCall>> done_;
+  absl::Mutex mu_;
+  std::vector<std::unique_ptr<UploadCall>> done_ ABSL_GUARDED_BY(mu_);
 };
 
 }  // namespace meshgauge::server

@@ -17,7 +17,7 @@ absl::StatusOr<int64_t> UploadWatch::StartDiscard(
 
 absl::StatusOr<int64_t> UploadWatch::Add(grpc::ServerContextBase* ctx,
                                          bool discard) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   if (discard ? discards_ >= kMaxDiscards
               : std::ssize(uploads_) - discards_ >=
                     options_.max_concurrent_uploads) {
@@ -40,7 +40,7 @@ absl::StatusOr<int64_t> UploadWatch::Add(grpc::ServerContextBase* ctx,
 }
 
 absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   auto it = uploads_.find(id);
   if (it == uploads_.end()) return absl::OkStatus();
   Entry& e = it->second;
@@ -84,14 +84,14 @@ absl::Status UploadWatch::Touch(int64_t id, int64_t bytes) {
 }
 
 void UploadWatch::Received(int64_t id) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   if (auto it = uploads_.find(id); it != uploads_.end()) {
     it->second.received = true;
   }
 }
 
 absl::Status UploadWatch::Finish(int64_t id) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   auto it = uploads_.find(id);
   if (it == uploads_.end()) return absl::OkStatus();
   const bool aborted = it->second.aborted;
@@ -104,7 +104,7 @@ absl::Status UploadWatch::Finish(int64_t id) {
 }
 
 std::vector<std::string> UploadWatch::AbortIdle() {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   const double now = clock_->NowSeconds();
   std::vector<std::string> aborted;
   for (auto& [id, e] : uploads_) {

@@ -12,11 +12,12 @@
 
 #include <cstdint>
 #include <map>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "server/clock.h"
 #include "server/server_options.h"
 
@@ -85,10 +86,11 @@ class UploadWatch {
 
   const ServerOptions& options_;
   const Clock* clock_;
-  std::mutex mu_;
-  int64_t next_ = 0;
-  std::map<int64_t, Entry> uploads_;
-  int64_t discards_ = 0;  // entries of uploads_ that are discards.
+  absl::Mutex mu_;
+  int64_t next_ ABSL_GUARDED_BY(mu_) = 0;
+  std::map<int64_t, Entry> uploads_ ABSL_GUARDED_BY(mu_);
+  // Entries of uploads_ that are discards.
+  int64_t discards_ ABSL_GUARDED_BY(mu_) = 0;
 };
 
 }  // namespace meshgauge::server
