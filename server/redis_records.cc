@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/strip.h"
 #include "server/record/record_convert.h"
+#include "server/redis_scripts.h"
 #include "server/session_messages.h"
 
 namespace meshgauge::server {
@@ -22,191 +23,6 @@ struct RedisRecords::Reply {
 };
 
 namespace {
-
-// Shared by kReserve and kCreate: counts of live sessions and live upload
-// claims, and the check of the limits. Claims are sorted sets scored by
-// their expiry (Redis's clock, milliseconds); expired ones are dropped.
-constexpr char kLimits[] = R"lua(
-local function live(z, prefix)
-  local n, bytes = 0, 0
-  for _, m in ipairs(redis.call('ZRANGE', z, 0, -1)) do
-    local b = redis.call('HGET', prefix .. m, 'bytes')
-    if b then n = n + 1; bytes = bytes + tonumber(b)
-    else redis.call('ZREM', z, m) end
-  end
-  return n, bytes
-end
-local function now_ms()
-  local t = redis.call('TIME')
-  return tonumber(t[1]) * 1000 + math.floor(tonumber(t[2]) / 1000)
-end
-local function claims(z, h, skip)
-  for _, m in ipairs(redis.call('ZRANGEBYSCORE', z, '-inf', now_ms())) do
-    redis.call('ZREM', z, m)
-    if h then redis.call('HDEL', h, m) end
-  end
-  local n, bytes = 0, 0
-  for _, m in ipairs(redis.call('ZRANGE', z, 0, -1)) do
-    if m ~= skip then
-      n = n + 1
-      if h then bytes = bytes + tonumber(redis.call('HGET', h, m) or '0') end
-    end
-  end
-  return n, bytes
-end
--- KEYS[2..6]: tenant ids, all sessions, all claims, tenant claims, tenant
--- claim bytes. A: max sessions, max per tenant, max bytes, bytes, hash
--- prefix, token. nil when it fits, else {code, count}: 2 server limit,
--- 3 tenant limit, 4 tenant bytes.
-local function over(A)
-  local token = A[6]
-  local total = live(KEYS[3], '')
-  local all_claims = claims(KEYS[4], false, KEYS[5] .. '|' .. token)
-  if total + all_claims >= tonumber(A[1]) then return {2, total + all_claims} end
-  local n, bytes = live(KEYS[2], A[5])
-  local cn, cbytes = claims(KEYS[5], KEYS[6], token)
-  if n + cn >= tonumber(A[2]) then return {3, n + cn} end
-  if bytes + cbytes + tonumber(A[4]) > tonumber(A[3]) then
-    return {4, bytes + cbytes}
-  end
-  return nil
-end
-local function unclaim(token)
-  redis.call('ZREM', KEYS[4], KEYS[5] .. '|' .. token)
-  redis.call('ZREM', KEYS[5], token)
-  redis.call('HDEL', KEYS[6], token)
-end
-)lua";
-
-// KEYS: session hash, then kLimits's. ARGV: max sessions, max per tenant,
-// max bytes per tenant, bytes, hash prefix, token, ttl ms, then field/value
-// pairs (with the incarnation as 'inc'). Returns {code, count}: 0 created
-// (or created before by this same call), 1 exists, else as kLimits.
-constexpr char kCreateBody[] = R"lua(
-if redis.call('EXISTS', KEYS[1]) == 1 then
-  -- This very creation, retried after its reply was lost: done.
-  for i = 8, #ARGV - 1, 2 do
-    if ARGV[i] == 'inc' and redis.call('HGET', KEYS[1], 'inc') == ARGV[i + 1] then
-      return {0, 0}
-    end
-  end
-  return {1, 0}
-end
-local refused = over(ARGV)
-if refused then return refused end
-unclaim(ARGV[6])
-local fields = {}
-for i = 8, #ARGV do fields[#fields + 1] = ARGV[i] end
-redis.call('HSET', KEYS[1], unpack(fields))
-redis.call('PEXPIRE', KEYS[1], ARGV[7])
-local id = string.sub(KEYS[1], #ARGV[5] + 1)
-redis.call('ZADD', KEYS[2], 0, id)
-redis.call('ZADD', KEYS[3], 0, KEYS[1])
-return {0, 0}
-)lua";
-
-// KEYS: unused, then kLimits's. ARGV: as kCreateBody's first seven (ttl:
-// the claim's). Returns {code, count} as kCreateBody's.
-constexpr char kReserveBody[] = R"lua(
-local refused = over(ARGV)
-if refused then return refused end
-local expiry = now_ms() + tonumber(ARGV[7])
-redis.call('ZADD', KEYS[4], expiry, KEYS[5] .. '|' .. ARGV[6])
-redis.call('ZADD', KEYS[5], expiry, ARGV[6])
-redis.call('HSET', KEYS[6], ARGV[6], ARGV[4])
-return {0, 0}
-)lua";
-
-// KEYS: as kReserveBody's. ARGV: token at 6, ttl ms at 7.
-constexpr char kRenewBody[] = R"lua(
-local expiry = now_ms() + tonumber(ARGV[7])
-redis.call('ZADD', KEYS[4], 'XX', expiry, KEYS[5] .. '|' .. ARGV[6])
-redis.call('ZADD', KEYS[5], 'XX', expiry, ARGV[6])
-return 0
-)lua";
-
-// KEYS: as kReserveBody's. ARGV: token at 6.
-constexpr char kUnreserveBody[] = R"lua(
-unclaim(ARGV[6])
-return 0
-)lua";
-
-// KEYS: hash. ARGV: ttl ms, touch (0/1). {generation, incarnation}, or
-// {-1} when there is no record.
-constexpr char kVersion[] = R"lua(
-local v = redis.call('HMGET', KEYS[1], 'gen', 'inc')
-if not v[1] then return {-1} end
-if ARGV[2] == '1' then redis.call('PEXPIRE', KEYS[1], ARGV[1]) end
-return {tonumber(v[1]), v[2] or ''}
-)lua";
-
-// KEYS: hash. {info, topo, pos, base, gen, base_gen, inc, pttl}.
-constexpr char kLoad[] = R"lua(
-local v = redis.call('HMGET', KEYS[1], 'info', 'topo', 'pos', 'base', 'gen',
-                     'base_gen', 'inc')
-if not v[1] then return false end
-v[7] = v[7] or ''
-v[8] = redis.call('PTTL', KEYS[1])
-return v
-)lua";
-
-// KEYS: hash. ARGV: expected generation, positions, rebase (0/1), ttl ms,
-// expected incarnation. {1, gen} applied (or already applied), {0, gen}
-// other generation, {-1} missing, {-2} another incarnation.
-constexpr char kCommit[] = R"lua(
-local v = redis.call('HMGET', KEYS[1], 'gen', 'inc')
-if not v[1] then return {-1} end
-if (v[2] or '') ~= ARGV[5] then return {-2} end
-local g = tonumber(v[1])
-local e = tonumber(ARGV[1])
-if g == e + 1 and redis.call('HGET', KEYS[1], 'pos') == ARGV[2] then
-  redis.call('PEXPIRE', KEYS[1], ARGV[4])
-  return {1, g}
-end
-if g ~= e then return {0, g} end
-if ARGV[3] == '1' then
-  redis.call('HSET', KEYS[1], 'base', '', 'base_gen', e + 1)
-elseif redis.call('HGET', KEYS[1], 'base') == '' then
-  redis.call('HSET', KEYS[1], 'base', redis.call('HGET', KEYS[1], 'pos'))
-end
-redis.call('HSET', KEYS[1], 'pos', ARGV[2], 'gen', e + 1)
-redis.call('PEXPIRE', KEYS[1], ARGV[4])
-return {1, e + 1}
-)lua";
-
-// KEYS: hash, tenant ids, all sessions. ARGV: id. Deleted count.
-constexpr char kDelete[] = R"lua(
-local n = redis.call('DEL', KEYS[1])
-redis.call('ZREM', KEYS[2], ARGV[1])
-redis.call('ZREM', KEYS[3], KEYS[1])
-return n
-)lua";
-
-// KEYS: tenant ids. ARGV: after ('' = from the start), limit, hash prefix.
-// Up to limit + 1 entries {id, info, gen, pttl, inc}; expired ids are
-// dropped.
-constexpr char kList[] = R"lua(
-local out = {}
-local start = ARGV[1] == '' and '-' or ('(' .. ARGV[1])
-local want = tonumber(ARGV[2]) + 1
-while #out < want do
-  local ids = redis.call('ZRANGEBYLEX', KEYS[1], start, '+', 'LIMIT', 0, want)
-  if #ids == 0 then break end
-  for _, id in ipairs(ids) do
-    local k = ARGV[3] .. id
-    local v = redis.call('HMGET', k, 'info', 'gen', 'inc')
-    if v[1] then
-      if #out < want then
-        out[#out + 1] = {id, v[1], v[2], redis.call('PTTL', k), v[3] or ''}
-      end
-    else
-      redis.call('ZREM', KEYS[1], id)
-    end
-    start = '(' .. id
-  end
-end
-return out
-)lua";
 
 std::string Str(const redisReply* r) {
   return r && r->type == REDIS_REPLY_STRING ? std::string(r->str, r->len)
@@ -325,7 +141,7 @@ absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Command(
   }
   std::string cause;
   // A pooled connection may have died with a Redis restart: one retry on a
-  // fresh one (the scripts are safe to repeat: kCommit and kCreateBody
+  // fresh one (the scripts are safe to repeat: commit.lua and create.lua
   // recognise their own earlier run, claims are keyed by token).
   auto unavailable = [this](absl::Status s) {
     if (metrics_) metrics_->RecordSessionStoreError();
@@ -362,34 +178,28 @@ absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Command(
 }
 
 absl::StatusOr<std::shared_ptr<RedisRecords::Reply>> RedisRecords::Eval(
-    const std::string& script, const std::vector<std::string>& keys,
-    const std::vector<std::string>& args) {
-  std::vector<std::string> argv = {"EVAL", script, absl::StrCat(keys.size())};
-  argv.insert(argv.end(), keys.begin(), keys.end());
-  argv.insert(argv.end(), args.begin(), args.end());
+    const redis_scripts::ScriptCall& call) {
+  std::vector<std::string> argv = {"EVAL", std::string(call.script),
+                                   absl::StrCat(call.keys.size())};
+  argv.insert(argv.end(), call.keys.begin(), call.keys.end());
+  argv.insert(argv.end(), call.args.begin(), call.args.end());
   return Command(argv);
 }
 
-std::vector<std::string> RedisRecords::LimitKeys(const std::string& tenant,
-                                                 const std::string& id) const {
+redis_scripts::LimitCall RedisRecords::Limited(
+    redis_scripts::LimitScript script, const std::string& tenant,
+    const std::string& id, const std::string& token, int64_t ttl_ms) const {
   const std::string prefix = TenantPrefix(tenant);
-  return {SessionKey(tenant, id),         absl::StrCat(prefix, "ids"),
-          absl::StrCat(prefix_, "all"),   absl::StrCat(prefix_, "claims"),
-          absl::StrCat(prefix, "claims"), absl::StrCat(prefix, "claim_bytes")};
-}
-
-std::vector<std::string> RedisRecords::LimitArgs(const std::string& tenant,
-                                                 const RecordLimits& limits,
-                                                 int64_t bytes,
-                                                 const std::string& token,
-                                                 int64_t ttl_ms) const {
-  return {absl::StrCat(limits.max_sessions),
-          absl::StrCat(limits.max_sessions_per_tenant),
-          absl::StrCat(limits.max_bytes_per_tenant),
-          absl::StrCat(bytes),
-          absl::StrCat(TenantPrefix(tenant), "s:"),
-          token,
-          absl::StrCat(ttl_ms)};
+  return {.script = script,
+          .session = SessionKey(tenant, id),
+          .tenant_ids = absl::StrCat(prefix, "ids"),
+          .all_sessions = absl::StrCat(prefix_, "all"),
+          .all_claims = absl::StrCat(prefix_, "claims"),
+          .tenant_claims = absl::StrCat(prefix, "claims"),
+          .tenant_claim_bytes = absl::StrCat(prefix, "claim_bytes"),
+          .hash_prefix = absl::StrCat(prefix, "s:"),
+          .token = token,
+          .ttl_ms = ttl_ms};
 }
 
 namespace {
@@ -430,8 +240,11 @@ absl::Status RedisRecords::Reserve(const std::string& tenant,
                                    const RecordLimits& limits,
                                    double ttl_seconds) {
   const auto ttl_ms = static_cast<int64_t>(std::ceil(ttl_seconds * 1000));
-  auto r = Eval(absl::StrCat(kLimits, kReserveBody), LimitKeys(tenant, ""),
-                LimitArgs(tenant, limits, bytes, token, ttl_ms));
+  redis_scripts::LimitCall call =
+      Limited(redis_scripts::LimitScript::kReserve, tenant, "", token, ttl_ms);
+  call.limits = limits;
+  call.bytes = bytes;
+  auto r = Eval(call.Call());
   if (!r.ok()) return r.status();
   return LimitStatus((*r)->reply, limits, bytes, "");
 }
@@ -439,14 +252,16 @@ absl::Status RedisRecords::Reserve(const std::string& tenant,
 void RedisRecords::Renew(const std::string& tenant, const std::string& token,
                          double ttl_seconds) {
   const auto ttl_ms = static_cast<int64_t>(std::ceil(ttl_seconds * 1000));
-  (void)Eval(absl::StrCat(kLimits, kRenewBody), LimitKeys(tenant, ""),
-             LimitArgs(tenant, {}, 0, token, ttl_ms));
+  (void)Eval(
+      Limited(redis_scripts::LimitScript::kRenew, tenant, "", token, ttl_ms)
+          .Call());
 }
 
 void RedisRecords::Unreserve(const std::string& tenant,
                              const std::string& token) {
-  (void)Eval(absl::StrCat(kLimits, kUnreserveBody), LimitKeys(tenant, ""),
-             LimitArgs(tenant, {}, 0, token, 0));
+  (void)Eval(
+      Limited(redis_scripts::LimitScript::kUnreserve, tenant, "", token, 0)
+          .Call());
 }
 
 absl::Status RedisRecords::Create(const std::string& tenant,
@@ -454,20 +269,20 @@ absl::Status RedisRecords::Create(const std::string& tenant,
                                   const RecordLimits& limits,
                                   const std::string& token) {
   const wire::SessionInfo& info = record.info;
-  std::vector<std::string> args =
-      LimitArgs(tenant, limits, info.memory_bytes, token, TtlMillis());
-  const std::string fields[] = {
-      "info",     EncodeInfo(info),
-      "topo",     EncodeTopology(record.mesh),
-      "pos",      EncodePositions(record.mesh.positions),
-      "base",     "",
-      "gen",      "0",
-      "base_gen", "0",
-      "inc",      record.incarnation,
-      "bytes",    absl::StrCat(info.memory_bytes)};
-  args.insert(args.end(), std::begin(fields), std::end(fields));
-  auto r = Eval(absl::StrCat(kLimits, kCreateBody),
-                LimitKeys(tenant, info.session_id), args);
+  redis_scripts::LimitCall call =
+      Limited(redis_scripts::LimitScript::kCreate, tenant, info.session_id,
+              token, TtlMillis());
+  call.limits = limits;
+  call.bytes = info.memory_bytes;
+  call.fields = {"info",     EncodeInfo(info),
+                 "topo",     EncodeTopology(record.mesh),
+                 "pos",      EncodePositions(record.mesh.positions),
+                 "base",     "",
+                 "gen",      "0",
+                 "base_gen", "0",
+                 "inc",      record.incarnation,
+                 "bytes",    absl::StrCat(info.memory_bytes)};
+  auto r = Eval(call.Call());
   if (!r.ok()) return r.status();
   return LimitStatus((*r)->reply, limits, info.memory_bytes, info.session_id);
 }
@@ -475,8 +290,9 @@ absl::Status RedisRecords::Create(const std::string& tenant,
 absl::StatusOr<RecordVersion> RedisRecords::Version(const std::string& tenant,
                                                     const std::string& id,
                                                     bool touch) {
-  auto r = Eval(kVersion, {SessionKey(tenant, id)},
-                {absl::StrCat(TtlMillis()), touch ? "1" : "0"});
+  auto r = Eval(redis_scripts::VersionCall{
+      .session = SessionKey(tenant, id), .ttl_ms = TtlMillis(), .touch = touch}
+                    .Call());
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t g = Int(At(v, 0));
@@ -486,7 +302,8 @@ absl::StatusOr<RecordVersion> RedisRecords::Version(const std::string& tenant,
 
 absl::StatusOr<SessionRecord> RedisRecords::Load(const std::string& tenant,
                                                  const std::string& id) {
-  auto r = Eval(kLoad, {SessionKey(tenant, id)}, {});
+  auto r =
+      Eval(redis_scripts::LoadCall{.session = SessionKey(tenant, id)}.Call());
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   if (v->type != REDIS_REPLY_ARRAY || v->elements < 8)
@@ -525,9 +342,13 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
     const RecordVersion& expected, const std::vector<Vec3>& positions,
     bool rebase) {
   auto r = Eval(
-      kCommit, {SessionKey(tenant, id)},
-      {absl::StrCat(expected.generation), EncodePositions(positions),
-       rebase ? "1" : "0", absl::StrCat(TtlMillis()), expected.incarnation});
+      redis_scripts::CommitCall{.session = SessionKey(tenant, id),
+                                .expected_generation = expected.generation,
+                                .positions = EncodePositions(positions),
+                                .rebase = rebase,
+                                .ttl_ms = TtlMillis(),
+                                .expected_incarnation = expected.incarnation}
+          .Call());
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   const int64_t code = Int(At(v, 0)), gen = Int(At(v, 1));
@@ -547,10 +368,12 @@ absl::StatusOr<int64_t> RedisRecords::CommitPositions(
 absl::Status RedisRecords::Delete(const std::string& tenant,
                                   const std::string& id) {
   const std::string prefix = TenantPrefix(tenant);
-  auto r = Eval(kDelete,
-                {SessionKey(tenant, id), absl::StrCat(prefix, "ids"),
-                 absl::StrCat(prefix_, "all")},
-                {id});
+  auto r = Eval(
+      redis_scripts::DeleteCall{.session = SessionKey(tenant, id),
+                                .tenant_ids = absl::StrCat(prefix, "ids"),
+                                .all_sessions = absl::StrCat(prefix_, "all"),
+                                .id = id}
+          .Call());
   if (!r.ok()) return r.status();
   return Int((*r)->reply) > 0 ? absl::OkStatus() : SessionNotFound(id);
 }
@@ -559,8 +382,12 @@ absl::StatusOr<std::vector<RecordSummary>> RedisRecords::List(
     const std::string& tenant, const std::string& after, int limit,
     std::string* next) {
   const std::string prefix = TenantPrefix(tenant);
-  auto r = Eval(kList, {absl::StrCat(prefix, "ids")},
-                {after, absl::StrCat(limit), absl::StrCat(prefix, "s:")});
+  auto r =
+      Eval(redis_scripts::ListCall{.tenant_ids = absl::StrCat(prefix, "ids"),
+                                   .after = after,
+                                   .limit = limit,
+                                   .hash_prefix = absl::StrCat(prefix, "s:")}
+               .Call());
   if (!r.ok()) return r.status();
   const redisReply* v = (*r)->reply;
   std::vector<RecordSummary> out;

@@ -1,9 +1,9 @@
 // SessionRecords in Redis (hiredis): one hash per session with a sliding
 // TTL, a sorted set of ids per tenant (for listing) and one of all sessions
-// (for the server-wide limit). Every operation is a Lua script, so checks
-// and writes are atomic across replicas (the generation compare-and-set,
-// the limits at creation). Thread-safe: a small pool of connections, each
-// reconnected after an error.
+// (for the server-wide limit). Every operation is a Lua script
+// (redis_scripts.h), so checks and writes are atomic across replicas (the
+// generation compare-and-set, the limits at creation). Thread-safe: a small
+// pool of connections, each reconnected after an error.
 #pragma once
 
 #include <memory>
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "server/metrics.h"
+#include "server/redis_scripts.h"
 #include "server/session_records.h"
 
 struct redisContext;
@@ -70,8 +71,7 @@ class RedisRecords : public SessionRecords {
 
  private:
   absl::StatusOr<std::shared_ptr<Reply>> Eval(
-      const std::string& script, const std::vector<std::string>& keys,
-      const std::vector<std::string>& args);
+      const redis_scripts::ScriptCall& call);
   absl::StatusOr<std::shared_ptr<Reply>> Command(
       const std::vector<std::string>& argv);
   absl::StatusOr<redisContext*> Acquire();
@@ -79,13 +79,13 @@ class RedisRecords : public SessionRecords {
   std::string TenantPrefix(const std::string& tenant) const;
   std::string SessionKey(const std::string& tenant,
                          const std::string& id) const;
-  // KEYS and the first ARGV of the scripts that check the limits (kLimits).
-  std::vector<std::string> LimitKeys(const std::string& tenant,
-                                     const std::string& id) const;
-  std::vector<std::string> LimitArgs(const std::string& tenant,
-                                     const RecordLimits& limits, int64_t bytes,
-                                     const std::string& token,
-                                     int64_t ttl_ms) const;
+  // A call of `script` on `tenant`'s keys (`id`: the session created, if
+  // any) for the claim `token`, living `ttl_ms`; no limits nor bytes yet.
+  redis_scripts::LimitCall Limited(redis_scripts::LimitScript script,
+                                   const std::string& tenant,
+                                   const std::string& id,
+                                   const std::string& token,
+                                   int64_t ttl_ms) const;
   int64_t TtlMillis() const;
   double IdleSeconds(int64_t pttl_ms) const;
 
