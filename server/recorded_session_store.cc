@@ -7,11 +7,11 @@
 
 namespace meshgauge::server {
 
-RecordedSessionStore::RecordedSessionStore(const ServerOptions& options,
-                                           Metrics* metrics, const Clock* clock,
-                                           SessionRecords* records)
+RecordedSessionStore::RecordedSessionStore(
+    const ServerOptions& options, Metrics* metrics, const Clock* clock,
+    std::unique_ptr<SessionRecords> records)
     : SessionCache(options, metrics, clock, /*records_hold_limits=*/true),
-      records_(records) {}
+      records_(std::move(records)) {}
 
 RecordLimits RecordedSessionStore::Limits() const {
   return {options_.max_sessions, options_.SessionsPerTenant(),
@@ -50,11 +50,11 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Create(
   record.info = session->Info();
   record.incarnation = session->incarnation();
   absl::Status s =
-      records_->Create(tenant, record, Limits(), ClaimToken(ticket));
+      records_->Create(tenant, record, Limits(), ticket.claim().token);
   for (int retry = 0; chosen && retry < 3 && absl::IsAlreadyExists(s);
        ++retry) {
     record.info.session_id = RandomSessionId();
-    s = records_->Create(tenant, record, Limits(), ClaimToken(ticket));
+    s = records_->Create(tenant, record, Limits(), ticket.claim().token);
   }
   if (!s.ok()) return s;
   if (record.info.session_id != id) {

@@ -3,15 +3,19 @@
 // per generation: see session_store.h.
 #pragma once
 
+#include <memory>
+
 #include "server/session_cache.h"
+#include "server/session_records.h"
 
 namespace meshgauge::server {
 
 class RecordedSessionStore final : public SessionCache {
  public:
-  // options, metrics, clock and records must outlive the store.
+  // options, metrics and clock must outlive the store; records not null.
   RecordedSessionStore(const ServerOptions& options, Metrics* metrics,
-                       const Clock* clock, SessionRecords* records);
+                       const Clock* clock,
+                       std::unique_ptr<SessionRecords> records);
 
   absl::StatusOr<std::shared_ptr<Session>> Create(
       const std::string& tenant, std::string id, RepairedMesh mesh,
@@ -42,7 +46,7 @@ class RecordedSessionStore final : public SessionCache {
                       const std::string& token) override;
   RecordLimits Limits() const;
 
-  SessionRecords* const records_;
+  const std::unique_ptr<SessionRecords> records_;
 };
 
 }  // namespace meshgauge::server

@@ -12,8 +12,8 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/io/text_file.h"
-#include "server/redis_records.h"
 #include "server/call_auth.h"
+#include "server/make_session_store.h"
 
 namespace meshgauge::server {
 namespace {
@@ -124,12 +124,11 @@ absl::Status LoadReflection() {
 
 MeshGaugeServer::MeshGaugeServer(const ServerOptions& options,
                                  Authenticator auth,
-                                 std::unique_ptr<SessionRecords> records,
+                                 std::unique_ptr<SessionStore> store,
                                  Metrics* metrics, const Clock* clock)
     : options_(options),
       auth_(std::move(auth)),
-      records_(std::move(records)),
-      store_(MakeSessionStore(options, metrics, clock, records_.get())),
+      store_(std::move(store)),
       uploads_(options, clock),
       service_(options, store_.get(), &uploads_, &auth_, metrics, clock) {}
 
@@ -148,18 +147,10 @@ absl::StatusOr<std::unique_ptr<MeshGaugeServer>> MeshGaugeServer::Start(
   if (options.reflection) {
     if (absl::Status s = LoadReflection(); !s.ok()) return s;
   }
-  std::unique_ptr<SessionRecords> records;
-  if (!options.session_store.empty()) {
-    RedisOptions redis;
-    if (absl::Status st = ParseRedisUrl(options.session_store, &redis);
-        !st.ok()) {
-      return st;
-    }
-    redis.ttl_seconds = options.session_ttl_seconds;
-    records = std::make_unique<RedisRecords>(redis, metrics);
-  }
+  auto store = MakeSessionStore(options, metrics, clock);
+  if (!store.ok()) return store.status();
   std::unique_ptr<MeshGaugeServer> s(new MeshGaugeServer(
-      options, std::move(auth), std::move(records), metrics, clock));
+      options, std::move(auth), *std::move(store), metrics, clock));
   grpc::EnableDefaultHealthCheckService(true);
   grpc::ServerBuilder builder;
   builder.AddListeningPort(options.address,

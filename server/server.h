@@ -52,14 +52,13 @@ class MeshGaugeServer {
 
  private:
   MeshGaugeServer(const ServerOptions& options, Authenticator auth,
-                  std::unique_ptr<SessionRecords> records, Metrics* metrics,
+                  std::unique_ptr<SessionStore> store, Metrics* metrics,
                   const Clock* clock);
   // TTL sweeps and idle-upload aborts until Shutdown.
   void SweepLoop();
 
   const ServerOptions& options_;
   Authenticator auth_;
-  std::unique_ptr<SessionRecords> records_;  // null: sessions in memory.
   std::unique_ptr<SessionStore> store_;
   UploadWatch uploads_;
   MeshGaugeService service_;

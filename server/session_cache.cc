@@ -6,32 +6,6 @@
 
 namespace meshgauge::server {
 
-UploadReservation& UploadReservation::operator=(
-    UploadReservation&& o) noexcept {
-  if (this != &o) {
-    if (store_) store_->Release(this);
-    store_ = std::exchange(o.store_, nullptr);
-    tenant_ = std::move(o.tenant_);
-    token_ = std::move(o.token_);
-    renewed_at_ = o.renewed_at_;
-    bytes_ = std::exchange(o.bytes_, 0);
-    arrived_ = std::exchange(o.arrived_, 0);
-  }
-  return *this;
-}
-
-UploadReservation::~UploadReservation() {
-  if (store_) store_->Release(this);
-}
-
-absl::Status UploadReservation::Arrived(int64_t bytes) {
-  return store_ ? store_->Arrive(this, bytes) : absl::OkStatus();
-}
-
-absl::Status UploadReservation::GrowTo(int64_t bytes) {
-  return store_ ? store_->Grow(this, bytes) : absl::OkStatus();
-}
-
 SessionCache::SessionCache(const ServerOptions& options, Metrics* metrics,
                            const Clock* clock, bool records_hold_limits)
     : options_(options),
@@ -73,23 +47,23 @@ absl::Status SessionCache::CheckBudgets(int64_t bytes) const {
 absl::StatusOr<UploadReservation> SessionCache::Reserve(
     const std::string& tenant, int64_t bytes) {
   if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
-  UploadReservation r;
-  r.tenant_ = tenant;
-  r.bytes_ = bytes;
+  UploadClaim claim{.tenant = tenant, .bytes = bytes};
   if (records_hold_limits_) {
     // The slot is claimed in the records, over all replicas, for a while
-    // that every arriving message renews (Arrive).
-    r.token_ = NewIncarnation();
-    if (absl::Status s = UploadClaimed(tenant, r.token_, bytes); !s.ok()) {
+    // that every arriving message renews (ArriveUpload).
+    claim.token = NewIncarnation();
+    if (absl::Status s = UploadClaimed(tenant, claim.token, bytes); !s.ok()) {
       return s;
     }
-    r.renewed_at_ = clock_->NowSeconds();
+    claim.renewed_at = clock_->NowSeconds();
   }
-  if (absl::Status s = ClaimLocally(&r); !s.ok()) {
-    if (!r.token_.empty()) UploadReleased(tenant, r.token_);  // not under mu_.
+  if (absl::Status s = ClaimLocally(claim); !s.ok()) {
+    if (!claim.token.empty()) {
+      UploadReleased(tenant, claim.token);  // not under mu_.
+    }
     return s;
   }
-  return r;
+  return UploadReservation(this, std::move(claim));
 }
 
 double SessionCache::ClaimSeconds() const {
@@ -136,40 +110,40 @@ absl::Status SessionCache::CheckBytesLocked(const std::string& tenant,
   return absl::OkStatus();
 }
 
-absl::Status SessionCache::Grow(UploadReservation* r, int64_t bytes) {
-  if (bytes <= r->bytes_) return absl::OkStatus();
+absl::Status SessionCache::GrowUpload(UploadClaim& claim, int64_t bytes) {
+  if (bytes <= claim.bytes) return absl::OkStatus();
   if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
-  const int64_t delta = bytes - r->bytes_;
+  const int64_t delta = bytes - claim.bytes;
   {
     std::lock_guard<std::mutex> lock(mu_);
-    if (absl::Status s = CheckBytesLocked(r->tenant_, delta); !s.ok()) {
+    if (absl::Status s = CheckBytesLocked(claim.tenant, delta); !s.ok()) {
       return s;
     }
-    reserved_[r->tenant_].bytes += delta;
+    reserved_[claim.tenant].bytes += delta;
     reserved_total_.bytes += delta;
-    r->bytes_ = bytes;
+    claim.bytes = bytes;
     PublishLocked();
   }
-  if (!r->token_.empty()) {
+  if (!claim.token.empty()) {
     // The claim is made again with its new size (its own old size is not
     // counted against the limits); refused, the local claim shrinks back.
-    absl::Status s = UploadClaimed(r->tenant_, r->token_, bytes);
+    absl::Status s = UploadClaimed(claim.tenant, claim.token, bytes);
     if (!s.ok()) {
       std::lock_guard<std::mutex> lock(mu_);
-      reserved_[r->tenant_].bytes -= delta;
+      reserved_[claim.tenant].bytes -= delta;
       reserved_total_.bytes -= delta;
-      r->bytes_ -= delta;
+      claim.bytes -= delta;
       PublishLocked();
       return s;
     }
-    r->renewed_at_ = clock_->NowSeconds();
+    claim.renewed_at = clock_->NowSeconds();
   }
   return absl::OkStatus();
 }
 
-absl::Status SessionCache::ClaimLocally(UploadReservation* r) {
-  const std::string& tenant = r->tenant_;
-  const int64_t bytes = r->bytes_;
+absl::Status SessionCache::ClaimLocally(const UploadClaim& claim) {
+  const std::string& tenant = claim.tenant;
+  const int64_t bytes = claim.bytes;
   std::lock_guard<std::mutex> lock(mu_);
   Reserved& mine = reserved_[tenant];
   absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
@@ -182,53 +156,51 @@ absl::Status SessionCache::ClaimLocally(UploadReservation* r) {
   mine.bytes += bytes;
   ++reserved_total_.uploads;
   reserved_total_.bytes += bytes;
-  r->store_ = this;
   PublishLocked();
   return absl::OkStatus();
 }
 
-void SessionCache::Release(UploadReservation* r) {
-  if (!r->token_.empty()) UploadReleased(r->tenant_, r->token_);
+void SessionCache::ReleaseUpload(const UploadClaim& claim) {
+  if (!claim.token.empty()) UploadReleased(claim.tenant, claim.token);
   std::lock_guard<std::mutex> lock(mu_);
-  ReleaseLocked(r);
+  ReleaseLocked(claim);
   PublishLocked();
 }
 
 void SessionCache::ConsumeLocked(UploadReservation& ticket) {
-  ticket.token_.clear();  // the records took the claim over, if any.
-  if (ticket.store_ == this) ReleaseLocked(&ticket);
+  // The records took the claim over, if any: it is only released here.
+  if (ticket.ledger() == this) ReleaseLocked(ticket.HandOver());
 }
 
-void SessionCache::ReleaseLocked(UploadReservation* r) {
-  r->store_ = nullptr;
-  auto it = reserved_.find(r->tenant_);
+void SessionCache::ReleaseLocked(const UploadClaim& claim) {
+  auto it = reserved_.find(claim.tenant);
   if (it == reserved_.end()) return;
   --it->second.uploads;
-  it->second.bytes -= r->bytes_;
-  it->second.arrived -= r->arrived_;
+  it->second.bytes -= claim.bytes;
+  it->second.arrived -= claim.arrived;
   --reserved_total_.uploads;
-  reserved_total_.bytes -= r->bytes_;
-  reserved_total_.arrived -= r->arrived_;
+  reserved_total_.bytes -= claim.bytes;
+  reserved_total_.arrived -= claim.arrived;
   if (it->second.uploads == 0) reserved_.erase(it);
 }
 
-absl::Status SessionCache::Arrive(UploadReservation* r, int64_t bytes) {
-  if (!r->token_.empty()) {
+absl::Status SessionCache::ArriveUpload(UploadClaim& claim, int64_t bytes) {
+  if (!claim.token.empty()) {
     const double now = clock_->NowSeconds();
-    if (now - r->renewed_at_ > options_.upload_idle_seconds / 2) {
-      UploadRenewed(r->tenant_, r->token_);
-      r->renewed_at_ = now;
+    if (now - claim.renewed_at > options_.upload_idle_seconds / 2) {
+      UploadRenewed(claim.tenant, claim.token);
+      claim.renewed_at = now;
     }
   }
   // What was reserved bounds what may evict (the estimate covers the data).
-  bytes = std::min(bytes, r->bytes_);
-  if (bytes <= r->arrived_) return absl::OkStatus();
+  bytes = std::min(bytes, claim.bytes);
+  if (bytes <= claim.arrived) return absl::OkStatus();
   std::lock_guard<std::mutex> lock(mu_);
-  const int64_t delta = bytes - r->arrived_;
-  r->arrived_ = bytes;
-  reserved_[r->tenant_].arrived += delta;
+  const int64_t delta = bytes - claim.arrived;
+  claim.arrived = bytes;
+  reserved_[claim.tenant].arrived += delta;
   reserved_total_.arrived += delta;
-  const bool fits = MakeRoomLocked(nullptr, &r->tenant_);
+  const bool fits = MakeRoomLocked(nullptr, &claim.tenant);
   PublishLocked();
   if (fits) return absl::OkStatus();
   return absl::ResourceExhaustedError(
@@ -248,8 +220,6 @@ void SessionCache::Sweep() {
   }
   PublishLocked();
 }
-
-ScratchClaim::~ScratchClaim() { store_->ReleaseScratch(tenant_, bytes_); }
 
 absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
     const std::string& tenant, std::shared_ptr<Session> session, int64_t bytes,
@@ -280,7 +250,8 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
         "budget now (other tenants' sessions fill it); retry later or use "
         "fewer rays"));
   }
-  return std::unique_ptr<ScratchClaim>(new ScratchClaim(this, tenant, bytes));
+  return std::make_unique<ScratchClaim>(static_cast<ClaimLedger*>(this), tenant,
+                                        bytes);
 }
 
 void SessionCache::ReleaseScratch(const std::string& tenant, int64_t bytes) {

@@ -13,11 +13,15 @@
 #include <string>
 #include <utility>
 
+#include "server/clock.h"
+#include "server/metrics.h"
+#include "server/server_options.h"
 #include "server/session_store.h"
 
 namespace meshgauge::server {
 
-class SessionCache : public SessionStore {
+// The ledger of its own reservations and scratch claims.
+class SessionCache : public SessionStore, private ClaimLedger {
  public:
   // `records_hold_limits`: the session counts and per-tenant budgets are
   // the records' to check (over all replicas); evictions then drop cache
@@ -53,10 +57,6 @@ class SessionCache : public SessionStore {
   virtual void UploadReleased(const std::string& /*tenant*/,
                               const std::string& /*token*/) {}
 
-  // The upload's claim in the records (empty without).
-  static const std::string& ClaimToken(const UploadReservation& r) {
-    return r.token_;
-  }
   // Consumes the upload's reservation (under mu_): it becomes a session.
   void ConsumeLocked(UploadReservation& ticket);
   // Evicts while sessions, uploads' arrived bytes and scratch exceed the
@@ -76,13 +76,13 @@ class SessionCache : public SessionStore {
   Map sessions_;
 
  private:
-  friend class UploadReservation;
-  friend class ScratchClaim;
-  void Release(UploadReservation* r);
-  void ReleaseLocked(UploadReservation* r);
-  absl::Status Arrive(UploadReservation* r, int64_t bytes);
-  absl::Status Grow(UploadReservation* r, int64_t bytes);
-  void ReleaseScratch(const std::string& tenant, int64_t bytes);
+  // ClaimLedger.
+  absl::Status ArriveUpload(UploadClaim& claim, int64_t bytes) override;
+  absl::Status GrowUpload(UploadClaim& claim, int64_t bytes) override;
+  void ReleaseUpload(const UploadClaim& claim) override;
+  void ReleaseScratch(const std::string& tenant, int64_t bytes) override;
+
+  void ReleaseLocked(const UploadClaim& claim);
   // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
   absl::Status CheckBudgets(int64_t bytes) const;
   // RESOURCE_EXHAUSTED when `bytes` more for `tenant` would exceed its
@@ -93,8 +93,8 @@ class SessionCache : public SessionStore {
   // The same for an upload, and the uploads' share of the server's budget.
   absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const;
   void ReduceScratchLocked(const std::string& tenant, int64_t bytes);
-  // The local half of Reserve (counts, budgets) under mu_; sets r->store_.
-  absl::Status ClaimLocally(UploadReservation* r);
+  // The local half of Reserve (counts, budgets) under mu_.
+  absl::Status ClaimLocally(const UploadClaim& claim);
   absl::Status CheckCountLimitsLocked(const std::string& tenant,
                                       int64_t tenant_uploads) const;
   void EvictLocked(Map::iterator it, const std::string& reason);

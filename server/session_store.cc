@@ -1,19 +1,32 @@
 #include "server/session_store.h"
 
-#include "server/in_memory_session_store.h"
-#include "server/recorded_session_store.h"
-
 namespace meshgauge::server {
 
-std::unique_ptr<SessionStore> MakeSessionStore(const ServerOptions& options,
-                                               Metrics* metrics,
-                                               const Clock* clock,
-                                               SessionRecords* records) {
-  if (records != nullptr) {
-    return std::make_unique<RecordedSessionStore>(options, metrics, clock,
-                                                  records);
+UploadReservation& UploadReservation::operator=(
+    UploadReservation&& o) noexcept {
+  if (this != &o) {
+    if (ledger_) ledger_->ReleaseUpload(claim_);
+    ledger_ = std::exchange(o.ledger_, nullptr);
+    claim_ = std::exchange(o.claim_, {});
   }
-  return std::make_unique<InMemorySessionStore>(options, metrics, clock);
+  return *this;
+}
+
+UploadReservation::~UploadReservation() {
+  if (ledger_) ledger_->ReleaseUpload(claim_);
+}
+
+absl::Status UploadReservation::Arrived(int64_t bytes) {
+  return ledger_ ? ledger_->ArriveUpload(claim_, bytes) : absl::OkStatus();
+}
+
+absl::Status UploadReservation::GrowTo(int64_t bytes) {
+  return ledger_ ? ledger_->GrowUpload(claim_, bytes) : absl::OkStatus();
+}
+
+UploadClaim UploadReservation::HandOver() {
+  ledger_ = nullptr;
+  return std::exchange(claim_, {});
 }
 
 }  // namespace meshgauge::server

@@ -4,8 +4,9 @@
 // namespace: one tenant cannot see, touch or squat another's ids (in open
 // mode every caller is tenant "").
 //
-// Two implementations (MakeSessionStore picks one), both on one SessionCache
-// (session_cache.h: the map, memory accounting, eviction and TTL):
+// Two implementations (MakeSessionStore in make_session_store.h picks one
+// from the options), both on one SessionCache (session_cache.h: the map,
+// memory accounting, eviction and TTL):
 // - InMemorySessionStore: the sessions are this process's; eviction and TTL
 //   remove them.
 // - RecordedSessionStore (SessionRecords, e.g. Redis): the records define
@@ -34,17 +35,37 @@
 
 #include "absl/status/statusor.h"
 #include "absl/strings/string_view.h"
-#include "server/clock.h"
-#include "server/metrics.h"
-#include "server/server_options.h"
 #include "server/session.h"
 #include "server/session_messages.h"
-#include "server/session_records.h"
 
 namespace meshgauge::server {
 
-class SessionStore;
-class SessionCache;
+class UploadReservation;
+
+// An upload's claim as its store accounts it.
+struct UploadClaim {
+  std::string tenant;
+  std::string token;      // the claim in the records, if any.
+  double renewed_at = 0;  // when the claim was last made or renewed.
+  int64_t bytes = 0;      // claimed.
+  int64_t arrived = 0;    // buffered so far.
+};
+
+// Where upload reservations and scratch claims are accounted (the store
+// that made them): they report here as they change and end.
+class ClaimLedger {
+ public:
+  // UploadReservation::Arrived and GrowTo, on the reservation's claim.
+  virtual absl::Status ArriveUpload(UploadClaim& claim, int64_t bytes) = 0;
+  virtual absl::Status GrowUpload(UploadClaim& claim, int64_t bytes) = 0;
+  // The reservation ended unconsumed: its claim is given back.
+  virtual void ReleaseUpload(const UploadClaim& claim) = 0;
+  // A ScratchClaim ended.
+  virtual void ReleaseScratch(const std::string& tenant, int64_t bytes) = 0;
+
+ protected:
+  ~ClaimLedger() = default;
+};
 
 // An upload's claim on a session slot and memory, taken at its header
 // before any data is buffered; released when destroyed or consumed by
@@ -52,10 +73,16 @@ class SessionCache;
 class UploadReservation {
  public:
   UploadReservation() = default;
+  // A claim accounted in `ledger` (not null; outlives the reservation).
+  UploadReservation(ClaimLedger* ledger, UploadClaim claim)
+      : ledger_(ledger), claim_(std::move(claim)) {}
   UploadReservation(UploadReservation&& o) noexcept { *this = std::move(o); }
   UploadReservation& operator=(UploadReservation&& o) noexcept;
   ~UploadReservation();
-  int64_t bytes() const { return bytes_; }
+  int64_t bytes() const { return claim_.bytes; }
+  const UploadClaim& claim() const { return claim_; }
+  // The ledger that accounts the claim; null once released or handed over.
+  const ClaimLedger* ledger() const { return ledger_; }
   // The upload now buffers `bytes` in all: evicts (see above) to make room
   // for them. RESOURCE_EXHAUSTED when the budget cannot hold them (other
   // uploads' data fill it).
@@ -64,15 +91,13 @@ class UploadReservation {
   // SessionStore::Reserve; RESOURCE_EXHAUSTED (nothing changed) when they
   // do not fit. For an upload whose size is known only once it is parsed.
   absl::Status GrowTo(int64_t bytes);
+  // Hands the claim over (a session took its place): the ledger is no
+  // longer told of it, and this reservation holds nothing.
+  UploadClaim HandOver();
 
  private:
-  friend class SessionCache;
-  SessionCache* store_ = nullptr;
-  std::string tenant_;
-  std::string token_;      // the claim in the records, if any.
-  double renewed_at_ = 0;  // when the claim was last made or renewed.
-  int64_t bytes_ = 0;
-  int64_t arrived_ = 0;
+  ClaimLedger* ledger_ = nullptr;
+  UploadClaim claim_;
 };
 
 // A computation's memory beyond its session's (a ray pass being traced, a
@@ -80,17 +105,18 @@ class UploadReservation {
 // tenant while it lives (SessionStore::ClaimScratch).
 class ScratchClaim {
  public:
+  // `bytes` of `tenant` accounted in `ledger` (not null; outlives the
+  // claim).
+  ScratchClaim(ClaimLedger* ledger, std::string tenant, int64_t bytes)
+      : ledger_(ledger), tenant_(std::move(tenant)), bytes_(bytes) {}
   ScratchClaim(const ScratchClaim&) = delete;
   ScratchClaim& operator=(const ScratchClaim&) = delete;
-  ~ScratchClaim();
+  ~ScratchClaim() { ledger_->ReleaseScratch(tenant_, bytes_); }
 
  private:
-  friend class SessionCache;
-  ScratchClaim(SessionCache* store, std::string tenant, int64_t bytes)
-      : store_(store), tenant_(std::move(tenant)), bytes_(bytes) {}
-  SessionCache* store_;
-  std::string tenant_;
-  int64_t bytes_;
+  ClaimLedger* const ledger_;
+  const std::string tenant_;
+  const int64_t bytes_;
 };
 
 class SessionStore {
@@ -162,12 +188,5 @@ class SessionStore {
   // Reservations of uploads in flight (server-wide).
   virtual int64_t reserved_uploads() const = 0;
 };
-
-// The in-memory store, or with `records` (not null) the store they define.
-// All pointers must outlive the store.
-std::unique_ptr<SessionStore> MakeSessionStore(const ServerOptions& options,
-                                               Metrics* metrics,
-                                               const Clock* clock,
-                                               SessionRecords* records);
 
 }  // namespace meshgauge::server
