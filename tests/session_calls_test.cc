@@ -13,7 +13,7 @@
 #include "lib/core/mesh_repair.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf.h"
-#include "server/session_store.h"
+#include "server/make_session_store.h"
 #include "tests/fake_clock.h"
 
 namespace meshgauge {
@@ -29,7 +29,7 @@ class SessionCallsTest : public ::testing::Test {
 
   void MakeCalls() {
     calls_.reset();
-    store_ = server::MakeSessionStore(options_, &metrics_, &clock_, nullptr);
+    store_ = *server::MakeSessionStore(options_, &metrics_, &clock_);
     calls_ = std::make_unique<server::SessionCalls>(options_, store_.get(),
                                                     &metrics_);
     Create("ball", mesh_);
