@@ -59,9 +59,7 @@ absl::StatusOr<Authenticator> Authenticator::FromText(const std::string& text,
     return absl::InvalidArgumentError(
         absl::StrCat(name, ": no tenants (one 'TENANT SHA256HEX' per line)"));
   }
-  Authenticator a;
-  a.by_hash_ = std::move(table);
-  return a;
+  return Authenticator(std::move(table));
 }
 
 absl::Status Authenticator::Reload(const std::string& path) {
@@ -72,7 +70,7 @@ absl::Status Authenticator::Reload(const std::string& path) {
   auto loaded = FromFile(path);
   if (!loaded.ok()) return loaded.status();
   std::shared_ptr<const HashToTenant> table = loaded->Table();
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   by_hash_ = std::move(table);
   return absl::OkStatus();
 }
@@ -82,14 +80,14 @@ Authenticator::Authenticator(Authenticator&& other) noexcept
 
 Authenticator& Authenticator::operator=(Authenticator&& other) noexcept {
   std::shared_ptr<const HashToTenant> table = other.Table();
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   by_hash_ = std::move(table);
   return *this;
 }
 
 std::shared_ptr<const Authenticator::HashToTenant> Authenticator::Table()
     const {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   return by_hash_;
 }
 

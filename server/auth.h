@@ -12,10 +12,11 @@
 
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 
 namespace meshgauge::server {
 
@@ -53,10 +54,13 @@ class Authenticator {
 
  private:
   using HashToTenant = std::map<std::string, std::string>;  // hex sha256.
+  explicit Authenticator(std::shared_ptr<const HashToTenant> by_hash)
+      : by_hash_(std::move(by_hash)) {}
   std::shared_ptr<const HashToTenant> Table() const;
 
-  mutable std::mutex mu_;
-  std::shared_ptr<const HashToTenant> by_hash_;  // null: open mode.
+  mutable absl::Mutex mu_;
+  // Null: open mode.
+  std::shared_ptr<const HashToTenant> by_hash_ ABSL_GUARDED_BY(mu_);
 };
 
 // Lower-case hex SHA-256 of `data`.

@@ -13,7 +13,7 @@ absl::StatusOr<std::shared_ptr<Session>> InMemorySessionStore::Create(
     UploadReservation ticket) {
   const bool chosen = id.empty();
   if (!chosen && !ValidSessionId(id)) return InvalidSessionId(id);
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   // The reservation becomes the session, under the same lock.
   ConsumeLocked(ticket);
   if (chosen) {
@@ -34,7 +34,7 @@ absl::StatusOr<std::shared_ptr<Session>> InMemorySessionStore::Create(
 
 absl::StatusOr<std::shared_ptr<Session>> InMemorySessionStore::Get(
     const std::string& tenant, const std::string& id, bool touch) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) {
     return SessionNotFound(id);
@@ -45,7 +45,7 @@ absl::StatusOr<std::shared_ptr<Session>> InMemorySessionStore::Get(
 
 absl::Status InMemorySessionStore::Delete(const std::string& tenant,
                                           const std::string& id) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   auto it = sessions_.find({tenant, id});
   if (it == sessions_.end()) return SessionNotFound(id);
   sessions_.erase(it);
@@ -67,7 +67,7 @@ absl::StatusOr<std::vector<SessionSnapshot>> InMemorySessionStore::List(
   std::vector<std::shared_ptr<Session>> page;
   next_token->clear();
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     for (auto it = sessions_.upper_bound({tenant, page_token});
          it != sessions_.end() && it->first.first == tenant; ++it) {
       if (std::ssize(page) == page_size) {

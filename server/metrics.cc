@@ -128,7 +128,7 @@ void Metrics::RecordRpc(const std::string& method, const std::string& code,
   rpcs_.Add({{"method", method}, {"code", code}}).Increment();
   prometheus::Histogram* h;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     auto it = rpc_histograms_.find(method);
     if (it == rpc_histograms_.end()) {
       it = rpc_histograms_

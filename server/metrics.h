@@ -11,8 +11,10 @@
 
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
+
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 
 namespace meshgauge::server {
 
@@ -58,8 +60,9 @@ class Metrics {
   prometheus::Histogram& session_load_seconds_;
   prometheus::Family<prometheus::Counter>& retried_attempts_;
   prometheus::Counter& session_store_errors_;
-  std::mutex mu_;  // guards lazily created labelled children.
-  std::map<std::string, prometheus::Histogram*> rpc_histograms_;
+  absl::Mutex mu_;  // guards lazily created labelled children.
+  std::map<std::string, prometheus::Histogram*> rpc_histograms_
+      ABSL_GUARDED_BY(mu_);
 };
 
 }  // namespace meshgauge::server

@@ -61,7 +61,7 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Create(
     session = std::make_shared<Session>(record, options_, metrics_,
                                         clock_->NowSeconds());
   }
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   ConsumeLocked(ticket);  // the record holds the claim now.
   sessions_[Key{tenant, record.info.session_id}] = session;
   MakeRoomLocked(session.get());
@@ -75,7 +75,7 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Get(
   auto version = records_->Version(tenant, id, touch);
   if (!version.ok()) {
     if (absl::IsNotFound(version.status())) {
-      std::lock_guard<std::mutex> lock(mu_);
+      absl::MutexLock lock(&mu_);
       sessions_.erase({tenant, id});  // deleted or expired elsewhere.
     }
     return version.status();
@@ -85,7 +85,7 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Get(
   // positions; docs/numerics.md, "Incremental passes").
   std::shared_ptr<const CachedPass> earlier_pass;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     auto it = sessions_.find({tenant, id});
     if (it != sessions_.end() &&
         it->second->incarnation() == version->incarnation) {
@@ -112,7 +112,7 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Get(
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall)
           .count());
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     sessions_[Key{tenant, id}] = session;
     PublishLocked();
   }
@@ -124,7 +124,7 @@ absl::Status RecordedSessionStore::Delete(const std::string& tenant,
                                           const std::string& id) {
   absl::Status s =
       ValidSessionId(id) ? records_->Delete(tenant, id) : SessionNotFound(id);
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   if (s.ok() || absl::IsNotFound(s)) sessions_.erase({tenant, id});
   PublishLocked();
   return s;
@@ -199,7 +199,7 @@ absl::StatusOr<wire::UpdateResult> RecordedSessionStore::UpdatePositions(
   auto outcome = s.UpdatePositions(expected_generation, {}, all);
   if (!outcome.ok()) {
     // The record moved on; this cache entry (if still this one) is stale.
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     if (auto it = sessions_.find({tenant, id});
         it != sessions_.end() && it->second == session) {
       sessions_.erase(it);
@@ -215,7 +215,7 @@ absl::StatusOr<std::vector<SessionSnapshot>> RecordedSessionStore::List(
   if (!listed.ok()) return listed.status();
   const double now = clock_->NowSeconds();
   std::vector<SessionSnapshot> out;
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   for (const RecordSummary& record : *listed) {
     const wire::SessionInfo& info = record.info;
     SessionSnapshot s;

@@ -103,7 +103,7 @@ std::string RedisRecords::SessionKey(const std::string& tenant,
 
 absl::StatusOr<redisContext*> RedisRecords::Acquire() {
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     if (!idle_.empty()) {
       redisContext* c = idle_.back();
       idle_.pop_back();
@@ -127,7 +127,7 @@ absl::StatusOr<redisContext*> RedisRecords::Acquire() {
 }
 
 void RedisRecords::Release(redisContext* c) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   idle_.push_back(c);
 }
 

@@ -7,10 +7,11 @@
 #pragma once
 
 #include <memory>
-#include <mutex>
 #include <string>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "server/metrics.h"
 #include "server/redis_scripts.h"
 #include "server/session_records.h"
@@ -92,8 +93,8 @@ class RedisRecords : public SessionRecords {
   const RedisOptions options_;
   const std::string prefix_;  // key_prefix and the records' format.
   Metrics* const metrics_;
-  std::mutex mu_;
-  std::vector<redisContext*> idle_;
+  absl::Mutex mu_;
+  std::vector<redisContext*> idle_ ABSL_GUARDED_BY(mu_);
 };
 
 }  // namespace meshgauge::server

@@ -115,7 +115,7 @@ absl::Status SessionCache::GrowUpload(UploadClaim& claim, int64_t bytes) {
   if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
   const int64_t delta = bytes - claim.bytes;
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     if (absl::Status s = CheckBytesLocked(claim.tenant, delta); !s.ok()) {
       return s;
     }
@@ -129,7 +129,7 @@ absl::Status SessionCache::GrowUpload(UploadClaim& claim, int64_t bytes) {
     // counted against the limits); refused, the local claim shrinks back.
     absl::Status s = UploadClaimed(claim.tenant, claim.token, bytes);
     if (!s.ok()) {
-      std::lock_guard<std::mutex> lock(mu_);
+      absl::MutexLock lock(&mu_);
       reserved_[claim.tenant].bytes -= delta;
       reserved_total_.bytes -= delta;
       claim.bytes -= delta;
@@ -144,7 +144,7 @@ absl::Status SessionCache::GrowUpload(UploadClaim& claim, int64_t bytes) {
 absl::Status SessionCache::ClaimLocally(const UploadClaim& claim) {
   const std::string& tenant = claim.tenant;
   const int64_t bytes = claim.bytes;
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   Reserved& mine = reserved_[tenant];
   absl::Status refused = CheckCountLimitsLocked(tenant, mine.uploads);
   if (refused.ok()) refused = CheckBytesLocked(tenant, bytes);
@@ -162,7 +162,7 @@ absl::Status SessionCache::ClaimLocally(const UploadClaim& claim) {
 
 void SessionCache::ReleaseUpload(const UploadClaim& claim) {
   if (!claim.token.empty()) UploadReleased(claim.tenant, claim.token);
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   ReleaseLocked(claim);
   PublishLocked();
 }
@@ -195,7 +195,7 @@ absl::Status SessionCache::ArriveUpload(UploadClaim& claim, int64_t bytes) {
   // What was reserved bounds what may evict (the estimate covers the data).
   bytes = std::min(bytes, claim.bytes);
   if (bytes <= claim.arrived) return absl::OkStatus();
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   const int64_t delta = bytes - claim.arrived;
   claim.arrived = bytes;
   reserved_[claim.tenant].arrived += delta;
@@ -209,7 +209,7 @@ absl::Status SessionCache::ArriveUpload(UploadClaim& claim, int64_t bytes) {
 }
 
 void SessionCache::Sweep() {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   const double now = clock_->NowSeconds();
   for (auto it = sessions_.begin(); it != sessions_.end();) {
     auto next = std::next(it);
@@ -234,7 +234,7 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
         " bytes (--memory_budget_bytes / --memory_budget_bytes_per_tenant); "
         "use fewer rays"));
   }
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   if (absl::Status s = CheckTenantBudgetLocked(tenant, bytes); !s.ok()) {
     return s;
   }
@@ -255,7 +255,7 @@ absl::StatusOr<std::unique_ptr<ScratchClaim>> SessionCache::ClaimScratch(
 }
 
 void SessionCache::ReleaseScratch(const std::string& tenant, int64_t bytes) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   ReduceScratchLocked(tenant, bytes);
   PublishLocked();
 }
@@ -268,7 +268,7 @@ void SessionCache::ReduceScratchLocked(const std::string& tenant,
 }
 
 void SessionCache::EnforceBudget(const Session* keep) {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   MakeRoomLocked(keep);
   PublishLocked();
 }
@@ -319,12 +319,12 @@ bool SessionCache::MakeRoomLocked(const Session* keep,
 }
 
 int64_t SessionCache::size() const {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   return std::ssize(sessions_);
 }
 
 int64_t SessionCache::reserved_uploads() const {
-  std::lock_guard<std::mutex> lock(mu_);
+  absl::MutexLock lock(&mu_);
   return reserved_total_.uploads;
 }
 

@@ -9,10 +9,11 @@
 
 #include <map>
 #include <memory>
-#include <mutex>
 #include <string>
 #include <utility>
 
+#include "absl/base/thread_annotations.h"
+#include "absl/synchronization/mutex.h"
 #include "server/clock.h"
 #include "server/metrics.h"
 #include "server/server_options.h"
@@ -58,22 +59,22 @@ class SessionCache : public SessionStore, private ClaimLedger {
                               const std::string& /*token*/) {}
 
   // Consumes the upload's reservation (under mu_): it becomes a session.
-  void ConsumeLocked(UploadReservation& ticket);
+  void ConsumeLocked(UploadReservation& ticket) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // Evicts while sessions, uploads' arrived bytes and scratch exceed the
   // budget; false when nothing may be evicted. For an upload or scratch of
   // `for_tenant` (not null), only the tenant holding the most bytes gives up
   // sessions: it never pushes out a tenant that holds less than its own tenant.
   bool MakeRoomLocked(const Session* keep,
-                      const std::string* for_tenant = nullptr);
-  void PublishLocked();
+                      const std::string* for_tenant = nullptr) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void PublishLocked() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // How long a claim in the records lives unless renewed.
   double ClaimSeconds() const;
 
   const ServerOptions& options_;
   Metrics* metrics_;
   const Clock* clock_;
-  mutable std::mutex mu_;
-  Map sessions_;
+  mutable absl::Mutex mu_;
+  Map sessions_ ABSL_GUARDED_BY(mu_);
 
  private:
   // ClaimLedger.
@@ -82,34 +83,35 @@ class SessionCache : public SessionStore, private ClaimLedger {
   void ReleaseUpload(const UploadClaim& claim) override;
   void ReleaseScratch(const std::string& tenant, int64_t bytes) override;
 
-  void ReleaseLocked(const UploadClaim& claim);
+  void ReleaseLocked(const UploadClaim& claim) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // RESOURCE_EXHAUSTED when `bytes` exceed a budget by themselves.
   absl::Status CheckBudgets(int64_t bytes) const;
   // RESOURCE_EXHAUSTED when `bytes` more for `tenant` would exceed its
   // budget: its sessions, upload reservations and scratch counted (unless
   // records hold the limits).
   absl::Status CheckTenantBudgetLocked(const std::string& tenant,
-                                       int64_t bytes) const;
+                                       int64_t bytes) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The same for an upload, and the uploads' share of the server's budget.
-  absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const;
-  void ReduceScratchLocked(const std::string& tenant, int64_t bytes);
+  absl::Status CheckBytesLocked(const std::string& tenant, int64_t bytes) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void ReduceScratchLocked(const std::string& tenant, int64_t bytes) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
   // The local half of Reserve (counts, budgets) under mu_.
   absl::Status ClaimLocally(const UploadClaim& claim);
   absl::Status CheckCountLimitsLocked(const std::string& tenant,
-                                      int64_t tenant_uploads) const;
-  void EvictLocked(Map::iterator it, const std::string& reason);
-  int64_t TotalBytesLocked() const;
-  int64_t TenantBytesLocked(const std::string& tenant) const;
-  int64_t TenantSessionsLocked(const std::string& tenant) const;
+                                      int64_t tenant_uploads) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  void EvictLocked(Map::iterator it, const std::string& reason) ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  int64_t TotalBytesLocked() const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  int64_t TenantBytesLocked(const std::string& tenant) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
+  int64_t TenantSessionsLocked(const std::string& tenant) const ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const bool records_hold_limits_;
   struct Reserved {
     int64_t uploads = 0, bytes = 0, arrived = 0;
   };
-  std::map<std::string, Reserved> reserved_;  // by tenant.
-  Reserved reserved_total_;
-  std::map<std::string, int64_t> scratch_;  // claimed, by tenant.
-  int64_t scratch_total_ = 0;
+  std::map<std::string, Reserved> reserved_ ABSL_GUARDED_BY(mu_);  // by tenant.
+  Reserved reserved_total_ ABSL_GUARDED_BY(mu_);
+  // Claimed, by tenant.
+  std::map<std::string, int64_t> scratch_ ABSL_GUARDED_BY(mu_);
+  int64_t scratch_total_ ABSL_GUARDED_BY(mu_) = 0;
 };
 
 }  // namespace meshgauge::server
