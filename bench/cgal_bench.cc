@@ -15,7 +15,6 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/mesh_segmentation.h>
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -28,6 +27,7 @@
 #include "bench/bench_mesh.h"
 #include "bench/raw_embree_pass.h"
 #include "lib/core/shapes.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/sdf.h"
 #include "server/flags_help.h"
 
@@ -42,12 +42,6 @@ namespace {
 
 using Kernel = CGAL::Simple_cartesian<double>;
 using SurfaceMesh = CGAL::Surface_mesh<Kernel::Point_3>;
-using Clock = std::chrono::steady_clock;
-
-double Since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
-
 SurfaceMesh ToCgal(const Mesh& mesh) {
   SurfaceMesh sm;
   std::vector<SurfaceMesh::Vertex_index> v;
@@ -62,32 +56,30 @@ void Row(const std::string& name, const Mesh& mesh) {
   const double angle = absl::GetFlag(FLAGS_cone_angle);
   const bool run_cgal = mesh.num_faces() <= absl::GetFlag(FLAGS_cgal_max_faces);
   double cgal_default = NAN, cgal_raw = NAN;
-  auto t0 = Clock::now();
+  Stopwatch watch;
   if (run_cgal) {
     SurfaceMesh sm = ToCgal(mesh);
     auto sdf =
         sm.add_property_map<SurfaceMesh::Face_index, double>("f:sdf").first;
     const double cone = angle * std::numbers::pi / 180;
-    t0 = Clock::now();
+    watch.Restart();
     CGAL::sdf_values(sm, sdf, cone, rays, true);
-    cgal_default = Since(t0);
-    t0 = Clock::now();
+    cgal_default = watch.Seconds();
+    watch.Restart();
     CGAL::sdf_values(sm, sdf, cone, rays, false);
-    cgal_raw = Since(t0);
+    cgal_raw = watch.Seconds();
   }
 
   SdfParams params;
   params.cone_angle_degrees = angle;
   params.rays = rays;
-  params.threads = 1;
-  t0 = Clock::now();
-  auto one = ComputeSdf(mesh, params);
-  const double one_thread = Since(t0);
-  params.threads = 0;
-  t0 = Clock::now();
+  watch.Restart();
+  auto one = ComputeSdf(mesh, params, {.threads = 1});
+  const double one_thread = watch.Seconds();
+  watch.Restart();
   auto ours = ComputeSdf(mesh, params);
-  const double meshgauge = Since(t0);
-  auto raw = RunRawPass(mesh, params);
+  const double meshgauge = watch.Seconds();
+  auto raw = RunRawPass(mesh, params, /*threads=*/0);
   if (!ours.ok() || !raw.ok() || !one.ok()) {
     std::printf("| %s | meshgauge failed |\n", name.c_str());
     return;

@@ -13,7 +13,6 @@
 // With --miss_target (another replica of the same session store), the
 // session is then first used there: the time of that call is a cache miss
 // (record loaded from the store, BVH built).
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -23,6 +22,7 @@
 #include "absl/flags/usage.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/sensitivity.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
 #include "server/flags_help.h"
@@ -45,10 +45,9 @@ void Check(const absl::Status& s) {
 }
 
 double Seconds(const std::function<void()>& body) {
-  const auto start = std::chrono::steady_clock::now();
+  const meshgauge::Stopwatch watch;
   body();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
+  return watch.Seconds();
 }
 
 }  // namespace

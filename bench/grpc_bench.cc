@@ -12,7 +12,6 @@
 //  3. An upload of the mesh's arrays (MB/s of the wire bytes) beside the
 //     local read of its file (read, validate, diagnose). Best of N.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -22,6 +21,7 @@
 #include "absl/flags/usage.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/sensitivity.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/mesh_io.h"
 #include "server/server.h"
@@ -35,11 +35,9 @@ namespace {
 double Best(int n, const std::function<void(int)>& body) {
   double best = 1e300;
   for (int i = 0; i < n; ++i) {
-    const auto start = std::chrono::steady_clock::now();
+    const Stopwatch watch;
     body(i);
-    best = std::min(best, std::chrono::duration<double>(
-                              std::chrono::steady_clock::now() - start)
-                              .count());
+    best = std::min(best, watch.Seconds());
   }
   return best;
 }
@@ -109,13 +107,12 @@ int Run(const std::string& path) {
   double reused = 1e300, traced = 1e300;
   for (int i = 0; i < n; ++i) {
     Check(c.UpdatePositions("bench", generation++, 3, moved(i)).status());
-    const auto t0 = std::chrono::steady_clock::now();
+    Stopwatch watch;
     Check(c.ComputeVjp("bench", params, ones).status());  // traces
-    const auto t1 = std::chrono::steady_clock::now();
+    traced = std::min(traced, watch.Seconds());
+    watch.Restart();
     Check(c.ComputeVjp("bench", params, ones).status());  // reuses
-    const auto t2 = std::chrono::steady_clock::now();
-    traced = std::min(traced, std::chrono::duration<double>(t1 - t0).count());
-    reused = std::min(reused, std::chrono::duration<double>(t2 - t1).count());
+    reused = std::min(reused, watch.Seconds());
   }
 
   // Refit vs re-upload + rebuild.

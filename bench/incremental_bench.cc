@@ -43,8 +43,8 @@ std::vector<int32_t> NearestVertices(const Mesh& mesh, int64_t centre,
 }
 
 int Bench(const std::string& name, const Mesh& mesh) {
-  SdfParams params;
-  params.threads = absl::GetFlag(FLAGS_threads);
+  const SdfParams params;
+  const ComputeControl control{.threads = absl::GetFlag(FLAGS_threads)};
   auto created = SdfEvaluator::Create(mesh);
   if (!created.ok()) {
     std::fprintf(stderr, "%s\n",
@@ -67,7 +67,7 @@ int Bench(const std::string& name, const Mesh& mesh) {
   double full = 1e300;
   for (int r = 0; r < absl::GetFlag(FLAGS_repeat); ++r) {
     const Stopwatch watch;
-    auto pass = ev.Compute(params, {}, &base_hits);
+    auto pass = ev.Compute(params, control, &base_hits);
     full = std::min(full, watch.Seconds());
     if (!pass.ok()) return 1;
     base = std::move(*pass);
@@ -87,7 +87,7 @@ int Bench(const std::string& name, const Mesh& mesh) {
     for (int r = 0; r < absl::GetFlag(FLAGS_repeat); ++r) {
       HitTable hits;
       const Stopwatch watch;
-      auto pass = ev.Compute(params, {}, &hits, &previous);
+      auto pass = ev.Compute(params, control, &hits, &previous);
       best = std::min(best, watch.Seconds());
       if (!pass.ok()) return 1;
       traced = pass->rays_traced;

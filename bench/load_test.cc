@@ -46,6 +46,7 @@
 #include "absl/strings/str_cat.h"
 #include "client/remote/remote_client.h"
 #include "lib/core/shapes.h"
+#include "lib/core/stopwatch.h"
 #include "server/flags_help.h"
 
 ABSL_FLAG(std::string, target, "127.0.0.1:50051", "server or balancer");
@@ -73,7 +74,12 @@ ABSL_FLAG(std::string, token_file, "",
 namespace meshgauge::bench {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+// --time_limit_seconds, counted from the start of the run.
+struct TimeLimit {
+  Stopwatch since_start{};
+  double seconds = 0;
+  bool Passed() const { return since_start.Seconds() > seconds; }
+};
 
 // Set by SIGTERM or SIGINT with --until_signal.
 std::atomic<bool> stop_requested{false};
@@ -135,17 +141,16 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
 // client could not finish.
 bool RunClient(const std::string& target, const client::ClientOptions& options,
                const std::string& id, const Mesh& mesh, int iterations,
-               bool until_signal, Clock::time_point stop_at,
+               bool until_signal, const TimeLimit& limit,
                std::vector<Reply>* replies, const std::vector<Reply>* reference,
                Stats& stats) {
   client::RemoteClient c(target, options);
   const SdfParams params;
   const std::vector<double> ones(mesh.num_vertices(), 1.0);
   auto timed = [&](const char* rpc, auto call) {
-    const auto start = Clock::now();
+    const Stopwatch watch;
     auto r = call();
-    const double s =
-        std::chrono::duration<double>(Clock::now() - start).count();
+    const double s = watch.Seconds();
     if (r.ok())
       stats.Latency(rpc, s);
     else
@@ -161,7 +166,7 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
   if (!create(mesh.positions)) return false;
   int64_t generation = 0;
   for (int it = 0; until_signal ? !stop_requested : it < iterations; ++it) {
-    if (Clock::now() > stop_at) return false;
+    if (limit.Passed()) return false;
     const int step = it % iterations;
     const std::vector<Vec3> positions = Deform(mesh, step);
     bool lost = false;
@@ -262,10 +267,7 @@ int Run() {
   const int iterations = std::clamp(absl::GetFlag(FLAGS_iterations), 1, 10000);
   const Mesh mesh =
       MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
-  const auto stop_at =
-      Clock::now() +
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-          absl::GetFlag(FLAGS_time_limit_seconds)));
+  const TimeLimit limit{.seconds = absl::GetFlag(FLAGS_time_limit_seconds)};
   const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
   Stats ref_stats;
   std::vector<Reply> reference;
@@ -275,7 +277,7 @@ int Run() {
     std::signal(SIGINT, RequestStop);
   }
   if (!RunClient(target, options, prefix + "-reference", mesh, iterations,
-                 /*until_signal=*/false, stop_at, &reference, nullptr,
+                 /*until_signal=*/false, limit, &reference, nullptr,
                  ref_stats)) {
     std::printf("reference run failed\n");
     ref_stats.PrintErrors();
@@ -289,20 +291,19 @@ int Run() {
   std::atomic<int> finished{0};
   std::printf("concurrent phase: started\n");
   std::fflush(stdout);
-  const auto start = Clock::now();
+  const Stopwatch watch;
   std::vector<std::thread> threads;
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
       if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh,
-                    iterations, until_signal, stop_at, nullptr, &reference,
+                    iterations, until_signal, limit, nullptr, &reference,
                     stats)) {
         ++finished;
       }
     });
   }
   for (auto& t : threads) t.join();
-  const double wall =
-      std::chrono::duration<double>(Clock::now() - start).count();
+  const double wall = watch.Seconds();
   int64_t errors = 0;
   for (const auto& [k, n] : stats.errors) errors += n;
   const std::string per_client =

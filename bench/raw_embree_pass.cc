@@ -11,6 +11,7 @@
 #include "absl/strings/str_cat.h"
 #include "lib/core/normals.h"
 #include "lib/core/stopwatch.h"
+#include "lib/core/thread_count.h"
 #include "lib/core/topology.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_hit.h"
@@ -122,7 +123,7 @@ std::vector<RawConfig> RawConfigs() {
 }
 
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params,
+                                         const SdfParams& params, int threads,
                                          const RawConfig& config) {
   if (mesh.dimension != 3) {
     return absl::InvalidArgumentError("the raw pass is for 3D meshes");
@@ -165,9 +166,7 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
   rtcCommitGeometry(geom);
   rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
-  const int threads =
-      params.threads > 0 ? params.threads : tbb::info::default_concurrency();
-  tbb::task_arena arena(threads);
+  tbb::task_arena arena(ThreadCount(threads));
   RawPassResult result;
   const Stopwatch build;
   arena.execute([&] { rtcCommitScene(scene); });

@@ -56,10 +56,10 @@ struct RawPassResult {
 // Builds an Embree scene of the mesh's triangles (3D only) as `config` says
 // and traces, for every vertex with faces in the mesh's vertex order, the
 // resolved cone of `params` with tnear = eps * h and tfar = bounding-box
-// diagonal, over vertices in a oneTBB parallel_for with `params.threads`
-// threads. The ray pass and the build are timed separately.
+// diagonal, over vertices in a oneTBB parallel_for with `threads` threads
+// (0: all cores). The ray pass and the build are timed separately.
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params,
+                                         const SdfParams& params, int threads,
                                          const RawConfig& config = {});
 
 }  // namespace meshgauge::bench

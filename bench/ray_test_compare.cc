@@ -14,7 +14,7 @@ namespace meshgauge::bench {
 
 absl::StatusOr<RayTestComparison> CompareRayTests(const Mesh& mesh,
                                                   const SdfParams& params,
-                                                  int rounds) {
+                                                  int threads, int rounds) {
   // [0]: watertight, [1]: fast.
   constexpr RayTest kTests[2] = {RayTest::kWatertight, RayTest::kFast};
   std::unique_ptr<SdfEvaluator> evaluators[2];
@@ -28,7 +28,7 @@ absl::StatusOr<RayTestComparison> CompareRayTests(const Mesh& mesh,
   double rates[2] = {0, 0};
   for (int round = 0; round < std::max(rounds, 1); ++round) {
     for (int i = 0; i < 2; ++i) {
-      auto pass = evaluators[i]->Compute(params);
+      auto pass = evaluators[i]->Compute(params, {.threads = threads});
       if (!pass.ok()) return pass.status();
       rates[i] = std::max(rates[i], pass->rays_traced / pass->trace_seconds);
       results[i] = std::move(*pass);

@@ -23,10 +23,11 @@ struct RayTestComparison {
   double max_relative_difference = 0;
 };
 
-// Runs both passes `rounds` times (interleaved; >= 1) with `params`.
+// Runs both passes `rounds` times (interleaved; >= 1) with `params` on
+// `threads` threads (0: all cores).
 // Errors: those of SdfEvaluator::Create and Compute.
 absl::StatusOr<RayTestComparison> CompareRayTests(const Mesh& mesh,
                                                   const SdfParams& params,
-                                                  int rounds);
+                                                  int threads, int rounds);
 
 }  // namespace meshgauge::bench

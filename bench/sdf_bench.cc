@@ -107,9 +107,9 @@ struct RawBest {
   std::vector<double> build = std::vector<double>(configs.size(), 1e300);
   std::vector<double> hit_fraction = std::vector<double>(configs.size(), 0);
 
-  bool Round(const Mesh& mesh, const SdfParams& params) {
+  bool Round(const Mesh& mesh, const SdfParams& params, int threads) {
     for (size_t c = 0; c < configs.size(); ++c) {
-      auto raw = RunRawPass(mesh, params, configs[c]);
+      auto raw = RunRawPass(mesh, params, threads, configs[c]);
       if (!raw.ok()) return false;
       rate[c] = std::max(rate[c], raw->rays / raw->seconds);
       build[c] = std::min(build[c], raw->build_seconds);
@@ -149,7 +149,7 @@ void BenchCli(const std::string& name, const std::string& file,
               const SdfParams& params, double raw_rate) {
   const std::string command = absl::StrCat(
       absl::GetFlag(FLAGS_cli), " sdf '", file, "' --json --reorient",
-      " --threads ", params.threads,
+      " --threads ", absl::GetFlag(FLAGS_threads),
       params.rays > 0 ? absl::StrCat(" --rays ", params.rays) : "");
   double best = 1e300;
   nlohmann::json summary;
@@ -193,8 +193,8 @@ void BenchCli(const std::string& name, const std::string& file,
 int BenchMesh(const std::string& name, const Mesh& mesh,
               const std::string& file) {
   SdfParams params;
-  params.threads = absl::GetFlag(FLAGS_threads);
   params.rays = absl::GetFlag(FLAGS_rays);
+  const ComputeControl control{.threads = absl::GetFlag(FLAGS_threads)};
   RawBest raw;
   auto evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild});
@@ -214,12 +214,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   sphere.method = SdfMethod::kSphere;
   int64_t rays = 0;
   for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
-    if (!raw.Round(mesh, params)) {
+    if (!raw.Round(mesh, params, control.threads)) {
       std::fprintf(stderr, "raw pass failed\n");
       return 1;
     }
     const Stopwatch values_watch;
-    auto sdf = (*evaluator)->Compute(params);
+    auto sdf = (*evaluator)->Compute(params, control);
     best_values = std::min(best_values, values_watch.Seconds());
     if (!sdf.ok()) {
       std::fprintf(stderr, "pass failed\n");
@@ -227,12 +227,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
     }
     const Stopwatch with_vjp;
     HitTable hits;
-    auto kept = (*evaluator)->Compute(params, {}, &hits);
+    auto kept = (*evaluator)->Compute(params, control, &hits);
     best_with_hits = std::min(best_with_hits, with_vjp.Seconds());
     const Stopwatch vjp_alone;
     auto vjp = ComputeVjp(**evaluator, hits,
-                          std::vector<double>(mesh.num_vertices(), 1.0), {},
-                          params.threads);
+                          std::vector<double>(mesh.num_vertices(), 1.0),
+                          control);
     if (!kept.ok() || !vjp.ok()) {
       std::fprintf(stderr, "values+vjp failed\n");
       return 1;
@@ -240,12 +240,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
     best_vjp = std::min(best_vjp, vjp_alone.Seconds());
     best_with_vjp = std::min(best_with_vjp, with_vjp.Seconds());
     const Stopwatch sphere_watch;
-    if (!(*evaluator)->Compute(sphere).ok()) {
+    if (!(*evaluator)->Compute(sphere, control).ok()) {
       std::fprintf(stderr, "sphere pass failed\n");
       return 1;
     }
     best_sphere = std::min(best_sphere, sphere_watch.Seconds());
-    auto refit_pass = (*refit_evaluator)->Compute(params);
+    auto refit_pass = (*refit_evaluator)->Compute(params, control);
     best_refit = std::max(best_refit,
                           refit_pass->rays_traced / refit_pass->trace_seconds);
     best_sdf = std::max(best_sdf, sdf->rays_traced / sdf->trace_seconds);
@@ -299,9 +299,9 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
 
 int BenchRayTests(const std::string& name, const Mesh& mesh) {
   SdfParams params;
-  params.threads = absl::GetFlag(FLAGS_threads);
   params.rays = absl::GetFlag(FLAGS_rays);
-  auto c = CompareRayTests(mesh, params, absl::GetFlag(FLAGS_repeat));
+  auto c = CompareRayTests(mesh, params, absl::GetFlag(FLAGS_threads),
+                           absl::GetFlag(FLAGS_repeat));
   if (!c.ok()) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(),
                  std::string(c.status().message()).c_str());

@@ -1,4 +1,6 @@
-// Time source for sessions (injectable for TTL tests).
+// Time source for sessions (injectable for TTL tests): the points in time
+// a test must control, such as a session's last use. Durations are
+// measured with a Stopwatch (lib/core/stopwatch.h, which states the rule).
 #pragma once
 
 #include <chrono>

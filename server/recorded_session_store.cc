@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/ray_scene.h"
 
 namespace meshgauge::server {
@@ -100,17 +101,14 @@ absl::StatusOr<std::shared_ptr<Session>> RecordedSessionStore::Get(
   // A miss: first use on this replica, evicted, updated elsewhere, or
   // deleted and created again elsewhere.
   const double start = clock_->NowSeconds();
-  const auto wall = std::chrono::steady_clock::now();
+  const Stopwatch wall;
   auto record = records_->Load(tenant, id);
   if (!record.ok()) return record.status();
   auto session =
       std::make_shared<Session>(std::move(*record), options_, metrics_, start);
   if (auto reader = session->Read(); !reader.ok()) return reader.status();
   if (earlier_pass) session->StorePass(std::move(earlier_pass));
-  metrics_->RecordSessionCache(
-      false,
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall)
-          .count());
+  metrics_->RecordSessionCache(false, wall.Seconds());
   {
     absl::MutexLock lock(&mu_);
     sessions_[Key{tenant, id}] = session;

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/stopwatch.h"
 #include "proto/wire/convert.h"
 #include "proto/wire/gradcheck_convert.h"
 #include "proto/wire/reply_bytes.h"
@@ -15,7 +16,7 @@
 namespace meshgauge::server {
 namespace {
 
-constexpr auto kProgressInterval = std::chrono::milliseconds(250);
+constexpr double kProgressIntervalSeconds = 0.25;
 
 // The metric label of a status: Abseil's name of the code (gRPC's codes are
 // Abseil's), "UNKNOWN" for a number outside them (a bounded label set).
@@ -25,25 +26,20 @@ std::string CodeName(grpc::StatusCode code) {
   return name.empty() ? "UNKNOWN" : name;
 }
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
 // A CallControl::progress that streams SdfProgress messages to `writer`:
-// at most one every kProgressInterval, and the last one (the evaluator
-// serialises the calls).
+// at most one every kProgressIntervalSeconds, and the last one (the
+// evaluator serialises the calls).
 template <typename Response>
 std::function<void(const CallProgress&)> ProgressWriter(
     grpc::ServerWriter<Response>* writer) {
-  auto last = std::make_shared<std::chrono::steady_clock::time_point>();
+  // Since the last write; none before the first.
+  auto last = std::make_shared<std::optional<Stopwatch>>();
   return [writer, last](const CallProgress& progress) {
-    const auto now = std::chrono::steady_clock::now();
-    if (progress.vertices_done < progress.vertices_total &&
-        now - *last < kProgressInterval) {
+    if (progress.vertices_done < progress.vertices_total && last->has_value() &&
+        (*last)->Seconds() < kProgressIntervalSeconds) {
       return;
     }
-    *last = now;
+    last->emplace();
     Response msg;
     v1::SdfProgress* p = msg.mutable_progress();
     p->set_vertices_done(progress.vertices_done);
@@ -75,8 +71,7 @@ CallControl Control(grpc::ServerContext* ctx, const Request& request,
 template <typename Request>
 absl::StatusOr<SessionTarget> TargetFromWire(const Request& request,
                                              const ServerOptions& options) {
-  auto params = wire::FromWire(request.params(), options.max_rays,
-                               options.compute_threads);
+  auto params = wire::FromWire(request.params(), options.max_rays);
   if (!params.ok()) return params.status();
   SessionTarget target{request.session_id(), *params, std::nullopt};
   if (request.has_expected_generation()) {
@@ -103,7 +98,7 @@ template <typename Body>
 grpc::Status MeshGaugeService::Instrumented(const char* method,
                                             const grpc::ServerContextBase* ctx,
                                             Body body) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch start;
   {
     absl::MutexLock lock(&drain_mu_);
     if (draining_) {
@@ -112,7 +107,7 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
           "meshgauge-server is draining (shutting down): retry; with a "
           "session store any other replica serves the session");
       metrics_->RecordRpc(method, CodeName(refused.error_code()),
-                          Seconds(start));
+                          start.Seconds());
       return refused;
     }
     ++in_flight_;
@@ -125,7 +120,7 @@ grpc::Status MeshGaugeService::Instrumented(const char* method,
   auto tenant = auth_->Authenticate(*ctx);
   grpc::Status status =
       wire::ToGrpc(tenant.ok() ? body(*tenant) : tenant.status());
-  metrics_->RecordRpc(method, CodeName(status.error_code()), Seconds(start));
+  metrics_->RecordRpc(method, CodeName(status.error_code()), start.Seconds());
   LeaveInFlight();
   return status;
 }
@@ -260,7 +255,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
     grpc::ServerWriter<v1::ComputeSdfResponse>* writer) {
   return Instrumented(
       "ComputeSdf", ctx, [&](const std::string& tenant) -> absl::Status {
-        const auto start = std::chrono::steady_clock::now();
+        const Stopwatch start;
         auto chunk = wire::ChunkSamplesFromWire(request->chunk_vertices());
         if (!chunk.ok()) return chunk.status();
         auto target = TargetFromWire(*request, options_);
@@ -297,7 +292,7 @@ grpc::Status MeshGaugeService::ComputeSdf(
             return absl::CancelledError("client went away during the stream");
           }
         }
-        last.mutable_summary()->set_seconds(Seconds(start));
+        last.mutable_summary()->set_seconds(start.Seconds());
         if (!writer->Write(last)) {
           return absl::CancelledError("client went away before the summary");
         }
@@ -351,8 +346,7 @@ grpc::Status MeshGaugeService::Calibrate(grpc::ServerContext* ctx,
                                          v1::CalibrateResponse* response) {
   return Instrumented(
       "Calibrate", ctx, [&](const std::string& tenant) -> absl::Status {
-        auto sdf = wire::FromWire(request->params(), options_.max_rays,
-                                  options_.compute_threads);
+        auto sdf = wire::FromWire(request->params(), options_.max_rays);
         if (!sdf.ok()) return sdf.status();
         auto report = calls_.Calibrate(
             tenant, request->session_id(),
@@ -402,7 +396,7 @@ grpc::Status MeshGaugeService::GradCheck(
     grpc::ServerWriter<v1::GradCheckResponse>* writer) {
   return Instrumented(
       "GradCheck", ctx, [&](const std::string& tenant) -> absl::Status {
-        const auto start = std::chrono::steady_clock::now();
+        const Stopwatch start;
         auto options = wire::GradCheckFromWire(*request);
         if (!options.ok()) return options.status();
         auto target = TargetFromWire(*request, options_);
@@ -413,7 +407,7 @@ grpc::Status MeshGaugeService::GradCheck(
         v1::GradCheckResponse msg;
         wire::ToWire(check->report, check->facts.generation,
                      msg.mutable_report());
-        msg.mutable_report()->set_seconds(Seconds(start));
+        msg.mutable_report()->set_seconds(start.Seconds());
         if (absl::Status s =
                 wire::CheckGradCheckBytes(msg, options_.max_message_bytes);
             !s.ok()) {

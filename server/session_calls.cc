@@ -6,6 +6,7 @@
 #include "lib/core/face_sample.h"
 #include "lib/core/integrals.h"
 #include "lib/core/missing_diagnosis.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/calibration.h"
 #include "lib/embree/gradcheck.h"
 #include "lib/embree/ray_scene.h"
@@ -20,16 +21,12 @@ int64_t FullPassRays(const SdfEvaluator& ev, const SdfParams& params) {
          int64_t{ResolveParams(params, ev.mesh().dimension).rays};
 }
 
-double Seconds(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
-
-// The library's control of `control`; with `rays_total` (> 0) its progress
-// too.
-ComputeControl LibraryControl(const CallControl& control,
+// The library's control of `control` on `threads` threads (0: all cores);
+// with `rays_total` (> 0) its progress too.
+ComputeControl LibraryControl(const CallControl& control, int threads,
                               int64_t rays_total = 0) {
   ComputeControl c;
+  c.threads = threads;
   c.cancelled = control.cancelled;
   if (control.progress && rays_total > 0) {
     c.progress = [progress = control.progress, rays_total](int64_t done,
@@ -100,10 +97,11 @@ absl::StatusOr<SessionCalls::Pass> SessionCalls::EnsurePass(
   const PreviousPass previous{last ? &last->result : nullptr,
                               last ? &last->hits : nullptr};
   auto pass = std::make_shared<CachedPass>();
-  auto result = ev.Compute(
-      params,
-      LibraryControl(control, with_progress ? FullPassRays(ev, params) : 0),
-      &pass->hits, &previous);
+  auto result =
+      ev.Compute(params,
+                 LibraryControl(control, options_.compute_threads,
+                                with_progress ? FullPassRays(ev, params) : 0),
+                 &pass->hits, &previous);
   if (!result.ok()) return control.Interrupted(result.status());
   metrics_->AddRays(static_cast<double>(result->rays_traced));
   pass->params = params;
@@ -120,7 +118,7 @@ absl::StatusOr<SdfOutcome> SessionCalls::Sdf(const std::string& tenant,
                                              const SessionTarget& target,
                                              bool with_jacobian,
                                              const CallControl& control) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch start;
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/true);
@@ -135,8 +133,8 @@ absl::StatusOr<SdfOutcome> SessionCalls::Sdf(const std::string& tenant,
         store_->ClaimScratch(tenant, prep->session, *bytes, "this Jacobian");
     if (!claim.ok()) return claim.status();
     out.jacobian_claim = std::move(*claim);
-    auto j = ComputeJacobian(ev, pass->pass->hits, LibraryControl(control),
-                             options_.compute_threads);
+    auto j = ComputeJacobian(ev, pass->pass->hits,
+                             LibraryControl(control, options_.compute_threads));
     if (!j.ok()) return control.Interrupted(j.status());
     out.jacobian = std::move(*j);
   }
@@ -145,7 +143,7 @@ absl::StatusOr<SdfOutcome> SessionCalls::Sdf(const std::string& tenant,
   // Without a topology pass unless the missing share of the surface is over
   // the warning's.
   out.warnings = MissingValueWarnings(ev.mesh(), r);
-  out.facts = {ev.generation(), pass->reused, Seconds(start)};
+  out.facts = {ev.generation(), pass->reused, start.Seconds()};
   out.pass = std::move(pass->pass);
   return out;
 }
@@ -154,7 +152,7 @@ absl::StatusOr<VjpOutcome> SessionCalls::Vjp(const std::string& tenant,
                                              const SessionTarget& target,
                                              absl::Span<const double> weights,
                                              const CallControl& control) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch start;
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = prep->evaluator();
@@ -172,11 +170,11 @@ absl::StatusOr<VjpOutcome> SessionCalls::Vjp(const std::string& tenant,
   auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/false);
   if (!pass.ok()) return pass.status();
   metrics_->RecordHitCache(pass->reused);
-  auto vjp = ComputeVjp(ev, pass->pass->hits, weights, LibraryControl(control),
-                        options_.compute_threads);
+  auto vjp = ComputeVjp(ev, pass->pass->hits, weights,
+                        LibraryControl(control, options_.compute_threads));
   if (!vjp.ok()) return control.Interrupted(vjp.status());
   return VjpOutcome{
-      {std::move(*vjp), {ev.generation(), pass->reused, Seconds(start)}},
+      {std::move(*vjp), {ev.generation(), pass->reused, start.Seconds()}},
       ev.mesh().dimension};
 }
 
@@ -184,7 +182,7 @@ absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
     const std::string& tenant, const SessionTarget& target,
     const PenaltyParams& penalty, const std::optional<wire::ThinRequest>& thin,
     bool with_gradient, const CallControl& control) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch start;
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = prep->evaluator();
@@ -201,7 +199,7 @@ absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
   const SdfResult& sdf = pass->pass->result;
   auto pen = ComputePenalty(ev, sdf, penalty,
                             with_gradient ? &pass->pass->hits : nullptr,
-                            LibraryControl(control), options_.compute_threads);
+                            LibraryControl(control, options_.compute_threads));
   if (!pen.ok()) return control.Interrupted(pen.status());
   PenaltyOutcome out;
   out.dimension = ev.mesh().dimension;
@@ -215,7 +213,7 @@ absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
   out.reply = {std::move(*pen),
                SummarizeValues(sdf.values).min,
                sdf.world_frame_vertices,
-               {ev.generation(), pass->reused, Seconds(start)}};
+               {ev.generation(), pass->reused, start.Seconds()}};
   return out;
 }
 
@@ -225,7 +223,8 @@ absl::StatusOr<CalibrationReport> SessionCalls::Calibrate(
   auto prep = Prepare(tenant, {session_id, params.sdf, std::nullopt}, control);
   if (!prep.ok()) return prep.status();
   auto report =
-      meshgauge::Calibrate(prep->evaluator(), params, LibraryControl(control));
+      meshgauge::Calibrate(prep->evaluator(), params,
+                           LibraryControl(control, options_.compute_threads));
   if (!report.ok()) return control.Interrupted(report.status());
   return report;
 }
@@ -233,7 +232,7 @@ absl::StatusOr<CalibrationReport> SessionCalls::Calibrate(
 absl::StatusOr<GradCheckOutcome> SessionCalls::GradCheck(
     const std::string& tenant, const SessionTarget& target,
     const GradCheckOptions& options, const CallControl& control) {
-  const auto start = std::chrono::steady_clock::now();
+  const Stopwatch start;
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   const int64_t generation = prep->reader.generation();
@@ -256,12 +255,13 @@ absl::StatusOr<GradCheckOutcome> SessionCalls::GradCheck(
   prep->reader.lock.unlock();  // updates of the session go on.
   auto ev = SdfEvaluator::Create(std::move(copy));
   if (!ev.ok()) return ev.status();
-  auto report = RunGradCheck(**ev, prep->params, options,
-                             LibraryControl(control, rays_total));
+  auto report = RunGradCheck(
+      **ev, prep->params, options,
+      LibraryControl(control, options_.compute_threads, rays_total));
   if (!report.ok()) return control.Interrupted(report.status());
   metrics_->AddRays(static_cast<double>(report->rays_traced));
   return GradCheckOutcome{std::move(*report),
-                          {generation, false, Seconds(start)}};
+                          {generation, false, start.Seconds()}};
 }
 
 absl::StatusOr<MeshView> SessionCalls::GetMesh(const std::string& tenant,

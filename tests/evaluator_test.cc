@@ -30,19 +30,14 @@ TEST(EvaluatorTest, OneAndTwoThreadsAreBitIdentical) {
   for (const char* name : {"decimated-knight.off", "teapot.obj"}) {
     auto mesh = ReadMesh(SharedMesh(name));
     ASSERT_TRUE(mesh.ok());
-    SdfParams one, two;
-    one.threads = 1;
-    two.threads = 2;
-    auto a = ComputeSdf(*mesh, one);
-    auto b = ComputeSdf(*mesh, two);
+    auto a = ComputeSdf(*mesh, {}, {.threads = 1});
+    auto b = ComputeSdf(*mesh, {}, {.threads = 2});
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_TRUE(BitIdentical(*a, *b)) << name;
   }
   const Mesh hollow = MakeHollowSquare(4, 1, 0.01);
-  SdfParams one, two;
-  one.threads = 1;
-  two.threads = 2;
-  EXPECT_TRUE(BitIdentical(*ComputeSdf(hollow, one), *ComputeSdf(hollow, two)));
+  EXPECT_TRUE(BitIdentical(*ComputeSdf(hollow, {}, {.threads = 1}),
+                           *ComputeSdf(hollow, {}, {.threads = 2})));
 }
 
 TEST(EvaluatorTest, UpdatePositionsMatchesAFreshComputation) {

@@ -187,6 +187,22 @@ TEST(IncrementalPassTest, APreviousPassThatDoesNotFitGivesAFullPass) {
   EXPECT_TRUE(SameBits(same->values, narrow.result.values));
 }
 
+// The thread count is how a pass runs, not a parameter (ComputeControl): a
+// pass on one thread serves as the previous pass of one on two, as the
+// server's pass cache serves requests whatever their threads.
+TEST(IncrementalPassTest, APassOfAnotherThreadCountIsReused) {
+  const Mesh torus = MakeTorus(2, 0.5, 32, 12);
+  auto ev = SdfEvaluator::Create(torus);
+  ASSERT_TRUE(ev.ok());
+  Pass one;
+  one.result = *(*ev)->Compute({}, {.threads = 1}, &one.hits);
+  const PreviousPass previous{&one.result, &one.hits};
+  auto two = (*ev)->Compute({}, {.threads = 2}, nullptr, &previous);
+  ASSERT_TRUE(two.ok());
+  EXPECT_EQ(two->rays_traced, 0);
+  EXPECT_TRUE(SameBits(two->values, one.result.values));
+}
+
 // gradcheck's probes move one vertex each: they reuse the base pass, so all
 // its passes together trace fewer rays than two full passes.
 TEST(IncrementalPassTest, GradcheckProbesReuseTheBasePass) {

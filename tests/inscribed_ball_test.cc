@@ -255,8 +255,6 @@ TEST(InscribedBallTest, SameForAnyThreadCountAndHistory) {
   auto ev = SdfEvaluator::Create(*mesh);
   ASSERT_TRUE(ev.ok());
   const SdfResult r2 = ExpectSameForOneAndTwoThreads(**ev, Sphere());
-  SdfParams two = Sphere();
-  two.threads = 2;
   std::vector<Vec3> moved = mesh->positions;
   for (size_t i = 0; i < moved.size(); ++i) {
     moved[i] *= 1 + 0.01 * std::sin(12.9898 * i);
@@ -266,8 +264,8 @@ TEST(InscribedBallTest, SameForAnyThreadCountAndHistory) {
   fresh_mesh.positions = moved;
   auto fresh = SdfEvaluator::Create(fresh_mesh);
   ASSERT_TRUE(fresh.ok());
-  auto refitted = (*ev)->Compute(two);
-  auto built = (*fresh)->Compute(two);
+  auto refitted = (*ev)->Compute(Sphere(), {.threads = 2});
+  auto built = (*fresh)->Compute(Sphere(), {.threads = 2});
   ASSERT_TRUE(refitted.ok() && built.ok());
   EXPECT_EQ(refitted->values, built->values);
   EXPECT_EQ(refitted->opposite, built->opposite);

@@ -206,11 +206,10 @@ TEST(ParamsValidationTest, RejectsOutOfRangeParameters) {
   p.kappa = -1;
   EXPECT_THAT(code(p).message(), HasSubstr("kappa"));
   p = {};
-  p.threads = -2;
-  EXPECT_THAT(code(p).message(), HasSubstr("threads"));
-  p = {};
   p.max_distance = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THAT(code(p).message(), HasSubstr("max distance"));
+  EXPECT_THAT(ComputeSdf(m, {}, {.threads = -2}).status().message(),
+              HasSubstr("threads"));
 }
 
 }  // namespace
@@ -226,7 +225,7 @@ namespace {
 // values).
 TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
   [[maybe_unused]] const auto& [method, cone_angle, rays, min_weight, kappa,
-                                epsilon, max_distance, threads, weighting,
+                                epsilon, max_distance, weighting,
                                 opposite, contact_angle, samples] = SdfParams{};
   const std::vector<std::function<void(SdfParams&)>> changes = {
       [](SdfParams& p) { p.method = SdfMethod::kNormalRay; },
@@ -236,7 +235,6 @@ TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
       [](SdfParams& p) { p.kappa = 2; },
       [](SdfParams& p) { p.self_hit_epsilon = 1e-5; },
       [](SdfParams& p) { p.max_distance = 3; },
-      [](SdfParams& p) { p.threads = 1; },
       [](SdfParams& p) { p.normal_weighting = NormalWeighting::kAngle; },
       [](SdfParams& p) { p.opposite_points = true; },
       [](SdfParams& p) { p.contact_angle_degrees = 45; },

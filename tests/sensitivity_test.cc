@@ -146,8 +146,8 @@ TEST(SensitivityTest, VjpIsBitIdenticalForOneAndTwoThreads) {
   HitTable hits;
   ASSERT_TRUE((*ev)->Compute({}, {}, &hits).ok());
   std::vector<double> g(mesh->num_vertices(), 1.0);
-  auto a = ComputeVjp(**ev, hits, g, {}, 1);
-  auto b = ComputeVjp(**ev, hits, g, {}, 2);
+  auto a = ComputeVjp(**ev, hits, g, {.threads = 1});
+  auto b = ComputeVjp(**ev, hits, g, {.threads = 2});
   ASSERT_TRUE(a.ok() && b.ok());
   EXPECT_EQ(*a, *b);
 }

@@ -15,13 +15,10 @@ namespace meshgauge::testing {
 // (bit for bit, NaN included), statuses, opposite points and hit tables.
 // Returns the 2-thread result.
 inline SdfResult ExpectSameForOneAndTwoThreads(const SdfEvaluator& ev,
-                                               SdfParams params) {
-  SdfParams one = params, two = params;
-  one.threads = 1;
-  two.threads = 2;
+                                               const SdfParams& params) {
   HitTable h1, h2;
-  auto r1 = ev.Compute(one, {}, &h1);
-  auto r2 = ev.Compute(two, {}, &h2);
+  auto r1 = ev.Compute(params, {.threads = 1}, &h1);
+  auto r2 = ev.Compute(params, {.threads = 2}, &h2);
   EXPECT_TRUE(r1.ok() && r2.ok());
   if (!r1.ok() || !r2.ok()) return {};
   EXPECT_TRUE(SameBits(r1->values, r2->values));

@@ -139,13 +139,13 @@ TEST(WireTest, OppositePointsRoundTripAndMissingOnesAreDataLoss) {
 TEST(WireTest, SampleSetRoundTripsAndAReplyOfOtherSamplesIsDataLoss) {
   SdfParams faces;
   faces.samples = SampleSet::kFaces;
-  auto back = wire::FromWire(wire::ToWire(faces), 4096, 0);
+  auto back = wire::FromWire(wire::ToWire(faces), 4096);
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_EQ(back->samples, SampleSet::kFaces);
   v1::SdfParameters unset;
-  EXPECT_EQ(wire::FromWire(unset, 4096, 0)->samples, SampleSet::kVertices);
+  EXPECT_EQ(wire::FromWire(unset, 4096)->samples, SampleSet::kVertices);
   unset.set_samples(static_cast<v1::SampleSet>(7));
-  EXPECT_EQ(wire::FromWire(unset, 4096, 0).status().code(),
+  EXPECT_EQ(wire::FromWire(unset, 4096).status().code(),
             absl::StatusCode::kInvalidArgument);
 
   SdfResult r = SmallResult();
@@ -206,35 +206,34 @@ TEST(WireTest, ParametersRoundTrip) {
   p.max_distance = 3.25;
   p.self_hit_epsilon = 1e-7;
   p.normal_weighting = NormalWeighting::kAngle;
-  auto back = wire::FromWire(wire::ToWire(p), 4096, 3);
+  auto back = wire::FromWire(wire::ToWire(p), 4096);
   ASSERT_TRUE(back.ok()) << back.status();
   EXPECT_TRUE(back->method == p.method && back->rays == 33 &&
               back->cone_angle_degrees == 47.5 && back->kappa == 0 &&
               back->min_weight_angle == 0.01 && back->max_distance == 3.25 &&
               back->self_hit_epsilon == 1e-7 &&
-              back->normal_weighting == NormalWeighting::kAngle &&
-              back->threads == 3);
+              back->normal_weighting == NormalWeighting::kAngle);
   // Over the server's limit: refused for the cone, ignored by the methods
   // that trace no more than one ray.
-  EXPECT_TRUE(wire::FromWire(wire::ToWire(p), 32, 0).ok());
+  EXPECT_TRUE(wire::FromWire(wire::ToWire(p), 32).ok());
   SdfParams cone = p;
   cone.method = SdfMethod::kCone;
-  EXPECT_EQ(wire::FromWire(wire::ToWire(cone), 32, 0).status().code(),
+  EXPECT_EQ(wire::FromWire(wire::ToWire(cone), 32).status().code(),
             absl::StatusCode::kInvalidArgument);
   SdfParams sphere;
   sphere.method = SdfMethod::kSphere;
   sphere.contact_angle_degrees = 37.5;
   sphere.opposite_points = true;
-  auto sphere_back = wire::FromWire(wire::ToWire(sphere), 4096, 0);
+  auto sphere_back = wire::FromWire(wire::ToWire(sphere), 4096);
   ASSERT_TRUE(sphere_back.ok()) << sphere_back.status();
   EXPECT_TRUE(*sphere_back == sphere);
   v1::SdfParameters defaults;
   defaults.set_method(v1::SDF_METHOD_SPHERE);
-  auto defaulted = wire::FromWire(defaults, 4096, 0);
+  auto defaulted = wire::FromWire(defaults, 4096);
   ASSERT_TRUE(defaulted.ok());
   EXPECT_EQ(defaulted->contact_angle_degrees, 60);  // 0 on the wire.
   defaults.set_contact_angle_degrees(90);
-  EXPECT_EQ(wire::FromWire(defaults, 4096, 0).status().code(),
+  EXPECT_EQ(wire::FromWire(defaults, 4096).status().code(),
             absl::StatusCode::kInvalidArgument);
 
   const PenaltyParams pp{.t_min = 0.3,

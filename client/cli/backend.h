@@ -76,8 +76,9 @@ class Backend {
 using BackendFactory =
     std::function<absl::StatusOr<std::unique_ptr<Backend>>(Mesh mesh)>;
 
-// An SdfEvaluator here (with progress bars as `progress` says).
-BackendFactory LocalBackend(ProgressMode progress);
+// An SdfEvaluator here (with progress bars as `progress` says), computing
+// with `threads` worker threads (ComputeControl::threads; 0: all cores).
+BackendFactory LocalBackend(ProgressMode progress, int threads);
 
 // A session of the server of `remote`: with an empty `session_id` the mesh
 // is uploaded as a new session that is deleted afterwards; otherwise the

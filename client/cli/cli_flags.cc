@@ -297,7 +297,6 @@ absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {
   p.cone_angle_degrees = f.cone_angle;
   p.rays = f.rays;
   p.kappa = f.kappa;
-  p.threads = f.threads;
   p.max_distance = f.max_distance;
   p.samples = f.samples == "faces" ? SampleSet::kFaces : SampleSet::kVertices;
   if (absl::Status s = ValidateParams(p); !s.ok()) {

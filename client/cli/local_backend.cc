@@ -12,8 +12,8 @@ namespace {
 
 class Local : public Backend {
  public:
-  Local(std::unique_ptr<SdfEvaluator> ev, ProgressMode progress)
-      : ev_(std::move(ev)), progress_(progress) {}
+  Local(std::unique_ptr<SdfEvaluator> ev, ProgressMode progress, int threads)
+      : ev_(std::move(ev)), progress_(progress), threads_(threads) {}
 
   const Mesh& mesh() const override { return ev_->mesh(); }
 
@@ -26,7 +26,7 @@ class Local : public Backend {
         progress_);
     hits_ = HitTable();
     auto result =
-        ev_->Compute(params, bar.Control(),
+        ev_->Compute(params, Threaded(bar.Control()),
                      derivatives == Derivatives::kNone ? nullptr : &hits_);
     bar.Finish();
     return result;
@@ -39,43 +39,50 @@ class Local : public Backend {
   }
   absl::StatusOr<SparseJacobian> Jacobian() override {
     ProgressBar bar("jacobian rows", progress_);
-    return ComputeJacobian(*ev_, hits_, bar.Control());
+    return ComputeJacobian(*ev_, hits_, Threaded(bar.Control()));
   }
   absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) override {
     ProgressBar bar("derivatives (g^T J)", progress_);
-    return ComputeVjp(*ev_, hits_, weights, bar.Control());
+    return ComputeVjp(*ev_, hits_, weights, Threaded(bar.Control()));
   }
   absl::StatusOr<PenaltyResult> Penalty(const SdfResult& pass,
                                         const PenaltyParams& params,
                                         bool with_gradient) override {
     ProgressBar bar("penalty gradient", progress_);
     return ComputePenalty(*ev_, pass, params, with_gradient ? &hits_ : nullptr,
-                          bar.Control());
+                          Threaded(bar.Control()));
   }
   absl::StatusOr<CalibrationReport> Calibrate(
       const CalibrationParams& params) override {
-    return meshgauge::Calibrate(*ev_, params);
+    return meshgauge::Calibrate(*ev_, params, Threaded({}));
   }
   absl::StatusOr<GradCheckReport> GradCheck(
       const SdfParams& params, const GradCheckOptions& options,
       const ComputeControl& control) override {
-    return RunGradCheck(*ev_, params, options, control);
+    return RunGradCheck(*ev_, params, options, Threaded(control));
   }
 
  private:
+  // `control` with this backend's threads.
+  ComputeControl Threaded(ComputeControl control) const {
+    control.threads = threads_;
+    return control;
+  }
+
   std::unique_ptr<SdfEvaluator> ev_;
   const ProgressMode progress_;
+  const int threads_;
   HitTable hits_;
 };
 
 }  // namespace
 
-BackendFactory LocalBackend(ProgressMode progress) {
-  return [progress](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+BackendFactory LocalBackend(ProgressMode progress, int threads) {
+  return [progress, threads](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
     auto ev = SdfEvaluator::Create(std::move(mesh));
     if (!ev.ok()) return ev.status();
-    return std::make_unique<Local>(std::move(*ev), progress);
+    return std::make_unique<Local>(std::move(*ev), progress, threads);
   };
 }
 

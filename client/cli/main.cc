@@ -166,7 +166,7 @@ int Main(int argc, char** argv) {
       app, &local,
       [&local] {
         return absl::StatusOr<BackendFactory>(
-            LocalBackend(local.in.out.Progress()));
+            LocalBackend(local.in.out.Progress(), local.in.sdf.threads));
       },
       &run);
 

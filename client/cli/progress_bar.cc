@@ -11,15 +11,14 @@ ProgressBar::ProgressBar(std::string label, ProgressMode mode)
       enabled_(mode == ProgressMode::kAlways ||
                (mode == ProgressMode::kAuto && isatty(STDERR_FILENO) == 1)),
       terminal_(isatty(STDERR_FILENO) == 1),
-      delay_(mode == ProgressMode::kAuto ? 500 : 0),
-      start_(std::chrono::steady_clock::now()) {}
+      delay_seconds_(mode == ProgressMode::kAuto ? 0.5 : 0) {}
 
 ProgressBar::~ProgressBar() { Finish(); }
 
 void ProgressBar::Update(int64_t done, int64_t total) {
   if (!enabled_ || total <= 0) return;
-  const auto elapsed = std::chrono::steady_clock::now() - start_;
-  if (!drawn_ && elapsed < delay_) return;
+  const double seconds = watch_.Seconds();
+  if (!drawn_ && seconds < delay_seconds_) return;
   const int percent = static_cast<int>(100 * done / total);
   if (percent == last_percent_) return;
   last_percent_ = percent;
@@ -27,7 +26,6 @@ void ProgressBar::Update(int64_t done, int64_t total) {
   std::string bar(static_cast<size_t>(kWidth * done / total), '#');
   bar.resize(kWidth, ' ');
   std::string eta;
-  const double seconds = std::chrono::duration<double>(elapsed).count();
   if (done > 0 && done < total && seconds > 0.5) {
     eta = "  ETA " +
           std::to_string(

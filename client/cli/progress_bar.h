@@ -1,11 +1,11 @@
 // A progress bar on stderr for long CLI runs.
 #pragma once
 
-#include <chrono>
 #include <cstdint>
 #include <string>
 
 #include "lib/core/sdf_types.h"
+#include "lib/core/stopwatch.h"
 
 namespace meshgauge::cli {
 
@@ -34,10 +34,10 @@ class ProgressBar {
   std::string label_;
   bool enabled_;
   bool terminal_;
-  std::chrono::milliseconds delay_;
+  double delay_seconds_;
   bool drawn_ = false;
   int last_percent_ = -1;
-  std::chrono::steady_clock::time_point start_;
+  Stopwatch watch_;  // since construction.
 };
 
 }  // namespace meshgauge::cli

@@ -1,7 +1,6 @@
 // meshgauge report: where the part is thinner than t_min, as pictures, a
 // JSON report, a web page and a coloured PLY.
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -21,17 +20,13 @@
 #include "client/cli/thin_summary.h"
 #include "lib/core/integrals.h"
 #include "lib/core/missing_values.h"
+#include "lib/core/stopwatch.h"
 #include "lib/embree/render.h"
 #include "lib/io/mesh_io.h"
 #include "lib/io/png_file.h"
 
 namespace meshgauge::cli {
 namespace {
-
-double Since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 // The colour map's range and where it came from.
 struct ColorRange {
@@ -187,13 +182,13 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
         absl::StrCat("--out '", flags.out, "' is not a directory we can make",
                      ec ? ": " + ec.message() : ""));
   }
-  auto start = std::chrono::steady_clock::now();
+  Stopwatch watch;
   auto opened = Open(in, make, /*print_warnings=*/false);  // in the summary.
   if (!opened.ok()) return opened.status();
   const Mesh& mesh = opened->mesh();
   auto result = opened->backend->Sdf(opened->params, Derivatives::kNone);
   if (!result.ok()) return result.status();
-  const double sdf_seconds = Since(start);
+  const double sdf_seconds = watch.Seconds();
   const std::vector<double>& values = result->values;
   const SampleSet samples = opened->params.samples;
   thin_params.samples = samples;
@@ -213,7 +208,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   for (int32_t& r : outline) {
     if (r >= 0 && thin->regions[r].speck) r = -1;
   }
-  start = std::chrono::steady_clock::now();
+  watch.Restart();
   RenderOptions render;
   render.width = flags.view_size[0];
   render.height = flags.view_size[1];
@@ -222,7 +217,7 @@ absl::Status RunReport(const MeshInput& in, const ReportFlags& flags,
   auto views = RenderViews(shown.mesh, shown.values, *scale, outline,
                            StandardViews(flags.up == "y" ? 1 : 2), render);
   if (!views.ok()) return views.status();
-  const double render_seconds = Since(start);
+  const double render_seconds = watch.Seconds();
 
   const bool curve = mesh.dimension == 2;
   const std::filesystem::path dir(flags.out);

@@ -14,7 +14,7 @@ absl::StatusOr<Opened> Open(const MeshInput& in, const BackendFactory& make,
                             bool print_warnings) {
   auto params = ToSdfParams(in.sdf);
   if (!params.ok()) return params.status();
-  auto loaded = LoadMesh(in.mesh, in.mesh_flags, params->threads);
+  auto loaded = LoadMesh(in.mesh, in.mesh_flags, in.sdf.threads);
   if (!loaded.ok()) return loaded.status();
   if (print_warnings) PrintWarnings(loaded->warnings);
   const Stopwatch setup;

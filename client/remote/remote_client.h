@@ -98,8 +98,8 @@ class RemoteClient {
       const std::string& session_id, int64_t expected_generation, int dimension,
       const std::vector<Vec3>& positions,
       const std::vector<int32_t>& indices = {});
-  // The SDF of the session's current positions (params.threads is not
-  // sent). A stream cut after it started (UNAVAILABLE, UNKNOWN: its
+  // The SDF of the session's current positions (the server picks the
+  // threads). A stream cut after it started (UNAVAILABLE, UNKNOWN: its
   // replica died) is asked again, three attempts in all, with
   // options.retry; progress then starts again. Errors: the server's,
   // DATA_LOSS for a malformed stream.

@@ -177,6 +177,9 @@ int64_t CountCoincident(const std::vector<Vec3>& positions,
   return count;
 }
 
+void AddOrientationWarnings(const Mesh& mesh, MeshDiagnostics& d);
+void AddShapeWarnings(const Mesh& mesh, MeshDiagnostics& d);
+
 // DiagnoseMesh from the mesh's topology, manifold neighbours and count of
 // double-sided faces.
 MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
@@ -212,6 +215,14 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
     if (inconsistent[i])
       d.inconsistent_components.push_back(static_cast<int64_t>(i));
   }
+  AddOrientationWarnings(mesh, d);
+  AddShapeWarnings(mesh, d);
+  return d;
+}
+
+// d's warnings about the faces' orientation: inward components,
+// inconsistent edges, double-sided faces.
+void AddOrientationWarnings(const Mesh& mesh, MeshDiagnostics& d) {
   if (!d.inward_components.empty()) {
     d.warnings.push_back(absl::StrCat(
         d.inward_components.size(), " of ", d.components,
@@ -241,6 +252,11 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
                      "double-sided surface): their vertex normals cancel "
                      "(DEGENERATE_NORMAL)"));
   }
+}
+
+// d's warnings about the mesh's size and connectivity: tiny coordinates,
+// holes, unwelded seams, non-manifold edges.
+void AddShapeWarnings(const Mesh& mesh, MeshDiagnostics& d) {
   // Below this bounding-box extent, squared lengths and cross products
   // underflow double precision (subnormal or zero). The extent is the
   // largest side, not the diagonal, whose squares would underflow too.
@@ -277,7 +293,6 @@ MeshDiagnostics Diagnose(const Mesh& mesh, const Topology& t,
         " (non-manifold: duplicated, double-sided or touching faces): normals "
         "there may cancel or point astray"));
   }
-  return d;
 }
 
 // Makes each patch of faces joined by manifold edges agree with the larger

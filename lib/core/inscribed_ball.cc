@@ -62,58 +62,65 @@ struct Inputs {
   double cos_beta;
 };
 
-// The touching point of closed form `kind` and its barycentric
-// coordinates; false when the form does not apply or its point lies outside
-// its piece (the triangle, the edge).
+// The touching points of the closed forms below, each with its barycentric
+// coordinates (lambda, zero on entry); false when the form does not apply
+// or its point lies outside its piece (the triangle, the edge).
+
+// Corner j of the piece.
 template <typename S>
-bool KindPoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
+bool CornerPoint(const Inputs<S>& in, int j, V<S>* s, S lambda[3]) {
+  if (j >= in.corners) return false;
+  *s = in.corner[j];
+  lambda[j] = S(1.0);
+  return true;
+}
+
+// An edge's stationary point or its meeting with the contact cone (kind in
+// [kEdgeStationary, kConic)).
+template <typename S>
+bool EdgePoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
   const double c = in.cos_beta;
-  for (int j = 0; j < 3; ++j) lambda[j] = S(0.0);
-  if (kind >= kCorner && kind < kEdgeStationary) {
-    const int j = kind - kCorner;
-    if (j >= in.corners) return false;
-    *s = in.corner[j];
-    lambda[j] = S(1.0);
-    return true;
-  }
-  if (kind >= kEdgeStationary && kind < kConic) {
-    const bool cone = kind >= kEdgeCone;
-    const int e = (kind - (cone ? kEdgeCone : kEdgeStationary)) / 2;
-    const int root = (kind - (cone ? kEdgeCone : kEdgeStationary)) % 2;
-    if (e >= (in.corners == 2 ? 1 : 3)) return false;
-    const int e1 = (e + 1) % in.corners;
-    const V<S>& p = in.corner[e];
-    const V<S> edge = in.corner[e1] - p;
-    const V<S> w0 = p - in.x;
-    // |s - x|^2 = A t^2 + B t + C, a.(s - x) = D t + E along s = p + t edge.
-    const S A = edge.dot(edge), B = 2.0 * w0.dot(edge), C = w0.dot(w0);
-    const S D = in.a.dot(edge), E = in.a.dot(w0);
-    S t;
-    bool found;
-    if (cone) {
-      found = Root(S(D * D - c * c * A), S(2.0 * D * E - c * c * B),
-                   S(E * E - c * c * C), root, &t);
-    } else {
-      // rho is convex along the line where a.(s - x) = D t + E > 0, so one
-      // root is its minimum there and the other lies where D t + E < 0:
-      // one form per edge (slot root 0), whichever root that is.
-      if (root != 0) return false;
-      const S a2 = A * D, b = 2.0 * A * E, c2 = B * E - C * D;
-      S other;
-      found = Root(a2, b, c2, 0, &t);
-      if (Root(a2, b, c2, 1, &other) && (!found || !(Val(D * t + E) > 0))) {
-        t = other;
-        found = true;
-      }
-      found = found && Val(D * t + E) > 0;
+  const bool cone = kind >= kEdgeCone;
+  const int e = (kind - (cone ? kEdgeCone : kEdgeStationary)) / 2;
+  const int root = (kind - (cone ? kEdgeCone : kEdgeStationary)) % 2;
+  if (e >= (in.corners == 2 ? 1 : 3)) return false;
+  const int e1 = (e + 1) % in.corners;
+  const V<S>& p = in.corner[e];
+  const V<S> edge = in.corner[e1] - p;
+  const V<S> w0 = p - in.x;
+  // |s - x|^2 = A t^2 + B t + C, a.(s - x) = D t + E along s = p + t edge.
+  const S A = edge.dot(edge), B = 2.0 * w0.dot(edge), C = w0.dot(w0);
+  const S D = in.a.dot(edge), E = in.a.dot(w0);
+  S t;
+  bool found;
+  if (cone) {
+    found = Root(S(D * D - c * c * A), S(2.0 * D * E - c * c * B),
+                 S(E * E - c * c * C), root, &t);
+  } else {
+    // rho is convex along the line where a.(s - x) = D t + E > 0, so one
+    // root is its minimum there and the other lies where D t + E < 0:
+    // one form per edge (slot root 0), whichever root that is.
+    if (root != 0) return false;
+    const S a2 = A * D, b = 2.0 * A * E, c2 = B * E - C * D;
+    S other;
+    found = Root(a2, b, c2, 0, &t);
+    if (Root(a2, b, c2, 1, &other) && (!found || !(Val(D * t + E) > 0))) {
+      t = other;
+      found = true;
     }
-    if (!found || !(Val(t) >= -kSlack && Val(t) <= 1 + kSlack)) return false;
-    *s = p + edge * t;
-    lambda[e] = 1.0 - t;
-    lambda[e1] = t;
-    return true;
+    found = found && Val(D * t + E) > 0;
   }
-  if (in.corners != 3) return false;
+  if (!found || !(Val(t) >= -kSlack && Val(t) <= 1 + kSlack)) return false;
+  *s = p + edge * t;
+  lambda[e] = 1.0 - t;
+  lambda[e1] = t;
+  return true;
+}
+
+// A triangle's plane point (kPlane) or conic point (kind >= kConic).
+template <typename S>
+bool FacePoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
+  const double c = in.cos_beta;
   // The triangle's plane: x0 the foot of x, h its signed height, g the
   // axis' component in the plane, alpha0 = a.(x0 - x).
   const V<S> ab = in.corner[1] - in.corner[0];
@@ -163,6 +170,21 @@ bool KindPoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
     if (!(Val(lambda[j]) >= -kSlack)) return false;
   }
   return true;
+}
+
+// The touching point of closed form `kind` and its barycentric
+// coordinates; false when the form does not apply or its point lies outside
+// its piece (the triangle, the edge).
+template <typename S>
+bool KindPoint(const Inputs<S>& in, int kind, V<S>* s, S lambda[3]) {
+  for (int j = 0; j < 3; ++j) lambda[j] = S(0.0);
+  if (kind >= kCorner && kind < kEdgeStationary) {
+    return CornerPoint(in, kind - kCorner, s, lambda);
+  }
+  if (kind >= kEdgeStationary && kind < kConic) {
+    return EdgePoint(in, kind, s, lambda);
+  }
+  return in.corners == 3 && FacePoint(in, kind, s, lambda);
 }
 
 // rho(s), or false when s is at x or behind the tangent plane. `inside`

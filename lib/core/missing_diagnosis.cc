@@ -75,19 +75,13 @@ std::string Cause(const Mesh& mesh, const Component& c,
   return absl::StrCat("it is closed and outward, so ", kCornerRaysLost);
 }
 
-}  // namespace
-
-std::vector<std::string> MissingValueWarnings(
-    const Mesh& mesh, const std::vector<double>& values,
-    const std::vector<VertexStatus>& status, double warn_fraction) {
-  // Nothing missing, nothing flagged: skip the components (a full topology
-  // pass, about half a second on a million vertices).
-  if (warn_fraction >= 0 &&
-      std::all_of(values.begin(), values.end(),
-                  [](double v) { return std::isfinite(v); })) {
-    return {};
-  }
-  const std::vector<Component> components = ConnectedComponents(mesh);
+// Per component: its measure, box and area vectors, and the measure and
+// vertices without a value (each missing vertex counted once, in the
+// component of its first face). *total: the surface's measure.
+std::vector<ComponentMissing> MissingPerComponent(
+    const Mesh& mesh, const std::vector<Component>& components,
+    const std::vector<double>& values, const std::vector<VertexStatus>& status,
+    double* total) {
   std::vector<int32_t> component_of(mesh.faces.size());
   std::vector<ComponentMissing> per(components.size());
   for (size_t i = 0; i < components.size(); ++i) {
@@ -96,12 +90,12 @@ std::vector<std::string> MissingValueWarnings(
       component_of[f] = static_cast<int32_t>(i);
     }
   }
-  double total = 0;
+  *total = 0;
   ForEachElement(mesh, [&](int64_t face, const Element& e) {
     ComponentMissing& m = per[component_of[face]];
     bool finite = true;
     for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
-    total += e.measure;
+    *total += e.measure;
     m.area += e.measure;
     for (int i = 0; i < e.n; ++i) {
       m.box.Extend(mesh.positions[e.v[i]], mesh.positions[e.v[i]]);
@@ -115,7 +109,6 @@ std::vector<std::string> MissingValueWarnings(
       m.area_norms += Norm(n);
     }
   });
-  // Each missing vertex counted once, in the component of its first face.
   std::vector<int32_t> vertex_component(mesh.positions.size(), -1);
   for (size_t f = 0; f < mesh.faces.size(); ++f) {
     for (int k = 0; k < mesh.faces[f].size; ++k) {
@@ -130,6 +123,13 @@ std::vector<std::string> MissingValueWarnings(
     m.no_hit += status[v] == VertexStatus::kNoHit;
     m.degenerate += status[v] == VertexStatus::kDegenerateNormal;
   }
+  return per;
+}
+
+// The components missing more than warn_fraction of the surface's measure
+// `total`, the largest missing measure first (ties: lowest component).
+std::vector<ComponentMissing> Flagged(const std::vector<ComponentMissing>& per,
+                                      double total, double warn_fraction) {
   std::vector<ComponentMissing> flagged;
   for (const ComponentMissing& m : per) {
     if (total > 0 && m.missing_area > warn_fraction * total) {
@@ -140,6 +140,27 @@ std::vector<std::string> MissingValueWarnings(
     return a.missing_area != b.missing_area ? a.missing_area > b.missing_area
                                             : a.component < b.component;
   });
+  return flagged;
+}
+
+}  // namespace
+
+std::vector<std::string> MissingValueWarnings(
+    const Mesh& mesh, const std::vector<double>& values,
+    const std::vector<VertexStatus>& status, double warn_fraction) {
+  // Nothing missing, nothing flagged: skip the components (a full topology
+  // pass, about half a second on a million vertices).
+  if (warn_fraction >= 0 &&
+      std::all_of(values.begin(), values.end(),
+                  [](double v) { return std::isfinite(v); })) {
+    return {};
+  }
+  const std::vector<Component> components = ConnectedComponents(mesh);
+  double total = 0;
+  const std::vector<ComponentMissing> per =
+      MissingPerComponent(mesh, components, values, status, &total);
+  const std::vector<ComponentMissing> flagged =
+      Flagged(per, total, warn_fraction);
   std::vector<int64_t> inconsistent;
   if (!flagged.empty())
     inconsistent = DiagnoseMesh(mesh).inconsistent_components;

@@ -181,8 +181,7 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
                                              const SdfResult& sdf,
                                              const PenaltyParams& params,
                                              const HitTable* hits_for_gradient,
-                                             const ComputeControl& control,
-                                             int threads) {
+                                             const ComputeControl& control) {
   const bool with_gradient = hits_for_gradient != nullptr;
   if (absl::Status s = ValidatePenaltyParams(params); !s.ok()) return s;
   const Mesh& mesh = geometry.mesh();
@@ -222,8 +221,7 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   r.dp_dt = std::move(integral.d_dt);
   if (!with_gradient) return r;
   r.measure_gradient = std::move(integral.d_measure);
-  auto vjp =
-      ComputeVjp(geometry, *hits_for_gradient, r.dp_dt, control, threads);
+  auto vjp = ComputeVjp(geometry, *hits_for_gradient, r.dp_dt, control);
   if (!vjp.ok()) return vjp.status();
   r.gradient = std::move(*vjp);
   for (size_t i = 0; i < r.gradient.size(); ++i) {

@@ -62,8 +62,7 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
                                              const SdfResult& sdf,
                                              const PenaltyParams& params,
                                              const HitTable* hits_for_gradient,
-                                             const ComputeControl& control = {},
-                                             int threads = 0);
+                                             const ComputeControl& control = {});
 
 const char* PenaltyFormName(PenaltyForm form);
 

@@ -40,9 +40,13 @@ absl::Status ValidateParams(const SdfParams& p) {
         absl::StrCat("contact angle must be in (0, 90) degrees, got ",
                      p.contact_angle_degrees));
   }
-  if (p.threads < 0 || p.threads > 1024) {
+  return absl::OkStatus();
+}
+
+absl::Status ValidateControl(const ComputeControl& control) {
+  if (control.threads < 0 || control.threads > 1024) {
     return absl::InvalidArgumentError(absl::StrCat(
-        "threads must be in [0, 1024] (0 = all cores), got ", p.threads));
+        "threads must be in [0, 1024] (0 = all cores), got ", control.threads));
   }
   return absl::OkStatus();
 }

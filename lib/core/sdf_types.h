@@ -51,9 +51,6 @@ struct SdfParams {
   // Rays with no hit closer than this are misses (mesh units); 0 selects the
   // bounding-box diagonal.
   double max_distance = 0;
-  // Worker threads for the ray pass; 0 = all cores. Results do not depend
-  // on it (bit for bit).
-  int threads = 0;
   NormalWeighting normal_weighting = NormalWeighting::kArea;
   // Fill SdfResult::opposite (SPEC v2 §5c).
   bool opposite_points = false;
@@ -62,8 +59,8 @@ struct SdfParams {
   double contact_angle_degrees = 60;
   SampleSet samples = SampleSet::kVertices;
 
-  // Every field: a cached pass is reused only for equal parameters (threads
-  // included, although results do not depend on them).
+  // Every field: a cached pass is reused only for equal parameters. How a
+  // pass runs (ComputeControl) is not a parameter.
   bool operator==(const SdfParams&) const = default;
 };
 
@@ -132,14 +129,20 @@ struct ValueStats {
 };
 ValueStats SummarizeValues(const std::vector<double>& values);
 
-// Hooks for long computations. Both may be called from worker threads, never
-// concurrently with themselves.
+// How a long computation runs, not what it computes: results do not depend
+// on it (bit for bit), so it is no part of a cached pass's key. The hooks
+// may be called from worker threads, never concurrently with themselves.
 struct ComputeControl {
+  // Worker threads, in [0, 1024]; 0 = all cores.
+  int threads = 0;
   // Polled between blocks of vertices; returning true aborts the call with
   // absl::CancelledError.
-  std::function<bool()> cancelled;
+  std::function<bool()> cancelled = nullptr;
   // Progress in vertices, monotone, called at most about 100 times per pass.
-  std::function<void(int64_t done, int64_t total)> progress;
+  std::function<void(int64_t done, int64_t total)> progress = nullptr;
 };
+
+// Checks threads' range; returns InvalidArgument naming it.
+absl::Status ValidateControl(const ComputeControl& control);
 
 }  // namespace meshgauge

@@ -284,7 +284,8 @@ struct Batch {
 // a percent).
 template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
-                          int threads, Consume consume) {
+                          Consume consume) {
+  if (absl::Status s = ValidateControl(control); !s.ok()) return s;
   const int64_t ns = ctx.samples;
   const size_t num_rays = ctx.hits.cone.size();
   const int64_t nv = ctx.ev.mesh().num_vertices();
@@ -292,7 +293,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];
   int computing = 0;
-  tbb::task_arena arena(ThreadCount(threads));
+  tbb::task_arena arena(ThreadCount(control.threads));
   // One Row per thread slot of the arena (at most its concurrency), each
   // on its own cache lines (its vector's end moves with every new entry).
   struct alignas(64) ThreadRow {
@@ -351,8 +352,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
 
 absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
                                                const HitTable& hits,
-                                               const ComputeControl& control,
-                                               int threads) {
+                                               const ComputeControl& control) {
   auto ctx = MakeContext(geometry, hits);
   if (!ctx.ok()) return ctx.status();
   SparseJacobian jac;
@@ -361,7 +361,7 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   jac.values.reserve(bound);
   jac.row_offsets.reserve(ctx->samples + 1);
   jac.row_offsets.push_back(0);
-  absl::Status s = ForEachBatch(*ctx, control, threads, [&jac](Batch& batch) {
+  absl::Status s = ForEachBatch(*ctx, control, [&jac](Batch& batch) {
     for (int64_t p = batch.begin; p < batch.end; ++p) {
       std::vector<Term>& terms = batch.rows[p - batch.begin];
       std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
@@ -390,8 +390,7 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
                                              const HitTable& hits,
                                              absl::Span<const double> g,
-                                             const ComputeControl& control,
-                                             int threads) {
+                                             const ComputeControl& control) {
   const int64_t nv = geometry.mesh().num_vertices();
   const int64_t ns = NumSamples(geometry.mesh(), hits.resolved.params.samples);
   const char* sample = SampleName(hits.resolved.params.samples);
@@ -411,7 +410,7 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
   std::vector<Vec3> out(nv);
   // Each batch is scattered by one task, in sample order (so the result
   // does not depend on the number of threads), while the next is computed.
-  absl::Status s = ForEachBatch(*ctx, control, threads, [&](Batch& batch) {
+  absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
     for (int64_t p = batch.begin; p < batch.end; ++p) {
       if (g[p] == 0) continue;
       for (const Term& term : batch.rows[p - batch.begin]) {

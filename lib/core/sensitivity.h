@@ -38,10 +38,10 @@ struct SparseJacobian {
 // MeshGeometry). Errors: FailedPrecondition when it is from another
 // generation (the vertices moved since) or when the values used
 // angle-weighted normals (no derivative is provided for them); Cancelled via
-// control.
+// control; InvalidArgument for control.threads out of range.
 absl::StatusOr<SparseJacobian> ComputeJacobian(
     const MeshGeometry& geometry, const HitTable& hits,
-    const ComputeControl& control = {}, int threads = 0);
+    const ComputeControl& control = {});
 
 // An upper bound on the bytes ComputeJacobian returns for this hit table
 // (per sample: 3 entries per kept ray, or 2 in 2D, plus the vertices of
@@ -63,7 +63,6 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
                                              const HitTable& hits,
                                              absl::Span<const double> g,
-                                             const ComputeControl& control = {},
-                                             int threads = 0);
+                                             const ComputeControl& control = {});
 
 }  // namespace meshgauge

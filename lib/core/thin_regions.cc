@@ -168,9 +168,9 @@ double TriangleAreaBelow(double area, double a, double b, double c, double s) {
   return area - area * ((c - s) / (c - a)) * ((c - s) / (c - b));
 }
 
-absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
-                                            const std::vector<double>& values,
-                                            const ThinRegionParams& params) {
+namespace {
+
+absl::Status CheckThinParams(const ThinRegionParams& params) {
   if (!(params.t_min > 0) || !std::isfinite(params.t_min)) {
     return absl::InvalidArgumentError(
         absl::StrCat("t_min must be positive and finite, got ", params.t_min));
@@ -181,6 +181,164 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
         absl::StrCat("min_region_area must be >= 0 and finite, got ",
                      params.min_region_area));
   }
+  return absl::OkStatus();
+}
+
+// Per face: whether all its corners have values, and whether one of them
+// is below t_min.
+struct FaceFlags {
+  std::vector<char> valued, thin;
+};
+
+FaceFlags FlagFaces(const Mesh& mesh, const Field& field, double t_min) {
+  const int32_t nf = static_cast<int32_t>(mesh.num_faces());
+  FaceFlags flags{std::vector<char>(nf, 0), std::vector<char>(nf, 0)};
+  for (int32_t f = 0; f < nf; ++f) {
+    const Face& face = mesh.faces[f];
+    flags.valued[f] = HasValues(mesh, field, f);
+    if (!flags.valued[f]) continue;
+    for (int k = 0; k < face.size; ++k) {
+      if (field.At(f, face.v[k]) < t_min) flags.thin[f] = 1;
+    }
+  }
+  return flags;
+}
+
+// The smallest value into out->min_*: a vertex's, or a face's (then at its
+// centroid). out->min_thickness stays NaN when no sample has a value.
+void FindMinimum(const Mesh& mesh, const Field& field, ThinSurface* out) {
+  const std::vector<double>& values = field.values;
+  int32_t min_sample = -1;
+  for (int32_t i = 0; i < static_cast<int32_t>(values.size()); ++i) {
+    if (!std::isnan(values[i]) &&
+        (min_sample < 0 || values[i] < out->min_thickness)) {
+      out->min_thickness = values[i];
+      min_sample = i;
+    }
+  }
+  if (min_sample >= 0 && field.faces) {
+    out->min_face = min_sample;
+    out->min_vertex = mesh.faces[min_sample].v[0];
+    out->min_point = FaceCentroid(mesh, min_sample);
+  } else if (min_sample >= 0) {
+    out->min_vertex = min_sample;
+    out->min_point = mesh.positions[min_sample];
+  }
+}
+
+// The regions as they are found, in order of their lowest face id.
+struct RegionsFound {
+  std::vector<ThinRegion> regions;
+  std::vector<int32_t> first_face;  // per region: its lowest face id.
+  std::vector<Vec3> moment;  // per region: the measure-weighted centroids.
+};
+
+// Lowers r's minimum to face f's values.
+void LowerMinimum(const Mesh& mesh, const Field& field, int32_t f,
+                  ThinRegion& r) {
+  if (field.faces) {
+    if (r.min_face < 0 || field.values[f] < r.min_thickness) {
+      r.min_thickness = field.values[f];
+      r.min_face = f;
+      r.min_vertex = mesh.faces[f].v[0];
+    }
+    return;
+  }
+  const Face& face = mesh.faces[f];
+  for (int k = 0; k < face.size; ++k) {
+    const int32_t v = face.v[k];
+    const double t = field.values[v];
+    if (r.min_vertex < 0 || t < r.min_thickness ||
+        (t == r.min_thickness && v < r.min_vertex)) {
+      r.min_thickness = t;
+      r.min_vertex = v;
+    }
+  }
+}
+
+// A region per set of joined thin faces (`parent`), with its face count and
+// minimum; face_region gets each thin face's region.
+RegionsFound GroupThinFaces(const Mesh& mesh, const Field& field,
+                            const std::vector<char>& thin,
+                            std::vector<int32_t>& parent,
+                            std::vector<int32_t>& face_region) {
+  const int32_t nf = static_cast<int32_t>(mesh.num_faces());
+  std::vector<int32_t> root_region(nf, -1);
+  RegionsFound found;
+  for (int32_t f = 0; f < nf; ++f) {
+    if (!thin[f]) continue;
+    const int32_t root = FindRoot(parent, f);
+    if (root_region[root] < 0) {
+      root_region[root] = static_cast<int32_t>(found.regions.size());
+      ThinRegion r;
+      r.box_min = {kInf, kInf, kInf};
+      r.box_max = {-kInf, -kInf, -kInf};
+      found.regions.push_back(r);
+      found.first_face.push_back(f);
+      found.moment.push_back({});
+    }
+    const int32_t id = root_region[root];
+    face_region[f] = id;
+    ThinRegion& r = found.regions[id];
+    ++r.faces;
+    LowerMinimum(mesh, field, f, r);
+  }
+  return found;
+}
+
+// Each region's area, moment and box: its parts below t_min, element by
+// element in face order.
+void MeasureParts(const Mesh& mesh, const Field& field, double t_min,
+                  const std::vector<int32_t>& face_region,
+                  RegionsFound& found) {
+  ForEachElement(mesh, [&](int64_t f, const Element& e) {
+    const int32_t id = face_region[f];
+    if (id < 0) return;
+    const Corners c = CornersOf(mesh, field, f, e);
+    const Piece piece = ClipBelow(c.p.data(), c.v.data(), e.n, t_min);
+    if (piece.n == 0) return;
+    const auto [m, centre] = MeasureAndCentroid(piece);
+    ThinRegion& r = found.regions[id];
+    r.area += m;
+    found.moment[id] += centre * m;
+    for (int k = 0; k < piece.n; ++k) {
+      for (int axis = 0; axis < 3; ++axis) {
+        r.box_min[axis] = std::min(r.box_min[axis], piece.p[k][axis]);
+        r.box_max[axis] = std::max(r.box_max[axis], piece.p[k][axis]);
+      }
+    }
+  });
+}
+
+// The regions into out, largest area first (ties: lowest face id first),
+// their ids in out->face_region renumbered to match.
+void RankRegions(const RegionsFound& found, ThinSurface* out) {
+  const std::vector<ThinRegion>& regions = found.regions;
+  std::vector<int32_t> order(regions.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
+    if (regions[a].area != regions[b].area) {
+      return regions[a].area > regions[b].area;
+    }
+    return found.first_face[a] < found.first_face[b];
+  });
+  std::vector<int32_t> rank(regions.size());
+  for (size_t i = 0; i < order.size(); ++i) {
+    rank[order[i]] = static_cast<int32_t>(i);
+    out->regions.push_back(regions[order[i]]);
+    out->thin_area += regions[order[i]].area;
+  }
+  for (int32_t& id : out->face_region) {
+    if (id >= 0) id = rank[id];
+  }
+}
+
+}  // namespace
+
+absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
+                                            const std::vector<double>& values,
+                                            const ThinRegionParams& params) {
+  if (absl::Status s = CheckThinParams(params); !s.ok()) return s;
   if (absl::Status s = CheckValues(mesh, values, params.samples); !s.ok()) {
     return s;
   }
@@ -191,123 +349,26 @@ absl::StatusOr<ThinSurface> FindThinRegions(const Mesh& mesh,
   out.t_min = t_min;
   out.min_thickness = kNaN;
   out.face_region.assign(nf, -1);
-  std::vector<char> valued(nf, 0), thin(nf, 0);
-  for (int32_t f = 0; f < nf; ++f) {
-    const Face& face = mesh.faces[f];
-    valued[f] = HasValues(mesh, field, f);
-    if (!valued[f]) continue;
-    for (int k = 0; k < face.size; ++k) {
-      if (field.At(f, face.v[k]) < t_min) thin[f] = 1;
-    }
-  }
+  const FaceFlags flags = FlagFaces(mesh, field, t_min);
   ForEachElement(mesh, [&](int64_t f, const Element& e) {
     out.total_area += e.measure;
-    if (!valued[f]) out.missing_area += e.measure;
+    if (!flags.valued[f]) out.missing_area += e.measure;
   });
-  // The smallest value: a vertex's, or a face's (then at its centroid).
-  int32_t min_sample = -1;
-  for (int32_t i = 0; i < static_cast<int32_t>(values.size()); ++i) {
-    if (!std::isnan(values[i]) &&
-        (min_sample < 0 || values[i] < out.min_thickness)) {
-      out.min_thickness = values[i];
-      min_sample = i;
-    }
-  }
-  if (min_sample >= 0 && field.faces) {
-    out.min_face = min_sample;
-    out.min_vertex = mesh.faces[min_sample].v[0];
-    out.min_point = FaceCentroid(mesh, min_sample);
-  } else if (min_sample >= 0) {
-    out.min_vertex = min_sample;
-    out.min_point = mesh.positions[min_sample];
-  }
-
+  FindMinimum(mesh, field, &out);
   std::vector<int32_t> parent(nf);
   std::iota(parent.begin(), parent.end(), 0);
-  JoinThinFaces(mesh, field, thin, t_min, parent);
-
-  // Regions in order of their lowest face id, then sorted by area.
-  std::vector<int32_t> root_region(nf, -1);
-  std::vector<ThinRegion> regions;
-  std::vector<int32_t> first_face;
-  std::vector<Vec3> moment;
-  for (int32_t f = 0; f < nf; ++f) {
-    if (!thin[f]) continue;
-    const int32_t root = FindRoot(parent, f);
-    if (root_region[root] < 0) {
-      root_region[root] = static_cast<int32_t>(regions.size());
-      ThinRegion r;
-      r.box_min = {kInf, kInf, kInf};
-      r.box_max = {-kInf, -kInf, -kInf};
-      regions.push_back(r);
-      first_face.push_back(f);
-      moment.push_back({});
-    }
-    const int32_t id = root_region[root];
-    out.face_region[f] = id;
-    ThinRegion& r = regions[id];
-    ++r.faces;
-    if (field.faces) {
-      if (r.min_face < 0 || values[f] < r.min_thickness) {
-        r.min_thickness = values[f];
-        r.min_face = f;
-        r.min_vertex = mesh.faces[f].v[0];
-      }
-      continue;
-    }
-    const Face& face = mesh.faces[f];
-    for (int k = 0; k < face.size; ++k) {
-      const int32_t v = face.v[k];
-      const double t = values[v];
-      if (r.min_vertex < 0 || t < r.min_thickness ||
-          (t == r.min_thickness && v < r.min_vertex)) {
-        r.min_thickness = t;
-        r.min_vertex = v;
-      }
-    }
-  }
-  // The parts below t_min, element by element in face order.
-  ForEachElement(mesh, [&](int64_t f, const Element& e) {
-    const int32_t id = out.face_region[f];
-    if (id < 0) return;
-    const Corners c = CornersOf(mesh, field, f, e);
-    const Piece piece = ClipBelow(c.p.data(), c.v.data(), e.n, t_min);
-    if (piece.n == 0) return;
-    const auto [m, centre] = MeasureAndCentroid(piece);
-    ThinRegion& r = regions[id];
-    r.area += m;
-    moment[id] += centre * m;
-    for (int k = 0; k < piece.n; ++k) {
-      for (int axis = 0; axis < 3; ++axis) {
-        r.box_min[axis] = std::min(r.box_min[axis], piece.p[k][axis]);
-        r.box_max[axis] = std::max(r.box_max[axis], piece.p[k][axis]);
-      }
-    }
-  });
-  for (size_t i = 0; i < regions.size(); ++i) {
-    ThinRegion& r = regions[i];
+  JoinThinFaces(mesh, field, flags.thin, t_min, parent);
+  RegionsFound found =
+      GroupThinFaces(mesh, field, flags.thin, parent, out.face_region);
+  MeasureParts(mesh, field, t_min, out.face_region, found);
+  for (size_t i = 0; i < found.regions.size(); ++i) {
+    ThinRegion& r = found.regions[i];
     r.min_point = r.min_face >= 0 ? FaceCentroid(mesh, r.min_face)
                                   : mesh.positions[r.min_vertex];
-    r.centroid = r.area > 0 ? moment[i] / r.area : r.min_point;
+    r.centroid = r.area > 0 ? found.moment[i] / r.area : r.min_point;
     r.speck = r.area < params.min_region_area;
   }
-  std::vector<int32_t> order(regions.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int32_t a, int32_t b) {
-    if (regions[a].area != regions[b].area) {
-      return regions[a].area > regions[b].area;
-    }
-    return first_face[a] < first_face[b];
-  });
-  std::vector<int32_t> rank(regions.size());
-  for (size_t i = 0; i < order.size(); ++i) {
-    rank[order[i]] = static_cast<int32_t>(i);
-    out.regions.push_back(regions[order[i]]);
-    out.thin_area += regions[order[i]].area;
-  }
-  for (int32_t& id : out.face_region) {
-    if (id >= 0) id = rank[id];
-  }
+  RankRegions(found, &out);
   return out;
 }
 

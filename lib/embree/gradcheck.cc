@@ -45,13 +45,20 @@ absl::StatusOr<Pass> Evaluate(const SdfEvaluator& ev, const SdfParams& params,
   return pass;
 }
 
+// `control` without its progress: its threads and cancellation.
+ComputeControl Quiet(const ComputeControl& control) {
+  ComputeControl c;
+  c.threads = control.threads;
+  c.cancelled = control.cancelled;
+  return c;
+}
+
 // The control of planned ray pass `index` of `passes`: its progress is
 // reported as the whole check's (each pass counts its vertices). A repeated
 // probe's pass (index -1) reports none, so progress never goes back.
 ComputeControl PassControl(const ComputeControl& control, int64_t index,
                            int64_t passes) {
-  ComputeControl c;
-  c.cancelled = control.cancelled;
+  ComputeControl c = Quiet(control);
   if (control.progress && index >= 0) {
     c.progress = [&control, index, passes](int64_t done, int64_t total) {
       control.progress(index * total + done, passes * total);
@@ -171,6 +178,222 @@ absl::StatusOr<GradCheckReport> RunGradCheck(const Mesh& mesh,
   return RunGradCheck(**created, params, options, control);
 }
 
+namespace {
+
+// The base pass and the derivatives every probe is compared with.
+struct Derivatives {
+  Pass base;
+  SparseJacobian jac;
+  std::vector<double> g;  // the VJP's weights, one per sample.
+  std::vector<Vec3> vjp;  // g^T J.
+  PenaltyResult pen;      // with options.penalty only.
+};
+
+// The base pass (planned pass 0 of `passes`) and its derivatives.
+absl::StatusOr<Derivatives> BaseDerivatives(const SdfEvaluator& ev,
+                                            const SdfParams& params,
+                                            const GradCheckOptions& options,
+                                            const ComputeControl& control,
+                                            int64_t passes) {
+  Derivatives d;
+  auto base = Evaluate(ev, params, options, PassControl(control, 0, passes));
+  if (!base.ok()) return base.status();
+  d.base = std::move(*base);
+  // The derivatives' own progress would restart the check's.
+  const ComputeControl quiet = Quiet(control);
+  auto jac = ComputeJacobian(ev, d.base.hits, quiet);
+  if (!jac.ok()) return jac.status();
+  d.jac = std::move(*jac);
+  // Rows are samples: vertices or faces (SPEC v2 §5c); columns vertices.
+  const int64_t ns = std::ssize(d.base.sdf.values);
+  d.g.resize(ns);
+  for (int64_t i = 0; i < ns; ++i) d.g[i] = std::sin(1.0 + 7.3 * i);
+  auto vjp = ComputeVjp(ev, d.base.hits, d.g, quiet);
+  if (!vjp.ok()) return vjp.status();
+  d.vjp = std::move(*vjp);
+  if (options.penalty) {
+    auto p =
+        ComputePenalty(ev, d.base.sdf, *options.penalty, &d.base.hits, quiet);
+    if (!p.ok()) return p.status();
+    d.pen = std::move(*p);
+  }
+  return d;
+}
+
+// What the probes of one check share.
+struct Probing {
+  SdfEvaluator& ev;
+  const SdfParams& params;
+  const GradCheckOptions& options;
+  const ComputeControl& control;
+  int64_t passes;  // planned ray passes, for progress.
+  const Derivatives& d;
+  double step;  // the first attempt's step: relative_step x diagonal.
+};
+
+absl::Status MoveVertex(SdfEvaluator& ev, int32_t j, const Vec3& x) {
+  return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
+}
+
+// The passes at x_j[c] + h (at[0]) and x_j[c] - h (at[1]); x_j is put back
+// whatever happens. `planned`: the planned index of the first of the two
+// passes, -1 for a repeat. Adds their rays to rep->rays_traced.
+absl::Status ProbePasses(const Probing& pr, int32_t j, int c, double h,
+                         int64_t planned, Pass at[2], GradCheckReport* rep) {
+  const Vec3 x0 = pr.ev.mesh().positions[j];
+  absl::Status status;
+  for (int s = 0; s < 2 && status.ok(); ++s) {
+    at[s] = Pass{};  // the previous attempt's pass goes first.
+    Vec3 x = x0;
+    x[c] += (s == 0 ? 1 : -1) * h;
+    status = MoveVertex(pr.ev, j, x);
+    if (!status.ok()) break;
+    auto pass = Evaluate(
+        pr.ev, pr.params, pr.options,
+        PassControl(pr.control, planned < 0 ? -1 : planned + s, pr.passes),
+        &pr.d.base);
+    if (!pass.ok()) {
+      status = pass.status();
+      break;
+    }
+    rep->rays_traced += pass->sdf.rays_traced;
+    at[s] = std::move(*pass);
+  }
+  absl::Status restored = MoveVertex(pr.ev, j, x0);
+  return status.ok() ? restored : status;
+}
+
+// The Jacobian rows of one probed coordinate over its attempts: each sample
+// keeps its first clean attempt.
+struct ProbeRows {
+  std::vector<GradCheckRow> rows;
+  std::vector<int64_t> row_of;  // per sample: its index in rows, or -1.
+};
+
+// One attempt's comparison of the Jacobian with the finite differences.
+struct AttemptSums {
+  bool all_clean = true;
+  double fd_dot = 0;     // g . (the clean finite differences)
+  double g_squares = 0;  // |g|^2 over the clean samples
+};
+
+// Compares column (j, c) of the Jacobian with the central differences of
+// `at` at step h, sample by sample, into `rows`.
+AttemptSums CompareSamples(const Probing& pr, int32_t j, int c, double h,
+                           const Pass at[2], ProbeRows* rows) {
+  const SparseJacobian& jac = pr.d.jac;
+  const Pass& base = pr.d.base;
+  AttemptSums sums;
+  for (int64_t p = 0; p < std::ssize(rows->row_of); ++p) {
+    GradCheckRow row{static_cast<int32_t>(p), j, c};
+    for (int64_t e = jac.row_offsets[p]; e < jac.row_offsets[p + 1]; ++e) {
+      if (jac.columns[e] == j) row.analytic = jac.values[e][c];
+    }
+    const double plus = at[0].sdf.values[p], minus = at[1].sdf.values[p];
+    const bool finite = std::isfinite(plus) && std::isfinite(minus) &&
+                        std::isfinite(base.sdf.values[p]);
+    row.fd = finite ? (plus - minus) / (2 * h) : 0;
+    row.step = h;
+    if (row.analytic == 0 && (row.fd == 0 || !finite)) continue;
+    row.clean = finite && SameRow(base.hits, at[0].hits, p) &&
+                SameRow(base.hits, at[1].hits, p);
+    sums.all_clean &= row.clean;
+    if (row.clean) {
+      sums.fd_dot += pr.d.g[p] * row.fd;
+      sums.g_squares += pr.d.g[p] * pr.d.g[p];
+      row.relative_error = GradCheckRelativeError(row.fd, row.analytic,
+                                                  GradCheckFloor(pr.step, h));
+    }
+    int64_t& index = rows->row_of[p];
+    if (index < 0) {
+      index = std::ssize(rows->rows);
+      rows->rows.push_back(row);
+    } else if (!rows->rows[index].clean && row.clean) {
+      rows->rows[index] = row;
+    }
+  }
+  return sums;
+}
+
+// The VJP's entry (j, c) against the clean finite differences of an
+// attempt at step h.
+void AddVjpRow(const Probing& pr, int32_t j, int c, double h,
+               const AttemptSums& sums, GradCheckReport* rep) {
+  GradCheckRow row{-1, j, c};
+  row.analytic = pr.d.vjp[j][c];
+  row.fd = sums.fd_dot;
+  row.step = h;
+  row.clean = true;
+  row.relative_error = GradCheckRelativeError(
+      sums.fd_dot, row.analytic,
+      GradCheckFloor(pr.step, h, std::sqrt(sums.g_squares)));
+  ++rep->vjp_checks;
+  rep->vjp_passed += row.relative_error <= pr.options.tolerance;
+  rep->vjp_rows.push_back(row);
+}
+
+// The penalty gradient's entry (j, c) against the central difference of
+// the penalties of `at` at step h.
+void AddPenaltyRow(const Probing& pr, int32_t j, int c, double h,
+                   const Pass at[2], GradCheckReport* rep) {
+  const HitTable& base = pr.d.base.hits;
+  GradCheckRow row{-1, j, c};
+  row.analytic = pr.d.pen.gradient[j][c];
+  row.measure_part = pr.d.pen.measure_gradient[j][c];
+  row.fd = (at[0].penalty - at[1].penalty) / (2 * h);
+  row.step = h;
+  row.clean = base.primitives == at[0].hits.primitives &&
+              base.primitives == at[1].hits.primitives &&
+              base.kept == at[0].hits.kept && base.kept == at[1].hits.kept;
+  if (row.analytic == 0 && row.fd == 0) return;
+  row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
+  if (row.clean) {
+    ++rep->penalty_clean;
+    rep->penalty_passed += row.relative_error <= pr.options.tolerance;
+  }
+  rep->penalty_rows.push_back(row);
+}
+
+// Probes coordinate c of vertex j (planned passes `planned` and the next).
+// Entries whose probe crossed an event are probed again with steps 10 and
+// 100 times smaller; each keeps its first clean attempt.
+absl::Status CheckCoordinate(const Probing& pr, int32_t j, int c,
+                             int64_t planned, GradCheckReport* rep) {
+  ProbeRows rows;
+  rows.row_of.assign(pr.d.base.sdf.values.size(), -1);
+  bool vjp_done = false;
+  Pass at[2];
+  for (int attempt = 0; attempt <= kRetries; ++attempt) {
+    const double h = pr.step * std::pow(0.1, attempt);
+    if (absl::Status st =
+            ProbePasses(pr, j, c, h, attempt == 0 ? planned : -1, at, rep);
+        !st.ok()) {
+      return st;
+    }
+    const AttemptSums sums = CompareSamples(pr, j, c, h, at, &rows);
+    if (sums.all_clean && !vjp_done) {
+      vjp_done = true;
+      AddVjpRow(pr, j, c, h, sums, rep);
+    }
+    if (attempt == 0 && pr.options.penalty) {
+      AddPenaltyRow(pr, j, c, h, at, rep);
+    }
+    if (sums.all_clean) break;
+    rep->retried += attempt < kRetries;
+  }
+  for (const GradCheckRow& row : rows.rows) {
+    if (row.clean) {
+      ++rep->clean;
+      rep->passed += row.relative_error <= pr.options.tolerance;
+      rep->worst = std::max(rep->worst, row.relative_error);
+    }
+    rep->rows.push_back(row);
+  }
+  return absl::OkStatus();
+}
+
+}  // namespace
+
 absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
                                              const SdfParams& params,
                                              const GradCheckOptions& options,
@@ -181,152 +404,27 @@ absl::StatusOr<GradCheckReport> RunGradCheck(SdfEvaluator& ev,
   }
   const std::vector<int32_t> probed = PickVertices(options, ev);
   const int64_t passes = GradCheckPasses(mesh, options);
-  auto base = Evaluate(ev, params, options, PassControl(control, 0, passes));
-  if (!base.ok()) return base.status();
-  // The derivatives' own progress would restart the check's.
-  ComputeControl quiet;
-  quiet.cancelled = control.cancelled;
-  auto jac = ComputeJacobian(ev, base->hits, quiet, params.threads);
-  if (!jac.ok()) return jac.status();
-  // Rows are samples: vertices or faces (SPEC v2 §5c); columns vertices.
-  const int64_t ns = std::ssize(base->sdf.values);
-  std::vector<double> g(ns);
-  for (int64_t i = 0; i < ns; ++i) g[i] = std::sin(1.0 + 7.3 * i);
-  auto vjp = ComputeVjp(ev, base->hits, g, quiet, params.threads);
-  if (!vjp.ok()) return vjp.status();
-  PenaltyResult pen;
-  if (options.penalty) {
-    auto p = ComputePenalty(ev, base->sdf, *options.penalty, &base->hits, quiet,
-                            params.threads);
-    if (!p.ok()) return p.status();
-    pen = std::move(*p);
-  }
-
+  auto d = BaseDerivatives(ev, params, options, control, passes);
+  if (!d.ok()) return d.status();
   GradCheckReport rep;
   rep.min_clean_fraction = options.min_clean_fraction;
-  rep.rays_traced = base->sdf.rays_traced;
-  rep.full_pass_rays = base->sdf.rays_traced;
-  rep.world_frame_vertices = base->sdf.world_frame_vertices;
-  SummarizeJacobian(*jac, rep);
-  const double step = options.relative_step * BoundingBoxDiagonal(mesh);
-  auto move = [&ev](int32_t j, const Vec3& x) {
-    return ev.UpdatePositions(std::vector<int32_t>{j}, std::vector<Vec3>{x});
-  };
-  // The passes at x_j[c] +- h; x_j is put back whatever happens.
-  // `planned`: the planned index of the first of the two passes, -1 for a
-  // repeat.
-  auto probe = [&](int32_t j, int c, double h, int64_t planned,
-                   Pass at[2]) -> absl::Status {
-    const Vec3 x0 = mesh.positions[j];
-    absl::Status status;
-    for (int s = 0; s < 2 && status.ok(); ++s) {
-      at[s] = Pass{};  // the previous attempt's pass goes first.
-      Vec3 x = x0;
-      x[c] += (s == 0 ? 1 : -1) * h;
-      status = move(j, x);
-      if (!status.ok()) break;
-      auto pass = Evaluate(
-          ev, params, options,
-          PassControl(control, planned < 0 ? -1 : planned + s, passes), &*base);
-      if (!pass.ok()) {
-        status = pass.status();
-        break;
-      }
-      rep.rays_traced += pass->sdf.rays_traced;
-      at[s] = std::move(*pass);
-    }
-    absl::Status restored = move(j, x0);
-    return status.ok() ? restored : status;
-  };
+  rep.rays_traced = d->base.sdf.rays_traced;
+  rep.full_pass_rays = d->base.sdf.rays_traced;
+  rep.world_frame_vertices = d->base.sdf.world_frame_vertices;
+  SummarizeJacobian(d->jac, rep);
+  const Probing pr{ev,
+                   params,
+                   options,
+                   control,
+                   passes,
+                   *d,
+                   options.relative_step * BoundingBoxDiagonal(mesh)};
   int64_t next_planned = 1;  // the base pass is 0.
   for (int32_t j : probed) {
     for (int c = 0; c < mesh.dimension; ++c, next_planned += 2) {
-      // Entries whose probe crossed an event are probed again with steps 10
-      // and 100 times smaller; each keeps its first clean attempt.
-      std::vector<GradCheckRow> rows;
-      std::vector<int64_t> row_of(ns, -1);
-      bool vjp_done = false;
-      Pass at[2];
-      for (int attempt = 0; attempt <= kRetries; ++attempt) {
-        const double h = step * std::pow(0.1, attempt);
-        if (absl::Status st =
-                probe(j, c, h, attempt == 0 ? next_planned : -1, at);
-            !st.ok()) {
-          return st;
-        }
-        bool all_clean = true;
-        double fd_dot = 0, g_squares = 0;
-        for (int64_t p = 0; p < ns; ++p) {
-          GradCheckRow row{static_cast<int32_t>(p), j, c};
-          for (int64_t e = jac->row_offsets[p]; e < jac->row_offsets[p + 1];
-               ++e) {
-            if (jac->columns[e] == j) row.analytic = jac->values[e][c];
-          }
-          const double plus = at[0].sdf.values[p], minus = at[1].sdf.values[p];
-          const bool finite = std::isfinite(plus) && std::isfinite(minus) &&
-                              std::isfinite(base->sdf.values[p]);
-          row.fd = finite ? (plus - minus) / (2 * h) : 0;
-          row.step = h;
-          if (row.analytic == 0 && (row.fd == 0 || !finite)) continue;
-          row.clean = finite && SameRow(base->hits, at[0].hits, p) &&
-                      SameRow(base->hits, at[1].hits, p);
-          all_clean &= row.clean;
-          if (row.clean) {
-            fd_dot += g[p] * row.fd;
-            g_squares += g[p] * g[p];
-            row.relative_error = GradCheckRelativeError(
-                row.fd, row.analytic, GradCheckFloor(step, h));
-          }
-          if (row_of[p] < 0) {
-            row_of[p] = std::ssize(rows);
-            rows.push_back(row);
-          } else if (!rows[row_of[p]].clean && row.clean) {
-            rows[row_of[p]] = row;
-          }
-        }
-        if (all_clean && !vjp_done) {
-          vjp_done = true;
-          GradCheckRow row{-1, j, c};
-          row.analytic = (*vjp)[j][c];
-          row.fd = fd_dot;
-          row.step = h;
-          row.clean = true;
-          row.relative_error = GradCheckRelativeError(
-              fd_dot, row.analytic,
-              GradCheckFloor(step, h, std::sqrt(g_squares)));
-          ++rep.vjp_checks;
-          rep.vjp_passed += row.relative_error <= options.tolerance;
-          rep.vjp_rows.push_back(row);
-        }
-        if (attempt == 0 && options.penalty) {
-          GradCheckRow row{-1, j, c};
-          row.analytic = pen.gradient[j][c];
-          row.measure_part = pen.measure_gradient[j][c];
-          row.fd = (at[0].penalty - at[1].penalty) / (2 * h);
-          row.step = h;
-          row.clean = base->hits.primitives == at[0].hits.primitives &&
-                      base->hits.primitives == at[1].hits.primitives &&
-                      base->hits.kept == at[0].hits.kept &&
-                      base->hits.kept == at[1].hits.kept;
-          if (row.analytic != 0 || row.fd != 0) {
-            row.relative_error = GradCheckRelativeError(row.fd, row.analytic);
-            if (row.clean) {
-              ++rep.penalty_clean;
-              rep.penalty_passed += row.relative_error <= options.tolerance;
-            }
-            rep.penalty_rows.push_back(row);
-          }
-        }
-        if (all_clean) break;
-        rep.retried += attempt < kRetries;
-      }
-      for (const GradCheckRow& row : rows) {
-        if (row.clean) {
-          ++rep.clean;
-          rep.passed += row.relative_error <= options.tolerance;
-          rep.worst = std::max(rep.worst, row.relative_error);
-        }
-        rep.rows.push_back(row);
+      if (absl::Status s = CheckCoordinate(pr, j, c, next_planned, &rep);
+          !s.ok()) {
+        return s;
       }
     }
   }

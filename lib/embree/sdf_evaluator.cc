@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -21,6 +20,7 @@
 #include "lib/core/normalized_sdf.h"
 #include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
+#include "lib/core/stopwatch.h"
 #include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/inscribed_ball_query.h"
@@ -373,279 +373,403 @@ void SdfEvaluator::RaysToRetrace(
   }
 }
 
-absl::StatusOr<SdfResult> SdfEvaluator::Compute(
-    const SdfParams& params, const ComputeControl& control, HitTable* hits,
-    const PreviousPass* previous) const {
-  const bool keep_hits = hits != nullptr;
+namespace {
+
+// What a pass computes with, resolved from its parameters and the mesh
+// (SPEC §3-5).
+struct PassSetup {
+  ResolvedParams resolved;    // resolved.params: the pass's parameters.
+  std::vector<ConeRay> cone;  // one ray (the axis) but for kCone.
+  bool sphere = false;        // kSphere: the inscribed ball, no rays.
+  bool faces = false;         // face samples (SPEC v2 §5c), else vertices.
+  int64_t samples = 0;
+  int num_rays = 0;
+  double t_min = 0, t_max = 0;  // hits count within [t_min, t_max].
+  RayScene::FanLimits limits;   // the same in the tracer's precision.
+  double cone_half_angle = 0;
+  BallLimits ball;
+};
+
+// Errors: InvalidArgument for bad params.
+absl::StatusOr<PassSetup> SetUpPass(const MeshGeometry& g,
+                                    const SdfParams& params) {
   if (absl::Status s = ValidateParams(params); !s.ok()) return s;
-  const ResolvedParams resolved = ResolveParams(params, mesh_.dimension);
-  std::vector<ConeRay> cone;
-  const bool sphere = params.method == SdfMethod::kSphere;
-  const bool faces = params.samples == SampleSet::kFaces;
+  const int dimension = g.mesh().dimension;
+  PassSetup setup;
+  setup.resolved = ResolveParams(params, dimension);
+  const ResolvedParams& resolved = setup.resolved;
+  setup.sphere = params.method == SdfMethod::kSphere;
+  setup.faces = params.samples == SampleSet::kFaces;
   if (params.method != SdfMethod::kCone) {
-    cone.push_back({Vec3(0, 0, 1), 0.0, 1.0});
+    setup.cone.push_back({Vec3(0, 0, 1), 0.0, 1.0});
   } else {
-    auto made = MakeCone(mesh_.dimension, resolved.aperture_radians,
-                         resolved.rays, resolved.min_weight_angle);
+    auto made = MakeCone(dimension, resolved.aperture_radians, resolved.rays,
+                         resolved.min_weight_angle);
     if (!made.ok()) return made.status();
-    cone = std::move(*made);
+    setup.cone = std::move(*made);
   }
-  // Samples: vertices, or face centroids (SPEC v2 §5c).
-  const int64_t ns = NumSamples(mesh_, params.samples);
-  const int num_rays = static_cast<int>(cone.size());
-  const double t_min = params.self_hit_epsilon * mean_edge_length_;
-  const double t_max =
-      params.max_distance > 0 ? params.max_distance : bbox_diagonal_;
-  RayScene::FanLimits limits;
-  limits.t_min = static_cast<float>(t_min);
+  setup.samples = NumSamples(g.mesh(), params.samples);
+  setup.num_rays = static_cast<int>(setup.cone.size());
+  setup.t_min = params.self_hit_epsilon * g.mean_edge_length();
+  setup.t_max =
+      params.max_distance > 0 ? params.max_distance : g.bounding_box_diagonal();
+  RayScene::FanLimits& limits = setup.limits;
+  limits.t_min = static_cast<float>(setup.t_min);
   limits.t_near = PowerOfTwoBelow(limits.t_min);
   limits.near_below = 2 * limits.t_near;
-  // Slightly beyond t_max so the double-precision check below decides.
-  limits.t_far = std::nextafter(static_cast<float>(t_max),
+  // Slightly beyond t_max so the double-precision check decides.
+  limits.t_far = std::nextafter(static_cast<float>(setup.t_max),
                                 std::numeric_limits<float>::max());
+  setup.cone_half_angle = params.method == SdfMethod::kNormalRay
+                              ? 0
+                              : resolved.aperture_radians / 2;
+  setup.ball.cap = setup.t_max / 2;
+  setup.ball.min_radius = setup.t_min / 2;
+  setup.ball.cos_beta = resolved.contact_cosine;
+  setup.ball.fan = limits;
+  return setup;
+}
 
-  std::unique_ptr<ReusePlan> plan;
-  if (previous != nullptr && previous->hits != nullptr &&
-      previous->result != nullptr && !sphere && !faces) {
-    auto planned =
-        PlanReuse(*previous, cone, resolved, limits.t_near, t_min, t_max);
-    if (!planned.ok()) return planned.status();
-    plan = std::move(*planned);
-  }
-
+// What the workers write, an entry per sample (a row of K in the tables);
+// the tables and `near` stay empty when no hit table is kept. The tables'
+// rows are first written by the workers.
+struct PassOutput {
   SdfResult result;
-  result.resolved = resolved;
+  TableVector<int32_t> table;  // the hit primitive per ray, -1 for none.
+  TableVector<uint8_t> kept_table;
+  std::vector<uint8_t> near;
+};
+
+PassOutput NewOutput(const PassSetup& setup, bool keep_hits) {
+  const int64_t ns = setup.samples;
+  PassOutput out;
+  SdfResult& result = out.result;
+  result.resolved = setup.resolved;
   result.values.assign(ns, kNaN);
   result.status.assign(ns, VertexStatus::kOk);
   result.hits.assign(ns, 0);
   result.kept.assign(ns, 0);
-  if (params.opposite_points)
+  if (setup.resolved.params.opposite_points) {
     result.opposite.assign(ns, Vec3(kNaN, kNaN, kNaN));
-  BallLimits ball;
-  ball.cap = t_max / 2;
-  ball.min_radius = t_min / 2;
-  ball.cos_beta = resolved.contact_cosine;
-  ball.fan = limits;
+  }
+  if (keep_hits) {
+    out.table.resize(ns * setup.num_rays);
+    out.kept_table.resize(ns * setup.num_rays);
+    out.near.assign(ns, 0);
+  }
+  return out;
+}
+
+// One worker's buffers, reused from sample to sample, and its counts.
+struct SampleScratch {
+  explicit SampleScratch(int num_rays)
+      : t(num_rays),
+        prims(num_rays),
+        candidates(num_rays),
+        dirs(num_rays),
+        kept(num_rays) {
+    estimator.reserve(num_rays);
+  }
+  std::vector<double> t;       // per ray: the hit's distance, NaN for none.
+  std::vector<int32_t> prims;  // per ray: the hit primitive, -1 for none.
+  std::vector<HitCandidates> candidates;
+  std::vector<int32_t> excluded, retrace, around, dropped, merged;
+  std::vector<Vec3> dirs, retrace_dirs;
+  std::vector<uint8_t> kept;
+  std::vector<double> estimator;
+  int64_t traced = 0, world_frames = 0;
+};
+
+// A sample's rows of the hit tables; null when none are kept.
+struct SampleRows {
+  int32_t* prims = nullptr;
+  uint8_t* kept = nullptr;
+};
+
+}  // namespace
+
+// The work of one pass on one sample (SPEC §3-5): its cone, its rays (or
+// ball) and its value, written to the pass's output. Workers call Sample
+// for disjoint samples concurrently.
+class SdfEvaluator::SampleTracer {
+ public:
+  SampleTracer(const SdfEvaluator& ev, const PassSetup& setup,
+               const ReusePlan* plan, const BallTree* ball_tree,
+               PassOutput* out)
+      : ev_(ev),
+        setup_(setup),
+        params_(setup.resolved.params),
+        plan_(plan),
+        ball_tree_(ball_tree),
+        out_(*out) {}
+
+  // Sample i of the pass's visiting order.
+  void Sample(int64_t i, SampleScratch& s) const {
+    // Sample p: vertex order_[i], or face i.
+    const int64_t p = setup_.faces ? i : ev_.order_[i];
+    SampleRows rows;
+    if (!out_.table.empty()) {
+      rows = {&out_.table[p * setup_.num_rays],
+              &out_.kept_table[p * setup_.num_rays]};
+      std::fill_n(rows.prims, setup_.num_rays, -1);
+      std::fill_n(rows.kept, setup_.num_rays, 0);
+    }
+    SdfResult& result = out_.result;
+    if (!setup_.faces && ev_.topo_.vertex_faces.Of(p).empty()) {
+      result.status[p] = VertexStatus::kNoFaces;
+      return;
+    }
+    // The ball needs the axis only, not the rays' frame.
+    const SampleCone sample = MakeSampleCone(
+        ev_.mesh_, ev_.topo_, params_.samples, p,
+        [&] {
+          return UnnormalizedNormal(ev_.mesh_, ev_.topo_, p,
+                                    params_.normal_weighting);
+        },
+        /*frame=*/!setup_.sphere);
+    if (!sample.cone.valid) {
+      result.status[p] = VertexStatus::kDegenerateNormal;
+      return;
+    }
+    s.world_frames += sample.cone.world_frame;
+    if (setup_.sphere) {
+      Ball(p, sample, rows, s);
+    } else {
+      Rays(p, sample, rows, s);
+    }
+  }
+
+ private:
+  // kSphere: the inscribed ball at the sample, one "ray" in the tables.
+  void Ball(int64_t p, const SampleCone& sample, const SampleRows& rows,
+            SampleScratch& s) const {
+    SampleExclusions(ev_.mesh_, ev_.topo_, params_.samples, /*ball=*/true, p,
+                     &s.excluded);
+    const VertexBall b =
+        InscribedBall(ev_, *ev_.scene_, *ball_tree_, sample.x,
+                      sample.cone.axis(), s.excluded, setup_.ball);
+    ++s.traced;
+    if (rows.prims) {
+      *rows.prims = b.prim;
+      *rows.kept = static_cast<uint8_t>(b.contact.kind + 1);
+    }
+    SdfResult& result = out_.result;
+    if (b.prim < 0) {
+      result.status[p] = VertexStatus::kNoHit;
+      return;
+    }
+    result.values[p] = 2 * b.contact.radius;
+    result.hits[p] = result.kept[p] = 1;
+    if (params_.opposite_points) {
+      const PrimitiveCorners pc = ev_.Corners(b.prim);
+      result.opposite[p] = pc.a * b.contact.lambda[0] +
+                           pc.b * b.contact.lambda[1] +
+                           (pc.segment ? Vec3() : pc.c * b.contact.lambda[2]);
+    }
+  }
+
+  // The cone's rays: all traced, or (reusing the plan's pass) those whose
+  // hit may have changed, the others' hits taken from that pass.
+  void Rays(int64_t p, const SampleCone& sample, const SampleRows& rows,
+            SampleScratch& s) const {
+    const bool reuse = plan_ && !plan_->dirty[p] &&
+                       !(plan_->t_min_changed && plan_->hits->near[p]);
+    const int num_rays = setup_.num_rays;
+    const VertexCone& vc = sample.cone;
+    const double reach = MaxAbs(sample.x - ev_.scene_->origin());
+    // The directions, computed only when a ray needs them.
+    bool have_dirs = false;
+    auto directions = [&] {
+      if (have_dirs) return;
+      for (int k = 0; k < num_rays; ++k) {
+        s.dirs[k] = RayDirection(vc.frame, setup_.cone[k]);
+      }
+      have_dirs = true;
+    };
+    std::fill(s.t.begin(), s.t.end(), kNaN);
+    s.retrace.clear();
+    if (reuse) {
+      ev_.RaysToRetrace(*plan_, p, sample.x, vc.frame.axis,
+                        setup_.cone_half_angle, reach, setup_.limits.t_far,
+                        directions, s.dirs, absl::MakeSpan(s.prims),
+                        absl::MakeSpan(s.t), &s.retrace);
+      if (s.retrace.empty()) {
+        CopyReused(p, rows);
+        return;
+      }
+    } else {
+      for (int k = 0; k < num_rays; ++k) s.retrace.push_back(k);
+    }
+    directions();
+    const bool near = Trace(p, sample.x, reach, reuse, s);
+    Estimate(p, sample.x, reuse, near, rows, s);
+  }
+
+  // Sample p's value, statuses and rows as the plan's pass had them.
+  void CopyReused(int64_t p, const SampleRows& rows) const {
+    const SdfResult& r = *plan_->result;
+    SdfResult& result = out_.result;
+    result.values[p] = r.values[p];
+    result.status[p] = r.status[p];
+    result.hits[p] = r.hits[p];
+    result.kept[p] = r.kept[p];
+    if (params_.opposite_points) result.opposite[p] = r.opposite[p];
+    if (rows.prims) {
+      std::copy_n(plan_->hits->Row(p).data(), setup_.num_rays, rows.prims);
+      std::copy_n(plan_->hits->KeptRow(p).data(), setup_.num_rays, rows.kept);
+      out_.near[p] = plan_->hits->near[p];
+    }
+  }
+
+  // Traces the rays s.retrace (in packets), prefetching each candidate
+  // primitive, then picks each ray's hit in double precision once it has
+  // arrived, into s.prims and s.t. Returns whether a hit lay near t_min
+  // (HitTable::near), in this pass or in the reused one.
+  bool Trace(int64_t p, const Vec3& x, double reach, bool reuse,
+             SampleScratch& s) const {
+    absl::Span<const Vec3> fan_dirs = s.dirs;
+    if (reuse) {
+      s.retrace_dirs.clear();
+      for (int k : s.retrace) s.retrace_dirs.push_back(s.dirs[k]);
+      fan_dirs = s.retrace_dirs;
+    }
+    SampleExclusions(ev_.mesh_, ev_.topo_, params_.samples, /*ball=*/false, p,
+                     &s.excluded);
+    const auto fan = absl::MakeSpan(s.candidates.data(), s.retrace.size());
+    ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan);
+    for (const HitCandidates& c : fan) {
+      if (c.count() > 0) ev_.PrefetchPrimitive(c[0].prim);
+    }
+    for (const HitCandidates& c : fan) {
+      if (c.count() > 0) ev_.PrefetchCorners(c[0].prim);
+    }
+    bool near = reuse && plan_->hits->near[p];
+    for (size_t j = 0; j < s.retrace.size(); ++j) {
+      if (fan[j].near()) {
+        near = true;
+        DropHitsBelowTMin(ev_, *ev_.scene_, x, fan_dirs[j], setup_.t_min,
+                          setup_.limits, s.excluded, &fan[j], &s.dropped,
+                          &s.merged);
+      }
+      const int k = s.retrace[j];
+      s.prims[k] = PickClosest(ev_, fan[j], s.excluded, setup_.t_min, reach, x,
+                               fan_dirs[j], &s.around, &s.t[k]);
+    }
+    s.traced += std::ssize(s.retrace);
+    return near;
+  }
+
+  // The hits within t_max, the cone estimate over them (SPEC §5) and, when
+  // asked, the opposite point; writes sample p's entries and rows.
+  void Estimate(int64_t p, const Vec3& x, bool reuse, bool near,
+                const SampleRows& rows, SampleScratch& s) const {
+    const int num_rays = setup_.num_rays;
+    for (int k = 0; k < num_rays; ++k) {
+      // A reused hit's distance not measured yet, as when it was picked.
+      if (reuse && s.prims[k] >= 0 && std::isnan(s.t[k])) {
+        s.t[k] = HitDistance(ev_.Corners(s.prims[k]), x, s.dirs[k]);
+      }
+      if (!(s.t[k] <= setup_.t_max)) {
+        s.t[k] = kNaN;
+        s.prims[k] = -1;
+      }
+      if (rows.prims) rows.prims[k] = s.prims[k];
+    }
+    const ConeEstimate est = EstimateCone(s.t, setup_.cone, params_.kappa,
+                                          absl::MakeSpan(s.kept), s.estimator);
+    if (rows.kept) std::copy(s.kept.begin(), s.kept.end(), rows.kept);
+    if (!out_.near.empty()) out_.near[p] = near;
+    SdfResult& result = out_.result;
+    result.hits[p] = est.hits;
+    result.kept[p] = est.kept;
+    if (est.kept == 0) {
+      result.status[p] = VertexStatus::kNoHit;
+      return;
+    }
+    result.values[p] = est.value;
+    if (params_.opposite_points) {
+      Vec3 sum;
+      double weights = 0;
+      for (int k = 0; k < num_rays; ++k) {
+        if (!s.kept[k]) continue;
+        sum += (x + s.dirs[k] * s.t[k]) * setup_.cone[k].weight;
+        weights += setup_.cone[k].weight;
+      }
+      result.opposite[p] = sum / weights;
+    }
+  }
+
+  const SdfEvaluator& ev_;
+  const PassSetup& setup_;
+  const SdfParams& params_;
+  const ReusePlan* plan_;      // null: trace every ray.
+  const BallTree* ball_tree_;  // kSphere only.
+  PassOutput& out_;
+};
+
+absl::StatusOr<SdfResult> SdfEvaluator::Compute(
+    const SdfParams& params, const ComputeControl& control, HitTable* hits,
+    const PreviousPass* previous) const {
+  auto setup = SetUpPass(*this, params);
+  if (!setup.ok()) return setup.status();
+  if (absl::Status s = ValidateControl(control); !s.ok()) return s;
+  std::unique_ptr<ReusePlan> plan;
+  if (previous != nullptr && previous->hits != nullptr &&
+      previous->result != nullptr && !setup->sphere && !setup->faces) {
+    auto planned = PlanReuse(*previous, setup->cone, setup->resolved,
+                             setup->limits.t_near, setup->t_min, setup->t_max);
+    if (!planned.ok()) return planned.status();
+    plan = std::move(*planned);
+  }
+  PassOutput out = NewOutput(*setup, hits != nullptr);
   std::unique_ptr<BallTree> ball_tree;
-  if (sphere) {
+  if (setup->sphere) {
     auto made = BallTree::Create(mesh_, topo_);
     if (!made.ok()) return made.status();
     ball_tree = std::move(*made);
   }
-  // The table's rows are first written by the workers (each sample's row
-  // at the start of its iteration).
-  TableVector<int32_t> table;
-  TableVector<uint8_t> kept_table;
-  std::vector<uint8_t> near;
-  if (keep_hits) {
-    table.resize(ns * num_rays);
-    kept_table.resize(ns * num_rays);
-    near.assign(ns, 0);
-  }
-
+  const int64_t ns = setup->samples;
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
-  const auto start = std::chrono::steady_clock::now();
-  const double cone_half_angle = params.method == SdfMethod::kNormalRay
-                                     ? 0
-                                     : resolved.aperture_radians / 2;
+  const Stopwatch watch;
+  const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(), &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
     if (!gate.Poll()) return;
-    std::vector<double> t(num_rays);
-    std::vector<int32_t> prims(num_rays);
-    std::vector<HitCandidates> candidates(num_rays);
-    std::vector<int32_t> excluded, retrace, around, dropped, merged;
-    std::vector<Vec3> dirs(num_rays), retrace_dirs;
-    std::vector<uint8_t> kept(num_rays);
-    std::vector<double> scratch;
-    scratch.reserve(num_rays);
-    int64_t traced = 0, world_frames = 0;
-    for (int64_t i = range.begin(); i < range.end(); ++i) {
-      // Sample p: vertex order_[i], or face i.
-      const int64_t p = faces ? i : order_[i];
-      const bool reuse = plan && !plan->dirty[p] &&
-                         !(plan->t_min_changed && plan->hits->near[p]);
-      int32_t* row = table.empty() ? nullptr : &table[p * num_rays];
-      uint8_t* kept_row = table.empty() ? nullptr : &kept_table[p * num_rays];
-      if (row) {
-        std::fill_n(row, num_rays, -1);
-        std::fill_n(kept_row, num_rays, 0);
-      }
-      if (!faces && topo_.vertex_faces.Of(p).empty()) {
-        result.status[p] = VertexStatus::kNoFaces;
-        continue;
-      }
-      // The ball needs the axis only, not the rays' frame.
-      const SampleCone sample = MakeSampleCone(
-          mesh_, topo_, params.samples, p,
-          [&] {
-            return UnnormalizedNormal(mesh_, topo_, p, params.normal_weighting);
-          },
-          /*frame=*/!sphere);
-      const VertexCone& vc = sample.cone;
-      if (!vc.valid) {
-        result.status[p] = VertexStatus::kDegenerateNormal;
-        continue;
-      }
-      world_frames += vc.world_frame;
-      const Vec3& x = sample.x;
-      if (sphere) {
-        SampleExclusions(mesh_, topo_, params.samples, /*ball=*/true, p,
-                         &excluded);
-        const VertexBall b = InscribedBall(*this, *scene_, *ball_tree, x,
-                                           vc.axis(), excluded, ball);
-        ++traced;
-        if (row) {  // one "ray" per vertex.
-          *row = b.prim;
-          *kept_row = static_cast<uint8_t>(b.contact.kind + 1);
-        }
-        if (b.prim < 0) {
-          result.status[p] = VertexStatus::kNoHit;
-          continue;
-        }
-        result.values[p] = 2 * b.contact.radius;
-        result.hits[p] = result.kept[p] = 1;
-        if (params.opposite_points) {
-          const PrimitiveCorners pc = Corners(b.prim);
-          result.opposite[p] =
-              pc.a * b.contact.lambda[0] + pc.b * b.contact.lambda[1] +
-              (pc.segment ? Vec3() : pc.c * b.contact.lambda[2]);
-        }
-        continue;
-      }
-      const double reach = MaxAbs(x - scene_->origin());
-      // The directions, computed only when a ray needs them.
-      bool have_dirs = false;
-      auto directions = [&] {
-        if (have_dirs) return;
-        for (int k = 0; k < num_rays; ++k) {
-          dirs[k] = RayDirection(vc.frame, cone[k]);
-        }
-        have_dirs = true;
-      };
-      // Which rays to trace: all, or (reusing) those whose hit may change.
-      std::fill(t.begin(), t.end(), kNaN);
-      retrace.clear();
-      if (reuse) {
-        const int32_t* old_row = plan->hits->Row(p).data();
-        RaysToRetrace(*plan, p, x, vc.frame.axis, cone_half_angle, reach,
-                      limits.t_far, directions, dirs, absl::MakeSpan(prims),
-                      absl::MakeSpan(t), &retrace);
-        if (retrace.empty()) {
-          const SdfResult& r = *plan->result;
-          result.values[p] = r.values[p];
-          result.status[p] = r.status[p];
-          result.hits[p] = r.hits[p];
-          result.kept[p] = r.kept[p];
-          if (params.opposite_points) result.opposite[p] = r.opposite[p];
-          if (row) {
-            std::copy_n(old_row, num_rays, row);
-            std::copy_n(plan->hits->KeptRow(p).data(), num_rays, kept_row);
-            near[p] = plan->hits->near[p];
-          }
-          continue;
-        }
-      } else {
-        for (int k = 0; k < num_rays; ++k) retrace.push_back(k);
-      }
-      directions();
-      // Trace (in packets), prefetching each candidate primitive, then pick
-      // each ray's hit in double precision once it has arrived.
-      absl::Span<const Vec3> fan_dirs = dirs;
-      if (reuse) {
-        retrace_dirs.clear();
-        for (int k : retrace) retrace_dirs.push_back(dirs[k]);
-        fan_dirs = retrace_dirs;
-      }
-      SampleExclusions(mesh_, topo_, params.samples, /*ball=*/false, p,
-                       &excluded);
-      const auto fan = absl::MakeSpan(candidates.data(), retrace.size());
-      scene_->IntersectFan(x, fan_dirs, limits, excluded, fan);
-      for (const HitCandidates& c : fan) {
-        if (c.count() > 0) PrefetchPrimitive(c[0].prim);
-      }
-      for (const HitCandidates& c : fan) {
-        if (c.count() > 0) PrefetchCorners(c[0].prim);
-      }
-      bool vertex_near = reuse && plan->hits->near[p];
-      for (size_t j = 0; j < retrace.size(); ++j) {
-        if (fan[j].near()) {
-          vertex_near = true;
-          DropHitsBelowTMin(*this, *scene_, x, fan_dirs[j], t_min, limits,
-                            excluded, &fan[j], &dropped, &merged);
-        }
-        prims[retrace[j]] =
-            PickClosest(*this, fan[j], excluded, t_min, reach, x, fan_dirs[j],
-                        &around, &t[retrace[j]]);
-      }
-      for (int k = 0; k < num_rays; ++k) {
-        // A reused hit's distance not measured yet, as when it was picked.
-        if (reuse && prims[k] >= 0 && std::isnan(t[k])) {
-          t[k] = HitDistance(Corners(prims[k]), x, dirs[k]);
-        }
-        if (!(t[k] <= t_max)) {
-          t[k] = kNaN;
-          prims[k] = -1;
-        }
-        if (row) row[k] = prims[k];
-      }
-      traced += std::ssize(retrace);
-      const ConeEstimate est =
-          EstimateCone(t, cone, params.kappa, absl::MakeSpan(kept), scratch);
-      if (kept_row) std::copy(kept.begin(), kept.end(), kept_row);
-      if (!near.empty()) near[p] = vertex_near;
-      result.hits[p] = est.hits;
-      result.kept[p] = est.kept;
-      if (est.kept == 0) {
-        result.status[p] = VertexStatus::kNoHit;
-      } else {
-        result.values[p] = est.value;
-        if (params.opposite_points) {
-          Vec3 sum;
-          double weights = 0;
-          for (int k = 0; k < num_rays; ++k) {
-            if (!kept[k]) continue;
-            sum += (x + dirs[k] * t[k]) * cone[k].weight;
-            weights += cone[k].weight;
-          }
-          result.opposite[p] = sum / weights;
-        }
-      }
-    }
-    rays_traced += traced;
-    world_frame_vertices += world_frames;
+    SampleScratch s(setup->num_rays);
+    for (int64_t i = range.begin(); i < range.end(); ++i) tracer.Sample(i, s);
+    rays_traced += s.traced;
+    world_frame_vertices += s.world_frames;
     gate.Done(range.size());
   };
-  tbb::task_arena arena(ThreadCount(params.threads));
+  tbb::task_arena arena(ThreadCount(control.threads));
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, ns, kVertexBlock), process,
                       tbb::simple_partitioner());
   });
   if (gate.stopped()) return absl::CancelledError("SDF computation cancelled");
-  result.trace_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-          .count();
+  SdfResult& result = out.result;
+  result.trace_seconds = watch.Seconds();
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
   result.normalized = NormalizedSdf(result.values);
-  result.missing = faces ? CountMissingFaces(mesh_, result.values)
-                         : CountMissing(mesh_, result.values);
-  if (keep_hits) {
-    hits->resolved = resolved;
-    hits->cone = std::move(cone);
-    hits->primitives = std::move(table);
-    hits->kept = std::move(kept_table);
-    hits->t_min = t_min;
-    hits->t_max = t_max;
+  result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
+                                : CountMissing(mesh_, result.values);
+  if (hits != nullptr) {
+    hits->resolved = setup->resolved;
+    hits->cone = std::move(setup->cone);
+    hits->primitives = std::move(out.table);
+    hits->kept = std::move(out.kept_table);
+    hits->t_min = setup->t_min;
+    hits->t_max = setup->t_max;
     hits->generation = generation_;
     hits->positions = mesh_.positions;
-    hits->near = std::move(near);
+    hits->near = std::move(out.near);
     hits->scene_origin = scene_->origin();
     hits->extrude_half_height = scene_->extrude_half_height();
-    hits->t_near = limits.t_near;
+    hits->t_near = setup->limits.t_near;
     hits->num_primitives = std::ssize(topo_.primitives);
   }
-  return result;
+  return std::move(result);
 }
 
 int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params) {

@@ -82,8 +82,8 @@ class SdfEvaluator : public MeshGeometry {
   // tracer, over half the vertices moved) gives a full pass, as does every
   // kSphere pass (the ball has no rays to reuse; it builds its own BVH,
   // ball_tree.h) and every face-sample pass. Errors: InvalidArgument for bad
-  // params; Cancelled when control.cancelled() returned true; Internal from
-  // Embree.
+  // params or control.threads; Cancelled when control.cancelled() returned
+  // true; Internal from Embree.
   absl::StatusOr<SdfResult> Compute(
       const SdfParams& params, const ComputeControl& control = {},
       HitTable* hits = nullptr, const PreviousPass* previous = nullptr) const;
@@ -125,6 +125,8 @@ class SdfEvaluator : public MeshGeometry {
                      absl::Span<double> t, std::vector<int32_t>* retrace) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
+  // One pass's work on one sample (sdf_evaluator.cc).
+  class SampleTracer;
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   RayTest ray_test_ = RayTest::kWatertight;

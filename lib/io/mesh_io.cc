@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/match.h"
@@ -58,8 +59,7 @@ uint32_t LittleEndian32(absl::string_view bytes) {
 
 // The lines of the first `limit` bytes (split at LF or CR), without the
 // partial last one when the text goes on.
-std::vector<absl::string_view> HeadLines(absl::string_view text,
-                                         size_t limit) {
+std::vector<absl::string_view> HeadLines(absl::string_view text, size_t limit) {
   const absl::string_view head = text.substr(0, limit);
   std::vector<absl::string_view> lines =
       absl::StrSplit(head, absl::ByAnyChar("\r\n"), absl::SkipEmpty());
@@ -77,85 +77,104 @@ absl::string_view FirstToken(absl::string_view text) {
   return "";
 }
 
-}  // namespace
+// What the sniffers below look at.
+struct SniffInput {
+  absl::string_view all;   // the contents as given.
+  absl::string_view text;  // without a UTF-8 byte-order mark.
+  absl::string_view head;  // text's first 4096 bytes.
+  bool has_nul = false;    // in head.
+};
 
-io::Sniffed SniffMeshContents(absl::string_view contents) {
-  const absl::string_view all = contents;
+// Text in a wide encoding: UTF-32 or UTF-16 with a byte-order mark, or
+// UTF-16 without one.
+std::optional<io::Sniffed> SniffWideText(absl::string_view contents) {
   const size_t n = contents.size();
   // Byte-order marks of the wide encodings (UTF-32's first: FF FE 00 00
   // starts as UTF-16 LE's FF FE does).
   if (absl::StartsWith(contents, absl::string_view("\xFF\xFE\0\0", 4)) ||
       absl::StartsWith(contents, absl::string_view("\0\0\xFE\xFF", 4))) {
-    return {"utf-32", "UTF-32 text (byte-order mark)",
-            "save it as UTF-8 or ASCII"};
+    return io::Sniffed{"utf-32", "UTF-32 text (byte-order mark)",
+                       "save it as UTF-8 or ASCII"};
   }
   if (absl::StartsWith(contents, "\xFF\xFE") ||
       absl::StartsWith(contents, "\xFE\xFF")) {
-    return {"utf-16",
-            absl::StrCat("UTF-16 text (byte-order mark ",
-                         contents[0] == '\xFF' ? "FF FE, little" : "FE FF, big",
-                         "-endian)"),
-            "save it as UTF-8 or ASCII"};
+    return io::Sniffed{
+        "utf-16",
+        absl::StrCat("UTF-16 text (byte-order mark ",
+                     contents[0] == '\xFF' ? "FF FE, little" : "FE FF, big",
+                     "-endian)"),
+        "save it as UTF-8 or ASCII"};
   }
   // UTF-16 without a mark: ASCII characters each followed (LE) or
   // preceded (BE) by a NUL byte.
-  if (n >= 8) {
-    const size_t m = std::min<size_t>(n, 512) & ~size_t{1};
-    int nul[2] = {0, 0}, printable[2] = {0, 0};
-    for (size_t i = 0; i < m; ++i) {
-      const unsigned char c = contents[i];
-      nul[i % 2] += c == 0;
-      printable[i % 2] += c == '\t' || c == '\n' || c == '\r' ||
-                          (c >= 0x20 && c < 0x7f);
-    }
-    for (int odd : {0, 1}) {
-      if (nul[odd] * 10 >= static_cast<int>(m / 2) * 9 &&
-          printable[1 - odd] * 10 >= static_cast<int>(m / 2) * 9) {
-        return {"utf-16",
-                absl::StrCat("UTF-16 text (NUL bytes between the characters, ",
-                             odd ? "little" : "big", "-endian, no byte-order mark)"),
-                "save it as UTF-8 or ASCII"};
-      }
-    }
+  if (n < 8) return std::nullopt;
+  const size_t m = std::min<size_t>(n, 512) & ~size_t{1};
+  int nul[2] = {0, 0}, printable[2] = {0, 0};
+  for (size_t i = 0; i < m; ++i) {
+    const unsigned char c = contents[i];
+    nul[i % 2] += c == 0;
+    printable[i % 2] +=
+        c == '\t' || c == '\n' || c == '\r' || (c >= 0x20 && c < 0x7f);
   }
-  absl::ConsumePrefix(&contents, io::kUtf8Bom);
-  if (absl::StartsWith(contents, "ply\n") ||
-      absl::StartsWith(contents, "ply\r")) {
-    std::string format;
-    for (absl::string_view line : HeadLines(contents, 1024)) {
-      if (absl::ConsumePrefix(&line, "format ")) {
-        format = absl::StrCat(", format ",
-                              line.substr(0, std::min(line.find(' '),
-                                                      line.size())));
-        break;
-      }
-    }
-    return {".ply", absl::StrCat("a PLY file ('ply' header", format, ")"),
-            "rename it .ply"};
-  }
-  const absl::string_view head = contents.substr(0, 4096);
-  const bool has_nul = head.find('\0') != absl::string_view::npos;
-  const absl::string_view stripped = absl::StripLeadingAsciiWhitespace(head);
-  if (absl::StartsWith(stripped, "solid") && !has_nul &&
-      absl::StrContains(head, "facet")) {
-    return {".stl", "an ASCII STL ('solid' and 'facet' lines)",
-            "rename it .stl"};
-  }
-  if (all.size() >= 84) {
-    const uint64_t count = LittleEndian32(all.substr(80, 4));
-    if (84 + 50 * count == all.size()) {
-      return {".stl",
-              absl::StrCat("a binary STL (80-byte header, ", count,
-                           count == 1 ? " triangle)" : " triangles)"),
-              "rename it .stl"};
+  for (int odd : {0, 1}) {
+    if (nul[odd] * 10 >= static_cast<int>(m / 2) * 9 &&
+        printable[1 - odd] * 10 >= static_cast<int>(m / 2) * 9) {
+      return io::Sniffed{
+          "utf-16",
+          absl::StrCat("UTF-16 text (NUL bytes between the characters, ",
+                       odd ? "little" : "big", "-endian, no byte-order mark)"),
+          "save it as UTF-8 or ASCII"};
     }
   }
-  if (const absl::string_view first = FirstToken(contents);
-      !has_nul && (first == "OFF" || first == "COFF" || first == "NOFF" ||
-                   first == "CNOFF" || first == "STOFF")) {
-    return {".off", absl::StrCat("an OFF file ('", first, "' header)"),
-            "rename it .off"};
+  return std::nullopt;
+}
+
+std::optional<io::Sniffed> SniffPly(const SniffInput& in) {
+  if (!absl::StartsWith(in.text, "ply\n") &&
+      !absl::StartsWith(in.text, "ply\r")) {
+    return std::nullopt;
   }
+  std::string format;
+  for (absl::string_view line : HeadLines(in.text, 1024)) {
+    if (absl::ConsumePrefix(&line, "format ")) {
+      format = absl::StrCat(
+          ", format ", line.substr(0, std::min(line.find(' '), line.size())));
+      break;
+    }
+  }
+  return io::Sniffed{".ply",
+                     absl::StrCat("a PLY file ('ply' header", format, ")"),
+                     "rename it .ply"};
+}
+
+std::optional<io::Sniffed> SniffStl(const SniffInput& in) {
+  const absl::string_view stripped = absl::StripLeadingAsciiWhitespace(in.head);
+  if (absl::StartsWith(stripped, "solid") && !in.has_nul &&
+      absl::StrContains(in.head, "facet")) {
+    return io::Sniffed{".stl", "an ASCII STL ('solid' and 'facet' lines)",
+                       "rename it .stl"};
+  }
+  if (in.all.size() < 84) return std::nullopt;
+  const uint64_t count = LittleEndian32(in.all.substr(80, 4));
+  if (84 + 50 * count != in.all.size()) return std::nullopt;
+  return io::Sniffed{".stl",
+                     absl::StrCat("a binary STL (80-byte header, ", count,
+                                  count == 1 ? " triangle)" : " triangles)"),
+                     "rename it .stl"};
+}
+
+std::optional<io::Sniffed> SniffOff(const SniffInput& in) {
+  const absl::string_view first = FirstToken(in.text);
+  if (in.has_nul || (first != "OFF" && first != "COFF" && first != "NOFF" &&
+                     first != "CNOFF" && first != "STOFF")) {
+    return std::nullopt;
+  }
+  return io::Sniffed{".off", absl::StrCat("an OFF file ('", first, "' header)"),
+                     "rename it .off"};
+}
+
+// Archives, compressed data and other formats known by their first bytes.
+std::optional<io::Sniffed> SniffMagic(const SniffInput& in) {
   struct Magic {
     absl::string_view bytes, what, advice;
   };
@@ -163,37 +182,67 @@ io::Sniffed SniffMeshContents(absl::string_view contents) {
       {"PK\x03\x04", "a ZIP archive (a 3MF file is one)",
        "export the mesh as OBJ, OFF, PLY or STL, or unpack it"},
       {"\x1F\x8B", "gzip-compressed data", "decompress it (gunzip)"},
-      {"glTF", "a binary glTF (.glb)", "export the mesh as OBJ, OFF, PLY or STL"},
+      {"glTF", "a binary glTF (.glb)",
+       "export the mesh as OBJ, OFF, PLY or STL"},
       {"Kaydara FBX Binary", "a binary FBX file",
        "export the mesh as OBJ, OFF, PLY or STL"},
       {"\x89PNG", "a PNG image", ""},
       {"%PDF", "a PDF document", ""},
   };
   for (const Magic& m : kMagic) {
-    if (absl::StartsWith(contents, m.bytes)) {
-      return {"other", std::string(m.what), std::string(m.advice)};
+    if (absl::StartsWith(in.text, m.bytes)) {
+      return io::Sniffed{"other", std::string(m.what), std::string(m.advice)};
     }
   }
+  return std::nullopt;
+}
+
+// A NUL byte, or over a tenth of control characters, in the head.
+std::optional<io::Sniffed> SniffBinary(const SniffInput& in) {
   int control = 0;
-  for (unsigned char c : head) {
-    control += (c < 0x20 && c != '\t' && c != '\n' && c != '\r' &&
-                c != '\f' && c != '\v') ||
+  for (unsigned char c : in.head) {
+    control += (c < 0x20 && c != '\t' && c != '\n' && c != '\r' && c != '\f' &&
+                c != '\v') ||
                c == 0x7f;
   }
-  if (has_nul || control * 10 > static_cast<int>(head.size())) {
-    return {"binary", "binary data, not text",
-            "a mesh file of another format or no mesh at all"};
+  if (!in.has_nul && control * 10 <= static_cast<int>(in.head.size())) {
+    return std::nullopt;
   }
-  // OBJ: `v` lines and `f` or `l` lines.
+  return io::Sniffed{"binary", "binary data, not text",
+                     "a mesh file of another format or no mesh at all"};
+}
+
+// OBJ: `v` lines and `f` or `l` lines.
+std::optional<io::Sniffed> SniffObj(const SniffInput& in) {
   bool v = false, f = false;
-  for (absl::string_view line : HeadLines(contents, 1 << 16)) {
+  for (absl::string_view line : HeadLines(in.text, 1 << 16)) {
     line = absl::StripLeadingAsciiWhitespace(line);
     v |= absl::StartsWith(line, "v ") || absl::StartsWith(line, "v\t");
     f |= absl::StartsWith(line, "f ") || absl::StartsWith(line, "f\t") ||
          absl::StartsWith(line, "l ") || absl::StartsWith(line, "l\t");
     if (v && f) {
-      return {".obj", "an OBJ file ('v' and 'f' lines)", "rename it .obj"};
+      return io::Sniffed{".obj", "an OBJ file ('v' and 'f' lines)",
+                         "rename it .obj"};
     }
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+io::Sniffed SniffMeshContents(absl::string_view contents) {
+  if (auto wide = SniffWideText(contents)) return *wide;
+  SniffInput in;
+  in.all = contents;
+  in.text = contents;
+  absl::ConsumePrefix(&in.text, io::kUtf8Bom);
+  in.head = in.text.substr(0, 4096);
+  in.has_nul = in.head.find('\0') != absl::string_view::npos;
+  // In this order: a PLY header before the binary STL's size check, the
+  // known magic bytes before the binary-data verdict.
+  for (auto sniff :
+       {SniffPly, SniffStl, SniffOff, SniffMagic, SniffBinary, SniffObj}) {
+    if (auto found = sniff(in)) return *found;
   }
   return {};
 }

@@ -202,32 +202,114 @@ int64_t MinBytes(const Element& e, Format format) {
   return std::max<int64_t>(bytes, 1);
 }
 
-}  // namespace
-
-absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
-                                  const std::string& path,
-                                  const ReadLimits& limits) {
-  // Header: lines up to end_header.
-  size_t pos = 0;
-  int64_t line_no = 0;
-  auto next_line = [&](absl::string_view* line) {
-    if (pos >= data.size()) return false;
-    size_t end = data.find('\n', pos);
-    if (end == absl::string_view::npos) end = data.size();
-    *line = data.substr(pos, end - pos);
+// The header's lines, one at a time (CR LF or LF ended), counted from 1.
+class HeaderLines {
+ public:
+  explicit HeaderLines(absl::string_view data) : data_(data) {}
+  bool Next(absl::string_view* line) {
+    if (pos_ >= data_.size()) return false;
+    size_t end = data_.find('\n', pos_);
+    if (end == absl::string_view::npos) end = data_.size();
+    *line = data_.substr(pos_, end - pos_);
     if (!line->empty() && line->back() == '\r') line->remove_suffix(1);
-    pos = end + 1;
-    ++line_no;
+    pos_ = end + 1;
+    ++line_no_;
     return true;
-  };
+  }
+  // The byte after the last line read (may be past the end).
+  size_t pos() const { return pos_; }
+  int64_t line_no() const { return line_no_; }
+
+ private:
+  absl::string_view data_;
+  size_t pos_ = 0;
+  int64_t line_no_ = 0;
+};
+
+struct Header {
+  Format format = Format::kAscii;
+  std::vector<Element> elements;
+  size_t body = 0;    // the body's first byte.
+  int64_t lines = 0;  // the header's lines, end_header's included.
+};
+
+// `words` after "format" on line `line_no`.
+absl::Status ParseFormat(TokenScanner& words, const std::string& path,
+                         int64_t line_no, Format* format) {
+  absl::string_view f, version;
+  if (!words.Next(&f) || !words.Next(&version) || version != "1.0") {
+    return LineError(path, line_no, "expected 'format TYPE 1.0'");
+  }
+  if (f == "ascii") {
+    *format = Format::kAscii;
+  } else if (f == "binary_little_endian") {
+    *format = Format::kLittle;
+  } else if (f == "binary_big_endian") {
+    *format = Format::kBig;
+  } else {
+    return LineError(path, line_no, absl::StrCat("unknown format ", Quote(f)));
+  }
+  return absl::OkStatus();
+}
+
+// `words` after "element" on line `line_no`.
+absl::Status ParseElement(TokenScanner& words, const std::string& path,
+                          int64_t line_no, std::vector<Element>* elements) {
+  absl::string_view name, count;
+  Element e;
+  if (!words.Next(&name) || !words.Next(&count) ||
+      !ParseInt64(count, &e.count) || e.count < 0) {
+    return LineError(path, line_no, "expected 'element NAME COUNT >= 0'");
+  }
+  e.name = std::string(name);
+  elements->push_back(std::move(e));
+  return absl::OkStatus();
+}
+
+// `words` after "property" on line `line_no`: a property of the last
+// element.
+absl::Status ParseProperty(TokenScanner& words, const std::string& path,
+                           int64_t line_no, std::vector<Element>* elements) {
+  if (elements->empty()) {
+    return LineError(path, line_no, "property before any element");
+  }
+  Property p;
+  absl::string_view t, name;
+  if (!words.Next(&t)) {
+    return LineError(path, line_no, "expected a property type");
+  }
+  if (t == "list") {
+    absl::string_view ct, it;
+    p.list = true;
+    if (!words.Next(&ct) || !words.Next(&it) || !ParseType(ct, &p.count_type) ||
+        !IsInteger(p.count_type) || !ParseType(it, &p.type)) {
+      return LineError(path, line_no,
+                       "expected 'property list COUNT_TYPE ITEM_TYPE NAME' "
+                       "with an integer count type");
+    }
+  } else if (!ParseType(t, &p.type)) {
+    return LineError(path, line_no,
+                     absl::StrCat("unknown property type ", Quote(t)));
+  }
+  if (!words.Next(&name)) {
+    return LineError(path, line_no, "expected a property name");
+  }
+  p.name = std::string(name);
+  elements->back().properties.push_back(std::move(p));
+  return absl::OkStatus();
+}
+
+// The header: lines up to end_header.
+absl::StatusOr<Header> ParseHeader(absl::string_view data,
+                                   const std::string& path) {
+  HeaderLines lines(data);
   absl::string_view line;
-  if (!next_line(&line) || line != "ply") {
+  if (!lines.Next(&line) || line != "ply") {
     return LineError(path, 1, "not a PLY file (first line is not 'ply')");
   }
-  Format format = Format::kAscii;
+  Header h;
   bool have_format = false, ended = false;
-  std::vector<Element> elements;
-  while (next_line(&line)) {
+  while (lines.Next(&line)) {
     TokenScanner words(line);
     absl::string_view w;
     if (!words.Next(&w)) continue;
@@ -236,213 +318,259 @@ absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
       break;
     }
     if (w == "comment" || w == "obj_info") continue;
+    const int64_t line_no = lines.line_no();
+    absl::Status s;
     if (w == "format") {
-      absl::string_view f, version;
-      if (!words.Next(&f) || !words.Next(&version) || version != "1.0") {
-        return LineError(path, line_no, "expected 'format TYPE 1.0'");
-      }
-      if (f == "ascii") {
-        format = Format::kAscii;
-      } else if (f == "binary_little_endian") {
-        format = Format::kLittle;
-      } else if (f == "binary_big_endian") {
-        format = Format::kBig;
-      } else {
-        return LineError(path, line_no,
-                         absl::StrCat("unknown format ", Quote(f)));
-      }
+      s = ParseFormat(words, path, line_no, &h.format);
       have_format = true;
     } else if (w == "element") {
-      absl::string_view name, count;
-      Element e;
-      if (!words.Next(&name) || !words.Next(&count) ||
-          !ParseInt64(count, &e.count) || e.count < 0) {
-        return LineError(path, line_no, "expected 'element NAME COUNT >= 0'");
-      }
-      e.name = std::string(name);
-      elements.push_back(std::move(e));
+      s = ParseElement(words, path, line_no, &h.elements);
     } else if (w == "property") {
-      if (elements.empty()) {
-        return LineError(path, line_no, "property before any element");
-      }
-      Property p;
-      absl::string_view t, name;
-      if (!words.Next(&t)) {
-        return LineError(path, line_no, "expected a property type");
-      }
-      if (t == "list") {
-        absl::string_view ct, it;
-        p.list = true;
-        if (!words.Next(&ct) || !words.Next(&it) ||
-            !ParseType(ct, &p.count_type) || !IsInteger(p.count_type) ||
-            !ParseType(it, &p.type)) {
-          return LineError(path, line_no,
-                           "expected 'property list COUNT_TYPE ITEM_TYPE NAME' "
-                           "with an integer count type");
-        }
-      } else if (!ParseType(t, &p.type)) {
-        return LineError(path, line_no,
-                         absl::StrCat("unknown property type ", Quote(t)));
-      }
-      if (!words.Next(&name)) {
-        return LineError(path, line_no, "expected a property name");
-      }
-      p.name = std::string(name);
-      elements.back().properties.push_back(std::move(p));
+      s = ParseProperty(words, path, line_no, &h.elements);
     } else if (data.find("end_header") == absl::string_view::npos) {
-      return LineError(path, line_no,
-                       absl::StrCat("the header has no end_header line (the "
-                                    "file is cut short, or ",
-                                    Quote(w), " is not a header keyword)"));
+      s = LineError(path, line_no,
+                    absl::StrCat("the header has no end_header line (the "
+                                 "file is cut short, or ",
+                                 Quote(w), " is not a header keyword)"));
     } else {
-      return LineError(path, line_no,
-                       absl::StrCat("unknown header keyword ", Quote(w)));
+      s = LineError(path, line_no,
+                    absl::StrCat("unknown header keyword ", Quote(w)));
     }
+    if (!s.ok()) return s;
   }
   if (!ended) {
-    return LineError(path, line_no, "the header has no end_header line");
+    return LineError(path, lines.line_no(),
+                     "the header has no end_header line");
   }
-  if (!have_format) return LineError(path, line_no, "no format line");
-  const size_t body = std::min(pos, data.size());
-  // Counts against the bytes that can hold them, before any allocation.
-  size_t left = data.size() - body;
-  for (const Element& e : elements) {
-    const int64_t min = MinBytes(e, format);
+  if (!have_format) return LineError(path, lines.line_no(), "no format line");
+  h.body = std::min(lines.pos(), data.size());
+  h.lines = lines.line_no();
+  return h;
+}
+
+// Each element's declared count against the body's bytes that can hold
+// them, before any allocation.
+absl::Status CheckCounts(const Header& h, size_t data_size,
+                         const std::string& path) {
+  size_t left = data_size - h.body;
+  for (const Element& e : h.elements) {
+    const int64_t min = MinBytes(e, h.format);
     if (absl::Status s = CheckDeclaredCount(path, e.name, e.count, min, left);
         !s.ok())
       return s;
     left -= e.count * min;
   }
-  MeshBuilder builder(path, 3, &limits);
-  ValueSource in(data, body, format);
-  in.set_header_lines(line_no + 1);
-  const std::string fmt_name =
-      format == Format::kAscii
-          ? "ply ascii"
-          : (format == Format::kLittle ? "ply binary_little_endian"
-                                       : "ply binary_big_endian");
-  bool have_vertices = false;
-  std::vector<int64_t> corners;
-  std::vector<double> row;
-  StripDecoder strip;
-  for (const Element& e : elements) {
-    const bool is_vertex = e.name == "vertex";
-    const bool is_strips = e.name == "tristrips";
-    const bool is_face = e.name == "face" || is_strips;
-    int xyz[3] = {-1, -1, -1};
-    int indices = -1;
-    for (size_t i = 0; i < e.properties.size(); ++i) {
-      const Property& p = e.properties[i];
-      if (is_vertex && !p.list) {
-        for (int c = 0; c < 3; ++c) {
-          if (p.name == std::string(1, static_cast<char>('x' + c))) xyz[c] = i;
+  return absl::OkStatus();
+}
+
+const char* FormatName(Format format) {
+  switch (format) {
+    case Format::kAscii:
+      return "ply ascii";
+    case Format::kLittle:
+      return "ply binary_little_endian";
+    case Format::kBig:
+      return "ply binary_big_endian";
+  }
+  return "ply";
+}
+
+// What an element is to the mesh: the properties its vertices or faces are
+// read from (-1: none).
+struct ElementRole {
+  bool is_vertex = false;
+  bool is_strips = false;  // tristrips: faces as triangle strips.
+  bool is_face = false;    // face or tristrips.
+  int xyz[3] = {-1, -1, -1};
+  int indices = -1;
+};
+
+// The role of `e`, checked, with the builder's room reserved for it.
+// `have_vertices`: whether element vertex came before.
+absl::StatusOr<ElementRole> StartElement(const Element& e,
+                                         const std::string& path,
+                                         bool have_vertices,
+                                         MeshBuilder& builder) {
+  ElementRole role;
+  role.is_vertex = e.name == "vertex";
+  role.is_strips = e.name == "tristrips";
+  role.is_face = e.name == "face" || role.is_strips;
+  for (size_t i = 0; i < e.properties.size(); ++i) {
+    const Property& p = e.properties[i];
+    if (role.is_vertex && !p.list) {
+      for (int c = 0; c < 3; ++c) {
+        if (p.name == std::string(1, static_cast<char>('x' + c))) {
+          role.xyz[c] = i;
         }
-      }
-      if (is_face && p.list &&
-          (p.name == "vertex_indices" || p.name == "vertex_index")) {
-        if (!IsInteger(p.type)) {
-          return absl::InvalidArgumentError(
-              absl::StrCat(path, ": ", e.name, " property ", p.name,
-                           " has a non-integer type"));
-        }
-        indices = static_cast<int>(i);
       }
     }
-    if (is_vertex) {
-      if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) {
+    if (role.is_face && p.list &&
+        (p.name == "vertex_indices" || p.name == "vertex_index")) {
+      if (!IsInteger(p.type)) {
         return absl::InvalidArgumentError(
-            absl::StrCat(path, ": element vertex lacks property x, y or z"));
+            absl::StrCat(path, ": ", e.name, " property ", p.name,
+                         " has a non-integer type"));
       }
-      have_vertices = true;
-      if (absl::Status s = builder.ReservePositions(e.count); !s.ok()) {
-        return s;
+      role.indices = static_cast<int>(i);
+    }
+  }
+  if (role.is_vertex) {
+    if (role.xyz[0] < 0 || role.xyz[1] < 0 || role.xyz[2] < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path, ": element vertex lacks property x, y or z"));
+    }
+    if (absl::Status s = builder.ReservePositions(e.count); !s.ok()) return s;
+  }
+  if (role.is_face && role.indices < 0) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": element ", e.name, " lacks a list property vertex_indices"));
+  }
+  if (role.is_face && !have_vertices) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        path, ": element ", e.name, " comes before element vertex"));
+  }
+  if (role.is_face && !role.is_strips) {
+    if (absl::Status s = builder.ReserveFaces(e.count, 3); !s.ok()) return s;
+  }
+  return role;
+}
+
+// Reads the instances of one element from the body, adding its vertices
+// and faces to the builder.
+class ElementReader {
+ public:
+  ElementReader(const Element& e, const ElementRole& role, Format format,
+                const std::string& path, ValueSource* in, MeshBuilder* builder)
+      : e_(e),
+        role_(role),
+        format_(format),
+        path_(path),
+        in_(*in),
+        builder_(*builder),
+        row_(e.properties.size(), 0.0) {}
+
+  absl::Status ReadAll() {
+    for (int64_t k = 0; k < e_.count; ++k) {
+      if (absl::Status s = ReadInstance(k); !s.ok()) return s;
+    }
+    return absl::OkStatus();
+  }
+
+ private:
+  // Instance k: its scalars into row_, its face's corners into corners_
+  // (a strip's triangles straight to the builder).
+  absl::Status ReadInstance(int64_t k) {
+    corners_.clear();
+    strip_.Restart();
+    for (size_t i = 0; i < e_.properties.size(); ++i) {
+      const Property& p = e_.properties[i];
+      if (p.list) {
+        if (absl::Status s = ReadList(k, i); !s.ok()) return s;
+      } else if (!in_.Next(p.type, &row_[i])) {
+        return absl::InvalidArgumentError(absl::StrCat(
+            path_, ": ", in_.Where(), ": ", e_.name, " ", k, " of ", e_.count,
+            ": property ", p.name, " is missing or not a finite number"));
       }
     }
-    if (is_face && indices < 0) {
+    if (role_.is_vertex) {
+      return builder_.AddVertex(
+          {row_[role_.xyz[0]], row_[role_.xyz[1]], row_[role_.xyz[2]]});
+    }
+    if (role_.is_face && !role_.is_strips) {
+      return builder_.AddFace(corners_, 0, in_.Where());
+    }
+    return absl::OkStatus();
+  }
+
+  // List property i of instance k; its items are kept only when it holds
+  // the face's vertex indices.
+  absl::Status ReadList(int64_t k, size_t i) {
+    const Property& p = e_.properties[i];
+    double n;
+    if (!in_.Next(p.count_type, &n) || n < 0) {
+      return absl::InvalidArgumentError(
+          absl::StrCat(path_, ": ", in_.Where(), ": ", e_.name, " ", k,
+                       ": list count of ", p.name, " is missing or negative"));
+    }
+    if (format_ != Format::kAscii &&
+        n * SizeOf(p.type) > static_cast<double>(in_.remaining())) {
       return absl::InvalidArgumentError(absl::StrCat(
-          path, ": element ", e.name, " lacks a list property vertex_indices"));
+          path_, ": ", in_.Where(), ": ", e_.name, " ", k, ": list of ", n,
+          " items runs past the end of the file"));
     }
-    if (is_face && !have_vertices) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          path, ": element ", e.name, " comes before element vertex"));
-    }
-    if (is_face && !is_strips) {
-      if (absl::Status s = builder.ReserveFaces(e.count, 3); !s.ok()) return s;
-    }
-    row.assign(e.properties.size(), 0.0);
-    for (int64_t k = 0; k < e.count; ++k) {
-      corners.clear();
-      strip.Restart();
-      for (size_t i = 0; i < e.properties.size(); ++i) {
-        const Property& p = e.properties[i];
-        if (!p.list) {
-          if (!in.Next(p.type, &row[i])) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                path, ": ", in.Where(), ": ", e.name, " ", k, " of ", e.count,
-                ": property ", p.name, " is missing or not a finite number"));
-          }
-          continue;
-        }
-        double n;
-        if (!in.Next(p.count_type, &n) || n < 0) {
-          return absl::InvalidArgumentError(absl::StrCat(
-              path, ": ", in.Where(), ": ", e.name, " ", k, ": list count of ",
-              p.name, " is missing or negative"));
-        }
-        if (format != Format::kAscii &&
-            n * SizeOf(p.type) > static_cast<double>(in.remaining())) {
-          return absl::InvalidArgumentError(absl::StrCat(
-              path, ": ", in.Where(), ": ", e.name, " ", k, ": list of ", n,
-              " items runs past the end of the file"));
-        }
-        for (int64_t j = 0; j < static_cast<int64_t>(n); ++j) {
-          double item;
-          if (!in.Next(p.type, &item)) {
-            return absl::InvalidArgumentError(absl::StrCat(
-                path, ": ", in.Where(), ": ", e.name, " ", k, ": list ", p.name,
-                " has fewer than ", n, " items"));
-          }
-          if (static_cast<int>(i) != indices) continue;
-          int64_t triangle[3];
-          if (!is_strips) {
-            if (j <= kMaxCornersPerRecord) {
-              corners.push_back(static_cast<int64_t>(item));
-            }
-          } else if (strip.Add(static_cast<int64_t>(item), triangle)) {
-            if (absl::Status s = builder.AddFace(triangle, 0, in.Where());
-                !s.ok()) {
-              return s;
-            }
-          }
-        }
+    for (int64_t j = 0; j < static_cast<int64_t>(n); ++j) {
+      double item;
+      if (!in_.Next(p.type, &item)) {
+        return absl::InvalidArgumentError(
+            absl::StrCat(path_, ": ", in_.Where(), ": ", e_.name, " ", k,
+                         ": list ", p.name, " has fewer than ", n, " items"));
       }
-      if (is_vertex) {
-        if (absl::Status s =
-                builder.AddVertex({row[xyz[0]], row[xyz[1]], row[xyz[2]]});
+      if (static_cast<int>(i) != role_.indices) continue;
+      int64_t triangle[3];
+      if (!role_.is_strips) {
+        if (j <= kMaxCornersPerRecord) {
+          corners_.push_back(static_cast<int64_t>(item));
+        }
+      } else if (strip_.Add(static_cast<int64_t>(item), triangle)) {
+        if (absl::Status s = builder_.AddFace(triangle, 0, in_.Where());
             !s.ok()) {
           return s;
         }
-      } else if (is_face && !is_strips) {
-        if (absl::Status s = builder.AddFace(corners, 0, in.Where()); !s.ok())
-          return s;
       }
     }
+    return absl::OkStatus();
+  }
+
+  const Element& e_;
+  const ElementRole& role_;
+  const Format format_;
+  const std::string& path_;
+  ValueSource& in_;
+  MeshBuilder& builder_;
+  std::vector<double> row_;  // per property: the instance's scalar.
+  std::vector<int64_t> corners_;
+  StripDecoder strip_;
+};
+
+absl::Status NoFacesError(const std::vector<Element>& elements,
+                          const std::string& path) {
+  std::string names;
+  for (const Element& e : elements) {
+    absl::StrAppend(&names, names.empty() ? "" : ", ", e.name, " ", e.count);
+  }
+  return absl::InvalidArgumentError(
+      absl::StrCat(path, ": no faces (elements: ", names,
+                   "; faces are read from 'face' and 'tristrips')"));
+}
+
+}  // namespace
+
+absl::StatusOr<MeshFile> ParsePly(absl::string_view data,
+                                  const std::string& path,
+                                  const ReadLimits& limits) {
+  auto header = ParseHeader(data, path);
+  if (!header.ok()) return header.status();
+  if (absl::Status s = CheckCounts(*header, data.size(), path); !s.ok()) {
+    return s;
+  }
+  MeshBuilder builder(path, 3, &limits);
+  ValueSource in(data, header->body, header->format);
+  in.set_header_lines(header->lines + 1);
+  bool have_vertices = false;
+  for (const Element& e : header->elements) {
+    auto role = StartElement(e, path, have_vertices, builder);
+    if (!role.ok()) return role.status();
+    have_vertices |= role->is_vertex;
+    ElementReader reader(e, *role, header->format, path, &in, &builder);
+    if (absl::Status s = reader.ReadAll(); !s.ok()) return s;
   }
   if (!in.AtEnd()) {
     return absl::InvalidArgumentError(
         absl::StrCat(path, ": ", in.Where(),
                      ": unexpected data after the declared elements"));
   }
-  if (builder.num_faces() == 0) {
-    std::string names;
-    for (const Element& e : elements) {
-      absl::StrAppend(&names, names.empty() ? "" : ", ", e.name, " ", e.count);
-    }
-    return absl::InvalidArgumentError(
-        absl::StrCat(path, ": no faces (elements: ", names,
-                     "; faces are read from 'face' and 'tristrips')"));
-  }
-  return builder.Finish(fmt_name);
+  if (builder.num_faces() == 0) return NoFacesError(header->elements, path);
+  return builder.Finish(FormatName(header->format));
 }
 
 }  // namespace meshgauge::io

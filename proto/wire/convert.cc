@@ -93,8 +93,8 @@ v1::SdfParameters ToWire(const SdfParams& p) {
   return w;
 }
 
-absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
-                                   int threads) {
+absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p,
+                                   int max_rays) {
   SdfParams out;
   switch (p.method()) {
     case v1::SDF_METHOD_UNSPECIFIED:
@@ -149,7 +149,6 @@ absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
   out.min_weight_angle = p.min_weight_angle();
   out.max_distance = p.max_distance();
   if (p.self_hit_epsilon() != 0) out.self_hit_epsilon = p.self_hit_epsilon();
-  out.threads = threads;
   if (out.method == SdfMethod::kCone && p.rays() > max_rays) {
     return absl::InvalidArgumentError(absl::StrCat(
         "params.rays ", p.rays(), " exceeds the server's limit of ", max_rays,

@@ -22,12 +22,12 @@
 
 namespace meshgauge::wire {
 
-// Parameters. Threads are the server's business and are not sent.
+// Parameters. Threads (ComputeControl) are the server's business and are
+// not sent.
 v1::SdfParameters ToWire(const SdfParams& p);
-// Zero fields select the defaults; rays are limited to max_rays; `threads`
-// is the server's. Errors: INVALID_ARGUMENT naming the field.
-absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays,
-                                   int threads);
+// Zero fields select the defaults; rays are limited to max_rays.
+// Errors: INVALID_ARGUMENT naming the field.
+absl::StatusOr<SdfParams> FromWire(const v1::SdfParameters& p, int max_rays);
 void ToWire(const PenaltyParams& p, v1::ComputePenaltyRequest* out);
 void ToWire(const PenaltyParams& p, v1::PenaltyParameters* out);
 absl::StatusOr<PenaltyParams> PenaltyFromWire(
