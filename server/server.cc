@@ -9,8 +9,10 @@
 
 #include <algorithm>
 #include <iostream>
+#include <mutex>
 
 #include "absl/strings/str_cat.h"
+#include "absl/time/time.h"
 #include "lib/io/text_file.h"
 #include "server/call_auth.h"
 #include "server/make_session_store.h"
@@ -189,11 +191,12 @@ void MeshGaugeServer::SweepLoop() {
   const double period = std::min(
       {options_.sweep_interval_seconds, options_.upload_idle_seconds / 4, 1.0});
   double since_sweep = 0;
-  std::unique_lock<std::mutex> lock(mu_);
-  while (!stopping_) {
-    cv_.wait_for(lock, std::chrono::duration<double>(period));
-    if (stopping_) break;
-    lock.unlock();
+  for (;;) {
+    {
+      absl::MutexLock lock(&mu_);
+      mu_.AwaitWithTimeout(absl::Condition(&stopping_), absl::Seconds(period));
+      if (stopping_) return;
+    }
     for (const std::string& line : uploads_.AbortIdle()) {
       std::cerr << "meshgauge-server: CreateSession: " << line << std::endl;
     }
@@ -202,7 +205,6 @@ void MeshGaugeServer::SweepLoop() {
       store_->Sweep();
       since_sweep = 0;
     }
-    lock.lock();
   }
 }
 
@@ -212,11 +214,10 @@ absl::Status MeshGaugeServer::ReloadTokens() {
 
 void MeshGaugeServer::Shutdown() {
   {
-    std::lock_guard<std::mutex> lock(mu_);
+    absl::MutexLock lock(&mu_);
     if (stopping_) return;
     stopping_ = true;
   }
-  cv_.notify_all();
   if (sweeper_.joinable()) sweeper_.join();
   if (!server_) return;  // never started.
   server_->GetHealthCheckService()->SetServingStatus(false);

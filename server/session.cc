@@ -94,7 +94,6 @@ wire::SessionInfo Session::Info() const {
 }
 
 absl::Status Session::EnsureEvaluator() {
-  // Caller holds mu_ exclusively.
   if (evaluator_) return absl::OkStatus();
   const Stopwatch watch;
   const bool refit = !pending_positions_.empty();
@@ -136,15 +135,15 @@ absl::StatusOr<Session::Reader> Session::Read() {
 absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
     int64_t expected_generation, absl::Span<const int32_t> indices,
     absl::Span<const Vec3> positions, const UpdateControl& control) {
-  std::unique_lock<WriterFirstMutex> lock(mu_, std::defer_lock);
   if (control.deadline == std::chrono::system_clock::time_point::max()) {
-    lock.lock();
-  } else if (!lock.try_lock_until(control.deadline)) {
+    mu_.lock();
+  } else if (!mu_.try_lock_until(control.deadline)) {
     return absl::DeadlineExceededError(absl::StrCat(
         "session '", id_,
         "': the update's deadline passed while computations already running "
         "on it finished; nothing was changed"));
   }
+  const AdoptedWriterLock lock(&mu_);
   if (control.cancelled && control.cancelled()) {
     return absl::CancelledError(absl::StrCat(
         "session '", id_, "': the caller left before the update's turn; "
@@ -178,7 +177,7 @@ absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
 
 std::shared_ptr<const CachedPass> Session::FindPass(const SdfParams& params,
                                                     int64_t generation) const {
-  std::lock_guard<std::mutex> lock(cache_mu_);
+  absl::MutexLock lock(&cache_mu_);
   if (cache_ && cache_->generation == generation && cache_->params == params) {
     return cache_;
   }
@@ -187,18 +186,18 @@ std::shared_ptr<const CachedPass> Session::FindPass(const SdfParams& params,
 
 std::shared_ptr<const CachedPass> Session::LatestPass(
     const SdfParams& params) const {
-  std::lock_guard<std::mutex> lock(cache_mu_);
+  absl::MutexLock lock(&cache_mu_);
   if (cache_ && cache_->params == params) return cache_;
   return nullptr;
 }
 
 std::shared_ptr<const CachedPass> Session::CachedPassOfAnyGeneration() const {
-  std::lock_guard<std::mutex> lock(cache_mu_);
+  absl::MutexLock lock(&cache_mu_);
   return cache_;
 }
 
 void Session::StorePass(std::shared_ptr<const CachedPass> pass) {
-  std::lock_guard<std::mutex> lock(cache_mu_);
+  absl::MutexLock lock(&cache_mu_);
   cache_bytes_ = pass->bytes;
   cache_ = std::move(pass);
 }

@@ -16,7 +16,9 @@
 #include <string>
 #include <vector>
 
+#include "absl/base/thread_annotations.h"
 #include "absl/status/statusor.h"
+#include "absl/synchronization/mutex.h"
 #include "absl/types/span.h"
 #include "lib/core/components.h"
 #include "lib/core/mesh_repair.h"
@@ -78,7 +80,9 @@ class Session {
     const SdfEvaluator* evaluator = nullptr;
     int64_t generation() const { return evaluator->generation(); }
   };
-  absl::StatusOr<Reader> Read();
+  // (Not analysed for thread safety: it hands its shared lock of mu_ to the
+  // caller in the Reader, which clang's analysis cannot follow.)
+  absl::StatusOr<Reader> Read() ABSL_NO_THREAD_SAFETY_ANALYSIS;
 
   // Exclusive: moves vertices and refits the BVH, or rebuilds it when the
   // new generation is a BVH base (IsBvhBase). It waits for the computations
@@ -120,7 +124,7 @@ class Session {
                                int64_t primitives);
 
  private:
-  absl::Status EnsureEvaluator();
+  absl::Status EnsureEvaluator() ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu_);
 
   const std::string id_;
   const std::string incarnation_;
@@ -135,9 +139,9 @@ class Session {
   mutable WriterFirstMutex mu_;
   // Until the evaluator takes them: the mesh at the BVH base and, when they
   // differ, the current positions.
-  Mesh pending_mesh_;
-  std::vector<Vec3> pending_positions_;
-  std::unique_ptr<SdfEvaluator> evaluator_;
+  Mesh pending_mesh_ ABSL_GUARDED_BY(mu_);
+  std::vector<Vec3> pending_positions_ ABSL_GUARDED_BY(mu_);
+  std::unique_ptr<SdfEvaluator> evaluator_ ABSL_GUARDED_BY(mu_);
   std::mutex update_mu_;
   // evaluator_ once it exists, for Snapshot (which never takes mu_) to read
   // its BVH counts.
@@ -145,8 +149,8 @@ class Session {
   // Mirrors the evaluator's generation so Snapshot never takes mu_ (a
   // reader must not lock it twice).
   std::atomic<int64_t> generation_{0};
-  mutable std::mutex cache_mu_;
-  std::shared_ptr<const CachedPass> cache_;
+  mutable absl::Mutex cache_mu_;
+  std::shared_ptr<const CachedPass> cache_ ABSL_GUARDED_BY(cache_mu_);
   std::atomic<int64_t> cache_bytes_{0};
   std::atomic<double> last_used_;
 };

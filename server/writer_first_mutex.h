@@ -73,4 +73,20 @@ class ABSL_LOCKABLE WriterFirstMutex {
   bool writer_ ABSL_GUARDED_BY(mu_) = false;
 };
 
+// Holds a WriterFirstMutex its caller locked exclusively (lock() or a
+// successful try_lock_until) until destroyed: the analysis knows it is held
+// in between and released on every return.
+class ABSL_SCOPED_LOCKABLE AdoptedWriterLock {
+ public:
+  explicit AdoptedWriterLock(WriterFirstMutex* mu)
+      ABSL_EXCLUSIVE_LOCKS_REQUIRED(mu)
+      : mu_(mu) {}
+  ~AdoptedWriterLock() ABSL_UNLOCK_FUNCTION() { mu_->unlock(); }
+  AdoptedWriterLock(const AdoptedWriterLock&) = delete;
+  AdoptedWriterLock& operator=(const AdoptedWriterLock&) = delete;
+
+ private:
+  WriterFirstMutex* const mu_;
+};
+
 }  // namespace meshgauge::server
