@@ -14,6 +14,8 @@ PACKAGES=(
   clang-14 libfuzzer-14-dev openssl libssl-dev
   python3-venv python3-pip python3-wheel python3-setuptools mypy libcli11-dev
   redis-server libhiredis-dev haproxy libpng-dev chromium
+  # curl: the balancer test's health check; bc: scripts/bench_clients.sh.
+  curl bc
   libeigen3-dev
   "$@"
 )
