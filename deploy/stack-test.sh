@@ -360,7 +360,7 @@ echo "== alerts: replica 2 killed (it stays down), replica 1 restarting in a loo
 docker kill "$(stack_replica 2)" >/dev/null
 for i in 1 2 3; do
   docker restart -t 0 "$(stack_replica 1)" >/dev/null
-  await_prom "$PROM" "changes(process_start_time_seconds{job=\"meshgauge\"}[15m]) >= $i" 300 ||
+  await_prom "$PROM" "meshgauge:restarts_15m >= $i" 300 ||
     { echo "FAIL: Prometheus did not see restart $i of replica 1"; exit 1; }
 done
 firing() { await_prom "$PROM" "ALERTS{alertname=\"$1\",alertstate=\"firing\"}" 600; }
