@@ -47,7 +47,9 @@ absl::Status SessionCache::CheckBudgets(int64_t bytes) const {
 absl::StatusOr<UploadReservation> SessionCache::Reserve(
     const std::string& tenant, int64_t bytes) {
   if (absl::Status s = CheckBudgets(bytes); !s.ok()) return s;
-  UploadClaim claim{.tenant = tenant, .bytes = bytes};
+  UploadClaim claim;
+  claim.tenant = tenant;
+  claim.bytes = bytes;
   if (records_hold_limits_) {
     // The slot is claimed in the records, over all replicas, for a while
     // that every arriving message renews (ArriveUpload).

@@ -22,19 +22,13 @@
 namespace meshgauge {
 namespace {
 
+using testing::Slurp;
 using testing::CliRun;
 using ::testing::HasSubstr;
 using testing::RunCli;
 using testing::RunCliStderr;
 using testing::SharedMesh;
 using testing::Tmp;
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // A summary without what measures time or this process's memory: the keys
 // seconds, rays_per_second, stage_seconds and memory_bytes.

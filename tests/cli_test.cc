@@ -26,6 +26,7 @@
 namespace meshgauge {
 namespace {
 
+using testing::Slurp;
 using testing::CliRun;
 using ::testing::HasSubstr;
 using ::testing::Not;
@@ -33,11 +34,6 @@ using testing::RunCli;
 using testing::RunCliStderr;
 using testing::SharedMesh;
 using testing::Tmp;
-
-std::string Slurp(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), {});
-}
 
 // An unwelded export (a cube of six grids, every edge a seam): without
 // --weld the normal rays at the seams find no value; --weld merges the

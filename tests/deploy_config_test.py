@@ -35,8 +35,11 @@ def exported():
 
 
 def recorded():
-    """Recording rules deploy/stack.sh writes (the desired replica count)."""
-    return set(re.findall(r"record: ([a-z_:]+)", read("deploy", "stack.sh")))
+    """Recording rules: deploy/stack.sh's (the desired replica count) and
+    the alert file's own."""
+    return set(re.findall(r"record: ([a-z0-9_:]+)",
+                          read("deploy", "stack.sh")
+                          + read("deploy", "prometheus", "alerts.yml")))
 
 
 def metrics_in(expr):
@@ -50,7 +53,9 @@ def metrics_in(expr):
 class DeployConfigTest(unittest.TestCase):
     def test_alert_rules_use_exported_metrics(self):
         text = read("deploy", "prometheus", "alerts.yml")
-        exprs = re.findall(r"expr: \|?\n?((?:.+\n)+?)\s+for:", text)
+        # Each rule's expression: up to its `for:` or the next rule.
+        exprs = re.findall(
+            r"expr: \|?\n?((?:.+\n)+?)\s+(?:for:|- alert:|- record:)", text)
         self.assertGreaterEqual(len(exprs), 5)
         known = exported() | EXTERNAL | recorded()
         self.assertIn("meshgauge:replicas_desired", recorded())

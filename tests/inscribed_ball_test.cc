@@ -28,12 +28,14 @@
 namespace meshgauge {
 namespace {
 
+using testing::Jitter;
+using testing::kInf;
+
 using testing::CheckJacobian;
 using testing::ExpectFdAgreement;
 using testing::ExpectSameForOneAndTwoThreads;
 using testing::SharedMesh;
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 
 SdfParams Sphere() {
   SdfParams p;
@@ -530,16 +532,6 @@ TEST(InscribedBallTest, FanPlateVerticesAllGetAValue) {
     EXPECT_GT(r->values[p], 0);
     EXPECT_LE(r->values[p], 1.05 * thickness) << "vertex " << p;
   }
-}
-
-// Moves every vertex radially by a deterministic pseudo-random fraction of
-// up to `amount`: on a symmetric mesh the ball touches several faces at
-// once or a face exactly at a corner, a true event under any perturbation.
-Mesh Jitter(Mesh m, double amount) {
-  for (size_t i = 0; i < m.positions.size(); ++i) {
-    m.positions[i] *= 1 + amount * std::sin(12.9898 * i + 78.233 * i * i);
-  }
-  return m;
 }
 
 // A 3D plate 8 x 6 x 1 voxels with two square holes through it.

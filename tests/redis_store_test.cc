@@ -27,16 +27,11 @@
 namespace meshgauge {
 namespace {
 
+using testing::Knight;
+using testing::Code;
 using ::testing::HasSubstr;
 using ::testing::Not;
 using testing::SameBits;
-
-Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
-
-template <typename T>
-absl::StatusCode Code(const absl::StatusOr<T>& s) {
-  return s.status().code();
-}
 
 struct Replica {
   explicit Replica(server::ServerOptions o, int port = 0)

@@ -32,15 +32,11 @@
 namespace meshgauge {
 namespace {
 
+using testing::Slurp;
 using ::testing::HasSubstr;
 using testing::RunCli;
 using testing::SharedMesh;
 using testing::Tmp;
-
-std::string Slurp(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
 
 // $MESHGAUGE_CHROMIUM, or chromium / chromium-browser / google-chrome on
 // PATH; empty when none.

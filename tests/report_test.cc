@@ -16,11 +16,12 @@
 #include "lib/embree/render.h"
 #include "lib/embree/sdf.h"
 #include "lib/io/png_file.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using testing::kNaN;
 
 // The unit square [0,1]^2 (z = 0) as an n x n grid of triangle pairs.
 Mesh Grid(int n) {

@@ -26,21 +26,17 @@
 #include "tests/fake_clock.h"
 #include "tests/server_test_util.h"
 #include "tests/tls_test_util.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
+using testing::Code;
 using client::ClientOptions;
 using client::RemoteClient;
 using ::testing::HasSubstr;
 using testing::MetricValue;
 using ::testing::Not;
-
-absl::StatusCode Code(const absl::Status& s) { return s.code(); }
-template <typename T>
-absl::StatusCode Code(const absl::StatusOr<T>& s) {
-  return s.status().code();
-}
 
 std::string TempFile(const std::string& name, const std::string& text) {
   const std::string path =

@@ -18,6 +18,7 @@
 namespace meshgauge {
 namespace {
 
+using testing::Jitter;
 using testing::CheckJacobian;
 using testing::ExpectFdAgreement;
 using testing::SharedMesh;
@@ -38,13 +39,6 @@ SdfParams NormalRay() {
 // vertex or an edge of the opposite side (on a perfectly symmetric mesh the
 // normal ray of every vertex does, and the hit primitive switches under any
 // perturbation: a true non-differentiable event).
-Mesh Jitter(Mesh m, double amount) {
-  for (size_t i = 0; i < m.positions.size(); ++i) {
-    m.positions[i] *= 1 + amount * std::sin(12.9898 * i + 78.233 * i * i);
-  }
-  return m;
-}
-
 // r(theta) = 1 + A sin(f theta), thesis §5.4.2.
 Mesh NoisyCircle(int n, double amplitude, int frequency) {
   Mesh m = MakeCircle(1, n);

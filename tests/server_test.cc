@@ -26,12 +26,11 @@
 namespace meshgauge {
 namespace {
 
+using testing::Knight;
 using ::testing::HasSubstr;
 using testing::MetricValue;
 using testing::RawUpload;
 using testing::SameBits;
-
-Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
 
 // The mesh's positions scaled by 1.01: a valid update.
 std::vector<Vec3> Grown(const Mesh& mesh) {

@@ -21,6 +21,9 @@
 namespace meshgauge {
 namespace {
 
+using testing::Knight;
+using testing::Code;
+using testing::SameBits;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 
@@ -31,18 +34,6 @@ std::string Name(Backend backend) {
   return backend == Backend::kRedis ? "Redis" : "InMemory";
 }
 void PrintTo(Backend backend, std::ostream* os) { *os << Name(backend); }
-
-Mesh Knight() { return *ReadMesh(testing::SharedMesh("decimated-knight.off")); }
-
-bool SameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
-  return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
-}
-
-template <typename T>
-absl::StatusCode Code(const absl::StatusOr<T>& s) {
-  return s.status().code();
-}
 
 class SessionStoreTest : public ::testing::TestWithParam<Backend> {
  protected:

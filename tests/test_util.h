@@ -4,16 +4,26 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
 #include <map>
 #include <numbers>
 #include <string>
 #include <tuple>
 #include <vector>
 
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
 #include "lib/core/mesh.h"
 #include "lib/core/shapes.h"
+#include "lib/io/mesh_io.h"
 
 namespace meshgauge::testing {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // True when both hold the same doubles, bit for bit (NaNs and signed zeros
 // included).
@@ -21,6 +31,34 @@ inline bool SameBits(const std::vector<double>& a,
                      const std::vector<double>& b) {
   return a.size() == b.size() &&
          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+}
+
+inline bool SameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+}
+
+inline absl::StatusCode Code(const absl::Status& s) { return s.code(); }
+template <typename T>
+absl::StatusCode Code(const absl::StatusOr<T>& s) {
+  return s.status().code();
+}
+
+// A file's bytes ("" when it cannot be read).
+inline std::string Slurp(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Moves every vertex radially by a deterministic pseudo-random fraction of
+// up to `amount`: on a symmetric mesh a ray or ball meets several faces at
+// once, or a face exactly at a corner or edge (a true non-differentiable
+// event), and any perturbation resolves it.
+inline Mesh Jitter(Mesh m, double amount) {
+  for (size_t i = 0; i < m.positions.size(); ++i) {
+    m.positions[i] *= 1 + amount * std::sin(12.9898 * i + 78.233 * i * i);
+  }
+  return m;
 }
 
 // `mesh` (triangles) with every face a second time, the copy's corners
@@ -86,6 +124,9 @@ inline std::string SharedMesh(const std::string& name) {
   path += name;
   return path;
 }
+
+// The decimated knight (502 vertices) of the test meshes.
+inline Mesh Knight() { return *ReadMesh(SharedMesh("decimated-knight.off")); }
 
 // Closed form D_est(alpha, K) of SPEC §9 for diameter 1, computed here
 // independently of lib/: every ray at angle theta has the chord cos(theta);

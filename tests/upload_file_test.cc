@@ -23,6 +23,7 @@
 namespace meshgauge {
 namespace {
 
+using testing::Slurp;
 using ::testing::ElementsAreArray;
 using ::testing::HasSubstr;
 using ::testing::Not;
@@ -47,13 +48,6 @@ class UploadFileTest : public testing::ServerFixture {
     return response;
   }
 };
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // A file upload in chunks of `step` bytes.
 std::vector<v1::CreateSessionRequest> FileUpload(const std::string& contents,

@@ -6,12 +6,14 @@
 
 #include "gtest/gtest.h"
 #include "lib/core/sdf_types.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using testing::kNaN;
+using testing::kInf;
+
 
 TEST(ValueStatsTest, OddCountHasTheMiddleValueAsMedian) {
   const ValueStats s = SummarizeValues({5, kNaN, 1, 4, 2, 3});

@@ -10,6 +10,7 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "client/remote/remote_client.h"
 #include "lib/core/stopwatch.h"
 #include "lib/io/mesh_io.h"
 
@@ -283,6 +284,12 @@ void AddRemoteFlags(CLI::App* app, RemoteFlags* f) {
   app->add_option("--token-file", f->token_file,
                   "file whose first line is the bearer token (default: the "
                   "MESHGAUGE_TOKEN environment variable)");
+  app->add_option(
+         "--connect-timeout", f->connect_timeout,
+         absl::StrCat("seconds a call waits for a connection (server down, "
+                      "wrong address, TLS mismatch) before it fails (default ",
+                      client::ClientOptions{}.connect_timeout_seconds, ")"))
+      ->check(Positive());
 }
 
 absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {

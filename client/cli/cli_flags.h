@@ -114,6 +114,9 @@ struct ReportFlags {
 struct RemoteFlags {
   std::string server = "127.0.0.1:50051";
   std::string tls_ca_file, tls_cert_file, tls_key_file, token_file;
+  // Seconds a call waits for a connection before it fails UNAVAILABLE; 0:
+  // the client's default (client::ClientOptions).
+  double connect_timeout = 0;
 };
 
 // Validators of numbers > 0 and >= 0 (out of range: a usage error).

@@ -108,6 +108,9 @@ absl::Status CheckSession(const wire::SessionInfo& s, const Mesh& mesh) {
 absl::StatusOr<std::unique_ptr<client::RemoteClient>> Connect(
     const RemoteFlags& remote) {
   client::ClientOptions options;
+  if (remote.connect_timeout > 0) {
+    options.connect_timeout_seconds = remote.connect_timeout;
+  }
   if (absl::Status s = client::LoadClientSecrets(
           remote.tls_ca_file, remote.tls_cert_file, remote.tls_key_file,
           remote.token_file, &options);

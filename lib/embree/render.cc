@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/box.h"
 #include "lib/core/topology.h"
 #include "lib/embree/ray_scene.h"
 
@@ -17,21 +18,13 @@ namespace {
 
 constexpr double kHuge = std::numeric_limits<double>::max();
 
-struct Box {
-  Vec3 lo, hi;
-  Vec3 center() const { return (lo + hi) * 0.5; }
-};
-
 Box Bounds(const Mesh& mesh) {
-  Box b{mesh.positions[0], mesh.positions[0]};
-  for (const Vec3& p : mesh.positions) {
-    for (int a = 0; a < 3; ++a) {
-      b.lo[a] = std::min(b.lo[a], p[a]);
-      b.hi[a] = std::max(b.hi[a], p[a]);
-    }
-  }
+  Box b;
+  for (const Vec3& p : mesh.positions) b.Extend(p, p);
   return b;
 }
+
+Vec3 Center(const Box& box) { return (box.lo + box.hi) * 0.5; }
 
 Rgb Shade(Rgb c, double s) {
   auto f = [s](uint8_t v) {
@@ -116,7 +109,7 @@ absl::StatusOr<RenderedView> RenderSurface(
       std::max({(hi_u - lo_u) / w, (hi_v - lo_v) / h, 1e-300}) * 1.08;
   const double radius = Norm(box.hi - box.lo) + 1e-300;
   const Vec3 center = right * (0.5 * (lo_u + hi_u)) +
-                      up * (0.5 * (lo_v + hi_v)) + d * Dot(box.center(), d);
+                      up * (0.5 * (lo_v + hi_v)) + d * Dot(Center(box), d);
   const Vec3 eye = center - d * (2 * radius);
   RenderedView out = Blank(view.name, options);
   const bool per_face = options.samples == SampleSet::kFaces;
@@ -162,7 +155,7 @@ RenderedView RenderCurve(const Mesh& mesh, const std::vector<double>& values,
   const double extent =
       std::max({box.hi.x - box.lo.x, box.hi.y - box.lo.y, 1e-300});
   const double pixel = 1.1 * extent / std::min(w, h);
-  const Vec3 c = box.center();
+  const Vec3 c = Center(box);
   const double half_width = std::max(1.5, std::min(w, h) / 300.0);
   auto to_pixel = [&](const Vec3& p) {
     return Vec3{(p.x - c.x) / pixel + 0.5 * w, 0.5 * h - (p.y - c.y) / pixel,

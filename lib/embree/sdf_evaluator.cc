@@ -373,7 +373,9 @@ void SdfEvaluator::RaysToRetrace(
   }
 }
 
-namespace {
+// Named, not anonymous: SdfEvaluator::SampleTracer (external linkage) holds
+// these by reference.
+namespace pass_state {
 
 // What a pass computes with, resolved from its parameters and the mesh
 // (SPEC §3-5).
@@ -486,7 +488,14 @@ struct SampleRows {
   uint8_t* kept = nullptr;
 };
 
-}  // namespace
+}  // namespace pass_state
+
+using pass_state::NewOutput;
+using pass_state::PassOutput;
+using pass_state::PassSetup;
+using pass_state::SampleRows;
+using pass_state::SampleScratch;
+using pass_state::SetUpPass;
 
 // The work of one pass on one sample (SPEC §3-5): its cone, its rays (or
 // ball) and its value, written to the pass's output. Workers call Sample

@@ -479,10 +479,16 @@ class TlsAndTokens(unittest.TestCase):
                                timeout=60)
         self.assertEqual(other.returncode, 1)
         self.assertIn("no session 'k'", other.stderr)
+        # Plain text to the TLS port: no connection, refused once
+        # --connect-timeout has passed (20 s by default).
+        start = time.monotonic()
         plain = subprocess.run([CLI, "remote", "list", "--server",
-                                self.server.target], capture_output=True,
-                               text=True, env=env, timeout=60)
+                                self.server.target, "--connect-timeout", "1"],
+                               capture_output=True, text=True, env=env,
+                               timeout=60)
         self.assertEqual(plain.returncode, 1)
+        self.assertIn("unavailable", plain.stderr.lower())
+        self.assertLess(time.monotonic() - start, 15)
 
 
 if __name__ == "__main__":
