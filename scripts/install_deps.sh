@@ -33,6 +33,6 @@ else
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-# The report page's three.js (npm, pinned in web/package-lock.json; installs
-# Debian's nodejs and npm when npm is missing), bundled into web/vendor/.
+# The report page's three.js (from the npm registry, pinned in
+# web/package-lock.json), bundled into web/vendor/.
 "$(dirname "$0")/install_web_deps.sh"

@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Installs the report page's WebGL library (web/package.json pins three.js
 # and the bundler esbuild; web/package-lock.json pins their exact files) from
-# the npm registry, and bundles three.js with its OrbitControls into
+# the npm registry (scripts/fetch_npm_lock.py: the lock's tarballs, their
+# hashes checked; no node or npm needed), and bundles three.js with its OrbitControls into
 # web/vendor/three.bundle.min.js (one minified script defining the global
 # MG3), with three.js's licence next to it (web/vendor/three.LICENSE). CMake
 # embeds both into the meshgauge CLI and the Python package, so neither needs
 # node at run time. Idempotent: does nothing when the bundle is newer than
-# the lock file. Installs Debian's nodejs and npm first when npm is missing.
+# the lock file.
 set -euo pipefail
 cd "$(dirname "$0")/../web"
 out=vendor/three.bundle.min.js
@@ -15,17 +16,12 @@ if [ -s "$out" ] && [ -s vendor/three.LICENSE ] && [ "$out" -nt package-lock.jso
   echo "install_web_deps: $out is up to date"
   exit 0
 fi
-if ! command -v npm >/dev/null; then
-  SUDO=""
-  [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  echo "install_web_deps: installing nodejs npm (apt-get)"
-  $SUDO apt-get update -q
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends nodejs npm
-fi
-npm ci --no-audit --no-fund --loglevel=error
+/usr/bin/python3 ../scripts/fetch_npm_lock.py .
 mkdir -p vendor
-version=$(node -p "JSON.parse(require('fs').readFileSync('node_modules/three/package.json')).version")
-node_modules/.bin/esbuild three_entry.js --bundle --minify --format=iife \
+version=$(/usr/bin/python3 -c 'import json; print(json.load(open("node_modules/three/package.json"))["version"])')
+# esbuild's native binary, from its package for this os and cpu.
+esbuild=$(ls node_modules/@esbuild/*/bin/esbuild)
+"$esbuild" three_entry.js --bundle --minify --format=iife \
   --global-name=MG3 --target=es2020 --legal-comments=none \
   --banner:js="/* three.js r${version#0.} (https://threejs.org), MIT licence, see three.LICENSE; bundled by meshgauge's scripts/install_web_deps.sh */" \
   --outfile="$out.tmp" --log-level=warning
