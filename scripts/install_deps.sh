@@ -28,11 +28,12 @@ TEST_PACKAGES=(
   curl bc
 )
 PACKAGES=("${BUILD_PACKAGES[@]}" "${TEST_PACKAGES[@]}")
+web=1  # the report page's three.js comes with the build's packages.
 check=0
 while [[ "${1:-}" == --* ]]; do
   case "$1" in
     --build) PACKAGES=("${BUILD_PACKAGES[@]}") ;;
-    --test) PACKAGES=("${TEST_PACKAGES[@]}") ;;
+    --test) PACKAGES=("${TEST_PACKAGES[@]}"); web=0 ;;
     --check) check=1 ;;
     *) echo "install_deps: unknown option $1" >&2; exit 2 ;;
   esac
@@ -57,7 +58,7 @@ else
   $SUDO apt-get update -q
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
-if [ "${PACKAGES[0]}" = "${BUILD_PACKAGES[0]}" ]; then
+if [ "$web" -eq 1 ]; then
   # The report page's three.js (from the npm registry, pinned in
   # web/package-lock.json), bundled into web/vendor/.
   "$(dirname "$0")/install_web_deps.sh"
