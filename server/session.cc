@@ -5,6 +5,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/stopwatch.h"
+#include "lib/embree/hub_fans.h"
 #include "server/session_messages.h"
 
 namespace meshgauge::server {
@@ -40,7 +41,9 @@ int64_t Session::EstimateBytes(int64_t vertices, int64_t faces,
 int64_t Session::EstimateBaseBytes(const Mesh& mesh) {
   int64_t prims = 0;
   for (const Face& f : mesh.faces) prims += f.size == 4 ? 2 : 1;
-  return EstimateBytes(mesh.num_vertices(), mesh.num_faces(), prims);
+  // The ray tracer's own trees for hub fans, when the mesh has any.
+  return EstimateBytes(mesh.num_vertices(), mesh.num_faces(), prims) +
+         HubFans::EstimateBytes(mesh);
 }
 
 Session::Session(std::string id, RepairedMesh mesh,
@@ -145,9 +148,10 @@ absl::StatusOr<wire::UpdateResult> Session::UpdatePositions(
   }
   const AdoptedWriterLock lock(&mu_);
   if (control.cancelled && control.cancelled()) {
-    return absl::CancelledError(absl::StrCat(
-        "session '", id_, "': the caller left before the update's turn; "
-        "nothing was changed"));
+    return absl::CancelledError(
+        absl::StrCat("session '", id_,
+                     "': the caller left before the update's turn; "
+                     "nothing was changed"));
   }
   if (absl::Status s = EnsureEvaluator(); !s.ok()) return s;
   if (expected_generation != evaluator_->generation()) {

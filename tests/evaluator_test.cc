@@ -35,9 +35,12 @@ TEST(EvaluatorTest, OneAndTwoThreadsAreBitIdentical) {
     ASSERT_TRUE(a.ok() && b.ok());
     EXPECT_TRUE(BitIdentical(*a, *b)) << name;
   }
-  const Mesh hollow = MakeHollowSquare(4, 1, 0.01);
-  EXPECT_TRUE(BitIdentical(*ComputeSdf(hollow, {}, {.threads = 1}),
-                           *ComputeSdf(hollow, {}, {.threads = 2})));
+  // Hub fans (traced by HubFans, not Embree) too.
+  for (const Mesh& m : {MakeHollowSquare(4, 1, 0.01), MakeFanCone(1000),
+                        MakeFanCylinder(1000)}) {
+    EXPECT_TRUE(BitIdentical(*ComputeSdf(m, {}, {.threads = 1}),
+                             *ComputeSdf(m, {}, {.threads = 2})));
+  }
 }
 
 TEST(EvaluatorTest, UpdatePositionsMatchesAFreshComputation) {
@@ -54,6 +57,17 @@ TEST(EvaluatorTest, UpdatePositionsMatchesAFreshComputation) {
     auto fresh = ComputeSdf(moved, {});
     ASSERT_TRUE(updated.ok() && fresh.ok());
     EXPECT_TRUE(BitIdentical(*updated, *fresh));
+    // A mesh with hub fans, whose trees are rebuilt on every update.
+    const Mesh cylinder = MakeFanCylinder(600);
+    auto fans = SdfEvaluator::Create(cylinder, {.bvh_policy = policy});
+    ASSERT_TRUE(fans.ok());
+    Mesh squashed = cylinder;
+    for (Vec3& p : squashed.positions) p = Vec3(p.x * 0.7, p.y, p.z * 2 + p.x);
+    ASSERT_TRUE((*fans)->UpdatePositions(squashed.positions).ok());
+    auto fans_updated = (*fans)->Compute({});
+    auto fans_fresh = ComputeSdf(squashed, {});
+    ASSERT_TRUE(fans_updated.ok() && fans_fresh.ok());
+    EXPECT_TRUE(BitIdentical(*fans_updated, *fans_fresh));
     if (policy == BvhUpdatePolicy::kRefit) {
       EXPECT_EQ((*ev)->refits(), 1);
       EXPECT_EQ((*ev)->builds(), 1);

@@ -57,6 +57,11 @@ TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays3d) {
   ExpectFansHitAsSingleRays(MakeTorus(1.0, 0.4, 48, 24), 37);
 }
 
+// Hub fans are traced by HubFans for packets and single rays alike.
+TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRaysOnHubFans) {
+  ExpectFansHitAsSingleRays(MakeFanCylinder(600), 23);
+}
+
 TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays2d) {
   ExpectFansHitAsSingleRays(MakeCircle(1.0, 200), 21);
 }

@@ -122,6 +122,26 @@ Mesh MakeFanCone(int rim) {
   return m;
 }
 
+Mesh MakeFanCylinder(int rim) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {0, 0, 1}};
+  for (int level = 0; level < 2; ++level) {
+    for (int i = 0; i < rim; ++i) {
+      const double a = 2 * M_PI * i / rim;
+      m.positions.push_back({std::cos(a), std::sin(a), double(level)});
+    }
+  }
+  for (int i = 0; i < rim; ++i) {
+    const int32_t r = 2 + i, s = 2 + (i + 1) % rim;
+    const int32_t rt = r + rim, st = s + rim;
+    m.faces.push_back(Face::Triangle(0, s, r));
+    m.faces.push_back(Face::Triangle(1, rt, st));
+    m.faces.push_back(Face::Triangle(r, s, st));
+    m.faces.push_back(Face::Triangle(r, st, rt));
+  }
+  return m;
+}
+
 Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv) {
   Mesh mesh;
   for (int i = 0; i < nu; ++i) {

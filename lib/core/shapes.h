@@ -24,6 +24,12 @@ Mesh MakeIcosphere(double radius, int frequency);
 // triangles each. rim >= 3.
 Mesh MakeFanCone(int rim);
 
+// Closed cylinder of height 1 over the unit circle in z = 0, capped as CAD
+// exports cap it: cap centres 0 (z = 0) and 1 (z = 1), `rim` vertices per
+// circle (2 + i at z = 0, 2 + rim + i at z = 1), fans of triangles around
+// each centre and a wall of quads split into two triangles. rim >= 3.
+Mesh MakeFanCylinder(int rim);
+
 // Torus around z with tube centre radius R and tube radius r, nu x nv quads
 // split into triangles.
 Mesh MakeTorus(double major_radius, double minor_radius, int nu, int nv);

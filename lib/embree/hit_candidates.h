@@ -47,12 +47,19 @@ class HitCandidates {
   // The distance up to which Embree must still report primitives.
   float Limit() const { return Window(entries_[0].t, reach_); }
 
-  // Records a primitive hit at t_f = `t` (reported once or more; Embree's
-  // spatial splits may report one primitive twice).
+  // Records a primitive hit at t_f = `t`. A primitive may be reported more
+  // than once (a hub fan's neighbour by Embree and by HubFans, whose tests
+  // round differently): it keeps its smallest t_f and that report's edge
+  // flag (or'ed over reports at the same t_f), whatever the order.
   void Add(int32_t prim, float t, bool edge) {
     if (count_ > 0 && t > Limit()) return;
     for (int i = 0; i < count_; ++i) {
-      if (entries_[i].prim == prim) return;
+      if (entries_[i].prim != prim) continue;
+      if (t == entries_[i].t) entries_[i].edge |= edge;
+      if (t >= entries_[i].t) return;
+      for (; i + 1 < count_; ++i) entries_[i] = entries_[i + 1];
+      --count_;
+      break;
     }
     int i = std::min(count_, kMax - 1);
     const Entry e{prim, t, edge};

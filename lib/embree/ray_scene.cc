@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/embree/fan_filter.h"
+#include "lib/embree/hub_fan_geometry.h"
 #include "lib/embree/ray_hit.h"
 
 namespace meshgauge {
@@ -25,13 +26,17 @@ absl::Status DeviceStatus(RTCDevice device, const char* what) {
 
 absl::StatusOr<std::unique_ptr<RayScene>> RayScene::Create(
     const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy,
-    RayTest test) {
+    RayTest test, FanTracing fan_tracing) {
   std::unique_ptr<RayScene> scene(new RayScene(topo, policy, test));
+  if (fan_tracing == FanTracing::kHubFans) {
+    scene->fans_ = HubFans::Find(topo, mesh.positions.size());
+  }
   if (absl::Status s = scene->Init(mesh); !s.ok()) return s;
   return scene;
 }
 
 RayScene::~RayScene() {
+  if (fan_geometry_) rtcReleaseGeometry(fan_geometry_);
   if (geometry_) rtcReleaseGeometry(geometry_);
   if (scene_) rtcReleaseScene(scene_);
 }
@@ -89,9 +94,8 @@ absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
       }
     }
   }
-  if (edges > 0 &&
-      std::ilogb(edge2) - MedianExponent(exponents, edges) >
-          2 * kMaxEdgeSpreadExponent) {
+  if (edges > 0 && std::ilogb(edge2) - MedianExponent(exponents, edges) >
+                       2 * kMaxEdgeSpreadExponent) {
     return absl::InvalidArgumentError(absl::StrCat(
         "the longest edge (", std::sqrt(edge2), ") is more than 2^",
         kMaxEdgeSpreadExponent,
@@ -181,7 +185,16 @@ absl::Status RayScene::Init(const Mesh& mesh) {
                                 RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), np));
     if (!idx) return DeviceStatus(device_, "index buffer");
     for (size_t i = 0; i < np; ++i) {
-      for (int k = 0; k < 3; ++k) idx[3 * i + k] = topo_.primitives[i].v[k];
+      const auto prim = static_cast<int32_t>(i);
+      const auto& v = topo_.primitives[i].v;
+      if (fans_.Owns(prim)) {
+        // A point at a corner other than the hub keeps the primitive's
+        // number; Embree's test never reports it.
+        const int32_t at = v[0] != fans_.HubOf(prim) ? v[0] : v[1];
+        for (int k = 0; k < 3; ++k) idx[3 * i + k] = at;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) idx[3 * i + k] = v[k];
     }
   } else {
     // Vertex i at z = -H is 2i, at z = +H is 2i + 1.
@@ -211,7 +224,20 @@ absl::Status RayScene::Init(const Mesh& mesh) {
   }
   rtcCommitGeometry(geometry_);
   rtcAttachGeometry(scene_, geometry_);
+  if (absl::Status s = AddHubFans(); !s.ok()) return s;
   return Commit();
+}
+
+absl::Status RayScene::AddHubFans() {
+  if (fans_.empty()) return absl::OkStatus();
+  fan_geometry_ = NewHubFanGeometry(device_, &fans_);
+  if (!fan_geometry_) return DeviceStatus(device_, "hub fan geometry");
+  if (policy_ == BvhUpdatePolicy::kRefit) {
+    rtcSetGeometryBuildQuality(fan_geometry_, RTC_BUILD_QUALITY_REFIT);
+  }
+  rtcCommitGeometry(fan_geometry_);
+  rtcAttachGeometry(scene_, fan_geometry_);
+  return DeviceStatus(device_, "hub fan geometry");
 }
 
 absl::Status RayScene::FillVertices(const Mesh& mesh) {
@@ -240,6 +266,7 @@ absl::Status RayScene::FillVertices(const Mesh& mesh) {
       }
     }
   }
+  fans_.Update(vertex_buffer_);
   return absl::OkStatus();
 }
 
@@ -252,6 +279,7 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   if (absl::Status s = FillVertices(mesh); !s.ok()) return s;
   rtcUpdateGeometryBuffer(geometry_, RTC_BUFFER_TYPE_VERTEX, 0);
   rtcCommitGeometry(geometry_);
+  if (fan_geometry_) rtcCommitGeometry(fan_geometry_);
   rtcCommitScene(scene_);
   return DeviceStatus(device_, "rtcCommitScene (update)");
 }

@@ -16,6 +16,7 @@
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
 #include "lib/embree/hit_candidates.h"
+#include "lib/embree/hub_fans.h"
 
 // Embree's opaque handles (embree3/rtcore.h typedefs RTCScene etc. as
 // pointers to these), so that this header does not pull Embree in.
@@ -63,6 +64,14 @@ enum class RayTest {
   kFast,
 };
 
+// Who traces the triangles of hub fans (hub_fans.h).
+enum class FanTracing {
+  // HubFans' own tree (the default everywhere): linear in a hub's valence.
+  kHubFans,
+  // Embree, like every other primitive: for tests and measurements.
+  kEmbree,
+};
+
 class RayScene {
  public:
   // Builds the BVH. `topo` must outlive the scene. Errors: InvalidArgument
@@ -72,7 +81,8 @@ class RayScene {
   // Internal on Embree failure (message from rtcGetDeviceError).
   static absl::StatusOr<std::unique_ptr<RayScene>> Create(
       const Mesh& mesh, const MeshTopology& topo, BvhUpdatePolicy policy,
-      RayTest test = RayTest::kWatertight);
+      RayTest test = RayTest::kWatertight,
+      FanTracing fan_tracing = FanTracing::kHubFans);
   ~RayScene();
   RayScene(const RayScene&) = delete;
   RayScene& operator=(const RayScene&) = delete;
@@ -86,6 +96,8 @@ class RayScene {
   // The origin of the coordinates Embree sees (SceneOrigin) and, in 2D, the
   // extrusion's half height: what a hit depends on besides the geometry.
   const Vec3& origin() const { return origin_; }
+  // The hub fans traced without Embree's BVH (empty with FanTracing::kEmbree).
+  const HubFans& hub_fans() const { return fans_; }
   float extrude_half_height() const { return extrude_half_height_; }
 
   // Closest hit of origin + t * dir with t in [t_near, t_far] as Embree
@@ -132,6 +144,7 @@ class RayScene {
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)
       : topo_(topo), policy_(policy), test_(test) {}
+  absl::Status AddHubFans();
   absl::Status Init(const Mesh& mesh);
   // Sets origin_ and extrude_half_height_ for `mesh` and copies its
   // positions into the vertex buffer.
@@ -148,6 +161,10 @@ class RayScene {
   RTCSceneTy* scene_ = nullptr;
   RTCGeometryTy* geometry_ = nullptr;
   float* vertex_buffer_ = nullptr;  // owned by geometry_.
+  // Hub fans' triangles are points (v, v, v) in geometry_ and are traced by
+  // fan_geometry_ (null without fans).
+  HubFans fans_;
+  RTCGeometryTy* fan_geometry_ = nullptr;
 };
 
 }  // namespace meshgauge
