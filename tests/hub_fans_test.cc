@@ -11,6 +11,7 @@
 
 #include "lib/core/shapes.h"
 #include "lib/embree/ray_scene.h"
+#include "tests/ray_test_util.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
@@ -121,16 +122,6 @@ TEST(HubFansTest, WorkPerRayGrowsWithTheLogarithmOfTheValence) {
   EXPECT_LT(at_4k, 200);
 }
 
-std::vector<Vec3> RandomDirections(int n, std::mt19937& rng) {
-  std::normal_distribution<double> gauss;
-  std::vector<Vec3> dirs(n);
-  for (Vec3& d : dirs) {
-    d = Vec3(gauss(rng), gauss(rng), gauss(rng));
-    d = d / Norm(d);
-  }
-  return dirs;
-}
-
 // Every vertex's rays (its one-ring excluded, as in a pass) find the same
 // candidates whoever traces the fans: the same primitives and edge flags, at
 // distances within single-precision rounding of each other.
@@ -142,35 +133,32 @@ void ExpectSameCandidatesAsEmbree(const Mesh& mesh) {
   ASSERT_TRUE(ours.ok() && embree.ok());
   ASSERT_FALSE((*ours)->hub_fans().empty());
   ASSERT_TRUE((*embree)->hub_fans().empty());
-  std::mt19937 rng(13);
-  const RayScene::FanLimits kLimits = {1e-6f, 1e-6f, 0, 1e30f};
   const int n = 21;
-  std::vector<HitCandidates> a(n), b(n);
   int64_t hits = 0;
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
-    const Vec3& x = mesh.positions[v];
-    const std::vector<Vec3> dirs = RandomDirections(n, rng);
-    std::vector<int32_t> ring;
-    OneRingPrimitives(topo, v, &ring);
-    (*ours)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(a));
-    (*embree)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(b));
-    for (int k = 0; k < n; ++k) {
-      ASSERT_EQ(a[k].count(), b[k].count()) << "vertex " << v << " ray " << k;
-      hits += a[k].count() > 0;
-      for (int i = 0; i < a[k].count(); ++i) {
-        ASSERT_EQ(a[k][i].prim, b[k][i].prim) << "vertex " << v;
-        ASSERT_EQ(a[k][i].edge, b[k][i].edge) << "vertex " << v;
-        // Single-precision coordinates make a distance err by about 2^-24
-        // over the cosine between the ray and the triangle's normal
-        // (grazing rays: cosines down to 1e-3 here).
-        const auto& c = topo.primitives[a[k][i].prim].v;
-        const Vec3 normal = Cross(mesh.positions[c[1]] - mesh.positions[c[0]],
-                                  mesh.positions[c[2]] - mesh.positions[c[0]]);
-        const double cosine = std::abs(Dot(normal, dirs[k])) / Norm(normal);
-        ASSERT_NEAR(a[k][i].t, b[k][i].t, 1e-6 * (1 + b[k][i].t) / cosine);
-      }
-    }
-  }
+  testing::CompareFans(
+      mesh, topo, **ours, **embree, n, 13,
+      [&](int64_t v, const std::vector<int32_t>&, const std::vector<Vec3>& dirs,
+          const std::vector<HitCandidates>& a,
+          const std::vector<HitCandidates>& b) {
+        for (int k = 0; k < n; ++k) {
+          ASSERT_EQ(a[k].count(), b[k].count())
+              << "vertex " << v << " ray " << k;
+          hits += a[k].count() > 0;
+          for (int i = 0; i < a[k].count(); ++i) {
+            ASSERT_EQ(a[k][i].prim, b[k][i].prim) << "vertex " << v;
+            ASSERT_EQ(a[k][i].edge, b[k][i].edge) << "vertex " << v;
+            // Single-precision coordinates make a distance err by about
+            // 2^-24 over the cosine between the ray and the triangle's
+            // normal (grazing rays: cosines down to 1e-3 here).
+            const auto& c = topo.primitives[a[k][i].prim].v;
+            const Vec3 normal =
+                Cross(mesh.positions[c[1]] - mesh.positions[c[0]],
+                      mesh.positions[c[2]] - mesh.positions[c[0]]);
+            const double cosine = std::abs(Dot(normal, dirs[k])) / Norm(normal);
+            ASSERT_NEAR(a[k][i].t, b[k][i].t, 1e-6 * (1 + b[k][i].t) / cosine);
+          }
+        }
+      });
   EXPECT_GT(hits, mesh.num_vertices() * n / 10);
 }
 
@@ -182,40 +170,6 @@ TEST(HubFansTest, CandidatesAreEmbreesOnAFanCone) {
 // triangles along them are traced by both.
 TEST(HubFansTest, CandidatesAreEmbreesOnAFanCappedCylinder) {
   ExpectSameCandidatesAsEmbree(MakeFanCylinder(600));
-}
-
-// Built at these positions or refitted to them from others: the same
-// candidates, bit for bit (the fans' trees are rebuilt on every update).
-TEST(HubFansTest, CandidatesDoNotDependOnTheHistory) {
-  const Mesh mesh = MakeFanCylinder(600);
-  const MeshTopology topo = MeshTopology::Build(mesh);
-  Mesh elsewhere = mesh;
-  for (Vec3& p : elsewhere.positions) p = Vec3(p.x * 1.3, p.z, p.y - 2);
-  auto built = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
-  auto refitted = RayScene::Create(elsewhere, topo, BvhUpdatePolicy::kRefit);
-  ASSERT_TRUE(built.ok() && refitted.ok());
-  ASSERT_TRUE((*refitted)->UpdatePositions(mesh).ok());
-  std::mt19937 rng(17);
-  const RayScene::FanLimits kLimits = {1e-6f, 1e-6f, 0, 1e30f};
-  const int n = 16;
-  std::vector<HitCandidates> a(n), b(n);
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
-    const std::vector<Vec3> dirs = RandomDirections(n, rng);
-    std::vector<int32_t> ring;
-    OneRingPrimitives(topo, v, &ring);
-    (*built)->IntersectFan(mesh.positions[v], dirs, kLimits, ring,
-                           absl::MakeSpan(a));
-    (*refitted)->IntersectFan(mesh.positions[v], dirs, kLimits, ring,
-                              absl::MakeSpan(b));
-    for (int k = 0; k < n; ++k) {
-      ASSERT_EQ(a[k].count(), b[k].count());
-      for (int i = 0; i < a[k].count(); ++i) {
-        ASSERT_EQ(a[k][i].prim, b[k][i].prim);
-        ASSERT_EQ(a[k][i].t, b[k][i].t);
-        ASSERT_EQ(a[k][i].edge, b[k][i].edge);
-      }
-    }
-  }
 }
 
 // Rays aimed from outside at every vertex of a posed, fan-capped cylinder
@@ -279,7 +233,6 @@ int64_t RaysLostOnACylinder(FanTracing tracing, RayTest test,
   }
   std::uniform_real_distribution<double> tilt(-0.3, 0.3);
   int64_t aimed = 0, lost = 0;
-  std::vector<HitCandidates> fan(1);
   for (const auto& [target, at] : targets) {
     // From below or above a cap (outside its rim for a rim), or from outside
     // the wall, obliquely.
@@ -293,17 +246,8 @@ int64_t RaysLostOnACylinder(FanTracing tracing, RayTest test,
     }
     const Vec3 from =
         Pose(target + (out + Vec3(tilt(rng), tilt(rng), 0)) * 0.3);
-    Vec3 d = at - from;
-    const double distance = Norm(d);
-    d = d / distance;
-    const Vec3 dirs[] = {d};
-    (*scene)->IntersectFan(from, dirs, {1e-6f, 1e-6f, 0, 1e30f}, {},
-                           absl::MakeSpan(fan));
     ++aimed;
-    if (fan[0].count() == 0 ||
-        std::abs(fan[0][0].t - distance) > 1e-3 * distance) {
-      ++lost;
-    }
+    lost += testing::RayIsLost(**scene, from, at);
   }
   EXPECT_EQ(aimed, static_cast<int64_t>(targets.size()));
   return lost;

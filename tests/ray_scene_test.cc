@@ -10,20 +10,13 @@
 #include <random>
 
 #include "lib/core/shapes.h"
+#include "tests/ray_test_util.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
-std::vector<Vec3> RandomDirections(int n, int dimension, std::mt19937& rng) {
-  std::normal_distribution<double> gauss;
-  std::vector<Vec3> dirs(n);
-  for (Vec3& d : dirs) {
-    d = Vec3(gauss(rng), gauss(rng), dimension == 3 ? gauss(rng) : 0);
-    d = d / std::sqrt(Dot(d, d));
-  }
-  return dirs;
-}
+using testing::RandomDirections;
 
 // `n` random directions per vertex (not a multiple of 16, so the last
 // packet of every fan is partial).
@@ -69,9 +62,9 @@ TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays2d) {
 // Every face twice (the copy's corners rotated): each hit is a tie that a
 // traversal-order rule would break by the BVH. Scenes built with either
 // policy, or refitted from other positions, give the same candidates, and
-// both copies are among them.
-TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
-  const Mesh mesh = testing::WithEveryFaceTwice(MakeTorus(1.0, 0.4, 40, 20));
+// both copies are among them; `fans` hub fans are traced by HubFans.
+void ExpectCandidatesIndependentOfTheBvh(const Mesh& once, int fans) {
+  const Mesh mesh = testing::WithEveryFaceTwice(once);
   const int64_t nf = mesh.num_faces() / 2;
   const MeshTopology topo = MeshTopology::Build(mesh);
   Mesh elsewhere = mesh;
@@ -79,40 +72,47 @@ TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
   auto built = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
   auto refitted = RayScene::Create(elsewhere, topo, BvhUpdatePolicy::kRefit);
   ASSERT_TRUE(built.ok() && refitted.ok());
+  ASSERT_EQ((*built)->hub_fans().num_fans(), fans);
   ASSERT_TRUE((*refitted)->UpdatePositions(mesh).ok());
-  std::mt19937 rng(11);
-  const RayScene::FanLimits kLimits = {1e-6f, 1e-6f, 0, 1e30f};
   const int n = 24;
-  std::vector<HitCandidates> a(n), b(n);
   int64_t ties = 0;
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
-    const Vec3& x = mesh.positions[v];
-    const std::vector<Vec3> dirs = RandomDirections(n, 3, rng);
-    std::vector<int32_t> ring;
-    OneRingPrimitives(topo, v, &ring);
-    (*built)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(a));
-    (*refitted)->IntersectFan(x, dirs, kLimits, ring, absl::MakeSpan(b));
-    for (int k = 0; k < n; ++k) {
-      ASSERT_EQ(a[k].count(), b[k].count()) << "vertex " << v << " ray " << k;
-      for (int i = 0; i < a[k].count(); ++i) {
-        ASSERT_EQ(a[k][i].prim, b[k][i].prim);
-        ASSERT_EQ(a[k][i].t, b[k][i].t);
-        // No one-ring face, neither copy.
-        ASSERT_FALSE(
-            std::binary_search(ring.begin(), ring.end(), a[k][i].prim));
-      }
-      if (a[k].count() == 0) continue;
-      const int32_t face = topo.primitives[a[k][0].prim].face;
-      const int64_t twin = face < nf ? face + nf : face - nf;
-      bool found = false;
-      for (int i = 0; i < a[k].count(); ++i) {
-        found |= topo.primitives[a[k][i].prim].face == twin;
-      }
-      EXPECT_TRUE(found) << "vertex " << v << " ray " << k;
-      ++ties;
-    }
-  }
+  testing::CompareFans(
+      mesh, topo, **built, **refitted, n, 11,
+      [&](int64_t v, const std::vector<int32_t>& ring, const std::vector<Vec3>&,
+          const std::vector<HitCandidates>& a,
+          const std::vector<HitCandidates>& b) {
+        for (int k = 0; k < n; ++k) {
+          ASSERT_EQ(a[k].count(), b[k].count())
+              << "vertex " << v << " ray " << k;
+          for (int i = 0; i < a[k].count(); ++i) {
+            ASSERT_EQ(a[k][i].prim, b[k][i].prim);
+            ASSERT_EQ(a[k][i].t, b[k][i].t);
+            ASSERT_EQ(a[k][i].edge, b[k][i].edge);
+            // No one-ring face, neither copy.
+            ASSERT_FALSE(
+                std::binary_search(ring.begin(), ring.end(), a[k][i].prim));
+          }
+          if (a[k].count() == 0) continue;
+          const int32_t face = topo.primitives[a[k][0].prim].face;
+          const int64_t twin = face < nf ? face + nf : face - nf;
+          bool found = false;
+          for (int i = 0; i < a[k].count(); ++i) {
+            found |= topo.primitives[a[k][i].prim].face == twin;
+          }
+          EXPECT_TRUE(found) << "vertex " << v << " ray " << k;
+          ++ties;
+        }
+      });
   EXPECT_GT(ties, mesh.num_vertices() * n / 4);
+}
+
+TEST(RaySceneTest, CandidatesDoNotDependOnTheBvhEvenForTies) {
+  ExpectCandidatesIndependentOfTheBvh(MakeTorus(1.0, 0.4, 40, 20), 0);
+}
+
+// The caps' hubs are in 600 primitives each with the copies.
+TEST(RaySceneTest, HubFansCandidatesDoNotDependOnTheBvhEvenForTies) {
+  ExpectCandidatesIndependentOfTheBvh(MakeFanCylinder(300), 2);
 }
 
 // Rays from outside a tessellated box aimed at the vertices and edge
@@ -137,7 +137,6 @@ int64_t RaysLostAtSharedEdges(RayTest test) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> tilt(-1, 1);
   int64_t aimed = 0, lost = 0;
-  std::vector<HitCandidates> fan(1);
   for (const Vec3& target : targets) {
     // On one side only (not on the box's edges, where a ray may graze).
     int sides = 0;
@@ -152,17 +151,8 @@ int64_t RaysLostAtSharedEdges(RayTest test) {
     // the box the ray meets.
     const Vec3 from =
         target + (out + Vec3(tilt(rng), tilt(rng), tilt(rng)) * 0.5) * 0.3;
-    Vec3 d = target - from;
-    const double distance = std::sqrt(Dot(d, d));
-    d = d / distance;
-    const Vec3 dirs[] = {d};
-    (*scene)->IntersectFan(from, dirs, {1e-6f, 1e-6f, 0, 1e30f}, {},
-                           absl::MakeSpan(fan));
     ++aimed;
-    if (fan[0].count() == 0 ||
-        std::abs(fan[0][0].t - distance) > 1e-3 * distance) {
-      ++lost;
-    }
+    lost += testing::RayIsLost(**scene, from, target);
   }
   EXPECT_GT(aimed, 7000);
   return lost;
