@@ -45,7 +45,7 @@ TEST(HubFansTest, AConeIsTwoFansACylinderTwoCapsAnEdgeFanNone) {
     const bool cap = v[0] <= 1 || v[1] <= 1 || v[2] <= 1;
     EXPECT_EQ(caps.Owns(static_cast<int32_t>(p)), cap) << p;
   }
-  // At the threshold (a hub is in more than 64 primitives): no fan.
+  // At the threshold (a hub is in more than 512 primitives): no fan.
   const Mesh small = MakeFanCone(HubFans::kHubValence);
   EXPECT_TRUE(HubFans::Find(MeshTopology::Build(small), small.positions.size())
                   .empty());
@@ -178,23 +178,37 @@ TEST(HubFansTest, CandidatesAreEmbreesOnAFanCappedCylinder) {
 // traced by HubFans), the rims (a cap triangle and a wall triangle) and the
 // wall's edges. A ray is lost when it does not meet the surface at the point
 // aimed at.
-// A rotation about (1, 2, 3) by 0.7 radians and a shift: coordinates whose
-// single-precision rounding is not exact in any axis.
-Vec3 Pose(const Vec3& p) {
+// A rotation about (1, 2, 3) by 0.7 radians and a shift (coordinates whose
+// single-precision rounding is not exact in any axis), times `scale`, and
+// then for a small scale moved into the unit box.
+Vec3 Pose(const Vec3& p, double scale) {
   const Vec3 k = Vec3(1, 2, 3) / std::sqrt(14.0);
   const double c = std::cos(0.7), s = std::sin(0.7);
   const Vec3 r = p * c + Cross(k, p) * s + k * (Dot(k, p) * (1 - c));
-  return r + Vec3(0.31, -0.22, 0.13);
+  const Vec3 at = scale == 1 ? Vec3() : Vec3(0.8, 0.7, 0.6);
+  return (r + Vec3(0.31, -0.22, 0.13)) * scale + at;
 }
 
 // With `caps_only`, only the edges of cap triangles (the fans' own and their
-// rims) are aimed at.
+// rims) are aimed at. With `scale` below 1 the cylinder is that small inside
+// a unit box: a fan far smaller than the scene's coordinates, whose rounding
+// is then large against the fan.
 int64_t RaysLostOnACylinder(FanTracing tracing, RayTest test,
-                            bool caps_only = false) {
+                            bool caps_only = false, double scale = 1) {
   const int rim = 601;
   const Mesh local = MakeFanCylinder(rim);
   Mesh mesh = local;
-  for (Vec3& p : mesh.positions) p = Pose(p);
+  for (Vec3& p : mesh.positions) p = Pose(p, scale);
+  if (scale != 1) {
+    const Mesh box = MakeBox(1, 1, 1, 0.25);
+    const auto first = static_cast<int32_t>(mesh.positions.size());
+    mesh.positions.insert(mesh.positions.end(), box.positions.begin(),
+                          box.positions.end());
+    for (Face f : box.faces) {
+      for (int k = 0; k < f.size; ++k) f.v[k] += first;
+      mesh.faces.push_back(f);
+    }
+  }
   const MeshTopology topo = MeshTopology::Build(mesh);
   auto scene =
       RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild, test, tracing);
@@ -216,7 +230,7 @@ int64_t RaysLostOnACylinder(FanTracing tracing, RayTest test,
     Vec3 aimed;  // the point aimed at, on the rounded surface.
   };
   std::vector<Target> targets;
-  for (int64_t v = 0; v < mesh.num_vertices(); ++v) {
+  for (int64_t v = 0; v < local.num_vertices(); ++v) {
     targets.push_back({local.positions[v], rounded(v)});
   }
   for (const Face& f : local.faces) {
@@ -245,7 +259,7 @@ int64_t RaysLostOnACylinder(FanTracing tracing, RayTest test,
       out = Vec3(target.x / r, target.y / r, 0);
     }
     const Vec3 from =
-        Pose(target + (out + Vec3(tilt(rng), tilt(rng), 0)) * 0.3);
+        Pose(target + (out + Vec3(tilt(rng), tilt(rng), 0)) * 0.3, scale);
     ++aimed;
     lost += testing::RayIsLost(**scene, from, at);
   }

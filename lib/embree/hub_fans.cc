@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numeric>
 
 namespace meshgauge {
@@ -9,10 +10,23 @@ namespace {
 
 constexpr int32_t kLeafSize = 4;
 
-// Whether the primitive has `vertex` as a corner.
-bool Inside(const Box& b, const Vec3& p) {
-  return p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y &&
-         p.z >= b.lo.z && p.z <= b.hi.z;
+// Whether p lies in the box b enlarged by `pad` on every side.
+bool Inside(const Box& b, double pad, const Vec3& p) {
+  return p.x >= b.lo.x - pad && p.x <= b.hi.x + pad && p.y >= b.lo.y - pad &&
+         p.y <= b.hi.y + pad && p.z >= b.lo.z - pad && p.z <= b.hi.z + pad;
+}
+
+// How far a neighbour is reported around its corners in the fan, for a ray
+// from `reach` (the largest coordinate of its origin) hitting at t: as
+// HitCandidates' window, 2^-16 of the coordinates' magnitude, far more
+// than single-precision rounding there (about 2^-23 of it).
+double NeighbourPad(double reach, double t) { return 0x1p-16 * (reach + t); }
+
+// The next float above t (a float): where a hit whose single-precision
+// distance is t can lie in double precision.
+double Beyond(double t) {
+  return std::nextafter(static_cast<float>(t),
+                        std::numeric_limits<float>::infinity());
 }
 
 }  // namespace
@@ -92,6 +106,7 @@ HubFans HubFans::Find(const MeshTopology& topo, size_t num_vertices) {
       }
     }
   }
+  out.fans_.shrink_to_fit();
   out.hub_of_ = std::move(hub_of);
   return out;
 }
@@ -125,6 +140,10 @@ int64_t HubFans::EstimateBytes(const Mesh& mesh) {
     for (int k = 0; k < f.size; ++k) in_fan[f.v[k]] = 1;
   }
   if (owned == 0) return 0;
+  int64_t hub_vertices = 0;
+  for (int32_t v : valence) {
+    hub_vertices += v > static_cast<int32_t>(kHubValence);
+  }
   // Neighbours: at most one copy per corner in a fan of every other face.
   int64_t copies = 0;
   for (size_t i = 0; i < mesh.faces.size(); ++i) {
@@ -135,11 +154,13 @@ int64_t HubFans::EstimateBytes(const Mesh& mesh) {
   }
   // Per triangle in a tree: a Triangle, a Node (a tree whose leaves hold 2
   // to 4 triangles has fewer nodes than triangles) and the primitive number;
-  // per primitive owned_ and hub_of_; a few fans of fixed size.
+  // per primitive owned_ and hub_of_; per hub (a fan at most) its Fan and
+  // two more nodes.
   return (owned + copies) *
              static_cast<int64_t>(sizeof(Triangle) + sizeof(Node) +
                                   sizeof(int32_t)) +
-         primitives * 5 + 4096;
+         primitives * 5 +
+         hub_vertices * static_cast<int64_t>(sizeof(Fan) + 2 * sizeof(Node));
 }
 
 int64_t HubFans::bytes() const {
@@ -154,11 +175,12 @@ int64_t HubFans::bytes() const {
   return total;
 }
 
-void HubFans::Update(const float* vertices) {
+void HubFans::Update(const float* vertices, double reach) {
   auto point = [vertices](int32_t v) {
     const float* p = vertices + 4 * static_cast<size_t>(v);
     return Vec3(p[0], p[1], p[2]);
   };
+  region_pad_ = NeighbourPad(reach, 0);
   for (Fan& fan : fans_) {
     fan.hub_point = point(fan.hub);
     for (Triangle& t : fan.triangles) {
@@ -166,20 +188,12 @@ void HubFans::Update(const float* vertices) {
     }
     fan.nodes.clear();
     const auto all = static_cast<int32_t>(fan.triangles.size());
-    Box own;
-    for (int32_t i = 0; i < fan.owned; ++i) {
-      for (const Vec3& p : fan.triangles[i].p) own.Extend(p, p);
-    }
-    const double size = Norm(own.hi - own.lo);
     for (int32_t i = fan.owned; i < all; ++i) {
       Triangle& t = fan.triangles[i];
       t.region = Box();
       for (int k = 0; k < 3; ++k) {
         if (t.shared >> k & 1) t.region.Extend(t.p[k], t.p[k]);
       }
-      const double pad = 0x1p-16 * size;
-      t.region.lo -= Vec3(pad, pad, pad);
-      t.region.hi += Vec3(pad, pad, pad);
     }
     fan.nodes.reserve(all + 1);  // more than a tree over them needs.
     fan.box = Cover(fan, 0, all).box;
@@ -197,15 +211,17 @@ void HubFans::Update(const float* vertices) {
   }
 }
 
-HubFans::Node HubFans::Cover(const Fan& fan, int32_t first, int32_t count) {
+HubFans::Node HubFans::Cover(const Fan& fan, int32_t first,
+                             int32_t count) const {
   Node node{};
   node.first = first;
   for (int32_t i = first; i < first + count; ++i) {
     const Triangle& t = fan.triangles[i];
     if (t.shared != 0) {
-      // A neighbour: only its region is reported; no plane test (corners
-      // stay empty only if the node is all neighbours, see Trace).
-      node.box.Extend(t.region.lo, t.region.hi);
+      // A neighbour: only around its region is it reported (the pad
+      // bounds every ray's, see Trace); no plane test for the node.
+      const Vec3 pad(region_pad_, region_pad_, region_pad_);
+      node.box.Extend(t.region.lo - pad, t.region.hi + pad);
       node.neighbours = true;
       continue;
     }
@@ -224,6 +240,10 @@ int32_t HubFans::Build(Fan& fan, int32_t first, int32_t count, Split split) {
   const auto index = static_cast<int32_t>(fan.nodes.size());
   fan.nodes.push_back(Cover(fan, first, count));
   if (count <= kLeafSize) {
+    // In primitive order, whatever the order the last update left.
+    std::sort(
+        fan.triangles.begin() + first, fan.triangles.begin() + first + count,
+        [](const Triangle& a, const Triangle& b) { return a.prim < b.prim; });
     fan.nodes[index].count = count;
     return index;
   }
@@ -278,7 +298,11 @@ bool HubFans::Hits(const Triangle& tri, const Vec3& o, const Vec3& d,
   const double den = Dot(normal, d);
   if (den == 0) return false;
   const double t = Dot(normal, tri.p[0] - o) / den;
-  if (!(t >= t_near && t <= t_far)) return false;
+  // As Embree compares: the single-precision distance against the ray's
+  // (single-precision) bounds, so that whether a hit is reported does not
+  // depend on whether t_far was reached first by rounding up or down.
+  const double t_single = static_cast<float>(t);
+  if (!(t_single >= t_near && t_single <= t_far)) return false;
   *hit = {tri.prim, t, s1 / sum, s2 / sum, normal};
   return true;
 }
@@ -293,6 +317,7 @@ void HubFans::Trace(int f, const Vec3& o, const Vec3& d, double t_near,
   // no triangle the line meets unless the line passes through the hub; the
   // test is used when the line passes farther than 2^-20 of the fan's size
   // from the hub.
+  const double reach = MaxAbs(o);
   const Vec3 to_hub = fan.hub_point - o;
   const Vec3 n = Cross(d, to_hub);
   const double n_norm = Norm(n);
@@ -318,7 +343,7 @@ void HubFans::Trace(int f, const Vec3& o, const Vec3& d, double t_near,
       const double margin = 0x1p-20 * n_norm * node.reach;
       if (s_lo > margin || s_hi < -margin) return false;
     }
-    double lo = t_near, hi = t_far;
+    double lo = t_near, hi = Beyond(t_far);
     for (int k = 0; k < 3; ++k) {
       const double a = node.box.lo[k] - pad - o[k];
       const double b = node.box.hi[k] + pad - o[k];
@@ -352,7 +377,8 @@ void HubFans::Trace(int f, const Vec3& o, const Vec3& d, double t_near,
         const Triangle& tri = fan.triangles[j];
         Hit hit;
         if (Hits(tri, o, d, t_near, t_far, &hit) &&
-            (tri.shared == 0 || Inside(tri.region, o + d * hit.t))) {
+            (tri.shared == 0 ||
+             Inside(tri.region, NeighbourPad(reach, hit.t), o + d * hit.t))) {
           t_far = on_hit(hit);
         }
       }
@@ -376,7 +402,7 @@ void HubFans::Trace(int f, const Vec3& o, const Vec3& d, double t_near,
     do {
       if (depth == 0) return;
       --depth;
-    } while (stack[depth].entry > t_far);
+    } while (stack[depth].entry > Beyond(t_far));
     i = stack[depth].node;
   }
 }

@@ -69,8 +69,10 @@ class HubFans {
   int64_t bytes() const;
 
   // Rebuilds every fan's tree from the coordinates Embree sees: vertex v at
-  // vertices[4 v], [4 v + 1], [4 v + 2].
-  void Update(const float* vertices);
+  // vertices[4 v], [4 v + 1], [4 v + 2]. `reach` bounds, for every ray, the
+  // largest coordinate of its origin plus the distance of any hit (the
+  // coordinates' largest magnitude plus the bounding-box diagonal).
+  void Update(const float* vertices, double reach);
 
   // The box of fan `f`'s triangles (owned and neighbours).
   const Box& Bounds(int f) const { return fans_[f].box; }
@@ -101,10 +103,11 @@ class HubFans {
     int32_t v[3];  // their vertex numbers.
     int32_t prim;
     // A neighbour's corners in the fan (bit k: v[k]); 0 for the fan's own
-    // triangles. A neighbour is reported only for hits in `region`, the box
-    // of those corners padded by 2^-16 of the fan's size (far more than
-    // single-precision rounding): the only place where Embree's test could
-    // decide otherwise than HubFans' (elsewhere Embree reports it).
+    // triangles. A neighbour is reported only for hits within 2^-16 (reach
+    // + t) of `region`, the box of those corners, as HitCandidates' window:
+    // far more than single-precision rounding there, and the only place
+    // where Embree's test could decide otherwise than HubFans' (elsewhere
+    // Embree reports it).
     uint8_t shared = 0;
     Box region;
   };
@@ -127,7 +130,7 @@ class HubFans {
   };
   enum class Split { kByDirection, kByPosition };
   // The node over triangles [first, first + count) of the fan, a leaf.
-  static Node Cover(const Fan& fan, int32_t first, int32_t count);
+  Node Cover(const Fan& fan, int32_t first, int32_t count) const;
   // Appends the subtree over those triangles (reordered) to fan.nodes.
   int32_t Build(Fan& fan, int32_t first, int32_t count, Split split);
   bool Hits(const Triangle& tri, const Vec3& o, const Vec3& d, double t_near,
@@ -137,6 +140,7 @@ class HubFans {
   std::vector<uint8_t> owned_;   // per primitive; empty without fans.
   std::vector<int32_t> hub_of_;  // per primitive; -1 when not owned.
   int64_t num_owned_ = 0;
+  double region_pad_ = 0;  // the largest neighbour pad of any ray.
 };
 
 }  // namespace meshgauge

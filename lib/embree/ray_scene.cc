@@ -266,7 +266,13 @@ absl::Status RayScene::FillVertices(const Mesh& mesh) {
       }
     }
   }
-  fans_.Update(vertex_buffer_);
+  if (!fans_.empty()) {
+    double largest = 0;
+    for (size_t i = 0; i < nv; ++i) {
+      largest = std::max(largest, MaxAbs(mesh.positions[i] - origin_));
+    }
+    fans_.Update(vertex_buffer_, largest + diagonal);
+  }
   return absl::OkStatus();
 }
 
