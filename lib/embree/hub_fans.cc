@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 
 namespace meshgauge {
 namespace {
@@ -58,9 +57,6 @@ HubFans HubFans::Find(const MeshTopology& topo, size_t num_vertices) {
     out.fans_[fan_of_hub[h]].prims.push_back(static_cast<int32_t>(p));
   }
   if (out.fans_.empty()) return out;
-  out.owned_.assign(np, 0);
-  for (size_t p = 0; p < np; ++p) out.owned_[p] = hub_of[p] >= 0;
-  out.num_owned_ = std::count(out.owned_.begin(), out.owned_.end(), 1);
   // Neighbours: the primitives Embree traces that have a corner in a fan
   // (every primitive around a fan's vertices is then in its tree near them).
   // A primitive of another fan needs no copy: both are traced here.
@@ -113,6 +109,12 @@ HubFans HubFans::Find(const MeshTopology& topo, size_t num_vertices) {
 
 int32_t HubFans::HubOf(int32_t prim) const { return hub_of_[prim]; }
 
+int64_t HubFans::num_owned() const {
+  int64_t owned = 0;
+  for (const Fan& fan : fans_) owned += fan.owned;
+  return owned;
+}
+
 int64_t HubFans::EstimateBytes(const Mesh& mesh) {
   if (mesh.dimension != 3) return 0;
   // Primitives per vertex: a quad's (0, 1, 2) and (0, 2, 3).
@@ -154,18 +156,17 @@ int64_t HubFans::EstimateBytes(const Mesh& mesh) {
   }
   // Per triangle in a tree: a Triangle, a Node (a tree whose leaves hold 2
   // to 4 triangles has fewer nodes than triangles) and the primitive number;
-  // per primitive owned_ and hub_of_; per hub (a fan at most) its Fan and
+  // per primitive hub_of_; per hub (a fan at most) its Fan and
   // two more nodes.
   return (owned + copies) *
              static_cast<int64_t>(sizeof(Triangle) + sizeof(Node) +
                                   sizeof(int32_t)) +
-         primitives * 5 +
+         primitives * static_cast<int64_t>(sizeof(int32_t)) +
          hub_vertices * static_cast<int64_t>(sizeof(Fan) + 2 * sizeof(Node));
 }
 
 int64_t HubFans::bytes() const {
-  int64_t total = static_cast<int64_t>(owned_.capacity() +
-                                       hub_of_.capacity() * sizeof(int32_t) +
+  int64_t total = static_cast<int64_t>(hub_of_.capacity() * sizeof(int32_t) +
                                        fans_.capacity() * sizeof(Fan));
   for (const Fan& fan : fans_) {
     total += static_cast<int64_t>(fan.prims.capacity() * sizeof(int32_t) +
@@ -315,8 +316,8 @@ void HubFans::Trace(int f, const Vec3& o, const Vec3& d, double t_near,
   // The plane through the ray's line and the hub, by its normal n. A node
   // whose corners all lie on one side of it, by more than rounding, holds
   // no triangle the line meets unless the line passes through the hub; the
-  // test is used when the line passes farther than 2^-20 of the fan's size
-  // from the hub.
+  // test is used when the line passes farther than 2^-20 of `scale` (the
+  // fan's reach plus the origin's distance from the hub) from the hub.
   const double reach = MaxAbs(o);
   const Vec3 to_hub = fan.hub_point - o;
   const Vec3 n = Cross(d, to_hub);

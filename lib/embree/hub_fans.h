@@ -61,10 +61,12 @@ class HubFans {
   int num_fans() const { return static_cast<int>(fans_.size()); }
   // Whether `prim` belongs to a fan (then Embree does not trace it; a
   // neighbour is traced by both).
-  bool Owns(int32_t prim) const { return !owned_.empty() && owned_[prim] != 0; }
+  bool Owns(int32_t prim) const {
+    return !hub_of_.empty() && hub_of_[prim] >= 0;
+  }
   // The hub of `prim` when Owns(prim).
   int32_t HubOf(int32_t prim) const;
-  int64_t num_owned() const { return num_owned_; }
+  int64_t num_owned() const;
   // The bytes held (after Update).
   int64_t bytes() const;
 
@@ -137,10 +139,8 @@ class HubFans {
             double t_far, Hit* hit) const;
 
   std::vector<Fan> fans_;
-  std::vector<uint8_t> owned_;   // per primitive; empty without fans.
   std::vector<int32_t> hub_of_;  // per primitive; -1 when not owned.
-  int64_t num_owned_ = 0;
-  double region_pad_ = 0;  // the largest neighbour pad of any ray.
+  double region_pad_ = 0;        // the largest neighbour pad of any ray.
 };
 
 }  // namespace meshgauge
