@@ -26,7 +26,8 @@ namespace meshgauge {
 // Row-compressed sparse Jacobian dSDF/dx: row p lists (column vertex j,
 // dSDF_p/dx_j as a 3-vector; z = 0 in 2D), columns ascending and unique.
 // One row per sample (vertex, or face with SampleSet::kFaces: its centroid
-// and normal move with its corners); rows without a value are empty.
+// and normal move with its corners), or per sample of a range pass's range;
+// rows without a value are empty.
 struct SparseJacobian {
   std::vector<int64_t> row_offsets;  // samples + 1
   std::vector<int32_t> columns;
@@ -55,8 +56,8 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
                                            const HitTable& hits);
 
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
-// g has one entry per sample, #V or #F (ignored where a sample has no value;
-// must be finite).
+// g has one entry per sample, #V or #F, or per sample of a range pass's
+// range (ignored where a sample has no value; must be finite).
 // Each sample's row is summed in doubles (a sample is never split); the sum
 // over samples is exact and rounded once (ExactSum), so the result does not
 // depend on the thread count or on how the samples are split (a sample
