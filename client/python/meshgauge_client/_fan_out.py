@@ -9,6 +9,7 @@ import grpc
 import numpy as np
 
 from meshgauge_client.errors import AbortedError, DataLossError
+from meshgauge_client.results import FloatArray
 
 RANGE_KEY = "x-meshgauge-range"
 
@@ -24,7 +25,7 @@ def range_metadata(begin: int, end: int) -> Tuple[str, str]:
     return (RANGE_KEY, f"{begin}-{end}")
 
 
-def merge_vjp(replies: Sequence[Any]) -> Tuple[np.ndarray, int]:
+def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
     """The whole gradient (flat, dimension values per vertex) and its
     generation from ranged ComputeVjpResponses: every value is the exact
     sum of each range's rounded value and tail, rounded once (math.fsum is
