@@ -67,12 +67,20 @@ CallControl Control(grpc::ServerContext* ctx, const Request& request,
 }
 
 // A compute request's session, positions and parameters (the parameters
-// checked against the server's limits).
+// checked against the server's limits), with its sample range when the
+// request has one (ComputeSdf, ComputeVjp).
 template <typename Request>
 absl::StatusOr<SessionTarget> TargetFromWire(const Request& request,
                                              const ServerOptions& options) {
   auto params = wire::FromWire(request.params(), options.max_rays);
   if (!params.ok()) return params.status();
+  if constexpr (requires { request.range(); }) {
+    if (request.has_range()) {
+      auto range = wire::FromWire(request.range());
+      if (!range.ok()) return range.status();
+      params->range = *range;
+    }
+  }
   SessionTarget target{request.session_id(), *params, std::nullopt};
   if (request.has_expected_generation()) {
     target.expected_generation = request.expected_generation();

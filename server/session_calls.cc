@@ -73,6 +73,10 @@ absl::StatusOr<SessionCalls::Prepared> SessionCalls::Prepare(
     return GenerationMismatch(target.session_id, generation,
                               *target.expected_generation, "request");
   }
+  if (auto range = ResolveRange(reader->evaluator->mesh(), target.params);
+      !range.ok()) {
+    return range.status();
+  }
   return Prepared{std::move(*slot), std::move(*session), std::move(*reader),
                   target.params};
 }
@@ -139,10 +143,14 @@ absl::StatusOr<SdfOutcome> SessionCalls::Sdf(const std::string& tenant,
     out.jacobian = std::move(*j);
   }
   out.dimension = ev.mesh().dimension;
-  out.integral = IntegrateSdf(ev.mesh(), r).value;
-  // Without a topology pass unless the missing share of the surface is over
-  // the warning's.
-  out.warnings = MissingValueWarnings(ev.mesh(), r);
+  // The integral and the warnings need every value: a range's reply leaves
+  // them to the client that merges the ranges.
+  if (prep->params.range.all()) {
+    out.integral = IntegrateSdf(ev.mesh(), r).value;
+    // Without a topology pass unless the missing share of the surface is
+    // over the warning's.
+    out.warnings = MissingValueWarnings(ev.mesh(), r);
+  }
   out.facts = {ev.generation(), pass->reused, start.Seconds()};
   out.pass = std::move(pass->pass);
   return out;
@@ -156,26 +164,34 @@ absl::StatusOr<VjpOutcome> SessionCalls::Vjp(const std::string& tenant,
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = prep->evaluator();
-  if (absl::Status s = wire::CheckReplyBytes(wire::VjpReplyBytes(ev.mesh()),
-                                             options_.max_message_bytes);
+  const bool range = !prep->params.range.all();
+  if (absl::Status s = wire::CheckReplyBytes(
+          wire::VjpReplyBytes(ev.mesh(), /*with_tails=*/range),
+          options_.max_message_bytes);
       !s.ok()) {
     return s;
   }
-  const int64_t samples = NumSamples(ev.mesh(), prep->params.samples);
-  if (std::ssize(weights) != samples) {
+  const SampleRange samples = *ResolveRange(ev.mesh(), prep->params);
+  if (std::ssize(weights) != samples.end - samples.begin) {
     return absl::InvalidArgumentError(absl::StrCat(
         "weights holds ", weights.size(), " values, expected one per ",
-        SampleName(prep->params.samples), " (", samples, ")"));
+        SampleName(prep->params.samples), range ? " of the range [" : " (",
+        range ? absl::StrCat(samples.begin, ", ", samples.end, ")") : "",
+        range ? " (" : "", samples.end - samples.begin, ")"));
   }
   auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/false);
   if (!pass.ok()) return pass.status();
   metrics_->RecordHitCache(pass->reused);
-  auto vjp = ComputeVjp(ev, pass->pass->hits, weights,
-                        LibraryControl(control, options_.compute_threads));
-  if (!vjp.ok()) return control.Interrupted(vjp.status());
-  return VjpOutcome{
-      {std::move(*vjp), {ev.generation(), pass->reused, start.Seconds()}},
-      ev.mesh().dimension};
+  auto sums = ComputeVjpSums(ev, pass->pass->hits, weights,
+                             LibraryControl(control, options_.compute_threads));
+  if (!sums.ok()) return control.Interrupted(sums.status());
+  VjpOutcome out{{RoundVectors(*sums),
+                  {ev.generation(), pass->reused, start.Seconds()},
+                  {}},
+                 ev.mesh().dimension};
+  // A range's partial sums travel exactly (rounded value and tail).
+  if (range) out.reply.sums = std::move(*sums);
+  return out;
 }
 
 absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(

@@ -23,6 +23,9 @@
 # - Restarts: the balancer soft-stops (SIGUSR1, as `docker stop` and
 #   `docker restart` do) and a new one starts, twice, under a load whose
 #   clients do not retry: 0 errors.
+# - Fan-out: `meshgauge remote sdf --fan-out 4` of one session: its range
+#   calls reach both replicas (the balancer hashes session and range; the
+#   request lines of its log, at level info here, name the replica).
 # Every load also checks 0 mismatches and 0 lost sessions.
 #   balancer_test.sh SERVER LOAD CLI CFG [CYCLES]
 set -euo pipefail
@@ -72,6 +75,7 @@ hp=$(free_port) health_port=$(free_port)
 sed -e "s|^ *bind :50051 .*|  bind 127.0.0.1:$hp proto h2|" \
     -e "s|^ *bind 127.0.0.1:8404|  bind 127.0.0.1:$health_port|" \
     -e "s|^ *server-template .*|  server r0 127.0.0.1:${ports[0]}\n  server r1 127.0.0.1:${ports[1]}|" \
+    -e "s|^ *log stderr format raw local0 warning|  log stderr format raw local0 info|" \
     "$cfg" >"$tmp/haproxy.cfg"
 start_balancer() {
   haproxy -W -db -f "$tmp/haproxy.cfg" 2>>"$tmp/haproxy.log" &
@@ -207,3 +211,17 @@ done
 await_progress "after the restarts"
 finish_load "a restart of the balancer cost a client without retries a call"
 echo "PASS: 2 restarts (soft stop, start) of the balancer, no client (without retries) saw an error"
+
+# Fan-out: the range calls of one session's pass reach both replicas.
+"$cli" shape sphere --out "$tmp/ball.obj" >/dev/null
+count_sdf() { grep -c "meshgauge/r$1 .*MeshGauge/ComputeSdf" "$tmp/haproxy.log" || true; }
+before=("$(count_sdf 0)" "$(count_sdf 1)")
+"$cli" remote sdf "$tmp/ball.obj" --rays 10 --fan-out 4 --session-id fan-out \
+  --server "127.0.0.1:$hp" --token-file "$tmp/token" >/dev/null ||
+  fail "remote sdf --fan-out 4 through the balancer failed"
+sleep 0.5  # the log lines of the last calls
+for r in 0 1; do
+  [ "$(count_sdf "$r")" -gt "${before[$r]}" ] ||
+    fail "no range call of the fanned-out pass reached replica $r"
+done
+echo "PASS: a pass fanned out over 4 ranges reached both replicas"

@@ -62,11 +62,13 @@ class CliRemoteTest : public testing::ServerFixture {
  protected:
   // Runs `VERB MESH ARGS` here and `remote VERB MESH ARGS` on the server,
   // each writing the files named in `files` (flag name -> path suffix), and
-  // expects identical outputs. Returns the local stdout.
+  // expects identical outputs (`remote_args` go to the remote verb only).
+  // Returns the local stdout.
   std::string ExpectSameOutputs(const std::string& verb,
                                 const std::string& mesh,
                                 const std::string& args,
-                                const std::vector<std::string>& file_flags) {
+                                const std::vector<std::string>& file_flags,
+                                const std::string& remote_args = "") {
     std::string local_files, remote_files;
     for (const std::string& flag : file_flags) {
       absl::StrAppend(&local_files, " --", flag, " ", Tmp("local." + flag));
@@ -75,7 +77,8 @@ class CliRemoteTest : public testing::ServerFixture {
     const auto local =
         RunCli(verb + " " + mesh + " " + args + local_files, false);
     const auto remote = RunCli("remote " + verb + " " + mesh + " " + args +
-                                   remote_files + " --server " + target_,
+                                   remote_args + remote_files + " --server " +
+                                   target_,
                                false);
     EXPECT_EQ(local.exit_code, 0) << verb << " " << args;
     EXPECT_EQ(remote.exit_code, 0) << "remote " << verb << " " << args;
@@ -158,6 +161,17 @@ TEST_F(CliRemoteTest, GradVjpAndJacobianAreTheLocalOnes) {
                     "--rays 20 --samples faces --weights " + weights,
                     {"vjp", "jacobian"});
   std::remove(weights.c_str());
+}
+
+// --fan-out K: the pass and the VJP split into K ranges, the same files.
+TEST_F(CliRemoteTest, FannedOutSdfAndGradAreTheLocalOnes) {
+  const std::string knight = SharedMesh("decimated-knight.off");
+  ExpectSameOutputs("sdf", knight, "--rays 20 --json", {"csv", "ply"},
+                    " --fan-out 3");
+  ExpectSameOutputs("grad", knight, "--rays 20", {"vjp", "jacobian"},
+                    " --fan-out 4");
+  ExpectSameOutputs("grad", knight, "--rays 20 --samples faces", {"vjp"},
+                    " --fan-out 2");
 }
 
 TEST_F(CliRemoteTest, PenaltyAndConstraintAreTheLocalOnes) {

@@ -226,7 +226,8 @@ namespace {
 TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
   [[maybe_unused]] const auto& [method, cone_angle, rays, min_weight, kappa,
                                 epsilon, max_distance, weighting,
-                                opposite, contact_angle, samples] = SdfParams{};
+                                opposite, contact_angle, samples,
+                                range] = SdfParams{};
   const std::vector<std::function<void(SdfParams&)>> changes = {
       [](SdfParams& p) { p.method = SdfMethod::kNormalRay; },
       [](SdfParams& p) { p.cone_angle_degrees = 31; },
@@ -238,6 +239,7 @@ TEST(ParamsEqualityTest, EveryFieldSelectsTheCachedPass) {
       [](SdfParams& p) { p.normal_weighting = NormalWeighting::kAngle; },
       [](SdfParams& p) { p.opposite_points = true; },
       [](SdfParams& p) { p.contact_angle_degrees = 45; },
+      [](SdfParams& p) { p.range = {0, 1}; },
       [](SdfParams& p) { p.samples = SampleSet::kFaces; },
   };
   for (size_t i = 0; i < changes.size(); ++i) {

@@ -499,7 +499,8 @@ TEST_F(ServerTest, GradCheckRejectsBadOptionsBeforeTracing) {
   EXPECT_EQ(code({.relative_step = 0.5}), absl::StatusCode::kInvalidArgument);
   EXPECT_EQ(code({.penalty = PenaltyParams{.t_min = -1}}),
             absl::StatusCode::kInvalidArgument);
-  EXPECT_EQ(code({}, SdfParams{.normal_weighting = NormalWeighting::kAngle}),
+  EXPECT_EQ(code({}, SdfParams{.normal_weighting = NormalWeighting::kAngle,
+                              .range = {}}),
             absl::StatusCode::kFailedPrecondition);
   EXPECT_EQ(client_->GradCheck("nope", {}, {}).status().code(),
             absl::StatusCode::kNotFound);

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <bit>
 #include <chrono>
 #include <memory>
 #include <string>
@@ -241,6 +242,80 @@ TEST_F(SessionCallsTest, GetMeshHoldsTheSessionsMesh) {
   MakeCalls();
   EXPECT_EQ(calls_->GetMesh("", "ball").status().code(),
             absl::StatusCode::kResourceExhausted);
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+// Sample ranges (ComputeSdf, ComputeVjp): refusals name the range and the
+// mesh's count; a range's pass is cached apart from the whole one.
+class SessionCallsRangeTest : public SessionCallsTest {
+ protected:
+  SessionTarget RangeTarget(int64_t begin, int64_t end) const {
+    SessionTarget t = Target();
+    t.params.range = {begin, end};
+    return t;
+  }
+  int64_t vertices() const { return mesh_.num_vertices(); }
+};
+
+TEST_F(SessionCallsRangeTest, ARangeEndingPastTheMeshIsInvalid) {
+  auto sdf = calls_->Sdf("", RangeTarget(0, vertices() + 1), false, {});
+  EXPECT_EQ(sdf.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(sdf.status().message(),
+              ::testing::HasSubstr(absl::StrCat("[0, ", vertices() + 1, ")")));
+  EXPECT_THAT(sdf.status().message(),
+              ::testing::HasSubstr(absl::StrCat(vertices(), " vertices")));
+  auto vjp = calls_->Vjp("", RangeTarget(0, vertices() + 1),
+                         std::vector<double>(vertices() + 1, 1.0), {});
+  EXPECT_EQ(vjp.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+TEST_F(SessionCallsRangeTest, AnEmptyOrReversedRangeIsInvalid) {
+  for (auto [begin, end] : {std::pair<int64_t, int64_t>{5, 5}, {9, 4}}) {
+    EXPECT_EQ(calls_->Sdf("", RangeTarget(begin, end), false, {})
+                  .status()
+                  .code(),
+              absl::StatusCode::kInvalidArgument);
+  }
+}
+
+TEST_F(SessionCallsRangeTest, WeightsOfTheWholeMeshForARangeAreInvalid) {
+  auto vjp = calls_->Vjp("", RangeTarget(2, 10),
+                         std::vector<double>(vertices(), 1.0), {});
+  EXPECT_EQ(vjp.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(vjp.status().message(), ::testing::HasSubstr("[2, 10)"));
+}
+
+TEST_F(SessionCallsRangeTest, ARangesPassIsCachedAndMatchesTheWhole) {
+  auto whole = calls_->Sdf("", Target(), false, {});
+  ASSERT_TRUE(whole.ok());
+  auto part = calls_->Sdf("", RangeTarget(10, 30), false, {});
+  ASSERT_TRUE(part.ok()) << part.status();
+  EXPECT_FALSE(part->facts.reused_hits);
+  ASSERT_THAT(part->pass->result.values, SizeIs(20));
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(std::bit_cast<uint64_t>(part->pass->result.values[i]),
+              std::bit_cast<uint64_t>(whole->pass->result.values[10 + i]));
+  }
+  auto again = calls_->Sdf("", RangeTarget(10, 30), false, {});
+  ASSERT_TRUE(again.ok());
+  EXPECT_TRUE(again->facts.reused_hits);
+  // The session keeps one pass: the whole one is traced again, unchanged.
+  auto whole_again = calls_->Sdf("", Target(), false, {});
+  ASSERT_TRUE(whole_again.ok());
+  EXPECT_EQ(std::memcmp(whole_again->pass->result.values.data(),
+                        whole->pass->result.values.data(),
+                        8 * whole->pass->result.values.size()),
+            0);
+  // The range's reply carries its partial sums.
+  auto vjp = calls_->Vjp("", RangeTarget(10, 30), std::vector<double>(20, 1.0),
+                         {});
+  ASSERT_TRUE(vjp.ok()) << vjp.status();
+  EXPECT_THAT(vjp->reply.sums, SizeIs(3 * vertices()));
 }
 
 }  // namespace

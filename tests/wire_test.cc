@@ -502,7 +502,7 @@ TEST(WireTest, UnaryRepliesRoundTripAndMalformedOnesAreDataLoss) {
   const std::vector<Vec3> g = {Vec3(1.0 / 3, -2e-300, 0), Vec3(5, 6, 0)};
   for (int dim : {2, 3}) {
     v1::ComputeVjpResponse vjp;
-    wire::ToWire(wire::VjpReply{g, {4, true, 1.5}}, dim, &vjp);
+    wire::ToWire(wire::VjpReply{g, {4, true, 1.5}, {}}, dim, &vjp);
     EXPECT_EQ(vjp.gradient_size(), 2 * dim);
     auto back = wire::FromWire(vjp);
     ASSERT_TRUE(back.ok()) << back.status();
@@ -511,7 +511,7 @@ TEST(WireTest, UnaryRepliesRoundTripAndMalformedOnesAreDataLoss) {
     EXPECT_TRUE(back->facts.reused_hits);
   }
   v1::ComputeVjpResponse bad;
-  wire::ToWire(wire::VjpReply{g, {}}, 3, &bad);
+  wire::ToWire(wire::VjpReply{g, {}, {}}, 3, &bad);
   bad.set_dimension(4);
   EXPECT_EQ(wire::FromWire(bad).status().code(), absl::StatusCode::kDataLoss);
   bad.set_dimension(3);
@@ -557,6 +557,62 @@ TEST(ServiceConfigTest, TheCompiledConfigIsTheFileNextToTheProto) {
   ASSERT_FALSE(file.str().empty());
   EXPECT_EQ(std::string(v1::kServiceConfigJson), file.str());
   EXPECT_NE(file.str().find("\"retryPolicy\""), std::string::npos);
+}
+
+}  // namespace
+}  // namespace meshgauge
+
+namespace meshgauge {
+namespace {
+
+TEST(WireRangeTest, AnEmptyOrNegativeRangeIsInvalid) {
+  for (auto [begin, end] :
+       {std::pair<int64_t, int64_t>{3, 3}, {5, 2}, {-1, 4}}) {
+    v1::SampleRange r;
+    r.set_begin(begin);
+    r.set_end(end);
+    EXPECT_EQ(wire::FromWire(r).status().code(),
+              absl::StatusCode::kInvalidArgument);
+  }
+  v1::SampleRange ok;
+  ok.set_begin(0);
+  ok.set_end(7);
+  EXPECT_EQ(*wire::FromWire(ok), (SampleRange{0, 7}));
+}
+
+TEST(WireRangeTest, VjpPartialSumsTravelExactly) {
+  std::vector<ExactSum> sums(6);
+  sums[0].Add(1.0);
+  sums[0].Add(0x1p-70);
+  sums[0].Add(0x1p-140);
+  sums[4].Add(-3.5);
+  sums[5].Add(1e300);  // z: not sent in 2D
+  for (int dim : {2, 3}) {
+    wire::VjpReply reply{RoundVectors(sums), {1, false, 0}, sums};
+    v1::ComputeVjpResponse msg;
+    wire::ToWire(reply, dim, &msg);
+    EXPECT_EQ(msg.tail_counts_size(), 2 * dim);
+    EXPECT_EQ(msg.tail_counts(0), 2);
+    auto back = wire::FromWire(msg);
+    ASSERT_TRUE(back.ok()) << back.status();
+    ASSERT_EQ(back->sums.size(), 6u);
+    for (int j = 0; j < 2; ++j) {
+      for (int c = 0; c < dim; ++c) {
+        EXPECT_EQ(back->sums[3 * j + c].Terms(), sums[3 * j + c].Terms());
+      }
+    }
+    msg.add_tails(1.0);  // one more tail than the counts say
+    EXPECT_EQ(wire::FromWire(msg).status().code(), absl::StatusCode::kDataLoss);
+  }
+}
+
+TEST(WireRangeTest, ASummaryOfAnotherRangeIsDataLoss) {
+  wire::SdfReply reply;
+  v1::SdfSummary s;  // no range: an older server's whole pass
+  SdfParams params;
+  params.range = {4, 9};
+  EXPECT_EQ(wire::FinishReply(s, params, &reply).code(),
+            absl::StatusCode::kDataLoss);
 }
 
 }  // namespace

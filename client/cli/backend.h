@@ -86,9 +86,12 @@ BackendFactory LocalBackend(ProgressMode progress, int threads);
 // counts matching the mesh's, and is created from the mesh when it does not.
 // Errors: the server's, NotFound for an unreadable TLS or token file.
 // The server streams the ray pass's progress when `progress` draws a bar.
+// `fan_out` > 1 splits the values pass and the VJP into that many sample
+// ranges sent at once (client::SdfCall::fan_out; the same bits).
 absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
                                              const std::string& session_id,
-                                             ProgressMode progress);
+                                             ProgressMode progress,
+                                             int fan_out = 1);
 
 // A client of the server of `remote` (--server, TLS and token files).
 // Errors: NotFound for an unreadable file, InvalidArgument for a client

@@ -191,11 +191,12 @@ int Main(int argc, char** argv) {
   AddRemoteFlags(remote, &r.remote);
   MeshVerbs remote_verbs;
   std::string remote_session;
+  int remote_fan_out = 1;
   AddMeshVerbs(
       *remote, &remote_verbs,
       [&] {
         return RemoteBackend(r.remote, remote_session,
-                             remote_verbs.in.out.Progress());
+                             remote_verbs.in.out.Progress(), remote_fan_out);
       },
       &run);
   for (const char* verb :
@@ -204,6 +205,15 @@ int Main(int argc, char** argv) {
         "--session-id", remote_session,
         "compute on this session (kept; created from MESH if missing) "
         "instead of a temporary one");
+  }
+  for (const char* verb : {"sdf", "grad"}) {
+    remote->get_subcommand(verb)
+        ->add_option("--fan-out", remote_fan_out,
+                     "split the pass (and the VJP) into K sample ranges sent "
+                     "at once, through a balancer to K replicas; the same "
+                     "bits for any K")
+        ->check(CLI::Range(1, 1024))
+        ->capture_default_str();
   }
   CLI::App* up = SessionVerb(remote, "upload", "upload MESH as a session", &r,
                              false, &run);

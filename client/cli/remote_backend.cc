@@ -10,12 +10,13 @@ namespace {
 class Remote : public Backend {
  public:
   Remote(std::shared_ptr<client::RemoteClient> c, std::string id,
-         bool temporary, Mesh mesh, ProgressMode progress)
+         bool temporary, Mesh mesh, ProgressMode progress, int fan_out)
       : c_(std::move(c)),
         id_(std::move(id)),
         temporary_(temporary),
         mesh_(std::move(mesh)),
-        progress_(progress) {}
+        progress_(progress),
+        fan_out_(fan_out) {}
   ~Remote() override {
     if (temporary_) (void)c_->Delete(id_);
   }
@@ -30,8 +31,10 @@ class Remote : public Backend {
         absl::StrCat("tracing ", NumSamples(mesh_, params.samples) * rays,
                      " rays on the server"),
         progress_);
-    client::SdfCall call{.include_jacobian =
-                             derivatives == Derivatives::kJacobian};
+    client::SdfCall call{
+        .include_jacobian = derivatives == Derivatives::kJacobian,
+        .fan_out = fan_out_,
+        .mesh = &mesh_};
     if (bar.enabled()) {
       call.progress = [&bar](int64_t done, int64_t total) {
         bar.Update(done, total);
@@ -56,7 +59,7 @@ class Remote : public Backend {
   }
   absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) override {
-    auto r = c_->ComputeVjp(id_, params_, weights);
+    auto r = c_->ComputeVjp(id_, params_, weights, std::nullopt, fan_out_);
     if (!r.ok()) return r.status();
     return std::move(r->gradient);
   }
@@ -86,6 +89,7 @@ class Remote : public Backend {
   const bool temporary_;
   const Mesh mesh_;
   const ProgressMode progress_;
+  const int fan_out_;  // sample ranges per pass and VJP.
   SdfParams params_;
   std::optional<SparseJacobian> jacobian_;
 };
@@ -127,19 +131,20 @@ absl::StatusOr<std::unique_ptr<client::RemoteClient>> Connect(
 
 absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
                                              const std::string& session_id,
-                                             ProgressMode progress) {
+                                             ProgressMode progress,
+                                             int fan_out) {
   auto connected = Connect(remote);
   if (!connected.ok()) return connected.status();
   std::shared_ptr<client::RemoteClient> c = std::move(*connected);
   return BackendFactory(
-      [c, session_id,
-       progress](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+      [c, session_id, progress,
+       fan_out](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
         if (!session_id.empty()) {
           auto info = c->Get(session_id);
           if (info.ok()) {
             if (absl::Status s = CheckSession(*info, mesh); !s.ok()) return s;
             return std::make_unique<Remote>(c, session_id, false,
-                                            std::move(mesh), progress);
+                                            std::move(mesh), progress, fan_out);
           }
           if (info.status().code() != absl::StatusCode::kNotFound) {
             return info.status();
@@ -148,7 +153,7 @@ absl::StatusOr<BackendFactory> RemoteBackend(const RemoteFlags& remote,
         auto up = c->Upload(mesh, session_id);
         if (!up.ok()) return up.status();
         return std::make_unique<Remote>(c, up->session_id, session_id.empty(),
-                                        std::move(mesh), progress);
+                                        std::move(mesh), progress, fan_out);
       });
 }
 

@@ -6,11 +6,14 @@
 #include <chrono>
 #include <cstdlib>
 #include <future>
+#include <mutex>
 #include <random>
 
 #include "absl/strings/ascii.h"
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_format.h"
+#include "client/remote/fan_out.h"
+#include "lib/core/face_sample.h"
 #include "lib/io/text_file.h"
 #include "meshgauge/v1/service_config.h"
 #include "proto/wire/convert.h"
@@ -93,7 +96,7 @@ absl::Status RemoteClient::Checked(const grpc::Status& s) const {
 }
 
 std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
-    const std::string& session_id) const {
+    const std::string& session_id, SampleRange range) const {
   auto ctx = std::make_unique<grpc::ClientContext>();
   if (channel_->GetState(/*try_to_connect=*/true) != GRPC_CHANNEL_READY &&
       !channel_->WaitForConnected(
@@ -119,6 +122,10 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
   }
   if (!options_.token.empty()) {
     ctx->AddMetadata(kAuthorizationMetadataKey, "Bearer " + options_.token);
+  }
+  if (!range.all()) {
+    ctx->AddMetadata(kRangeMetadataKey,
+                     absl::StrCat(range.begin, "-", range.end));
   }
   return ctx;
 }
@@ -245,6 +252,35 @@ absl::StatusOr<wire::UpdateResult> RemoteClient::UpdatePositions(
 absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
                                                         const SdfParams& params,
                                                         const SdfCall& call) {
+  if (call.fan_out > 1 && params.range.all()) {
+    if (call.mesh == nullptr) {
+      return absl::InvalidArgumentError(
+          "a fanned-out ComputeSdf needs the session's mesh (SdfCall::mesh)");
+    }
+    // Progress: the ranges' vertices done, summed.
+    const int64_t samples = NumSamples(*call.mesh, params.samples);
+    std::vector<int64_t> done(call.fan_out, 0);
+    std::mutex progress_mu;
+    auto parts = FanOut<wire::SdfReply>(
+        samples, call.fan_out, [&](int index, SampleRange range) {
+          SdfParams part = params;
+          part.range = range;
+          SdfCall range_call = call;
+          range_call.fan_out = 1;
+          if (call.progress) {
+            range_call.progress = [&, index](int64_t d, int64_t) {
+              std::lock_guard<std::mutex> lock(progress_mu);
+              done[index] = d;
+              int64_t sum = 0;
+              for (int64_t x : done) sum += x;
+              call.progress(sum, samples);
+            };
+          }
+          return ComputeSdf(id, part, range_call);
+        });
+    if (!parts.ok()) return parts.status();
+    return MergeSdfReplies(*call.mesh, std::move(*parts));
+  }
   // The channel's retry policy retries a call until its reply has started;
   // a stream cut after that (its replica died: UNAVAILABLE, or UNKNOWN
   // "Stream removed" through the balancer) is asked again, a read being
@@ -264,10 +300,11 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
 absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdfOnce(
     const std::string& id, const SdfParams& params, const SdfCall& call,
     bool* started) {
-  auto ctx = Context(id);
+  auto ctx = Context(id, params.range);
   v1::ComputeSdfRequest req;
   req.set_session_id(id);
   *req.mutable_params() = wire::ToWire(params);
+  if (!params.range.all()) wire::ToWire(params.range, req.mutable_range());
   req.set_include_jacobian(call.include_jacobian);
   req.set_chunk_vertices(call.chunk_vertices);
   req.set_report_progress(call.progress != nullptr);
@@ -292,7 +329,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdfOnce(
                       msg.progress().vertices_total());
       }
     } else {
-      parsed = wire::AppendChunk(msg.chunk(), &out);
+      parsed = wire::AppendChunk(msg.chunk(), &out, params.range.begin);
     }
   }
   if (absl::Status s = Checked(reader->Finish()); !s.ok()) return s;
@@ -333,14 +370,65 @@ absl::StatusOr<wire::GradCheckReply> RemoteClient::GradCheck(
                               {report->generation(), false, report->seconds()}};
 }
 
+template <typename Reply>
+absl::StatusOr<std::vector<Reply>> RemoteClient::FanOut(
+    int64_t samples, int fan_out,
+    const std::function<absl::StatusOr<Reply>(int, SampleRange)>& call) {
+  const std::vector<SampleRange> ranges = SplitSamples(samples, fan_out);
+  std::vector<Reply> replies(ranges.size());
+  absl::Status s = RunConcurrently(
+      static_cast<int>(ranges.size()), [&](int i) -> absl::Status {
+        for (int attempt = 1;; ++attempt) {
+          auto reply = call(i, ranges[i]);
+          if (reply.ok()) {
+            replies[i] = std::move(*reply);
+            return absl::OkStatus();
+          }
+          const absl::StatusCode code = reply.status().code();
+          // The balancer sends the range again to a replica that is up.
+          if (!options_.retry || attempt == 3 ||
+              (code != absl::StatusCode::kUnavailable &&
+               code != absl::StatusCode::kUnknown)) {
+            return reply.status();
+          }
+        }
+      });
+  if (!s.ok()) return s;
+  return replies;
+}
+
 absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
     const std::string& id, const SdfParams& params,
     absl::Span<const double> weights,
+    std::optional<int64_t> expected_generation, int fan_out) {
+  if (fan_out <= 1 || !params.range.all()) {
+    return ComputeVjpOnce(id, params, weights, expected_generation);
+  }
+  auto parts = FanOut<wire::VjpReply>(
+      std::ssize(weights), fan_out, [&](int, SampleRange range) {
+        SdfParams part = params;
+        part.range = range;
+        return ComputeVjpOnce(
+            id, part, weights.subspan(range.begin, range.end - range.begin),
+            expected_generation);
+      });
+  if (!parts.ok()) return parts.status();
+  if (parts->empty()) {  // no sample: the whole call's reply.
+    return ComputeVjpOnce(id, params, weights, expected_generation);
+  }
+  const int64_t vertices = std::ssize(parts->front().sums) / 3;
+  return MergeVjpReplies(vertices, *parts);
+}
+
+absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjpOnce(
+    const std::string& id, const SdfParams& params,
+    absl::Span<const double> weights,
     std::optional<int64_t> expected_generation) {
-  auto ctx = Context(id);
+  auto ctx = Context(id, params.range);
   v1::ComputeVjpRequest req;
   req.set_session_id(id);
   *req.mutable_params() = wire::ToWire(params);
+  if (!params.range.all()) wire::ToWire(params.range, req.mutable_range());
   if (expected_generation) req.set_expected_generation(*expected_generation);
   req.mutable_weights()->Add(weights.begin(), weights.end());
   v1::ComputeVjpResponse resp;

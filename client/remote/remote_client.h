@@ -27,6 +27,11 @@ inline constexpr char kSessionMetadataKey[] = "x-meshgauge-session";
 
 inline constexpr char kAuthorizationMetadataKey[] = "authorization";
 
+// A range call (SdfParams::range) also carries `x-meshgauge-range:
+// BEGIN-END`: the balancer hashes it with the session id, so that one
+// session's ranges spread over the replicas (docs/deployment.md).
+inline constexpr char kRangeMetadataKey[] = "x-meshgauge-range";
+
 struct ClientOptions {
   double deadline_seconds = 600;      // per call.
   int upload_chunk_vertices = 65536;  // vertices (and faces) per chunk.
@@ -75,6 +80,12 @@ struct SdfCall {
   // If set, the server streams the ray pass's progress to it (vertices
   // done, vertices in all); not called when the server reuses a pass.
   std::function<void(int64_t done, int64_t total)> progress = nullptr;
+  // Split the call into this many sample ranges sent at once (the fan-out,
+  // docs/server.md; 1: one call). Needs `mesh`, the session's mesh at its
+  // current positions: the merged reply's missing counts and integral are
+  // computed from it (InvalidArgument without it).
+  int fan_out = 1;
+  const Mesh* mesh = nullptr;
 };
 
 class RemoteClient {
@@ -101,16 +112,24 @@ class RemoteClient {
   // The SDF of the session's current positions (the server picks the
   // threads). A stream cut after it started (UNAVAILABLE, UNKNOWN: its
   // replica died) is asked again, three attempts in all, with
-  // options.retry; progress then starts again. Errors: the server's,
-  // DATA_LOSS for a malformed stream.
+  // options.retry; progress then starts again. With call.fan_out > 1 (and
+  // no params.range) the samples are split into that many ranges, called
+  // at once, each asked again up to three times when it fails UNAVAILABLE
+  // or UNKNOWN, and merged: the whole call's reply, bit for bit. Errors:
+  // the server's, DATA_LOSS for a malformed stream, ABORTED when the
+  // session moved between the ranges.
   absl::StatusOr<wire::SdfReply> ComputeSdf(const std::string& session_id,
                                             const SdfParams& params,
                                             const SdfCall& call = {});
-  // g^T J for per-vertex weights g (#V).
+  // g^T J for per-sample weights g (#V or #F; with params.range, the
+  // range's). With fan_out > 1 (and no params.range) split and merged as
+  // ComputeSdf's: the exact partial sums of the ranges added and rounded
+  // once, bit for bit the whole call's.
   absl::StatusOr<wire::VjpReply> ComputeVjp(
       const std::string& session_id, const SdfParams& params,
       absl::Span<const double> weights,
-      std::optional<int64_t> expected_generation = std::nullopt);
+      std::optional<int64_t> expected_generation = std::nullopt,
+      int fan_out = 1);
   absl::StatusOr<wire::PenaltyReply> ComputePenalty(
       const std::string& session_id, const SdfParams& params,
       const PenaltyParams& penalty, bool with_gradient,
@@ -139,9 +158,10 @@ class RemoteClient {
   // The raw stub, for messages the typed calls never send (malformed
   // uploads, out-of-range pages: the tests that play a hostile client).
   v1::MeshGauge::Stub& stub() { return *stub_; }
-  // A context with the deadline and the session routing key.
-  std::unique_ptr<grpc::ClientContext> Context(
-      const std::string& session_id) const;
+  // A context with the deadline and the session routing key (and the
+  // range's, for a range call).
+  std::unique_ptr<grpc::ClientContext> Context(const std::string& session_id,
+                                               SampleRange range = {}) const;
 
  private:
   // One ComputeSdf call; *started is set once a reply message arrived.
@@ -149,6 +169,18 @@ class RemoteClient {
                                                 const SdfParams& params,
                                                 const SdfCall& call,
                                                 bool* started);
+
+  // The fan-out's range calls: `samples` split `fan_out` ways (SplitSamples),
+  // call(index, range) on every range at once, a range asked again (at most
+  // three attempts) while it fails UNAVAILABLE or UNKNOWN.
+  template <typename Reply>
+  absl::StatusOr<std::vector<Reply>> FanOut(
+      int64_t samples, int fan_out,
+      const std::function<absl::StatusOr<Reply>(int, SampleRange)>& call);
+  absl::StatusOr<wire::VjpReply> ComputeVjpOnce(
+      const std::string& session_id, const SdfParams& params,
+      absl::Span<const double> weights,
+      std::optional<int64_t> expected_generation);
 
   // The call's status; UNAVAILABLE names the target (no server, wrong
   // address, refused connection).

@@ -4,9 +4,24 @@
 #include <array>
 #include <utility>
 
+#include "absl/strings/str_cat.h"
 #include "lib/core/normals.h"
 
 namespace meshgauge {
+
+absl::StatusOr<SampleRange> ResolveRange(const Mesh& mesh,
+                                         const SdfParams& params) {
+  const int64_t n = NumSamples(mesh, params.samples);
+  const SampleRange& r = params.range;
+  if (r.all()) return SampleRange{0, n};
+  if (r.begin < 0 || r.begin >= r.end || r.end > n) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "sample range [", r.begin, ", ", r.end, ") is not a non-empty range "
+        "of the mesh's ", n, " ", SampleSetName(params.samples),
+        " (0 <= begin < end <= ", n, ")"));
+  }
+  return r;
+}
 
 Vec3 FaceCentroid(const Mesh& mesh, int64_t f) {
   const Face& face = mesh.faces[f];

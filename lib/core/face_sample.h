@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "absl/functional/function_ref.h"
+#include "absl/status/statusor.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/topology.h"
@@ -17,6 +18,12 @@ namespace meshgauge {
 inline int64_t NumSamples(const Mesh& mesh, SampleSet set) {
   return set == SampleSet::kFaces ? mesh.num_faces() : mesh.num_vertices();
 }
+
+// The samples [begin, end) of params.range on `mesh` (every sample for the
+// default range). InvalidArgument naming the range and the sample count
+// unless 0 <= begin < end <= NumSamples.
+absl::StatusOr<SampleRange> ResolveRange(const Mesh& mesh,
+                                         const SdfParams& params);
 
 // The mean of face f's corners (a quad's four, a segment's two).
 Vec3 FaceCentroid(const Mesh& mesh, int64_t f);

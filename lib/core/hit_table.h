@@ -38,6 +38,9 @@ struct HitTable {
   float extrude_half_height = 0;
   float t_near = 0;
   int64_t num_primitives = 0;  // of the topology the pass was traced on.
+  // A sample range's pass holds the rows of its samples only, the first
+  // being this sample's (resolved.params.range.begin).
+  int64_t first_sample = 0;
   // Bytes held: 5 per ray (a primitive index and a kept flag) and 25 per
   // vertex.
   int64_t Bytes() const {
@@ -46,11 +49,13 @@ struct HitTable {
         positions.capacity() * sizeof(Vec3) + near.capacity());
   }
   absl::Span<const int32_t> Row(int64_t vertex) const {
-    return absl::MakeConstSpan(primitives.data() + vertex * cone.size(),
-                               cone.size());
+    return absl::MakeConstSpan(
+        primitives.data() + (vertex - first_sample) * cone.size(),
+        cone.size());
   }
   absl::Span<const uint8_t> KeptRow(int64_t vertex) const {
-    return absl::MakeConstSpan(kept.data() + vertex * cone.size(), cone.size());
+    return absl::MakeConstSpan(
+        kept.data() + (vertex - first_sample) * cone.size(), cone.size());
   }
 };
 

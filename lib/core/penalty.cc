@@ -6,6 +6,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/face_sample.h"
+#include "lib/core/exact_sum.h"
 #include "lib/core/integrals.h"
 #include "lib/core/sensitivity.h"
 
@@ -31,11 +32,38 @@ struct Phi {
 
 // I = integral of f(t) over the faces with values, with dI/dt_p (per
 // sample) and (with `measure_terms`) the explicit dI/dx of the element
-// measures.
+// measures: every sum over elements exact and rounded once (ExactSum), so
+// that it does not depend on how the elements are visited or split.
 struct NodalIntegral {
   double value = 0;
   std::vector<double> d_dt;
   std::vector<Vec3> d_measure;
+};
+
+// The exact sums of a NodalIntegral: x, y, z per vertex in d_measure.
+struct NodalSums {
+  NodalSums(int64_t samples, int64_t vertices, bool measure_terms)
+      : d_dt(samples), d_measure(measure_terms ? 3 * vertices : 0) {}
+  void AddMeasure(const Element& e, const Vec3 grad[3], double f) {
+    for (int i = 0; i < e.n; ++i) {
+      const Vec3 d = grad[i] * f;
+      ExactSum* m = &d_measure[3 * e.v[i]];
+      m[0].Add(d.x);
+      m[1].Add(d.y);
+      m[2].Add(d.z);
+    }
+  }
+  NodalIntegral Round() const {
+    NodalIntegral r;
+    r.value = value.Round();
+    r.d_dt.reserve(d_dt.size());
+    for (const ExactSum& s : d_dt) r.d_dt.push_back(s.Round());
+    r.d_measure = RoundVectors(d_measure);
+    return r;
+  }
+  ExactSum value;
+  std::vector<ExactSum> d_dt;
+  std::vector<ExactSum> d_measure;
 };
 
 // Face samples (SPEC v2 §5c): t is constant on each face, so the integral
@@ -45,22 +73,20 @@ NodalIntegral IntegrateFaces(const Mesh& mesh,
                              const std::function<double(double)>& f,
                              const std::function<double(double)>& df,
                              bool measure_terms) {
-  NodalIntegral r;
-  r.d_dt.assign(mesh.num_faces(), 0.0);
-  if (measure_terms) r.d_measure.assign(mesh.num_vertices(), Vec3());
+  NodalSums r(mesh.num_faces(), mesh.num_vertices(), measure_terms);
   ForEachElement(mesh, [&](int64_t face, const Element& e) {
     const double t = values[face];
     if (!std::isfinite(t)) return;
     const double ft = f(t);
-    r.value += e.measure * ft;
-    r.d_dt[face] += e.measure * df(t);
+    r.value.Add(e.measure * ft);
+    r.d_dt[face].Add(e.measure * df(t));
     if (measure_terms) {
       Vec3 grad[3];
       ElementMeasureGradient(mesh, e, grad);
-      for (int i = 0; i < e.n; ++i) r.d_measure[e.v[i]] += grad[i] * ft;
+      r.AddMeasure(e, grad, ft);
     }
   });
-  return r;
+  return r.Round();
 }
 
 // Values per face (face samples) or per vertex, interpolated linearly.
@@ -69,25 +95,23 @@ NodalIntegral Integrate(const Mesh& mesh, const std::vector<double>& values,
                         const std::function<double(double)>& df,
                         bool measure_terms) {
   if (faces) return IntegrateFaces(mesh, values, f, df, measure_terms);
-  NodalIntegral r;
-  r.d_dt.assign(mesh.num_vertices(), 0.0);
-  if (measure_terms) r.d_measure.assign(mesh.num_vertices(), Vec3());
+  NodalSums r(mesh.num_vertices(), mesh.num_vertices(), measure_terms);
   ForEachValuedElement(mesh, values, [&](const Element& e, const double* t) {
     const auto& rule = QuadratureRule(e.n);
     double f_sum = 0;
     for (size_t q = 0; q < rule.size(); ++q) {
       f_sum += rule[q].weight * f(t[q]);
       const double dfq = rule[q].weight * e.measure * df(t[q]);
-      for (int i = 0; i < e.n; ++i) r.d_dt[e.v[i]] += dfq * rule[q].shape[i];
+      for (int i = 0; i < e.n; ++i) r.d_dt[e.v[i]].Add(dfq * rule[q].shape[i]);
     }
-    r.value += e.measure * f_sum;
+    r.value.Add(e.measure * f_sum);
     if (measure_terms) {
       Vec3 grad[3];
       ElementMeasureGradient(mesh, e, grad);
-      for (int i = 0; i < e.n; ++i) r.d_measure[e.v[i]] += grad[i] * f_sum;
+      r.AddMeasure(e, grad, f_sum);
     }
   });
-  return r;
+  return r.Round();
 }
 
 // G = M + ln(I / A) / rho with I = integral of exp(rho (s - M)), s = 1 -

@@ -35,6 +35,17 @@ enum class SampleSet {
 const char* SampleSetName(SampleSet set);
 const char* SampleName(SampleSet set);
 
+// The samples [begin, end) of a pass (vertex or face indices); the default,
+// end == 0, is every sample. A range pass computes only its samples: its
+// results are theirs, bit for bit the full pass's (values do not depend on
+// other samples), and split a pass over replicas (docs/server.md, Fan-out).
+struct SampleRange {
+  int64_t begin = 0;
+  int64_t end = 0;
+  bool all() const { return end == 0; }
+  bool operator==(const SampleRange&) const = default;
+};
+
 struct SdfParams {
   SdfMethod method = SdfMethod::kCone;
   // Full opening angle alpha in degrees, in (0, 180).
@@ -58,6 +69,9 @@ struct SdfParams {
   // touching point is seen from the vertex at most beta off the axis.
   double contact_angle_degrees = 60;
   SampleSet samples = SampleSet::kVertices;
+  // Which samples; checked against the mesh by the pass (InvalidArgument
+  // naming the range and the count unless 0 <= begin < end <= samples).
+  SampleRange range;
 
   // Every field: a cached pass is reused only for equal parameters. How a
   // pass runs (ComputeControl) is not a parameter.
@@ -87,7 +101,11 @@ enum class VertexStatus : uint8_t {
 const char* VertexStatusName(VertexStatus status);
 
 // Arrays hold one entry per sample: #V with SampleSet::kVertices, #F with
-// kFaces (statuses are then kOk, kNoHit or kDegenerateNormal).
+// kFaces (statuses are then kOk, kNoHit or kDegenerateNormal); with a
+// sample range (resolved.params.range) one per sample of the range, entry
+// i for sample range.begin + i, and `normalized` is over the range's values
+// and `missing` is left empty (both need every value: a client that merged
+// the ranges computes them, NormalizedSdf and CountMissing).
 struct SdfResult {
   // Per sample: SDF in mesh units; NaN unless status is kOk.
   std::vector<double> values;

@@ -22,8 +22,7 @@ namespace meshgauge {
 namespace {
 
 // Samples per batch: the rows of a batch are computed in parallel while
-// the batch before is scattered (each destination summing in sample order:
-// deterministic sums). The two batches' rows are reused from batch to
+// the batch before is scattered (into exact sums: deterministic). The two batches' rows are reused from batch to
 // batch; small batches keep them in cache (horse, 100 rays: VJP 0.23 s with
 // 4096 samples, 0.17 s with 1024; with the scatter overlapped, 2^16 row
 // entries by their bounds beat 2^20: docs/benchmarks.md).
@@ -72,7 +71,8 @@ struct Context {
   const MeshGeometry& ev;
   const HitTable& hits;
   bool faces = false;   // face samples (SPEC v2 §5c), else vertices.
-  int64_t samples = 0;  // #F or #V.
+  int64_t first = 0;    // the pass's samples: [first, first + samples),
+  int64_t samples = 0;  // every vertex or face but for a range's pass.
 };
 
 void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms);
@@ -224,7 +224,9 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
                                     const HitTable& table) {
   const HitTable* hits = &table;
   const bool faces = hits->resolved.params.samples == SampleSet::kFaces;
-  const int64_t samples = NumSamples(ev.mesh(), hits->resolved.params.samples);
+  auto range = ResolveRange(ev.mesh(), hits->resolved.params);
+  if (!range.ok()) return range.status();
+  const int64_t samples = range->end - range->begin;
   if (hits->generation != ev.generation() ||
       std::ssize(hits->primitives) != samples * std::ssize(hits->cone)) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -238,7 +240,7 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
         "sensitivities are only available with area-weighted normals; "
         "recompute with area weighting (--normals area, the default)");
   }
-  return Context{ev, *hits, faces, samples};
+  return Context{ev, *hits, faces, range->begin, samples};
 }
 
 // An upper bound on the entries of sample p's row: the corners of the
@@ -264,7 +266,9 @@ int64_t RowEntriesBound(const Context& ctx, int64_t p) {
 // The sum of RowEntriesBound over every sample.
 int64_t EntriesBound(const Context& ctx) {
   int64_t entries = 0;
-  for (int64_t p = 0; p < ctx.samples; ++p) entries += RowEntriesBound(ctx, p);
+  for (int64_t p = ctx.first; p < ctx.first + ctx.samples; ++p) {
+    entries += RowEntriesBound(ctx, p);
+  }
   return entries;
 }
 
@@ -286,10 +290,10 @@ template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           Consume consume) {
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
-  const int64_t ns = ctx.samples;
+  const int64_t ns = ctx.first + ctx.samples;  // the end of the samples.
   const size_t num_rays = ctx.hits.cone.size();
   const int64_t nv = ctx.ev.mesh().num_vertices();
-  ControlGate gate(control, ns);
+  ControlGate gate(control, ctx.samples);
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];
   int computing = 0;
@@ -328,7 +332,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
     consume(b);
     gate.Done(b.end - b.begin);
   };
-  for (int64_t begin = 0, end = 0; begin < ns; begin = end) {
+  for (int64_t begin = ctx.first, end = 0; begin < ns; begin = end) {
     if (!gate.Poll()) {
       return absl::CancelledError("sensitivity computation cancelled");
     }
@@ -387,39 +391,63 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
          (ctx->samples + 1) * static_cast<int64_t>(sizeof(int64_t));
 }
 
-absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
-                                             const HitTable& hits,
-                                             absl::Span<const double> g,
-                                             const ComputeControl& control) {
+absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
+    const MeshGeometry& geometry, const HitTable& hits,
+    absl::Span<const double> g, const ComputeControl& control) {
   const int64_t nv = geometry.mesh().num_vertices();
-  const int64_t ns = NumSamples(geometry.mesh(), hits.resolved.params.samples);
+  auto ctx = MakeContext(geometry, hits);
+  if (!ctx.ok()) return ctx.status();
+  const int64_t ns = ctx->samples;
+  const int64_t first = ctx->first;
   const char* sample = SampleName(hits.resolved.params.samples);
   if (std::ssize(g) != ns) {
     return absl::InvalidArgumentError(
         absl::StrCat("VJP weights must have one value per ", sample,
+                     hits.resolved.params.range.all() ? "" : " of the range",
                      ": expected ", ns, ", got ", g.size()));
   }
   for (int64_t i = 0; i < ns; ++i) {
     if (!std::isfinite(g[i])) {
-      return absl::InvalidArgumentError(
-          absl::StrCat("VJP weight of ", sample, " ", i, " is not finite"));
+      return absl::InvalidArgumentError(absl::StrCat(
+          "VJP weight of ", sample, " ", first + i, " is not finite"));
     }
   }
-  auto ctx = MakeContext(geometry, hits);
-  if (!ctx.ok()) return ctx.status();
-  std::vector<Vec3> out(nv);
-  // Each batch is scattered by one task, in sample order (so the result
-  // does not depend on the number of threads), while the next is computed.
+  std::vector<ExactSum> out(3 * nv);
+  // Each batch is scattered by one task while the next is computed; the
+  // sums are exact, so neither the order nor the threads change them.
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
     for (int64_t p = batch.begin; p < batch.end; ++p) {
-      if (g[p] == 0) continue;
+      const double gp = g[p - first];
+      if (gp == 0) continue;
       for (const Term& term : batch.rows[p - batch.begin]) {
-        out[term.vertex] += term.d * g[p];
+        const Vec3 d = term.d * gp;
+        ExactSum* o = &out[3 * term.vertex];
+        o[0].Add(d.x);
+        o[1].Add(d.y);
+        o[2].Add(d.z);
       }
     }
   });
   if (!s.ok()) return s;
   return out;
+}
+
+std::vector<Vec3> RoundVectors(absl::Span<const ExactSum> xyz) {
+  std::vector<Vec3> out(xyz.size() / 3);
+  for (size_t j = 0; j < out.size(); ++j) {
+    out[j] = {xyz[3 * j].Round(), xyz[3 * j + 1].Round(),
+              xyz[3 * j + 2].Round()};
+  }
+  return out;
+}
+
+absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
+                                             const HitTable& hits,
+                                             absl::Span<const double> g,
+                                             const ComputeControl& control) {
+  auto sums = ComputeVjpSums(geometry, hits, g, control);
+  if (!sums.ok()) return sums.status();
+  return RoundVectors(*sums);
 }
 
 }  // namespace meshgauge

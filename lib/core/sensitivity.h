@@ -17,6 +17,7 @@
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
+#include "lib/core/exact_sum.h"
 #include "lib/core/hit_table.h"
 #include "lib/core/mesh_geometry.h"
 
@@ -25,7 +26,8 @@ namespace meshgauge {
 // Row-compressed sparse Jacobian dSDF/dx: row p lists (column vertex j,
 // dSDF_p/dx_j as a 3-vector; z = 0 in 2D), columns ascending and unique.
 // One row per sample (vertex, or face with SampleSet::kFaces: its centroid
-// and normal move with its corners); rows without a value are empty.
+// and normal move with its corners), or per sample of a range pass's range;
+// rows without a value are empty.
 struct SparseJacobian {
   std::vector<int64_t> row_offsets;  // samples + 1
   std::vector<int32_t> columns;
@@ -54,15 +56,28 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
                                            const HitTable& hits);
 
 // Vector-Jacobian product: out_j = sum_p g_p dSDF_p/dx_j (#V 3-vectors).
-// g has one entry per sample, #V or #F (ignored where a sample has no value;
-// must be finite).
-// O(#V) memory (the result, 24 bytes a vertex, and 4 bytes a vertex per
-// thread), no dense matrix; deterministic for any thread count.
+// g has one entry per sample, #V or #F, or per sample of a range pass's
+// range (ignored where a sample has no value; must be finite).
+// Each sample's row is summed in doubles (a sample is never split); the sum
+// over samples is exact and rounded once (ExactSum), so the result does not
+// depend on the thread count or on how the samples are split (a sample
+// range's partial sums, ComputeVjpSums, merged exactly give these bits).
+// O(#V) memory (the exact sums, about 170 bytes a vertex, and 4 bytes a
+// vertex per thread), no dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
                                              const HitTable& hits,
                                              absl::Span<const double> g,
                                              const ComputeControl& control = {});
+
+// ComputeVjp's exact sums before rounding: x, y, z of vertex j at 3j,
+// 3j + 1, 3j + 2.
+absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
+    const MeshGeometry& geometry, const HitTable& hits,
+    absl::Span<const double> g, const ComputeControl& control = {});
+
+// Rounds x, y, z sums (3 per vertex, as ComputeVjpSums) to vectors.
+std::vector<Vec3> RoundVectors(absl::Span<const ExactSum> xyz);
 
 }  // namespace meshgauge

@@ -384,7 +384,8 @@ struct PassSetup {
   std::vector<ConeRay> cone;  // one ray (the axis) but for kCone.
   bool sphere = false;        // kSphere: the inscribed ball, no rays.
   bool faces = false;         // face samples (SPEC v2 §5c), else vertices.
-  int64_t samples = 0;
+  SampleRange range;          // the pass's samples, resolved.
+  int64_t samples = 0;        // in the range.
   int num_rays = 0;
   double t_min = 0, t_max = 0;  // hits count within [t_min, t_max].
   RayScene::FanLimits limits;   // the same in the tracer's precision.
@@ -410,7 +411,10 @@ absl::StatusOr<PassSetup> SetUpPass(const MeshGeometry& g,
     if (!made.ok()) return made.status();
     setup.cone = std::move(*made);
   }
-  setup.samples = NumSamples(g.mesh(), params.samples);
+  auto range = ResolveRange(g.mesh(), params);
+  if (!range.ok()) return range.status();
+  setup.range = *range;
+  setup.samples = range->end - range->begin;
   setup.num_rays = static_cast<int>(setup.cone.size());
   setup.t_min = params.self_hit_epsilon * g.mean_edge_length();
   setup.t_max =
@@ -512,20 +516,21 @@ class SdfEvaluator::SampleTracer {
         ball_tree_(ball_tree),
         out_(*out) {}
 
-  // Sample i of the pass's visiting order.
-  void Sample(int64_t i, SampleScratch& s) const {
-    // Sample p: vertex order_[i], or face i.
-    const int64_t p = setup_.faces ? i : ev_.order_[i];
+  // Sample i of the pass's visiting order `visit` (vertices in Morton
+  // order), or face range.begin + i.
+  void Sample(int64_t i, absl::Span<const int32_t> visit,
+              SampleScratch& s) const {
+    const int64_t p = setup_.faces ? setup_.range.begin + i : visit[i];
     SampleRows rows;
     if (!out_.table.empty()) {
-      rows = {&out_.table[p * setup_.num_rays],
-              &out_.kept_table[p * setup_.num_rays]};
+      rows = {&out_.table[Slot(p) * setup_.num_rays],
+              &out_.kept_table[Slot(p) * setup_.num_rays]};
       std::fill_n(rows.prims, setup_.num_rays, -1);
       std::fill_n(rows.kept, setup_.num_rays, 0);
     }
     SdfResult& result = out_.result;
     if (!setup_.faces && ev_.topo_.vertex_faces.Of(p).empty()) {
-      result.status[p] = VertexStatus::kNoFaces;
+      result.status[Slot(p)] = VertexStatus::kNoFaces;
       return;
     }
     // The ball needs the axis only, not the rays' frame.
@@ -537,7 +542,7 @@ class SdfEvaluator::SampleTracer {
         },
         /*frame=*/!setup_.sphere);
     if (!sample.cone.valid) {
-      result.status[p] = VertexStatus::kDegenerateNormal;
+      result.status[Slot(p)] = VertexStatus::kDegenerateNormal;
       return;
     }
     s.world_frames += sample.cone.world_frame;
@@ -549,6 +554,9 @@ class SdfEvaluator::SampleTracer {
   }
 
  private:
+  // Sample p's entry in the pass's output (the range's first is 0).
+  int64_t Slot(int64_t p) const { return p - setup_.range.begin; }
+
   // kSphere: the inscribed ball at the sample, one "ray" in the tables.
   void Ball(int64_t p, const SampleCone& sample, const SampleRows& rows,
             SampleScratch& s) const {
@@ -564,14 +572,14 @@ class SdfEvaluator::SampleTracer {
     }
     SdfResult& result = out_.result;
     if (b.prim < 0) {
-      result.status[p] = VertexStatus::kNoHit;
+      result.status[Slot(p)] = VertexStatus::kNoHit;
       return;
     }
-    result.values[p] = 2 * b.contact.radius;
-    result.hits[p] = result.kept[p] = 1;
+    result.values[Slot(p)] = 2 * b.contact.radius;
+    result.hits[Slot(p)] = result.kept[Slot(p)] = 1;
     if (params_.opposite_points) {
       const PrimitiveCorners pc = ev_.Corners(b.prim);
-      result.opposite[p] = pc.a * b.contact.lambda[0] +
+      result.opposite[Slot(p)] = pc.a * b.contact.lambda[0] +
                            pc.b * b.contact.lambda[1] +
                            (pc.segment ? Vec3() : pc.c * b.contact.lambda[2]);
     }
@@ -618,6 +626,7 @@ class SdfEvaluator::SampleTracer {
   void CopyReused(int64_t p, const SampleRows& rows) const {
     const SdfResult& r = *plan_->result;
     SdfResult& result = out_.result;
+    // Only full passes reuse (range passes trace every ray): Slot(p) == p.
     result.values[p] = r.values[p];
     result.status[p] = r.status[p];
     result.hits[p] = r.hits[p];
@@ -687,15 +696,15 @@ class SdfEvaluator::SampleTracer {
     const ConeEstimate est = EstimateCone(s.t, setup_.cone, params_.kappa,
                                           absl::MakeSpan(s.kept), s.estimator);
     if (rows.kept) std::copy(s.kept.begin(), s.kept.end(), rows.kept);
-    if (!out_.near.empty()) out_.near[p] = near;
+    if (!out_.near.empty()) out_.near[Slot(p)] = near;
     SdfResult& result = out_.result;
-    result.hits[p] = est.hits;
-    result.kept[p] = est.kept;
+    result.hits[Slot(p)] = est.hits;
+    result.kept[Slot(p)] = est.kept;
     if (est.kept == 0) {
-      result.status[p] = VertexStatus::kNoHit;
+      result.status[Slot(p)] = VertexStatus::kNoHit;
       return;
     }
-    result.values[p] = est.value;
+    result.values[Slot(p)] = est.value;
     if (params_.opposite_points) {
       Vec3 sum;
       double weights = 0;
@@ -704,7 +713,7 @@ class SdfEvaluator::SampleTracer {
         sum += (x + s.dirs[k] * s.t[k]) * setup_.cone[k].weight;
         weights += setup_.cone[k].weight;
       }
-      result.opposite[p] = sum / weights;
+      result.opposite[Slot(p)] = sum / weights;
     }
   }
 
@@ -724,7 +733,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
-      previous->result != nullptr && !setup->sphere && !setup->faces) {
+      previous->result != nullptr && !setup->sphere && !setup->faces &&
+      params.range.all()) {
     auto planned = PlanReuse(*previous, setup->cone, setup->resolved,
                              setup->limits.t_near, setup->t_min, setup->t_max);
     if (!planned.ok()) return planned.status();
@@ -738,6 +748,18 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     ball_tree = std::move(*made);
   }
   const int64_t ns = setup->samples;
+  // A vertex range's vertices in the pass's Morton order.
+  std::vector<int32_t> range_order;
+  if (!setup->faces && !params.range.all()) {
+    range_order.reserve(ns);
+    for (int32_t v : order_) {
+      if (v >= setup->range.begin && v < setup->range.end) {
+        range_order.push_back(v);
+      }
+    }
+  }
+  const absl::Span<const int32_t> visit =
+      params.range.all() ? absl::MakeConstSpan(order_) : range_order;
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
   const Stopwatch watch;
@@ -745,7 +767,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
     if (!gate.Poll()) return;
     SampleScratch s(setup->num_rays);
-    for (int64_t i = range.begin(); i < range.end(); ++i) tracer.Sample(i, s);
+    for (int64_t i = range.begin(); i < range.end(); ++i) {
+      tracer.Sample(i, visit, s);
+    }
     rays_traced += s.traced;
     world_frame_vertices += s.world_frames;
     gate.Done(range.size());
@@ -761,8 +785,10 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
   result.normalized = NormalizedSdf(result.values);
-  result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
-                                : CountMissing(mesh_, result.values);
+  if (params.range.all()) {
+    result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
+                                  : CountMissing(mesh_, result.values);
+  }
   if (hits != nullptr) {
     hits->resolved = setup->resolved;
     hits->cone = std::move(setup->cone);
@@ -777,12 +803,15 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     hits->extrude_half_height = scene_->extrude_half_height();
     hits->t_near = setup->limits.t_near;
     hits->num_primitives = std::ssize(topo_.primitives);
+    hits->first_sample = setup->range.begin;
   }
   return std::move(result);
 }
 
 int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params) {
-  const int64_t samples = NumSamples(mesh, params.samples);
+  const int64_t samples = params.range.all()
+                              ? NumSamples(mesh, params.samples)
+                              : params.range.end - params.range.begin;
   const int64_t rays = ResolveParams(params, mesh.dimension).rays;
   // Hit table: a primitive (4) and a kept flag (1) per ray, a near flag per
   // sample, the positions per vertex. Result: value, normalized value,

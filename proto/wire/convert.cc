@@ -482,10 +482,25 @@ absl::StatusOr<std::vector<Vec3>> ToPoints(
   return out;
 }
 
+absl::StatusOr<SampleRange> FromWire(const v1::SampleRange& r) {
+  if (r.begin() < 0 || r.begin() >= r.end()) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "range [", r.begin(), ", ", r.end(),
+        ") is empty or negative: a range needs 0 <= begin < end"));
+  }
+  return SampleRange{r.begin(), r.end()};
+}
+
+void ToWire(const SampleRange& r, v1::SampleRange* out) {
+  out->set_begin(r.begin);
+  out->set_end(r.end);
+}
+
 void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
                  int dimension, int64_t begin, int64_t end, v1::SdfChunk* c) {
-  c->set_vertex_begin(begin);
-  c->set_vertex_end(end);
+  const int64_t first = r.resolved.params.range.begin;
+  c->set_vertex_begin(first + begin);
+  c->set_vertex_end(first + end);
   c->mutable_values()->Add(r.values.begin() + begin, r.values.begin() + end);
   for (int64_t p = begin; p < end; ++p) c->add_status(ToWire(r.status[p]));
   c->mutable_hits()->Add(r.hits.begin() + begin, r.hits.begin() + end);
@@ -532,12 +547,16 @@ void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
   s->set_trace_seconds(facts.reused_hits ? 0.0 : r.trace_seconds);
   s->set_reused_hits(facts.reused_hits);
   s->set_seconds(facts.seconds);
+  if (!r.resolved.params.range.all()) {
+    ToWire(r.resolved.params.range, s->mutable_range());
+  }
 }
 
-absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply) {
+absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply,
+                         int64_t first_sample) {
   SdfResult& r = reply->result;
   const int64_t n = c.vertex_end() - c.vertex_begin();
-  if (c.vertex_begin() != std::ssize(r.values) || n < 0 ||
+  if (c.vertex_begin() != first_sample + std::ssize(r.values) || n < 0 ||
       c.values_size() != n || c.status_size() != n || c.hits_size() != n ||
       c.kept_size() != n || c.normalized_size() != n ||
       (c.opposite_size() != 0 && c.opposite_size() != 3 * n) ||
@@ -598,6 +617,15 @@ absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                                : "no opposite points were asked for, ",
         "the chunks carried ", r.opposite.size(), " for ", r.values.size(),
         " samples (is the server older than SdfParameters.opposite_points?)"));
+  }
+  const SampleRange range = s.has_range()
+                                ? SampleRange{s.range().begin(), s.range().end()}
+                                : SampleRange{};
+  if (range != params.range) {
+    return Malformed(absl::StrCat(
+        "samples [", params.range.begin, ", ", params.range.end,
+        ") were asked for, the reply holds [", range.begin, ", ", range.end,
+        ") (is the server older than ComputeSdfRequest.range?)"));
   }
   const bool faces = params.samples == SampleSet::kFaces;
   if (faces ? s.samples() != v1::SAMPLE_SET_FACES

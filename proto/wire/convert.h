@@ -42,6 +42,11 @@ void ToWire(const CalibrationParams& p, v1::CalibrateRequest* out);
 CalibrationParams CalibrationFromWire(const v1::CalibrateRequest& r,
                                       const SdfParams& sdf);
 
+// A request's sample range. Errors: INVALID_ARGUMENT naming the range
+// unless 0 <= begin < end (the mesh's count is checked by the call).
+absl::StatusOr<SampleRange> FromWire(const v1::SampleRange& r);
+void ToWire(const SampleRange& r, v1::SampleRange* out);
+
 // Enums.
 v1::VertexStatus ToWire(VertexStatus s);
 absl::StatusOr<VertexStatus> FromWire(v1::VertexStatus s);
@@ -76,17 +81,22 @@ absl::StatusOr<std::vector<Vec3>> ToPoints(
 // The ComputeSdf stream. The server writes chunks of [begin, end) of a
 // result (with the Jacobian's rows when `jacobian` is given), then the
 // summary; the client appends them in order to an SdfReply.
+// With a range pass, [begin, end) index its result and the chunk names the
+// samples range.begin + begin .. range.begin + end.
 void ToWireChunk(const SdfResult& r, const SparseJacobian* jacobian,
                  int dimension, int64_t begin, int64_t end, v1::SdfChunk* out);
 // `facts` and `integral` are the call's; the rest comes from the result.
 void ToWireSummary(const SdfResult& r, double integral, const CallFacts& facts,
                    v1::SdfSummary* out);
 // Errors: DATA_LOSS when the chunk does not continue the reply or its
-// arrays disagree.
-absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply);
+// arrays disagree. `first_sample`: the range's first sample (0 for a whole
+// pass), the sample of the reply's first entry.
+absl::Status AppendChunk(const v1::SdfChunk& c, SdfReply* reply,
+                         int64_t first_sample = 0);
 // Completes the reply with the summary; `params` are the ones sent.
 // Errors: DATA_LOSS when the summary's counts are not the vertices the
-// chunks carried, or the opposite points are not the ones asked for.
+// chunks carried, the opposite points are not the ones asked for, or the
+// summary's range is not params.range (a server older than ranges).
 absl::Status FinishReply(const v1::SdfSummary& s, const SdfParams& params,
                          SdfReply* reply);
 

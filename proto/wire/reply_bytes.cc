@@ -8,8 +8,12 @@ namespace meshgauge::wire {
 
 int64_t PackedReplyBytes(int64_t doubles) { return doubles * 8 + 256; }
 
-int64_t VjpReplyBytes(const Mesh& mesh) {
-  return PackedReplyBytes(mesh.num_vertices() * mesh.dimension);
+int64_t VjpReplyBytes(const Mesh& mesh, bool with_tails) {
+  const int64_t values = mesh.num_vertices() * mesh.dimension;
+  // A tail: its count (a byte) and, for a sum of many terms, about two
+  // doubles (their exact sum spans some 100 to 150 bits).
+  return with_tails ? PackedReplyBytes(3 * values) + values
+                    : PackedReplyBytes(values);
 }
 
 int64_t PenaltyReplyBytes(const Mesh& mesh, bool with_gradient,

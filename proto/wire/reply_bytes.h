@@ -15,8 +15,9 @@ namespace meshgauge::wire {
 
 // Bytes of a reply holding `doubles` packed doubles plus a small envelope.
 int64_t PackedReplyBytes(int64_t doubles);
-// A ComputeVjpResponse: the gradient, `dimension` doubles per vertex.
-int64_t VjpReplyBytes(const Mesh& mesh);
+// A ComputeVjpResponse: the gradient, `dimension` doubles per vertex, and
+// with `with_tails` (a range's reply) the partial sums' tails, estimated.
+int64_t VjpReplyBytes(const Mesh& mesh, bool with_tails = false);
 // A ComputePenaltyResponse: the gradient when `with_gradient`, and up to
 // `thin_regions` thin regions (0: no thin-surface request).
 int64_t PenaltyReplyBytes(const Mesh& mesh, bool with_gradient,

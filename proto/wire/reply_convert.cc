@@ -60,6 +60,15 @@ void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
   out->set_generation(r.facts.generation);
   out->set_dimension(dimension);
   AppendFlattened(r.gradient, dimension, out->mutable_gradient());
+  // A range's sums: each the rounded value sent above, then its tail.
+  for (size_t j = 0; 3 * j < r.sums.size(); ++j) {
+    for (int c = 0; c < dimension; ++c) {
+      const std::vector<double> terms = r.sums[3 * j + c].Terms();
+      const int tail = terms.empty() ? 0 : static_cast<int>(terms.size()) - 1;
+      out->add_tail_counts(tail);
+      for (int t = 1; t <= tail; ++t) out->add_tails(terms[t]);
+    }
+  }
   out->set_reused_hits(r.facts.reused_hits);
   out->set_seconds(r.facts.seconds);
 }
@@ -67,8 +76,31 @@ void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
 absl::StatusOr<VjpReply> FromWire(const v1::ComputeVjpResponse& r) {
   auto gradient = Gradient(r.gradient(), r.dimension());
   if (!gradient.ok()) return gradient.status();
-  return VjpReply{std::move(*gradient),
-                  {r.generation(), r.reused_hits(), r.seconds()}};
+  VjpReply out{std::move(*gradient),
+               {r.generation(), r.reused_hits(), r.seconds()},
+               {}};
+  if (r.tail_counts_size() == 0) return out;
+  if (r.tail_counts_size() != r.gradient_size()) {
+    return absl::DataLossError(absl::StrCat(
+        "the reply has ", r.tail_counts_size(), " tail counts for ",
+        r.gradient_size(), " gradient values"));
+  }
+  out.sums.resize(3 * out.gradient.size());
+  int tail = 0;
+  for (int i = 0; i < r.gradient_size(); ++i) {
+    ExactSum& sum = out.sums[3 * (i / r.dimension()) + i % r.dimension()];
+    sum.Add(r.gradient(i));
+    if (r.tail_counts(i) < 0 || r.tail_counts(i) > r.tails_size() - tail) {
+      return absl::DataLossError("the reply's tails do not match its counts");
+    }
+    for (const int end = tail + r.tail_counts(i); tail < end; ++tail) {
+      sum.Add(r.tails(tail));
+    }
+  }
+  if (tail != r.tails_size()) {
+    return absl::DataLossError("the reply's tails do not match its counts");
+  }
+  return out;
 }
 
 void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,

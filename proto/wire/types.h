@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "lib/core/exact_sum.h"
 #include "lib/core/gradcheck_types.h"
 #include "lib/core/penalty.h"
 #include "lib/core/sdf_types.h"
@@ -74,6 +75,9 @@ struct GradCheckReply {
 struct VjpReply {
   std::vector<Vec3> gradient;  // g^T J per vertex (z = 0 in 2D).
   CallFacts facts;
+  // A range call's exact partial sums, x, y, z per vertex (gradient holds
+  // them rounded); empty for a whole call.
+  std::vector<ExactSum> sums;
 };
 
 // ComputePenaltyRequest's thin-region fields.

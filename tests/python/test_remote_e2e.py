@@ -239,6 +239,26 @@ class RemoteEndToEnd(unittest.TestCase):
             np.testing.assert_array_equal(s.sdf(method="normal").values,
                                           r.values)
 
+    def test_1e_fanned_out_vjp_is_the_whole_call(self):
+        """fan_out=K: the ranges' exact partial sums merged (math.fsum)
+        are the whole call's bits, for K = 1, 2, 3, 7 and vertex and face
+        samples; a range outside the mesh is INVALID_ARGUMENT."""
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
+                              "decimated-knight.off")
+        with self.client.session_from_file(knight) as s:
+            for samples, n in (("vertices", s.positions.shape[0]),
+                               ("faces", len(s.faces))):
+                g = np.cos(0.37 * np.arange(n)) * 10
+                whole = s.vjp(g, rays=30, samples=samples)
+                for k in (1, 2, 3, 7):
+                    fanned = s.vjp(g, fan_out=k, rays=30, samples=samples)
+                    self.assertEqual(fanned.tobytes(), whole.tobytes(),
+                                     f"{samples} K={k}")
+            with self.assertRaises(InvalidArgumentError):
+                self.client._vjp_ranges(
+                    s.session_id, self.client._params({}), np.ones(600),
+                    None, 2)
+
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:
             self.client.info("missing")

@@ -11,6 +11,7 @@ then raises UnavailableError naming the target. Welded uploads
 (``weld=``) keep the caller's vertex indexing in every result (_weld).
 """
 
+import concurrent.futures
 import dataclasses
 import json
 import os
@@ -27,7 +28,7 @@ import grpc
 import numpy as np
 import scipy.sparse
 
-from meshgauge_client import _weld, _wire
+from meshgauge_client import _fan_out, _weld, _wire
 from meshgauge_client._stubs import pb
 from meshgauge_client._stubs import pb_grpc
 from meshgauge_client.errors import (CancelledError, DataLossError,
@@ -301,10 +302,12 @@ class MeshGaugeClient:
             f"the server at {self._target} is unavailable: {why}")
 
     def _call(self, method: Any, request: Any, session_id: str = "",
-              read: Optional[Callable[[Any], Any]] = None) -> Any:
-        """method(request) with the deadline, the session's metadata and the
-        retries; read(reply) (a stream's messages) inside each attempt."""
-        metadata = self._metadata(session_id)
+              read: Optional[Callable[[Any], Any]] = None,
+              extra_metadata: Sequence[Tuple[str, str]] = ()) -> Any:
+        """method(request) with the deadline, the session's metadata (and
+        extra_metadata) and the retries; read(reply) (a stream's messages)
+        inside each attempt."""
+        metadata = self._metadata(session_id) + list(extra_metadata)
 
         def invoke() -> Any:
             reply = method(request, timeout=self._deadline, metadata=metadata,
@@ -778,13 +781,18 @@ class MeshGaugeClient:
             else _weld.expand(result.opposite, m))
 
     def vjp(self, session_id: str, weights: Any, *,
-            expected_generation: Optional[int] = None,
+            expected_generation: Optional[int] = None, fan_out: int = 1,
             **params: Any) -> FloatArray:
         """g^T dSDF/dx for weights g (N,), one per sample (vertex, or face
         with samples="faces"): a (V, d) array, one row per vertex. Welded
         session: one weight per uploaded vertex (summed onto its session
         vertex), and each session vertex's row at its lowest-numbered
-        uploaded vertex (zeros at the other copies)."""
+        uploaded vertex (zeros at the other copies).
+
+        fan_out=K (default 1) splits the samples into K ranges sent at once
+        (through a balancer, to different replicas) and adds their exact
+        partial sums: the same bits as one call, for any K (AbortedError
+        when the session moved between the ranges)."""
         g = np.asarray(weights, dtype=np.float64)
         if g.ndim != 1 or not np.all(np.isfinite(g)):
             raise ValueError("weights must be a finite (N,) array")
@@ -792,13 +800,37 @@ class MeshGaugeClient:
         m = self._welds.get(session_id)
         if m is not None and wire_params.samples != pb.SAMPLE_SET_FACES:
             g = _weld.sum_weights(g, m)
-        req = pb.ComputeVjpRequest(session_id=session_id,
-                                   params=wire_params, weights=g)
-        if expected_generation is not None:
-            req.expected_generation = expected_generation
-        resp = self._call(self._stub.ComputeVjp, req, session_id)
-        out = _wire.flat(resp.gradient, self._dim(session_id))
+        if fan_out > 1:
+            flat, _ = self._vjp_ranges(session_id, wire_params, g,
+                                       expected_generation, fan_out)
+        else:
+            req = pb.ComputeVjpRequest(session_id=session_id,
+                                       params=wire_params, weights=g)
+            if expected_generation is not None:
+                req.expected_generation = expected_generation
+            flat = self._call(self._stub.ComputeVjp, req, session_id).gradient
+        out = _wire.flat(flat, self._dim(session_id))
         return out if m is None else _weld.scatter_gradient(out, m)
+
+    def _vjp_ranges(self, session_id: str, wire_params: Any, g: Any,
+                    expected_generation: Optional[int],
+                    fan_out: int) -> Tuple[Any, int]:
+        """The fanned-out ComputeVjp: one call per range at once, merged."""
+        ranges = _fan_out.split_samples(len(g), fan_out)
+
+        def call(r: Tuple[int, int]) -> Any:
+            req = pb.ComputeVjpRequest(
+                session_id=session_id, params=wire_params,
+                weights=g[r[0]:r[1]],
+                range=pb.SampleRange(begin=r[0], end=r[1]))
+            if expected_generation is not None:
+                req.expected_generation = expected_generation
+            return self._call(self._stub.ComputeVjp, req, session_id,
+                              extra_metadata=[_fan_out.range_metadata(*r)])
+
+        with concurrent.futures.ThreadPoolExecutor(len(ranges)) as pool:
+            replies = list(pool.map(call, ranges))
+        return _fan_out.merge_vjp(replies)
 
     def penalty(self, session_id: str, t_min: float, *, form: str = "one-sided",
                 power: float = 2.0, rho: float = 50.0,

@@ -165,11 +165,11 @@ class Session:
             self.session_id, expected_generation=self.generation,
             jacobian=True, **params)).jacobian
 
-    def vjp(self, weights: Any, **params: Any) -> FloatArray:
-        """g^T dSDF/dx, (N, d)."""
+    def vjp(self, weights: Any, fan_out: int = 1, **params: Any) -> FloatArray:
+        """g^T dSDF/dx, (N, d); fan_out as MeshGaugeClient.vjp."""
         return self._with_session(lambda: self._client.vjp(
             self.session_id, weights, expected_generation=self.generation,
-            **params))
+            fan_out=fan_out, **params))
 
     def penalty(self, t_min: float, **kwargs: Any) -> PenaltyResult:
         """MeshGaugeClient.penalty at the latest positions."""

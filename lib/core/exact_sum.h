@@ -1,0 +1,65 @@
+// An exact accumulator of doubles: the sum of any number of finite doubles
+// is held without rounding and rounded once, so that it does not depend on
+// the order of the additions or on how they were split into partial sums
+// (the VJP's and the penalty's cross-sample sums: a sample range's partial
+// sums, merged by a client, give the single pass's bits).
+//
+// Representation: the value is sum_i limbs[i] 2^(32 (base + i) - 1074), each
+// limb a signed 64-bit integer that receives 32-bit chunks (carries are
+// propagated before a limb can overflow), over a window of limbs that grows
+// as the additions need: a sum of values within 2^64 of each other holds 3
+// or 4 limbs. Non-finite inputs are not summed: NaN, or +inf and -inf both,
+// make the sum NaN; +inf (-inf) alone makes it +inf (-inf), as IEEE
+// addition would in any order.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/container/inlined_vector.h"
+#include "absl/status/statusor.h"
+#include "absl/types/span.h"
+
+namespace meshgauge {
+
+class ExactSum {
+ public:
+  ExactSum() = default;
+
+  void Add(double x);
+  void Add(const ExactSum& other);
+  ExactSum& operator+=(double x) {
+    Add(x);
+    return *this;
+  }
+
+  // The double nearest the exact value (ties to even); +-inf beyond the
+  // largest double (as IEEE rounding of the exact value would give), the
+  // infinity or NaN of non-finite inputs. Exact zero is +0.
+  double Round() const;
+
+  // The exact value as a short list of doubles whose exact sum it is:
+  // Round() first, then the rounded rest, and so on (each term rounds the
+  // value left by the ones before; at most one term per 53 bits of the
+  // value's span). Empty for exact zero; one entry (inf or NaN) for a
+  // non-finite sum. Add()ing the terms to an empty ExactSum gives this sum.
+  std::vector<double> Terms() const;
+
+  bool IsZero() const;
+
+ private:
+  // Propagates carries so that every limb but the top one is in [0, 2^32).
+  void Normalize();
+  // Makes limb index k (absolute) part of the window.
+  void Cover(int32_t first, int32_t last);
+  void AddChunk(int32_t k, int64_t chunk) { limbs_[k - base_] += chunk; }
+
+  int32_t base_ = 0;
+  // Additions since the last Normalize: each adds less than 2^32 in
+  // magnitude to a limb, so 2^30 of them cannot overflow one.
+  uint32_t pending_ = 0;
+  uint8_t special_ = 0;  // bit 0: +inf seen, bit 1: -inf, bit 2: NaN.
+  absl::InlinedVector<int64_t, 4> limbs_;
+};
+
+}  // namespace meshgauge

@@ -1,0 +1,141 @@
+#include "lib/core/exact_sum.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <vector>
+
+namespace meshgauge {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kMin = std::numeric_limits<double>::denorm_min();
+constexpr double kMax = std::numeric_limits<double>::max();
+
+double Sum(const std::vector<double>& xs) {
+  ExactSum s;
+  for (double x : xs) s.Add(x);
+  return s.Round();
+}
+
+TEST(ExactSumTest, HugeCancellationKeepsTheSmallTerm) {
+  EXPECT_EQ(Sum({1e308, 1.0, -1e308}), 1.0);
+  EXPECT_EQ(Sum({1e308, 1e308, -1e308, -1e308, 0x1p-1074}), 0x1p-1074);
+  EXPECT_EQ(Sum({1.0, 1e100, 1.0, -1e100}), 2.0);
+}
+
+TEST(ExactSumTest, SubnormalsAddExactly) {
+  EXPECT_EQ(Sum({kMin, kMin, kMin}), 3 * kMin);
+  EXPECT_EQ(Sum({0x1p-1022, -kMin}), 0x1p-1022 - kMin);
+  EXPECT_EQ(Sum({-kMin, -kMin}), -2 * kMin);
+}
+
+TEST(ExactSumTest, ExactZeroIsPositiveZero) {
+  const double z = Sum({1.5, -1.5});
+  EXPECT_EQ(z, 0.0);
+  EXPECT_FALSE(std::signbit(z));
+  EXPECT_EQ(Sum({}), 0.0);
+  EXPECT_TRUE(ExactSum().IsZero());
+}
+
+TEST(ExactSumTest, TiesRoundToEven) {
+  // 1 + 2^-53 is halfway between 1 and 1 + 2^-52: even is 1.
+  EXPECT_EQ(Sum({1.0, 0x1p-53}), 1.0);
+  // 1 + 3 * 2^-53 is halfway between 1 + 2^-52 and 1 + 2^-51: even is the
+  // latter.
+  EXPECT_EQ(Sum({1.0, 0x1p-53, 0x1p-52}), 1.0 + 0x1p-51);
+  // Just over halfway rounds up: the sticky bit.
+  EXPECT_EQ(Sum({1.0, 0x1p-53, 0x1p-200}), 1.0 + 0x1p-52);
+  EXPECT_EQ(Sum({-1.0, -0x1p-53, -0x1p-200}), -(1.0 + 0x1p-52));
+}
+
+TEST(ExactSumTest, OverflowRoundsToInfinityAndBack) {
+  EXPECT_EQ(Sum({kMax, kMax}), kInf);
+  EXPECT_EQ(Sum({kMax, kMax, -kMax}), kMax);
+  EXPECT_EQ(Sum({-kMax, -kMax}), -kInf);
+}
+
+TEST(ExactSumTest, NonFiniteInputsAreExplicit) {
+  EXPECT_EQ(Sum({1.0, kInf, 5.0}), kInf);
+  EXPECT_EQ(Sum({-kInf, 1e308, 1e308}), -kInf);
+  EXPECT_TRUE(std::isnan(Sum({kInf, -kInf})));
+  EXPECT_TRUE(std::isnan(Sum({1.0, std::nan("")})));
+  ExactSum a, b;
+  a.Add(kInf);
+  b.Add(-kInf);
+  a.Add(b);
+  EXPECT_TRUE(std::isnan(a.Round()));
+  EXPECT_EQ(a.Terms().size(), 1u);
+}
+
+// Values over a wide exponent range with both signs.
+std::vector<double> WideValues(int n, uint32_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> mantissa(-1, 1);
+  std::uniform_int_distribution<int> exponent(-300, 300);
+  std::vector<double> xs(n);
+  for (double& x : xs) x = std::ldexp(mantissa(rng), exponent(rng));
+  return xs;
+}
+
+TEST(ExactSumTest, OrderAndSplitDoNotChangeTheBits) {
+  for (uint32_t seed = 1; seed <= 20; ++seed) {
+    std::vector<double> xs = WideValues(2000, seed);
+    const double whole = Sum(xs);
+    std::mt19937 rng(seed);
+    std::shuffle(xs.begin(), xs.end(), rng);
+    EXPECT_EQ(Sum(xs), whole);
+    // Split at random points into parts summed on their own, merged in a
+    // random order, directly and through their Terms.
+    std::vector<size_t> cuts = {0, xs.size()};
+    for (int k = 0; k < 6; ++k) cuts.push_back(rng() % xs.size());
+    std::sort(cuts.begin(), cuts.end());
+    std::vector<ExactSum> parts;
+    for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+      ExactSum part;
+      for (size_t j = cuts[i]; j < cuts[i + 1]; ++j) part.Add(xs[j]);
+      parts.push_back(part);
+    }
+    std::shuffle(parts.begin(), parts.end(), rng);
+    ExactSum merged, from_terms;
+    for (const ExactSum& part : parts) {
+      merged.Add(part);
+      for (double t : part.Terms()) from_terms.Add(t);
+    }
+    EXPECT_EQ(merged.Round(), whole) << "seed " << seed;
+    EXPECT_EQ(from_terms.Round(), whole) << "seed " << seed;
+  }
+}
+
+TEST(ExactSumTest, TermsAreShortAndCanonical) {
+  ExactSum s;
+  s.Add(1.0);
+  s.Add(0x1p-60);
+  s.Add(0x1p-130);
+  const std::vector<double> terms = s.Terms();
+  ASSERT_EQ(terms.size(), 3u);
+  EXPECT_EQ(terms[0], 1.0);
+  EXPECT_EQ(terms[1], 0x1p-60);
+  EXPECT_EQ(terms[2], 0x1p-130);
+  ExactSum other;  // the same value, added another way.
+  other.Add(0x1p-130);
+  other.Add(2.0);
+  other.Add(0x1p-60);
+  other.Add(-1.0);
+  EXPECT_EQ(other.Terms(), terms);
+}
+
+TEST(ExactSumTest, ManyLargeAdditionsCancelExactly) {
+  ExactSum s;
+  const int n = (1 << 20) + 3;
+  for (int i = 0; i < n; ++i) s.Add(kMax);
+  EXPECT_EQ(s.Round(), kInf);
+  for (int i = 0; i < n; ++i) s.Add(-kMax);
+  EXPECT_EQ(s.Round(), 0.0);
+}
+
+}  // namespace
+}  // namespace meshgauge
