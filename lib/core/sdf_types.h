@@ -71,7 +71,7 @@ struct SdfParams {
   SampleSet samples = SampleSet::kVertices;
   // Which samples; checked against the mesh by the pass (InvalidArgument
   // naming the range and the count unless 0 <= begin < end <= samples).
-  SampleRange range;
+  SampleRange range = {};
 
   // Every field: a cached pass is reused only for equal parameters. How a
   // pass runs (ComputeControl) is not a parameter.
