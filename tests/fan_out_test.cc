@@ -146,7 +146,7 @@ TEST(FanOutMergeTest, RangesThatDoNotTileTheSamplesAreDataLoss) {
 TEST(FanOutMergeTest, RangesOfDifferentGenerationsAreAborted) {
   std::vector<wire::VjpReply> parts(2);
   for (int i = 0; i < 2; ++i) {
-    parts[i].sums.resize(3);
+    parts[i].sums = ExactSums(3);
     parts[i].facts.generation = i;
   }
   EXPECT_EQ(client::MergeVjpReplies(1, parts).status().code(),

@@ -87,7 +87,7 @@ TEST_P(SampleRangeTest, MergedVjpPartialSumsAreTheFullVjpForAnySplit) {
   auto full = ComputeVjp(*ev_, hits_, g);
   ASSERT_TRUE(full.ok());
   for (int k : {1, 2, 3, 7}) {
-    std::vector<ExactSum> merged(3 * ev_->mesh().num_vertices());
+    ExactSums merged(3 * ev_->mesh().num_vertices());
     std::vector<SampleRange> ranges = Split(samples(), k, 10 + k);
     std::shuffle(ranges.begin(), ranges.end(), std::mt19937(k));
     for (const SampleRange& r : ranges) {
@@ -101,8 +101,8 @@ TEST_P(SampleRangeTest, MergedVjpPartialSumsAreTheFullVjpForAnySplit) {
           {.threads = k % 2 + 1});
       ASSERT_TRUE(part.ok()) << part.status();
       // Through the wire's form: each sum's Terms.
-      for (size_t j = 0; j < merged.size(); ++j) {
-        for (double t : (*part)[j].Terms()) merged[j].Add(t);
+      for (int64_t j = 0; j < merged.size(); ++j) {
+        for (double t : part->Terms(j)) merged.Add(j, t);
       }
     }
     const std::vector<Vec3> vjp = RoundVectors(merged);

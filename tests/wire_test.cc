@@ -581,12 +581,12 @@ TEST(WireRangeTest, AnEmptyOrNegativeRangeIsInvalid) {
 }
 
 TEST(WireRangeTest, VjpPartialSumsTravelExactly) {
-  std::vector<ExactSum> sums(6);
-  sums[0].Add(1.0);
-  sums[0].Add(0x1p-70);
-  sums[0].Add(0x1p-140);
-  sums[4].Add(-3.5);
-  sums[5].Add(1e300);  // z: not sent in 2D
+  ExactSums sums(6);
+  sums.Add(0, 1.0);
+  sums.Add(0, 0x1p-70);
+  sums.Add(0, 0x1p-140);
+  sums.Add(4, -3.5);
+  sums.Add(5, 1e300);  // z: not sent in 2D
   for (int dim : {2, 3}) {
     wire::VjpReply reply{RoundVectors(sums), {1, false, 0}, sums};
     v1::ComputeVjpResponse msg;
@@ -595,10 +595,10 @@ TEST(WireRangeTest, VjpPartialSumsTravelExactly) {
     EXPECT_EQ(msg.tail_counts(0), 2);
     auto back = wire::FromWire(msg);
     ASSERT_TRUE(back.ok()) << back.status();
-    ASSERT_EQ(back->sums.size(), 6u);
+    ASSERT_EQ(back->sums.size(), 6);
     for (int j = 0; j < 2; ++j) {
       for (int c = 0; c < dim; ++c) {
-        EXPECT_EQ(back->sums[3 * j + c].Terms(), sums[3 * j + c].Terms());
+        EXPECT_EQ(back->sums.Terms(3 * j + c), sums.Terms(3 * j + c));
       }
     }
     msg.add_tails(1.0);  // one more tail than the counts say

@@ -128,15 +128,17 @@ absl::StatusOr<wire::SdfReply> MergeSdfReplies(
 absl::StatusOr<wire::VjpReply> MergeVjpReplies(
     int64_t vertices, const std::vector<wire::VjpReply>& parts) {
   if (parts.empty()) return absl::DataLossError("no range replied");
-  std::vector<ExactSum> sums(3 * vertices);
+  ExactSums sums(3 * vertices);
   std::vector<wire::CallFacts> facts;
   for (const wire::VjpReply& part : parts) {
-    if (std::ssize(part.sums) != 3 * vertices) {
+    if (part.sums.size() != 3 * vertices) {
       return absl::DataLossError(absl::StrCat(
           "a range's reply holds ", part.sums.size() / 3, " partial sums for ",
           vertices, " vertices (is the server older than ranges?)"));
     }
-    for (size_t i = 0; i < sums.size(); ++i) sums[i].Add(part.sums[i]);
+    for (int64_t i = 0; i < sums.size(); ++i) {
+      for (double t : part.sums.Terms(i)) sums.Add(i, t);
+    }
     facts.push_back(part.facts);
   }
   auto merged_facts = MergeFacts(facts);

@@ -182,4 +182,34 @@ std::vector<double> ExactSum::Terms() const {
   return terms;
 }
 
+void ExactSums::Add(int64_t i, const ExactSum& sum) {
+  for (double t : sum.Terms()) Add(i, t);
+}
+
+ExactSum ExactSums::Exact(int64_t i) const {
+  ExactSum e;
+  if (auto it = spill_.find(i); it != spill_.end()) e = it->second;
+  e.Add(pairs_[i].hi);
+  e.Add(pairs_[i].lo);
+  return e;
+}
+
+double ExactSums::Round(int64_t i) const {
+  // One IEEE addition rounds the exact sum of two doubles correctly.
+  if (!spill_.contains(i)) return pairs_[i].hi + pairs_[i].lo;
+  return Exact(i).Round();
+}
+
+std::vector<double> ExactSums::Terms(int64_t i) const {
+  if (spill_.contains(i)) return Exact(i).Terms();
+  const double hi = pairs_[i].hi, lo = pairs_[i].lo;
+  const double r = hi + lo;
+  if (!std::isfinite(r)) return Exact(i).Terms();
+  const double r_lo = r - hi;
+  const double rest = (hi - (r - r_lo)) + (lo - r_lo);  // hi + lo = r + rest
+  if (r == 0) return {};  // then rest is 0 too.
+  if (rest == 0) return {r};
+  return {r, rest};
+}
+
 }  // namespace meshgauge

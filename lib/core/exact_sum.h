@@ -13,9 +13,11 @@
 // addition would in any order.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
+#include "absl/container/flat_hash_map.h"
 #include "absl/container/inlined_vector.h"
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
@@ -60,6 +62,56 @@ class ExactSum {
   uint32_t pending_ = 0;
   uint8_t special_ = 0;  // bit 0: +inf seen, bit 1: -inf, bit 2: NaN.
   absl::InlinedVector<int64_t, 4> limbs_;
+};
+
+// n exact sums in one array, for scatters over many accumulators (the VJP's
+// and the penalty's sums per vertex and per sample), 16 bytes each: sum i
+// is held as two doubles hi + lo, exactly, as long as an addition's error
+// fits in them (TwoSum twice: values within about 2^50 of each other in
+// magnitude); an addition that does not fit, or a non-finite one, goes
+// whole to an ExactSum kept for that index alone. The value, its rounding
+// and its terms are ExactSum's, so nothing depends on the order of the
+// additions or on which of the two paths took them.
+class ExactSums {
+ public:
+  ExactSums() = default;
+  explicit ExactSums(int64_t n) : pairs_(n) {}
+
+  int64_t size() const { return static_cast<int64_t>(pairs_.size()); }
+
+  // Adds x to sum i, 0 <= i < size().
+  void Add(int64_t i, double x) {
+    Pair& p = pairs_[i];
+    const double s = p.hi + x;
+    const double s_x = s - p.hi;
+    const double e1 = (p.hi - (s - s_x)) + (x - s_x);  // hi + x = s + e1
+    const double t = p.lo + e1;
+    const double t_e = t - p.lo;
+    const double e2 = (p.lo - (t - t_e)) + (e1 - t_e);  // lo + e1 = t + e2
+    // e2 is NaN when anything overflowed or x is not finite.
+    if (e2 == 0 && std::isfinite(t)) {
+      p.hi = s;
+      p.lo = t;
+      return;
+    }
+    spill_[i].Add(x);
+  }
+  // Adds every term of `sum` to sum i.
+  void Add(int64_t i, const ExactSum& sum);
+
+  // As ExactSum::Round and ExactSum::Terms of sum i.
+  double Round(int64_t i) const;
+  std::vector<double> Terms(int64_t i) const;
+  // Sum i as an ExactSum.
+  ExactSum Exact(int64_t i) const;
+
+ private:
+  struct Pair {
+    double hi = 0;
+    double lo = 0;
+  };
+  std::vector<Pair> pairs_;
+  absl::flat_hash_map<int64_t, ExactSum> spill_;
 };
 
 }  // namespace meshgauge

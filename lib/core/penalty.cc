@@ -47,23 +47,23 @@ struct NodalSums {
   void AddMeasure(const Element& e, const Vec3 grad[3], double f) {
     for (int i = 0; i < e.n; ++i) {
       const Vec3 d = grad[i] * f;
-      ExactSum* m = &d_measure[3 * e.v[i]];
-      m[0].Add(d.x);
-      m[1].Add(d.y);
-      m[2].Add(d.z);
+      const int64_t m = 3 * int64_t{e.v[i]};
+      d_measure.Add(m, d.x);
+      d_measure.Add(m + 1, d.y);
+      d_measure.Add(m + 2, d.z);
     }
   }
   NodalIntegral Round() const {
     NodalIntegral r;
     r.value = value.Round();
     r.d_dt.reserve(d_dt.size());
-    for (const ExactSum& s : d_dt) r.d_dt.push_back(s.Round());
+    for (int64_t i = 0; i < d_dt.size(); ++i) r.d_dt.push_back(d_dt.Round(i));
     r.d_measure = RoundVectors(d_measure);
     return r;
   }
   ExactSum value;
-  std::vector<ExactSum> d_dt;
-  std::vector<ExactSum> d_measure;
+  ExactSums d_dt;
+  ExactSums d_measure;
 };
 
 // Face samples (SPEC v2 §5c): t is constant on each face, so the integral
@@ -79,7 +79,7 @@ NodalIntegral IntegrateFaces(const Mesh& mesh,
     if (!std::isfinite(t)) return;
     const double ft = f(t);
     r.value.Add(e.measure * ft);
-    r.d_dt[face].Add(e.measure * df(t));
+    r.d_dt.Add(face, e.measure * df(t));
     if (measure_terms) {
       Vec3 grad[3];
       ElementMeasureGradient(mesh, e, grad);
@@ -102,7 +102,7 @@ NodalIntegral Integrate(const Mesh& mesh, const std::vector<double>& values,
     for (size_t q = 0; q < rule.size(); ++q) {
       f_sum += rule[q].weight * f(t[q]);
       const double dfq = rule[q].weight * e.measure * df(t[q]);
-      for (int i = 0; i < e.n; ++i) r.d_dt[e.v[i]].Add(dfq * rule[q].shape[i]);
+      for (int i = 0; i < e.n; ++i) r.d_dt.Add(e.v[i], dfq * rule[q].shape[i]);
     }
     r.value.Add(e.measure * f_sum);
     if (measure_terms) {

@@ -391,7 +391,7 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
          (ctx->samples + 1) * static_cast<int64_t>(sizeof(int64_t));
 }
 
-absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
+absl::StatusOr<ExactSums> ComputeVjpSums(
     const MeshGeometry& geometry, const HitTable& hits,
     absl::Span<const double> g, const ComputeControl& control) {
   const int64_t nv = geometry.mesh().num_vertices();
@@ -412,7 +412,7 @@ absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
           "VJP weight of ", sample, " ", first + i, " is not finite"));
     }
   }
-  std::vector<ExactSum> out(3 * nv);
+  ExactSums out(3 * nv);
   // Each batch is scattered by one task while the next is computed; the
   // sums are exact, so neither the order nor the threads change them.
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
@@ -421,10 +421,10 @@ absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
       if (gp == 0) continue;
       for (const Term& term : batch.rows[p - batch.begin]) {
         const Vec3 d = term.d * gp;
-        ExactSum* o = &out[3 * term.vertex];
-        o[0].Add(d.x);
-        o[1].Add(d.y);
-        o[2].Add(d.z);
+        const int64_t o = 3 * int64_t{term.vertex};
+        out.Add(o, d.x);
+        out.Add(o + 1, d.y);
+        out.Add(o + 2, d.z);
       }
     }
   });
@@ -432,11 +432,10 @@ absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
   return out;
 }
 
-std::vector<Vec3> RoundVectors(absl::Span<const ExactSum> xyz) {
+std::vector<Vec3> RoundVectors(const ExactSums& xyz) {
   std::vector<Vec3> out(xyz.size() / 3);
-  for (size_t j = 0; j < out.size(); ++j) {
-    out[j] = {xyz[3 * j].Round(), xyz[3 * j + 1].Round(),
-              xyz[3 * j + 2].Round()};
+  for (int64_t j = 0; j < std::ssize(out); ++j) {
+    out[j] = {xyz.Round(3 * j), xyz.Round(3 * j + 1), xyz.Round(3 * j + 2)};
   }
   return out;
 }

@@ -62,7 +62,7 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // over samples is exact and rounded once (ExactSum), so the result does not
 // depend on the thread count or on how the samples are split (a sample
 // range's partial sums, ComputeVjpSums, merged exactly give these bits).
-// O(#V) memory (the exact sums, about 170 bytes a vertex, and 4 bytes a
+// O(#V) memory (the exact sums, about 48 bytes a vertex, and 4 bytes a
 // vertex per thread), no dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
@@ -73,11 +73,11 @@ absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
 
 // ComputeVjp's exact sums before rounding: x, y, z of vertex j at 3j,
 // 3j + 1, 3j + 2.
-absl::StatusOr<std::vector<ExactSum>> ComputeVjpSums(
+absl::StatusOr<ExactSums> ComputeVjpSums(
     const MeshGeometry& geometry, const HitTable& hits,
     absl::Span<const double> g, const ComputeControl& control = {});
 
 // Rounds x, y, z sums (3 per vertex, as ComputeVjpSums) to vectors.
-std::vector<Vec3> RoundVectors(absl::Span<const ExactSum> xyz);
+std::vector<Vec3> RoundVectors(const ExactSums& xyz);
 
 }  // namespace meshgauge

@@ -61,9 +61,9 @@ void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
   out->set_dimension(dimension);
   AppendFlattened(r.gradient, dimension, out->mutable_gradient());
   // A range's sums: each the rounded value sent above, then its tail.
-  for (size_t j = 0; 3 * j < r.sums.size(); ++j) {
+  for (int64_t j = 0; 3 * j < r.sums.size(); ++j) {
     for (int c = 0; c < dimension; ++c) {
-      const std::vector<double> terms = r.sums[3 * j + c].Terms();
+      const std::vector<double> terms = r.sums.Terms(3 * j + c);
       const int tail = terms.empty() ? 0 : static_cast<int>(terms.size()) - 1;
       out->add_tail_counts(tail);
       for (int t = 1; t <= tail; ++t) out->add_tails(terms[t]);
@@ -85,16 +85,16 @@ absl::StatusOr<VjpReply> FromWire(const v1::ComputeVjpResponse& r) {
         "the reply has ", r.tail_counts_size(), " tail counts for ",
         r.gradient_size(), " gradient values"));
   }
-  out.sums.resize(3 * out.gradient.size());
+  out.sums = ExactSums(3 * std::ssize(out.gradient));
   int tail = 0;
   for (int i = 0; i < r.gradient_size(); ++i) {
-    ExactSum& sum = out.sums[3 * (i / r.dimension()) + i % r.dimension()];
-    sum.Add(r.gradient(i));
+    const int64_t sum = 3 * (i / r.dimension()) + i % r.dimension();
+    out.sums.Add(sum, r.gradient(i));
     if (r.tail_counts(i) < 0 || r.tail_counts(i) > r.tails_size() - tail) {
       return absl::DataLossError("the reply's tails do not match its counts");
     }
     for (const int end = tail + r.tail_counts(i); tail < end; ++tail) {
-      sum.Add(r.tails(tail));
+      out.sums.Add(sum, r.tails(tail));
     }
   }
   if (tail != r.tails_size()) {

@@ -77,7 +77,7 @@ struct VjpReply {
   CallFacts facts;
   // A range call's exact partial sums, x, y, z per vertex (gradient holds
   // them rounded); empty for a whole call.
-  std::vector<ExactSum> sums;
+  ExactSums sums;
 };
 
 // ComputePenaltyRequest's thin-region fields.
