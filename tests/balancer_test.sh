@@ -23,9 +23,10 @@
 # - Restarts: the balancer soft-stops (SIGUSR1, as `docker stop` and
 #   `docker restart` do) and a new one starts, twice, under a load whose
 #   clients do not retry: 0 errors.
-# - Fan-out: `meshgauge remote sdf --fan-out 4` of one session: its range
-#   calls reach both replicas (the balancer hashes session and range; the
-#   request lines of its log, at level info here, name the replica).
+# - Fan-out: `meshgauge remote grad --fan-out 2` of four sessions: each
+#   session's two parts reach different replicas and each part's VJP the
+#   replica of its pass (the request lines of the balancer's log, at level
+#   info here, name the replica and the part).
 # Every load also checks 0 mismatches and 0 lost sessions.
 #   balancer_test.sh SERVER LOAD CLI CFG [CYCLES]
 set -euo pipefail
@@ -212,16 +213,30 @@ await_progress "after the restarts"
 finish_load "a restart of the balancer cost a client without retries a call"
 echo "PASS: 2 restarts (soft stop, start) of the balancer, no client (without retries) saw an error"
 
-# Fan-out: the range calls of one session's pass reach both replicas.
+# Fan-out: `remote grad --fan-out 2` of four sessions (each a pass and a
+# VJP in two parts): a session's two parts reach different replicas, and
+# each part's VJP the replica that has its part's pass. The request lines of
+# the balancer's log (level info here) name the replica and the captured
+# x-meshgauge-part.
 "$cli" shape sphere --out "$tmp/ball.obj" >/dev/null
-count_sdf() { grep -c "meshgauge/r$1 .*MeshGauge/ComputeSdf" "$tmp/haproxy.log" || true; }
-before=("$(count_sdf 0)" "$(count_sdf 1)")
-"$cli" remote sdf "$tmp/ball.obj" --rays 10 --fan-out 4 --session-id fan-out \
-  --server "127.0.0.1:$hp" --token-file "$tmp/token" >/dev/null ||
-  fail "remote sdf --fan-out 4 through the balancer failed"
-sleep 0.5  # the log lines of the last calls
-for r in 0 1; do
-  [ "$(count_sdf "$r")" -gt "${before[$r]}" ] ||
-    fail "no range call of the fanned-out pass reached replica $r"
+for s in 1 2 3 4; do
+  lines=$(wc -l <"$tmp/haproxy.log")
+  "$cli" remote grad "$tmp/ball.obj" --rays 10 --fan-out 2 --session-id "fan-out-$s" \
+    --server "127.0.0.1:$hp" --token-file "$tmp/token" >/dev/null ||
+    fail "remote grad --fan-out 2 through the balancer failed"
+  sleep 0.5  # the log lines of the last calls
+  # "CALL PART REPLICA" per range call, e.g. "ComputeSdf 1 r0".
+  tail -n +$((lines + 1)) "$tmp/haproxy.log" |
+    sed -nE 's|.* meshgauge_parts/(r[01]) .*\{([0-9]+)\} "POST [^ ]*/meshgauge.v1.MeshGauge/(Compute[A-Za-z]+) .*|\3 \2 \1|p' \
+    >"$tmp/parts"
+  [ "$(wc -l <"$tmp/parts")" -eq 4 ] ||
+    fail "session fan-out-$s: expected 4 range calls, the log has: $(cat "$tmp/parts")"
+  for part in 0 1; do
+    replicas=$(awk -v p="$part" '$2 == p { print $3 }' "$tmp/parts" | sort -u)
+    [ "$(echo "$replicas" | wc -l)" -eq 1 ] ||
+      fail "session fan-out-$s: part $part's pass and VJP went to different replicas: $(cat "$tmp/parts")"
+  done
+  [ "$(awk '{ print $3 }' "$tmp/parts" | sort -u | wc -l)" -eq 2 ] ||
+    fail "session fan-out-$s: both parts went to one replica: $(cat "$tmp/parts")"
 done
-echo "PASS: a pass fanned out over 4 ranges reached both replicas"
+echo "PASS: 4 sessions' passes and VJPs fanned out in 2 parts: each session's parts on both replicas, each part's VJP where its pass was"

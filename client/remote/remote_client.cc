@@ -96,7 +96,7 @@ absl::Status RemoteClient::Checked(const grpc::Status& s) const {
 }
 
 std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
-    const std::string& session_id, SampleRange range) const {
+    const std::string& session_id, SampleRange range, int part) const {
   auto ctx = std::make_unique<grpc::ClientContext>();
   if (channel_->GetState(/*try_to_connect=*/true) != GRPC_CHANNEL_READY &&
       !channel_->WaitForConnected(
@@ -127,6 +127,7 @@ std::unique_ptr<grpc::ClientContext> RemoteClient::Context(
     ctx->AddMetadata(kRangeMetadataKey,
                      absl::StrCat(range.begin, "-", range.end));
   }
+  if (part >= 0) ctx->AddMetadata(kPartMetadataKey, absl::StrCat(part));
   return ctx;
 }
 
@@ -267,6 +268,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
           part.range = range;
           SdfCall range_call = call;
           range_call.fan_out = 1;
+          range_call.part = index;
           if (call.progress) {
             range_call.progress = [&, index](int64_t d, int64_t) {
               std::lock_guard<std::mutex> lock(progress_mu);
@@ -300,7 +302,7 @@ absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdf(const std::string& id,
 absl::StatusOr<wire::SdfReply> RemoteClient::ComputeSdfOnce(
     const std::string& id, const SdfParams& params, const SdfCall& call,
     bool* started) {
-  auto ctx = Context(id, params.range);
+  auto ctx = Context(id, params.range, call.part);
   v1::ComputeSdfRequest req;
   req.set_session_id(id);
   *req.mutable_params() = wire::ToWire(params);
@@ -405,12 +407,12 @@ absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
     return ComputeVjpOnce(id, params, weights, expected_generation);
   }
   auto parts = FanOut<wire::VjpReply>(
-      std::ssize(weights), fan_out, [&](int, SampleRange range) {
+      std::ssize(weights), fan_out, [&](int index, SampleRange range) {
         SdfParams part = params;
         part.range = range;
         return ComputeVjpOnce(
             id, part, weights.subspan(range.begin, range.end - range.begin),
-            expected_generation);
+            expected_generation, index);
       });
   if (!parts.ok()) return parts.status();
   if (parts->empty()) {  // no sample: the whole call's reply.
@@ -423,8 +425,8 @@ absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjp(
 absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjpOnce(
     const std::string& id, const SdfParams& params,
     absl::Span<const double> weights,
-    std::optional<int64_t> expected_generation) {
-  auto ctx = Context(id, params.range);
+    std::optional<int64_t> expected_generation, int part) {
+  auto ctx = Context(id, params.range, part);
   v1::ComputeVjpRequest req;
   req.set_session_id(id);
   *req.mutable_params() = wire::ToWire(params);

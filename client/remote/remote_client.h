@@ -28,9 +28,13 @@ inline constexpr char kSessionMetadataKey[] = "x-meshgauge-session";
 inline constexpr char kAuthorizationMetadataKey[] = "authorization";
 
 // A range call (SdfParams::range) also carries `x-meshgauge-range:
-// BEGIN-END`: the balancer hashes it with the session id, so that one
-// session's ranges spread over the replicas (docs/deployment.md).
+// BEGIN-END`, and a fanned-out call's range its index among the call's
+// ranges, `x-meshgauge-part: I` (0, 1, ...): the balancer sends parts I and
+// I + 1 of one session to different replicas while there are as many
+// replicas as parts, and part I to the same replica from call to call
+// (docs/deployment.md).
 inline constexpr char kRangeMetadataKey[] = "x-meshgauge-range";
+inline constexpr char kPartMetadataKey[] = "x-meshgauge-part";
 
 struct ClientOptions {
   double deadline_seconds = 600;      // per call.
@@ -86,6 +90,8 @@ struct SdfCall {
   // computed from it (InvalidArgument without it).
   int fan_out = 1;
   const Mesh* mesh = nullptr;
+  // Set by the fan-out on each range call: its index (x-meshgauge-part).
+  int part = -1;
 };
 
 class RemoteClient {
@@ -159,9 +165,10 @@ class RemoteClient {
   // uploads, out-of-range pages: the tests that play a hostile client).
   v1::MeshGauge::Stub& stub() { return *stub_; }
   // A context with the deadline and the session routing key (and the
-  // range's, for a range call).
+  // range's and its part's, for a range call of a fan-out; part < 0: none).
   std::unique_ptr<grpc::ClientContext> Context(const std::string& session_id,
-                                               SampleRange range = {}) const;
+                                               SampleRange range = {},
+                                               int part = -1) const;
 
  private:
   // One ComputeSdf call; *started is set once a reply message arrived.
@@ -180,7 +187,7 @@ class RemoteClient {
   absl::StatusOr<wire::VjpReply> ComputeVjpOnce(
       const std::string& session_id, const SdfParams& params,
       absl::Span<const double> weights,
-      std::optional<int64_t> expected_generation);
+      std::optional<int64_t> expected_generation, int part = -1);
 
   // The call's status; UNAVAILABLE names the target (no server, wrong
   // address, refused connection).
