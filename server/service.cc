@@ -68,7 +68,7 @@ CallControl Control(grpc::ServerContext* ctx, const Request& request,
 
 // A compute request's session, positions and parameters (the parameters
 // checked against the server's limits), with its sample range when the
-// request has one (ComputeSdf, ComputeVjp).
+// request has one (ComputeSdf, ComputeVjp, ComputePenalty).
 template <typename Request>
 absl::StatusOr<SessionTarget> TargetFromWire(const Request& request,
                                              const ServerOptions& options) {
@@ -336,8 +336,11 @@ grpc::Status MeshGaugeService::ComputePenalty(
         if (!thin.ok()) return thin.status();
         auto target = TargetFromWire(*request, options_);
         if (!target.ok()) return target.status();
-        auto out = calls_.Penalty(tenant, *target, *penalty, *thin,
-                                  request->with_gradient(), Control(ctx));
+        auto out = calls_.Penalty(
+            tenant, *target, *penalty, *thin, request->with_gradient(),
+            Control(ctx),
+            absl::MakeConstSpan(request->values().data(),
+                                request->values_size()));
         if (!out.ok()) return out.status();
         if (out->thin) {
           wire::ToWire(*out->thin, (*thin)->max_regions,

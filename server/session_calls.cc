@@ -1,5 +1,6 @@
 #include "server/session_calls.h"
 
+#include <bit>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -35,6 +36,37 @@ ComputeControl LibraryControl(const CallControl& control, int threads,
     };
   }
   return c;
+}
+
+// A penalty range call's SdfResult: `values`, every sample's, checked
+// against the range pass `part` (its samples' values bit for bit), with the
+// part's resolved parameters over every sample. Its statuses are the
+// part's: the missing-value error's likely cause names what this range saw.
+absl::StatusOr<SdfResult> WithValuesOfEverySample(
+    const Mesh& mesh, const SdfResult& part, absl::Span<const double> values) {
+  const SampleSet set = part.resolved.params.samples;
+  const int64_t n = NumSamples(mesh, set);
+  if (std::ssize(values) != n) {
+    return absl::InvalidArgumentError(
+        absl::StrCat("values holds ", values.size(), " values, expected one per ",
+                     SampleName(set), " (", n, ")"));
+  }
+  const SampleRange range = part.resolved.params.range;
+  for (int64_t i = range.begin; i < range.end; ++i) {
+    const double mine = part.values[i - range.begin];
+    if (std::bit_cast<uint64_t>(values[i]) != std::bit_cast<uint64_t>(mine)) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "values[", i, "] is ", values[i], ", this session's pass has ", mine,
+          ": values must be the fanned-out ComputeSdf's of the same "
+          "parameters and generation"));
+    }
+  }
+  SdfResult whole;
+  whole.resolved = part.resolved;
+  whole.resolved.params.range = {};
+  whole.values.assign(values.begin(), values.end());
+  whole.status = part.status;
+  return whole;
 }
 
 }  // namespace
@@ -197,14 +229,24 @@ absl::StatusOr<VjpOutcome> SessionCalls::Vjp(const std::string& tenant,
 absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
     const std::string& tenant, const SessionTarget& target,
     const PenaltyParams& penalty, const std::optional<wire::ThinRequest>& thin,
-    bool with_gradient, const CallControl& control) {
+    bool with_gradient, const CallControl& control,
+    absl::Span<const double> values) {
   const Stopwatch start;
   auto prep = Prepare(tenant, target, control);
   if (!prep.ok()) return prep.status();
   const SdfEvaluator& ev = prep->evaluator();
+  const bool range = !prep->params.range.all();
+  if (range != !values.empty()) {
+    return absl::InvalidArgumentError(
+        range ? "a penalty range call needs `values`, every sample's value "
+                "from the fanned-out ComputeSdf"
+              : "`values` are for a penalty range call only (no range set)");
+  }
+  const bool first_part = prep->params.range.begin == 0;
   if (absl::Status s = wire::CheckReplyBytes(
           wire::PenaltyReplyBytes(ev.mesh(), with_gradient,
-                                  thin ? thin->max_regions : 0),
+                                  thin && first_part ? thin->max_regions : 0,
+                                  range),
           options_.max_message_bytes);
       !s.ok()) {
     return s;
@@ -212,14 +254,21 @@ absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
   auto pass = EnsurePass(tenant, *prep, control, /*with_progress=*/false);
   if (!pass.ok()) return pass.status();
   metrics_->RecordHitCache(pass->reused);
-  const SdfResult& sdf = pass->pass->result;
+  SdfResult supplied;
+  if (range) {
+    auto whole = WithValuesOfEverySample(ev.mesh(), pass->pass->result, values);
+    if (!whole.ok()) return whole.status();
+    supplied = std::move(*whole);
+  }
+  const SdfResult& sdf = range ? supplied : pass->pass->result;
   auto pen = ComputePenalty(ev, sdf, penalty,
                             with_gradient ? &pass->pass->hits : nullptr,
                             LibraryControl(control, options_.compute_threads));
   if (!pen.ok()) return control.Interrupted(pen.status());
+  if (!first_part) pen->measure_gradient.clear();
   PenaltyOutcome out;
   out.dimension = ev.mesh().dimension;
-  if (thin) {
+  if (thin && first_part) {
     ThinRegionParams thin_params = thin->params;
     thin_params.samples = prep->params.samples;
     auto regions = FindThinRegions(ev.mesh(), sdf.values, thin_params);
@@ -228,7 +277,7 @@ absl::StatusOr<PenaltyOutcome> SessionCalls::Penalty(
   }
   out.reply = {std::move(*pen),
                SummarizeValues(sdf.values).min,
-               sdf.world_frame_vertices,
+               pass->pass->result.world_frame_vertices,
                {ev.generation(), pass->reused, start.Seconds()}};
   return out;
 }

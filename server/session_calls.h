@@ -130,11 +130,17 @@ class SessionCalls {
   // `with_gradient`) and, with `thin`, the thin regions. Errors:
   // RESOURCE_EXHAUSTED when the reply would exceed --max_message_bytes
   // (before tracing); the thin-region search's INVALID_ARGUMENT.
+  // A range target (a part of a fanned-out penalty) needs `values`, every
+  // sample's value, whose range must be its pass's bit for bit
+  // (INVALID_ARGUMENT otherwise, and for values without a range): the
+  // penalty is computed from them, the gradient is the range's part
+  // (PenaltyResult::vjp_sums), and the measure part and thin regions come
+  // with the range that begins at 0 only.
   absl::StatusOr<PenaltyOutcome> Penalty(
       const std::string& tenant, const SessionTarget& target,
       const PenaltyParams& penalty,
       const std::optional<wire::ThinRequest>& thin, bool with_gradient,
-      const CallControl& control);
+      const CallControl& control, absl::Span<const double> values = {});
   // The calibration of `params` on the session (params.sdf is the target's
   // parameters; no expected generation).
   absl::StatusOr<CalibrationReport> Calibrate(const std::string& tenant,

@@ -11,6 +11,7 @@
 #include <random>
 
 #include "lib/core/face_sample.h"
+#include "lib/core/penalty.h"
 #include "lib/io/mesh_io.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
@@ -88,6 +89,49 @@ TEST_F(FanOutTest, FannedOutSdfAndVjpAreTheWholeCallsForAnyK) {
       EXPECT_TRUE(SameBytes(vjp->gradient, whole_vjp->gradient));
     }
   }
+}
+
+// A fanned-out penalty (every range sent with every sample's value) is the
+// whole call's: value, missing counts, sdf_min, frame fallbacks and
+// gradient, bit for bit, for each form and sample set and any K.
+TEST_F(FanOutTest, FannedOutPenaltyIsTheWholeCallForAnyK) {
+  for (SampleSet samples : {SampleSet::kVertices, SampleSet::kFaces}) {
+    SdfParams params;
+    params.rays = 40;
+    params.samples = samples;
+    auto sdf = client_->ComputeSdf("knight", params);
+    ASSERT_TRUE(sdf.ok()) << sdf.status();
+    std::vector<double> sorted = sdf->result.values;
+    std::sort(sorted.begin(), sorted.end());
+    for (PenaltyForm form : {PenaltyForm::kOneSided, PenaltyForm::kKs}) {
+      // Half the samples below t_min.
+      const PenaltyParams penalty{.t_min = sorted[sorted.size() / 2],
+                                  .form = form};
+      auto whole = client_->ComputePenalty("knight", params, penalty, true);
+      ASSERT_TRUE(whole.ok()) << whole.status();
+      for (int k : {2, 3, 7}) {
+        SCOPED_TRACE(::testing::Message() << SampleSetName(samples) << " "
+                                          << PenaltyFormName(form) << " K "
+                                          << k);
+        auto fanned = client_->ComputePenalty("knight", params, penalty, true,
+                                              std::nullopt, k,
+                                              sdf->result.values);
+        ASSERT_TRUE(fanned.ok()) << fanned.status();
+        EXPECT_EQ(std::bit_cast<uint64_t>(fanned->penalty.value),
+                  std::bit_cast<uint64_t>(whole->penalty.value));
+        EXPECT_EQ(fanned->penalty.missing.faces, whole->penalty.missing.faces);
+        EXPECT_EQ(fanned->sdf_min, whole->sdf_min);
+        EXPECT_EQ(fanned->world_frame_vertices, whole->world_frame_vertices);
+        EXPECT_TRUE(SameBytes(fanned->penalty.gradient, whole->penalty.gradient));
+      }
+    }
+  }
+  // Without the values a fanned-out penalty is refused before any call.
+  EXPECT_EQ(client_->ComputePenalty("knight", {}, {.t_min = 1}, true,
+                                    std::nullopt, 2)
+                .status()
+                .code(),
+            absl::StatusCode::kInvalidArgument);
 }
 
 // Ranges on two servers holding the same session, in a shuffled order and

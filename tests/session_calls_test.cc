@@ -318,5 +318,30 @@ TEST_F(SessionCallsRangeTest, ARangesPassIsCachedAndMatchesTheWhole) {
   EXPECT_THAT(vjp->reply.sums, SizeIs(3 * vertices()));
 }
 
+TEST_F(SessionCallsRangeTest, APenaltyRangeWithoutTheValuesOrWithOthersIsInvalid) {
+  const PenaltyParams penalty{.t_min = 0.1};
+  auto whole = calls_->Sdf("", Target(), false, {});
+  ASSERT_TRUE(whole.ok());
+  std::vector<double> values = whole->pass->result.values;
+  auto code = [&](const SessionTarget& target,
+                  const std::vector<double>& v) {
+    return calls_->Penalty("", target, penalty, std::nullopt, true, {}, v)
+        .status();
+  };
+  EXPECT_EQ(code(RangeTarget(2, 10), {}).code(),
+            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(Target(), values).code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(code(RangeTarget(2, 10),
+                 std::vector<double>(values.begin(), values.end() - 1))
+                .code(),
+            absl::StatusCode::kInvalidArgument);
+  ASSERT_TRUE(code(RangeTarget(2, 10), values).ok());
+  // A value of the range that is not the pass's, by one ulp.
+  values[5] = std::nextafter(values[5], 1e300);
+  const absl::Status changed = code(RangeTarget(2, 10), values);
+  EXPECT_EQ(changed.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(changed.message(), ::testing::HasSubstr("values[5]"));
+}
+
 }  // namespace
 }  // namespace meshgauge

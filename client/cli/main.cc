@@ -206,12 +206,12 @@ int Main(int argc, char** argv) {
         "compute on this session (kept; created from MESH if missing) "
         "instead of a temporary one");
   }
-  for (const char* verb : {"sdf", "grad"}) {
+  for (const char* verb : {"sdf", "grad", "penalty"}) {
     remote->get_subcommand(verb)
         ->add_option("--fan-out", remote_fan_out,
-                     "split the pass (and the VJP) into K sample ranges sent "
-                     "at once, through a balancer to K replicas; the same "
-                     "bits for any K")
+                     "split the pass (and the VJP or penalty) into K sample "
+                     "ranges sent at once, through a balancer to K replicas; "
+                     "the same bits for any K")
         ->check(CLI::Range(1, 1024))
         ->capture_default_str();
   }

@@ -63,11 +63,13 @@ class Remote : public Backend {
     if (!r.ok()) return r.status();
     return std::move(r->gradient);
   }
-  // The server holds the pass.
-  absl::StatusOr<PenaltyResult> Penalty(const SdfResult& /*pass*/,
+  // The server holds the pass; a fanned-out penalty sends the pass's values
+  // with each range.
+  absl::StatusOr<PenaltyResult> Penalty(const SdfResult& pass,
                                         const PenaltyParams& params,
                                         bool with_gradient) override {
-    auto r = c_->ComputePenalty(id_, params_, params, with_gradient);
+    auto r = c_->ComputePenalty(id_, params_, params, with_gradient,
+                                std::nullopt, fan_out_, pass.values);
     if (!r.ok()) return r.status();
     return std::move(r->penalty);
   }

@@ -9,6 +9,7 @@
 #include "lib/core/integrals.h"
 #include "lib/core/missing_values.h"
 #include "lib/core/normalized_sdf.h"
+#include "lib/core/penalty.h"
 #include "lib/core/sensitivity.h"
 
 namespace meshgauge::client {
@@ -30,6 +31,13 @@ absl::StatusOr<wire::CallFacts> MergeFacts(
     out.seconds = std::max(out.seconds, f.seconds);
   }
   return out;
+}
+
+// Adds a range's exact partial sums to the merged ones, exactly.
+void AddSums(const ExactSums& part, ExactSums* total) {
+  for (int64_t i = 0; i < total->size(); ++i) {
+    for (double t : part.Terms(i)) total->Add(i, t);
+  }
 }
 
 template <typename T>
@@ -136,14 +144,49 @@ absl::StatusOr<wire::VjpReply> MergeVjpReplies(
           "a range's reply holds ", part.sums.size() / 3, " partial sums for ",
           vertices, " vertices (is the server older than ranges?)"));
     }
-    for (int64_t i = 0; i < sums.size(); ++i) {
-      for (double t : part.sums.Terms(i)) sums.Add(i, t);
-    }
+    AddSums(part.sums, &sums);
     facts.push_back(part.facts);
   }
   auto merged_facts = MergeFacts(facts);
   if (!merged_facts.ok()) return merged_facts.status();
   return wire::VjpReply{RoundVectors(sums), *merged_facts, {}};
+}
+
+absl::StatusOr<wire::PenaltyReply> MergePenaltyReplies(
+    std::vector<wire::PenaltyReply> parts, bool with_gradient) {
+  if (parts.empty()) return absl::DataLossError("no range replied");
+  std::vector<wire::CallFacts> facts;
+  int64_t frames = 0;
+  for (const wire::PenaltyReply& part : parts) {
+    facts.push_back(part.facts);
+    frames += part.world_frame_vertices;
+  }
+  auto merged_facts = MergeFacts(facts);
+  if (!merged_facts.ok()) return merged_facts.status();
+  wire::PenaltyReply out = std::move(parts.front());
+  out.facts = *merged_facts;
+  out.world_frame_vertices = frames;
+  if (!with_gradient) return out;
+  const int64_t sums = out.penalty.vjp_sums.size();
+  if (sums == 0 || std::ssize(out.penalty.measure_gradient) * 3 != sums) {
+    return absl::DataLossError(
+        "the first range's penalty reply has no exact partial sums or no "
+        "measure part (is the server older than penalty ranges?)");
+  }
+  ExactSums total(sums);
+  AddSums(out.penalty.vjp_sums, &total);
+  for (size_t i = 1; i < parts.size(); ++i) {
+    if (parts[i].penalty.vjp_sums.size() != sums) {
+      return absl::DataLossError(absl::StrCat(
+          "range ", i, "'s penalty reply holds ",
+          parts[i].penalty.vjp_sums.size() / 3, " partial sums for ",
+          sums / 3, " vertices"));
+    }
+    AddSums(parts[i].penalty.vjp_sums, &total);
+  }
+  out.penalty.gradient = PenaltyGradient(total, out.penalty.measure_gradient);
+  out.penalty.vjp_sums = ExactSums();
+  return out;
 }
 
 }  // namespace meshgauge::client

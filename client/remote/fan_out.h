@@ -38,4 +38,13 @@ absl::StatusOr<wire::SdfReply> MergeSdfReplies(const Mesh& mesh,
 absl::StatusOr<wire::VjpReply> MergeVjpReplies(
     int64_t vertices, const std::vector<wire::VjpReply>& parts);
 
+// The whole ComputePenalty reply from its ranges' (in range order, the
+// first beginning at sample 0): the value, missing counts and sdf_min of
+// the first (every range computes them from the same values), frame
+// fallbacks summed, and with `with_gradient` PenaltyGradient of the ranges'
+// exact VJP sums added and the first range's measure part. Errors: ABORTED
+// as above, DATA_LOSS for a part without its sums.
+absl::StatusOr<wire::PenaltyReply> MergePenaltyReplies(
+    std::vector<wire::PenaltyReply> parts, bool with_gradient);
+
 }  // namespace meshgauge::client

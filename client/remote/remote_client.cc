@@ -444,14 +444,44 @@ absl::StatusOr<wire::VjpReply> RemoteClient::ComputeVjpOnce(
 absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenalty(
     const std::string& id, const SdfParams& params,
     const PenaltyParams& penalty, bool with_gradient,
-    std::optional<int64_t> expected_generation) {
-  auto ctx = Context(id);
+    std::optional<int64_t> expected_generation, int fan_out,
+    absl::Span<const double> values) {
+  if (fan_out <= 1 || !params.range.all()) {
+    return ComputePenaltyOnce(id, params, penalty, with_gradient,
+                              expected_generation, values, -1);
+  }
+  if (values.empty()) {
+    return absl::InvalidArgumentError(
+        "a fanned-out penalty needs every sample's value (from a fanned-out "
+        "ComputeSdf of the same parameters)");
+  }
+  auto parts = FanOut<wire::PenaltyReply>(
+      std::ssize(values), fan_out, [&](int index, SampleRange range) {
+        SdfParams part = params;
+        part.range = range;
+        return ComputePenaltyOnce(id, part, penalty, with_gradient,
+                                  expected_generation, values, index);
+      });
+  if (!parts.ok()) return parts.status();
+  return MergePenaltyReplies(std::move(*parts), with_gradient);
+}
+
+absl::StatusOr<wire::PenaltyReply> RemoteClient::ComputePenaltyOnce(
+    const std::string& id, const SdfParams& params,
+    const PenaltyParams& penalty, bool with_gradient,
+    std::optional<int64_t> expected_generation,
+    absl::Span<const double> values, int part) {
+  auto ctx = Context(id, params.range, part);
   v1::ComputePenaltyRequest req;
   req.set_session_id(id);
   *req.mutable_params() = wire::ToWire(params);
   wire::ToWire(penalty, &req);
   req.set_with_gradient(with_gradient);
   if (expected_generation) req.set_expected_generation(*expected_generation);
+  if (!params.range.all()) {
+    wire::ToWire(params.range, req.mutable_range());
+    req.mutable_values()->Add(values.begin(), values.end());
+  }
   v1::ComputePenaltyResponse resp;
   if (absl::Status s =
           Checked(stub_->ComputePenalty(ctx.get(), req, &resp));

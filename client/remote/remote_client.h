@@ -136,10 +136,15 @@ class RemoteClient {
       absl::Span<const double> weights,
       std::optional<int64_t> expected_generation = std::nullopt,
       int fan_out = 1);
+  // With fan_out > 1 (and no params.range): split into that many sample
+  // ranges sent at once, each with `values`, every sample's value from a
+  // fanned-out ComputeSdf of `params` (InvalidArgument without them), and
+  // merged: the whole call's reply, bit for bit (MergePenaltyReplies).
   absl::StatusOr<wire::PenaltyReply> ComputePenalty(
       const std::string& session_id, const SdfParams& params,
       const PenaltyParams& penalty, bool with_gradient,
-      std::optional<int64_t> expected_generation = std::nullopt);
+      std::optional<int64_t> expected_generation = std::nullopt,
+      int fan_out = 1, absl::Span<const double> values = {});
   // The report without its per-vertex arrays (sdf, thickness stay empty).
   absl::StatusOr<CalibrationReport> Calibrate(const std::string& session_id,
                                               const CalibrationParams& params);
@@ -188,6 +193,11 @@ class RemoteClient {
       const std::string& session_id, const SdfParams& params,
       absl::Span<const double> weights,
       std::optional<int64_t> expected_generation, int part = -1);
+  absl::StatusOr<wire::PenaltyReply> ComputePenaltyOnce(
+      const std::string& session_id, const SdfParams& params,
+      const PenaltyParams& penalty, bool with_gradient,
+      std::optional<int64_t> expected_generation,
+      absl::Span<const double> values, int part);
 
   // The call's status; UNAVAILABLE names the target (no server, wrong
   // address, refused connection).

@@ -245,13 +245,33 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
   r.dp_dt = std::move(integral.d_dt);
   if (!with_gradient) return r;
   r.measure_gradient = std::move(integral.d_measure);
-  auto vjp = ComputeVjp(geometry, *hits_for_gradient, r.dp_dt, control);
-  if (!vjp.ok()) return vjp.status();
-  r.gradient = std::move(*vjp);
-  for (size_t i = 0; i < r.gradient.size(); ++i) {
-    r.gradient[i] += r.measure_gradient[i];
+  const SampleRange range = hits_for_gradient->resolved.params.range;
+  absl::Span<const double> weights = r.dp_dt;
+  if (!range.all()) {
+    if (range.end > std::ssize(r.dp_dt)) {
+      return absl::InvalidArgumentError(
+          absl::StrCat("the hit table's range [", range.begin, ", ", range.end,
+                       ") is past the ", r.dp_dt.size(), " samples"));
+    }
+    weights = weights.subspan(range.begin, range.end - range.begin);
+  }
+  auto sums = ComputeVjpSums(geometry, *hits_for_gradient, weights, control);
+  if (!sums.ok()) return sums.status();
+  if (range.all()) {
+    r.gradient = PenaltyGradient(*sums, r.measure_gradient);
+  } else {
+    r.vjp_sums = std::move(*sums);
   }
   return r;
+}
+
+std::vector<Vec3> PenaltyGradient(const ExactSums& vjp_sums,
+                                  absl::Span<const Vec3> measure_gradient) {
+  std::vector<Vec3> gradient = RoundVectors(vjp_sums);
+  for (size_t i = 0; i < gradient.size() && i < measure_gradient.size(); ++i) {
+    gradient[i] += measure_gradient[i];
+  }
+  return gradient;
 }
 
 }  // namespace meshgauge

@@ -12,6 +12,8 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/types/span.h"
+#include "lib/core/exact_sum.h"
 #include "lib/core/hit_table.h"
 #include "lib/core/mesh_geometry.h"
 
@@ -48,12 +50,19 @@ struct PenaltyResult {
   // measure part alone (already included in `gradient`).
   std::vector<Vec3> gradient;
   std::vector<Vec3> measure_gradient;
+  // With the hit table of a range pass (a part of a fanned-out call,
+  // docs/server.md): `gradient` is empty and this holds the VJP of dp_dt
+  // over the range's samples as exact sums, x, y, z per vertex. The whole
+  // call's gradient is PenaltyGradient of the parts' sums added exactly.
+  ExactSums vjp_sums;
 };
 
 // Penalty or constraint of `sdf` (a Compute of the SdfEvaluator `geometry`
-// at its current
-// positions). With `hits_for_gradient` (the hit table of that Compute) the
-// gradient is computed too; see ComputeVjp.
+// at its current positions: every sample's values). With
+// `hits_for_gradient` (the hit table of that Compute) the gradient is
+// computed too; see ComputeVjp. With the hit table of a range pass over the
+// same values (its samples' values are sdf's), only that range's part of
+// the gradient: PenaltyResult::vjp_sums.
 // Errors: InvalidArgument (params, wrong sizes); FailedPrecondition when the
 // missing values cover more than params.max_missing_fraction of the surface
 // (naming the fraction and the likely cause), when no face has values, or
@@ -63,6 +72,12 @@ absl::StatusOr<PenaltyResult> ComputePenalty(const MeshGeometry& geometry,
                                              const PenaltyParams& params,
                                              const HitTable* hits_for_gradient,
                                              const ComputeControl& control = {});
+
+// The gradient from the VJP of dp_dt (exact sums, x, y, z per vertex) and
+// the explicit measure part: each sum rounded once, then the measure part
+// added.
+std::vector<Vec3> PenaltyGradient(const ExactSums& vjp_sums,
+                                  absl::Span<const Vec3> measure_gradient);
 
 const char* PenaltyFormName(PenaltyForm form);
 

@@ -17,13 +17,16 @@ int64_t VjpReplyBytes(const Mesh& mesh, bool with_tails) {
 }
 
 int64_t PenaltyReplyBytes(const Mesh& mesh, bool with_gradient,
-                          int64_t thin_regions) {
+                          int64_t thin_regions, bool range_part) {
   // A thin region is about 18 doubles on the wire (four points, five
   // scalars and their tags).
   constexpr int64_t kThinRegionDoubles = 18;
-  return PackedReplyBytes(
-      (with_gradient ? mesh.num_vertices() * mesh.dimension : 0) +
-      thin_regions * kThinRegionDoubles);
+  const int64_t thin = PackedReplyBytes(thin_regions * kThinRegionDoubles);
+  if (!with_gradient) return thin;
+  if (!range_part) return thin + VjpReplyBytes(mesh);
+  // The VJP's part with its tails, and the measure part.
+  return thin + VjpReplyBytes(mesh, /*with_tails=*/true) +
+         PackedReplyBytes(mesh.num_vertices() * mesh.dimension);
 }
 
 int64_t MeshReplyBytes(const Mesh& mesh) {

@@ -18,10 +18,11 @@ int64_t PackedReplyBytes(int64_t doubles);
 // A ComputeVjpResponse: the gradient, `dimension` doubles per vertex, and
 // with `with_tails` (a range's reply) the partial sums' tails, estimated.
 int64_t VjpReplyBytes(const Mesh& mesh, bool with_tails = false);
-// A ComputePenaltyResponse: the gradient when `with_gradient`, and up to
-// `thin_regions` thin regions (0: no thin-surface request).
+// A ComputePenaltyResponse: the gradient when `with_gradient` (with
+// `range_part`: as a ranged VJP's, with its tails, and the measure part),
+// and up to `thin_regions` thin regions (0: no thin-surface request).
 int64_t PenaltyReplyBytes(const Mesh& mesh, bool with_gradient,
-                          int64_t thin_regions);
+                          int64_t thin_regions, bool range_part = false);
 // A GetMeshResponse of `mesh`.
 int64_t MeshReplyBytes(const Mesh& mesh);
 

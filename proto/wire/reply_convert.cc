@@ -18,6 +18,52 @@ absl::StatusOr<std::vector<Vec3>> Gradient(
   return points;
 }
 
+// A range's exact partial sums (x, y, z per vertex; `dimension` of them
+// sent): after each sum's rounding (sent as the gradient), the count of its
+// further terms and the terms. Nothing for no sums (a whole call).
+void AppendTails(const ExactSums& sums, int dimension,
+                 google::protobuf::RepeatedField<int32_t>* counts,
+                 google::protobuf::RepeatedField<double>* tails) {
+  for (int64_t j = 0; 3 * j < sums.size(); ++j) {
+    for (int c = 0; c < dimension; ++c) {
+      const std::vector<double> terms = sums.Terms(3 * j + c);
+      const int tail = terms.empty() ? 0 : static_cast<int>(terms.size()) - 1;
+      counts->Add(tail);
+      for (int t = 1; t <= tail; ++t) tails->Add(terms[t]);
+    }
+  }
+}
+
+// The exact sums of a reply's rounded values and tails (AppendTails); no
+// sums without tail counts. DATA_LOSS when the counts do not match.
+absl::StatusOr<ExactSums> SumsFromWire(
+    const google::protobuf::RepeatedField<double>& rounded, int dimension,
+    const google::protobuf::RepeatedField<int32_t>& counts,
+    const google::protobuf::RepeatedField<double>& tails) {
+  if (counts.empty()) return ExactSums();
+  if (counts.size() != rounded.size() || dimension <= 0) {
+    return absl::DataLossError(absl::StrCat("the reply has ", counts.size(),
+                                            " tail counts for ", rounded.size(),
+                                            " gradient values"));
+  }
+  ExactSums sums(3 * (rounded.size() / dimension));
+  int tail = 0;
+  for (int i = 0; i < rounded.size(); ++i) {
+    const int64_t sum = 3 * (i / dimension) + i % dimension;
+    sums.Add(sum, rounded[i]);
+    if (counts[i] < 0 || counts[i] > tails.size() - tail) {
+      return absl::DataLossError("the reply's tails do not match its counts");
+    }
+    for (const int end = tail + counts[i]; tail < end; ++tail) {
+      sums.Add(sum, tails[tail]);
+    }
+  }
+  if (tail != tails.size()) {
+    return absl::DataLossError("the reply's tails do not match its counts");
+  }
+  return sums;
+}
+
 }  // namespace
 
 void ToWire(const ServerInfo& r, v1::GetServerInfoResponse* out) {
@@ -60,15 +106,8 @@ void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
   out->set_generation(r.facts.generation);
   out->set_dimension(dimension);
   AppendFlattened(r.gradient, dimension, out->mutable_gradient());
-  // A range's sums: each the rounded value sent above, then its tail.
-  for (int64_t j = 0; 3 * j < r.sums.size(); ++j) {
-    for (int c = 0; c < dimension; ++c) {
-      const std::vector<double> terms = r.sums.Terms(3 * j + c);
-      const int tail = terms.empty() ? 0 : static_cast<int>(terms.size()) - 1;
-      out->add_tail_counts(tail);
-      for (int t = 1; t <= tail; ++t) out->add_tails(terms[t]);
-    }
-  }
+  AppendTails(r.sums, dimension, out->mutable_tail_counts(),
+              out->mutable_tails());
   out->set_reused_hits(r.facts.reused_hits);
   out->set_seconds(r.facts.seconds);
 }
@@ -76,31 +115,12 @@ void ToWire(const VjpReply& r, int dimension, v1::ComputeVjpResponse* out) {
 absl::StatusOr<VjpReply> FromWire(const v1::ComputeVjpResponse& r) {
   auto gradient = Gradient(r.gradient(), r.dimension());
   if (!gradient.ok()) return gradient.status();
-  VjpReply out{std::move(*gradient),
-               {r.generation(), r.reused_hits(), r.seconds()},
-               {}};
-  if (r.tail_counts_size() == 0) return out;
-  if (r.tail_counts_size() != r.gradient_size()) {
-    return absl::DataLossError(absl::StrCat(
-        "the reply has ", r.tail_counts_size(), " tail counts for ",
-        r.gradient_size(), " gradient values"));
-  }
-  out.sums = ExactSums(3 * std::ssize(out.gradient));
-  int tail = 0;
-  for (int i = 0; i < r.gradient_size(); ++i) {
-    const int64_t sum = 3 * (i / r.dimension()) + i % r.dimension();
-    out.sums.Add(sum, r.gradient(i));
-    if (r.tail_counts(i) < 0 || r.tail_counts(i) > r.tails_size() - tail) {
-      return absl::DataLossError("the reply's tails do not match its counts");
-    }
-    for (const int end = tail + r.tail_counts(i); tail < end; ++tail) {
-      out.sums.Add(sum, r.tails(tail));
-    }
-  }
-  if (tail != r.tails_size()) {
-    return absl::DataLossError("the reply's tails do not match its counts");
-  }
-  return out;
+  auto sums = SumsFromWire(r.gradient(), r.dimension(), r.tail_counts(),
+                           r.tails());
+  if (!sums.ok()) return sums.status();
+  return VjpReply{std::move(*gradient),
+                  {r.generation(), r.reused_hits(), r.seconds()},
+                  std::move(*sums)};
 }
 
 void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,
@@ -111,7 +131,17 @@ void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,
   ToWire(r.penalty.missing, out->mutable_missing());
   out->set_world_frame_vertices(r.world_frame_vertices);
   out->set_dimension(dimension);
-  if (with_gradient) {
+  if (with_gradient && r.penalty.vjp_sums.size() > 0) {  // a range's part
+    for (int64_t j = 0; 3 * j < r.penalty.vjp_sums.size(); ++j) {
+      for (int c = 0; c < dimension; ++c) {
+        out->add_gradient(r.penalty.vjp_sums.Round(3 * j + c));
+      }
+    }
+    AppendTails(r.penalty.vjp_sums, dimension, out->mutable_tail_counts(),
+                out->mutable_tails());
+    AppendFlattened(r.penalty.measure_gradient, dimension,
+                    out->mutable_measure_gradient());
+  } else if (with_gradient) {
     AppendFlattened(r.penalty.gradient, dimension, out->mutable_gradient());
   }
   out->set_sdf_min(r.sdf_min);
@@ -124,7 +154,17 @@ absl::StatusOr<PenaltyReply> FromWire(const v1::ComputePenaltyResponse& r,
   PenaltyReply out;
   out.penalty.value = r.value();
   out.penalty.missing = FromWire(r.missing());
-  if (with_gradient) {
+  if (with_gradient && r.tail_counts_size() > 0) {  // a range's part
+    auto sums = SumsFromWire(r.gradient(), r.dimension(), r.tail_counts(),
+                             r.tails());
+    if (!sums.ok()) return sums.status();
+    out.penalty.vjp_sums = std::move(*sums);
+    if (r.measure_gradient_size() > 0) {
+      auto measure = Gradient(r.measure_gradient(), r.dimension());
+      if (!measure.ok()) return measure.status();
+      out.penalty.measure_gradient = std::move(*measure);
+    }
+  } else if (with_gradient) {
     auto gradient = Gradient(r.gradient(), r.dimension());
     if (!gradient.ok()) return gradient.status();
     out.penalty.gradient = std::move(*gradient);
