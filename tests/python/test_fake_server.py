@@ -1,19 +1,23 @@
 """The clients against a fake server that answers wrongly: what an older or
 broken server sends must end in DATA_LOSS, never in values read as others.
 
-The fake is the generated servicer with two methods: GetSession (the counts
-of the mesh the test gives) and ComputeSdf (the reply the test sets)."""
+The fake is the generated servicer with GetSession (the counts of the
+octahedron), ComputeSdf (the reply the test sets, or for a range call the
+range's reply of a function the test sets), ComputeVjp (a ranged reply of
+zeros) and GetMesh (the octahedron); ComputeSdf and ComputeVjp record
+their requests' metadata, so that the fan-out's routing keys are seen."""
 
 import os
 import subprocess
 import tempfile
 import unittest
 from concurrent import futures
-from typing import Any, List
+from typing import Any, Callable, Dict, List, Optional
 
 import grpc
+import numpy as np
 
-from meshgauge_client import DataLossError, MeshGaugeClient
+from meshgauge_client import AbortedError, DataLossError, MeshGaugeClient
 from meshgauge_client._stubs import pb, pb_grpc
 
 CLI = os.environ.get("MESHGAUGE_CLI", "")
@@ -47,17 +51,60 @@ def chunk_and_summary(n: int, samples: int) -> List[Any]:
             pb.ComputeSdfResponse(summary=pb.SdfSummary(ok=n, samples=samples))]
 
 
+OCTAHEDRON_POSITIONS = [1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1, 0, 0, 0, 1, 0, 0, -1]
+OCTAHEDRON_FACES = [0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1,
+                    5, 0, 3, 5]
+
+
+def range_reply(request: Any, generation: int = 0) -> List[Any]:
+    """A well-formed reply to a range call on the octahedron: sample i has
+    the value 1 + i / 8 (its status OK), the summary echoes the range."""
+    b, e = request.range.begin, request.range.end
+    n = e - b
+    chunk = pb.SdfChunk(vertex_begin=b, vertex_end=e,
+                        values=[1 + i / 8 for i in range(b, e)],
+                        status=[pb.VERTEX_STATUS_OK] * n, hits=[1] * n,
+                        kept=[1] * n, normalized=[0.5] * n)
+    return [pb.ComputeSdfResponse(chunk=chunk),
+            pb.ComputeSdfResponse(summary=pb.SdfSummary(
+                ok=n, samples=request.params.samples or pb.SAMPLE_SET_VERTICES,
+                generation=generation, rays=n,
+                range=pb.SampleRange(begin=b, end=e)))]
+
+
 class FakeServer(pb_grpc.MeshGaugeServicer):
     def __init__(self) -> None:
         self.reply: List[Any] = []
+        # Set: the reply to a ComputeSdf call with a range.
+        self.ranged: Optional[Callable[[Any], List[Any]]] = None
+        self.mesh_generation = 0
+        # (method, request, metadata) of each ComputeSdf and ComputeVjp.
+        self.calls: List[Any] = []
 
     def GetSession(self, request: Any, context: Any) -> Any:
         return pb.GetSessionResponse(session=pb.SessionInfo(
             session_id=request.session_id, dimension=3, num_vertices=6,
             num_faces=8))
 
+    def GetMesh(self, request: Any, context: Any) -> Any:
+        return pb.GetMeshResponse(
+            dimension=3, generation=self.mesh_generation,
+            positions=OCTAHEDRON_POSITIONS, face_sizes=[3] * 8,
+            face_indices=OCTAHEDRON_FACES)
+
     def ComputeSdf(self, request: Any, context: Any) -> Any:
-        yield from self.reply
+        self.calls.append(("ComputeSdf", request,
+                           dict(context.invocation_metadata())))
+        if request.HasField("range") and self.ranged is not None:
+            yield from self.ranged(request)
+        else:
+            yield from self.reply
+
+    def ComputeVjp(self, request: Any, context: Any) -> Any:
+        self.calls.append(("ComputeVjp", request,
+                           dict(context.invocation_metadata())))
+        return pb.ComputeVjpResponse(gradient=[0.0] * 18, dimension=3,
+                                     tail_counts=[0] * 18)
 
 
 class WrongRepliesTest(unittest.TestCase):
@@ -126,6 +173,76 @@ class WrongRepliesTest(unittest.TestCase):
         self.fake.reply[1].summary.no_hit = 1
         with self.assertRaises(DataLossError):
             self.client.sdf("fake")
+
+    def test_range_calls_carry_their_range_and_part(self) -> None:
+        """Each range call of a fanned-out sdf or vjp carries
+        x-meshgauge-range: BEGIN-END and x-meshgauge-part: I (its index
+        among the K), beside the session's key."""
+        self.fake.ranged = range_reply
+        cases: List[Any] = [
+            ("ComputeSdf", lambda: self.client.sdf("fake", fan_out=2),
+             ["0-3", "3-6"]),
+            ("ComputeSdf",
+             lambda: self.client.sdf("fake", fan_out=3, samples="faces"),
+             ["0-2", "2-5", "5-8"]),
+            ("ComputeVjp",
+             lambda: self.client.vjp("fake", np.ones(6), fan_out=3),
+             ["0-2", "2-4", "4-6"]),
+            ("ComputeVjp",
+             lambda: self.client.vjp("fake", np.ones(8), fan_out=7,
+                                     samples="faces"),
+             ["0-1", "1-2", "2-3", "3-4", "4-5", "5-6", "6-8"])]
+        for method, call, ranges in cases:
+            self.fake.calls = []
+            call()
+            keys: Dict[str, str] = {}
+            for name, request, metadata in self.fake.calls:
+                self.assertEqual(name, method)
+                self.assertEqual(metadata["x-meshgauge-session"], "fake")
+                r = metadata["x-meshgauge-range"]
+                self.assertEqual(r, f"{request.range.begin}-"
+                                    f"{request.range.end}")
+                keys[r] = metadata["x-meshgauge-part"]
+            self.assertEqual(keys, {r: str(i) for i, r in enumerate(ranges)},
+                             method)
+        # A call that is not fanned out carries neither.
+        self.fake.calls = []
+        self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
+        self.client.sdf("fake")
+        self.assertNotIn("x-meshgauge-part", self.fake.calls[0][2])
+        self.assertNotIn("x-meshgauge-range", self.fake.calls[0][2])
+
+    def test_fanned_out_sdf_merges_and_checks_its_ranges(self) -> None:
+        self.fake.ranged = range_reply
+        r = self.client.sdf("fake", fan_out=4)
+        np.testing.assert_array_equal(r.values, 1 + np.arange(6) / 8)
+        self.assertEqual(r.summary.ok, 6)
+        self.assertEqual(r.summary.rays, 6)  # the ranges' rays, summed.
+        self.assertEqual(r.summary.sdf_median, 1 + 2.5 / 8)
+        # normalized over every value, not each range's 0.5.
+        self.assertEqual(r.normalized[0], 0.0)
+        self.assertEqual(r.normalized[5], 1.0)
+        with self.assertRaises(ValueError):
+            self.client.sdf("fake", fan_out=0)
+        # Ranges of different generations (the session moved between
+        # them), or a mesh of another generation: ABORTED.
+        self.fake.ranged = lambda q: range_reply(q, q.range.begin // 3)
+        with self.assertRaises(AbortedError) as e:
+            self.client.sdf("fake", fan_out=2)
+        self.assertIn("generations [0, 1]", e.exception.details)
+        self.fake.ranged = range_reply
+        self.fake.mesh_generation = 1
+        try:
+            with self.assertRaises(AbortedError):
+                self.client.sdf("fake", fan_out=2)
+        finally:
+            self.fake.mesh_generation = 0
+        # A server older than ranges answers the whole call: DATA_LOSS.
+        self.fake.ranged = None
+        self.fake.reply = chunk_and_summary(6, pb.SAMPLE_SET_VERTICES)
+        with self.assertRaises(DataLossError) as e:
+            self.client.sdf("fake", fan_out=2)
+        self.assertIn("older than ComputeSdfRequest.range", e.exception.details)
 
     @unittest.skipUnless(CLI, "MESHGAUGE_CLI is not set")
     def test_the_cli_refuses_a_reply_of_another_face_count(self) -> None:

@@ -2,13 +2,16 @@
 Python client, error mapping, Prometheus over HTTP, the remote optimiser
 example, and a graceful SIGTERM drain."""
 
+import dataclasses
 import json
 import os
 import signal
+import struct
 import subprocess
 import sys
 import unittest
 import urllib.request
+import warnings
 
 import numpy as np
 
@@ -55,6 +58,127 @@ def unwelded_cube(n):
                          base + i * (n + 1) + j + 1]
                     faces.append(q if side == 1.0 else q[::-1])
     return np.array(vertices), np.array(faces)
+
+
+def welded_box(n, lo, hi, outward=True, open_top=False):
+    """An axis-aligned box of n x n quads a side, its vertices shared, faces
+    outward (or inward); open_top leaves out its +z side."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    g = np.linspace(0.0, 1.0, n + 1)
+    index, vertices, faces = {}, [], []
+
+    def vertex(p):
+        key = tuple(np.round(p, 12))
+        if key not in index:
+            index[key] = len(vertices)
+            vertices.append(p)
+        return index[key]
+
+    for axis in range(3):
+        b, c = (axis + 1) % 3, (axis + 2) % 3
+        for side in (0.0, 1.0):
+            if open_top and axis == 2 and side == 1.0:
+                continue
+            for i in range(n):
+                for j in range(n):
+                    q = []
+                    for di, dj in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                        u = np.zeros(3)
+                        u[axis], u[b], u[c] = side, g[i + di], g[j + dj]
+                        q.append(vertex(lo + u * (hi - lo)))
+                    q = q if (side == 1.0) == outward else q[::-1]
+                    faces.append(q)
+    return np.array(vertices), faces
+
+
+def octahedron_at(centre, r, inward=False, flip_first=False):
+    v, f = octahedron(r)
+    f = [list(q) for q in (f[:, ::-1] if inward else f)]
+    if flip_first:
+        f[0] = f[0][::-1]
+    return v + centre, f
+
+
+def sheet(n, lo, hi, double_sided=False):
+    """An n x n quad grid in the plane z = 0 (each quad twice, opposite,
+    with double_sided)."""
+    g = np.linspace(0.0, 1.0, n + 1)
+    v = np.array([[lo[0] + (hi[0] - lo[0]) * x, lo[1] + (hi[1] - lo[1]) * y,
+                   0.0] for x in g for y in g])
+    f = []
+    for i in range(n):
+        for j in range(n):
+            q = [i * (n + 1) + j, (i + 1) * (n + 1) + j,
+                 (i + 1) * (n + 1) + j + 1, i * (n + 1) + j + 1]
+            f += [q, q[::-1]] if double_sided else [q]
+    return v, f
+
+
+def tetrahedra_on_an_edge(centre, r):
+    """Two tetrahedra sharing an edge: it is used by four faces."""
+    v = np.array([[0, 0, 0], [0, 0, 1], [1, 0, 0.5], [0, 1, 0.5],
+                  [-1, 0, 0.5], [0, -1, 0.5]], float) * r + centre
+    return v, [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3],
+               [1, 4, 0], [5, 1, 0], [4, 5, 0], [5, 4, 1]]
+
+
+def circle(centre, r, n, clockwise=False, open_=False):
+    t = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    v = np.column_stack([centre[0] + r * np.cos(t), centre[1] + r * np.sin(t)])
+    f = [[i, (i + 1) % n] for i in range(n - 1 if open_ else n)]
+    return v, [q[::-1] for q in f] if clockwise else f
+
+
+def figure_eight(centre, r, n):
+    """Two circles of n segments touching at one vertex, used by four."""
+    a, _ = circle(centre, r, n)
+    b, _ = circle([centre[0] + 2 * r, centre[1]], r, n)
+    b = np.delete(b, n // 2, axis=0)  # its point at angle pi: a's vertex 0.
+    ring = [0 if i == n // 2 else n + i - (i > n // 2) for i in range(n)]
+    return np.vstack([a, b]), ([[i, (i + 1) % n] for i in range(n)]
+                               + [[ring[i], ring[(i + 1) % n]]
+                                  for i in range(n)])
+
+
+def combined(*parts):
+    vertices, faces, base = [], [], 0
+    for v, f in parts:
+        vertices.append(v)
+        faces += [[base + i for i in q] for q in f]
+        base += len(v)
+    return np.vstack(vertices), faces
+
+
+def missing_values_meshes():
+    """Meshes whose values go missing (with max_distance 3) in components
+    of every kind the summary's warnings tell apart: (name, vertices,
+    faces)."""
+    return [
+        ("parts", *combined(
+            welded_box(3, [30, 0, 0], [31, 1, 1]),  # small: has values.
+            welded_box(4, [-10] * 3, [10] * 3),  # a shell around ...
+            welded_box(3, [-4] * 3, [4] * 3),  # ... one facing out: inverted.
+            sheet(4, [40, 0], [48, 8]),
+            sheet(2, [60, 0], [66, 6], double_sided=True),
+            welded_box(2, [80, 0, 0], [86, 6, 6], open_top=True),
+            octahedron_at([100, 0, 0], 5.0, flip_first=True),
+            octahedron_at([0, 100, 0], 5.0, inward=True),
+            octahedron_at([0, 0, 200], 1e-6))),
+        ("sheets", *combined(
+            sheet(6, [0, 0], [20, 20]),
+            sheet(4, [40, 0], [60, 20], double_sided=True),
+            tetrahedra_on_an_edge([80, 0, 0], 10.0),
+            welded_box(2, [0, 40, 0], [1, 41, 1]))),
+        ("curves", *combined(
+            circle([30, 0], 1, 24), circle([0, 0], 10, 64),
+            circle([0, 0], 4, 32), circle([50, 0], 5, 40, clockwise=True),
+            circle([80, 0], 5, 40, open_=True),
+            figure_eight([0, 40], 5, 16))),
+    ]
+
+
+def bits(x):
+    return struct.pack("<d", x)
 
 
 class RemoteEndToEnd(unittest.TestCase):
@@ -258,6 +382,117 @@ class RemoteEndToEnd(unittest.TestCase):
                 self.client._vjp_ranges(
                     s.session_id, self.client._params({}), np.ones(600),
                     None, 2)
+
+    def assert_same_sdf(self, whole, fanned, label):
+        """Every array (NaNs included, by their bytes), the Jacobian and
+        every summary field but the call's time and reuse, bit for bit."""
+        for name in ("values", "status", "hits", "kept", "normalized",
+                     "opposite"):
+            a, b = getattr(whole, name), getattr(fanned, name)
+            if a is None or b is None:
+                self.assertIs(a, b, f"{label}: {name}")
+                continue
+            self.assertEqual((a.dtype, a.shape, a.tobytes()),
+                             (b.dtype, b.shape, b.tobytes()),
+                             f"{label}: {name}")
+        self.assertEqual(whole.jacobian is None, fanned.jacobian is None)
+        if whole.jacobian is not None:
+            self.assertEqual(whole.jacobian.shape, fanned.jacobian.shape)
+            for name in ("indptr", "indices", "data"):
+                self.assertEqual(getattr(whole.jacobian, name).tobytes(),
+                                 getattr(fanned.jacobian, name).tobytes(),
+                                 f"{label}: jacobian {name}")
+        for field in dataclasses.fields(whole.summary):
+            if field.name in ("seconds", "reused_hits"):
+                continue
+            a = getattr(whole.summary, field.name)
+            b = getattr(fanned.summary, field.name)
+            if isinstance(a, float):
+                self.assertEqual(bits(a), bits(b),
+                                 f"{label}: {field.name} {a!r} {b!r}")
+            else:
+                self.assertEqual(a, b, f"{label}: {field.name}")
+
+    def test_1f_fanned_out_sdf_is_the_whole_call(self):
+        """sdf(fan_out=K): K range calls merged, summary recomputed from
+        every value, are the whole call's bits for K = 2, 3, 7, vertex and
+        face samples, with the Jacobian and opposite points."""
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
+                              "decimated-knight.off")
+        with self.client.session_from_file(knight) as s:
+            for samples in ("vertices", "faces"):
+                kw = dict(rays=30, samples=samples, jacobian=True,
+                          opposite_points=True)
+                whole = s.sdf(**kw)
+                self.assertGreater(whole.summary.integral, 0)
+                for k in (2, 3, 7):
+                    self.assert_same_sdf(whole, s.sdf(fan_out=k, **kw),
+                                         f"{samples} K={k}")
+            # At a later generation, through the client's own call.
+            gen = s.update(1.5 * s.positions)
+            whole = self.client.sdf(s.session_id, expected_generation=gen,
+                                    rays=30)
+            self.assert_same_sdf(whole, self.client.sdf(
+                s.session_id, expected_generation=gen, rays=30, fan_out=3),
+                "generation 1")
+            with self.assertRaises(ValueError):
+                s.sdf(fan_out=0)
+
+    def test_1g_fanned_out_sdf_with_missing_values_and_warnings(self):
+        """The missing counts, the integral over the faces with values and
+        the warnings, naming the components and causes, computed by the
+        client from the ranges' values are the server's, bit for bit and
+        word for word: nested shells, an inside-out and an inconsistent
+        octahedron, an open box, flat, double-sided and non-manifold
+        parts, 2D curves; vertex and face samples."""
+        said = []
+        for name, v, f in missing_values_meshes():
+            with self.client.session(v, f) as s:
+                for samples in ("vertices", "faces"):
+                    kw = dict(rays=20, samples=samples, max_distance=3.0)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        whole = s.sdf(**kw)
+                    self.assertGreater(whole.summary.missing_faces, 0)
+                    self.assertGreater(whole.summary.ok, 0)
+                    self.assertTrue(whole.summary.warnings)
+                    said += whole.summary.warnings
+                    for k in (2, 3, 7):
+                        with warnings.catch_warnings(record=True) as caught:
+                            warnings.simplefilter("always")
+                            fanned = s.sdf(fan_out=k, **kw)
+                        self.assert_same_sdf(whole, fanned,
+                                             f"{name} {samples} K={k}")
+                        self.assertEqual(
+                            tuple(str(w.message) for w in caught),
+                            whole.summary.warnings)
+        # The causes the meshes meant to reach.
+        for cause in ("vertices: it is closed and outward",
+                      "vertices: it is closed and turned inside out",
+                      "vertices: neighbouring faces disagree",
+                      "vertices: it is open, so rays escape",
+                      "vertices: most of its missing vertices have a degen",
+                      "vertices: it has no boundary, but edges shared",
+                      "vertices: it has no open end, but vertices shared",
+                      "vertices: it is a flat sheet",
+                      "more components have more than 1% of the surface",
+                      "have no value: the mesh is open or planar"):
+            self.assertTrue(any(cause in w for w in said), cause)
+
+    def test_1h_fanned_out_sdf_of_a_welded_session(self):
+        """A welded session's fanned-out sdf: merged on the session's
+        vertices, then given the uploaded vertices' indexing, as one
+        call's."""
+        v, f = unwelded_cube(4)
+        with self.client.session(v, f, weld=True) as s:
+            for samples in ("vertices", "faces"):
+                kw = dict(method="normal", samples=samples, jacobian=True)
+                whole = s.sdf(**kw)
+                self.assertEqual(len(whole.values),
+                                 150 if samples == "vertices" else 96)
+                for k in (2, 3, 7):
+                    self.assert_same_sdf(whole, s.sdf(fan_out=k, **kw),
+                                         f"{samples} K={k}")
 
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:

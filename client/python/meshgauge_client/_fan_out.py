@@ -1,17 +1,34 @@
 """The fan-out of one call over sample ranges (docs/server.md, Fan-out): the
 ranges the C++ client splits into (client/remote/fan_out.h, SplitSamples),
-and the exact merge of a ranged ComputeVjp's partial sums."""
+the metadata of a range call, the exact merge of a ranged ComputeVjp's
+partial sums, and the merge of ranged ComputeSdf streams into the whole
+call's result (its summary recomputed from every value: _summary)."""
 
+import dataclasses
 import math
-from typing import Any, List, Sequence, Tuple
+import numbers
+from typing import Any, Iterator, List, Optional, Sequence, Tuple
 
 import grpc
 import numpy as np
 
+from meshgauge_client import _summary
+from meshgauge_client._stubs import pb
 from meshgauge_client.errors import AbortedError, DataLossError
-from meshgauge_client.results import FloatArray
+from meshgauge_client.results import FloatArray, SdfSummary
 
 RANGE_KEY = "x-meshgauge-range"
+# The range's index 0..K-1 among the K ranges of its call (decimal): a
+# balancer can route part I of every fanned-out call to replica I mod R.
+PART_KEY = "x-meshgauge-part"
+
+
+def check_fan_out(fan_out: Any) -> int:
+    """fan_out as an int >= 1 (ValueError otherwise)."""
+    if (isinstance(fan_out, bool) or not isinstance(fan_out, numbers.Integral)
+            or fan_out < 1):
+        raise ValueError(f"fan_out must be an int >= 1, got {fan_out!r}")
+    return int(fan_out)
 
 
 def split_samples(samples: int, k: int) -> List[Tuple[int, int]]:
@@ -20,9 +37,17 @@ def split_samples(samples: int, k: int) -> List[Tuple[int, int]]:
     return [(samples * i // n, samples * (i + 1) // n) for i in range(n)]
 
 
-def range_metadata(begin: int, end: int) -> Tuple[str, str]:
-    """The balancer's key of a range call (with the session's)."""
-    return (RANGE_KEY, f"{begin}-{end}")
+def range_metadata(part: int, begin: int, end: int) -> List[Tuple[str, str]]:
+    """The balancer's keys of range `part` (0..K-1) of a fanned-out call,
+    [begin, end) (sent with the session's)."""
+    return [(RANGE_KEY, f"{begin}-{end}"), (PART_KEY, str(part))]
+
+
+def _moved(generations: Sequence[int], what: str = "ranges") -> AbortedError:
+    return AbortedError(
+        grpc.StatusCode.ABORTED,
+        f"the session moved during a fanned-out call: {what} computed at "
+        f"generations {sorted(set(generations))}; call again")
 
 
 def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
@@ -33,10 +58,7 @@ def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
     bit for bit."""
     generations = {r.generation for r in replies}
     if len(generations) != 1:
-        raise AbortedError(
-            grpc.StatusCode.ABORTED,
-            "the session moved during a fanned-out call: ranges computed at "
-            f"generations {sorted(generations)}; call again")
+        raise _moved([r.generation for r in replies])
     size = len(replies[0].gradient)
     terms: List[List[float]] = [[] for _ in range(size)]
     for r in replies:
@@ -56,3 +78,171 @@ def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
                                 "the reply's tails do not match its counts")
     return (np.array([math.fsum(t) for t in terms], dtype=np.float64),
             replies[0].generation)
+
+
+@dataclasses.dataclass
+class SdfReply:
+    """A ComputeSdf stream read: per-sample arrays from `first` on (the
+    whole-mesh index of the first sample), the Jacobian's rows (CSR:
+    offsets, vertex columns, `dimension` derivatives per entry) and the
+    summary message."""
+
+    first: int = 0
+    values: List[float] = dataclasses.field(default_factory=list)
+    status: List[int] = dataclasses.field(default_factory=list)
+    hits: List[int] = dataclasses.field(default_factory=list)
+    kept: List[int] = dataclasses.field(default_factory=list)
+    normalized: List[float] = dataclasses.field(default_factory=list)
+    opposite: List[float] = dataclasses.field(default_factory=list)
+    rows: List[int] = dataclasses.field(default_factory=lambda: [0])
+    cols: List[int] = dataclasses.field(default_factory=list)
+    data: List[float] = dataclasses.field(default_factory=list)
+    summary: Any = None
+
+
+def read_sdf(messages: Iterator[Any], jacobian: bool,
+             first: int = 0) -> SdfReply:
+    """The chunks and summary of a ComputeSdf stream; chunks must continue
+    one another from sample `first` (DataLossError otherwise)."""
+    r = SdfReply(first)
+    for msg in messages:
+        if msg.HasField("summary"):
+            r.summary = msg.summary
+            continue
+        if not msg.HasField("chunk"):
+            continue  # progress.
+        c = msg.chunk
+        n = c.vertex_end - c.vertex_begin
+        if (c.vertex_begin != first + len(r.values) or len(c.values) != n
+                or len(c.status) != n or len(c.hits) != n
+                or len(c.kept) != n or len(c.normalized) != n):
+            raise DataLossError(
+                grpc.StatusCode.DATA_LOSS,
+                f"chunk [{c.vertex_begin}, {c.vertex_end}) does not continue "
+                f"{len(r.values)} samples from sample {first}")
+        r.values.extend(c.values)
+        r.status.extend(c.status)
+        r.hits.extend(c.hits)
+        r.kept.extend(c.kept)
+        r.normalized.extend(c.normalized)
+        r.opposite.extend(c.opposite)
+        if jacobian:
+            base = r.rows[-1]
+            r.rows.extend(base + o for o in list(c.row_offsets)[1:])
+            r.cols.extend(c.columns)
+            r.data.extend(c.derivatives)
+    return r
+
+
+def check_sdf(r: SdfReply, faces: bool, opposite_points: bool,
+              asked: Optional[Tuple[int, int]] = None) -> None:
+    """DataLossError unless the reply is what was asked for: a summary
+    counting the chunks' samples, the sample set, the opposite points, and
+    a range call's range."""
+    s = r.summary
+    n = len(r.values)
+    if s is None:
+        raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                            "ComputeSdf stream ended without its summary")
+    counted = s.ok + s.no_hit + s.no_faces + s.degenerate_normal
+    if counted != n or s.ok != sum(
+            1 for x in r.status if x == pb.VERTEX_STATUS_OK):
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            f"the summary counts {counted} samples ({s.ok} with a value), "
+            f"the chunks carried {n}")
+    if faces != (s.samples == pb.SAMPLE_SET_FACES):
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            ("face" if faces else "vertex") + " samples were asked for, the "
+            "reply holds others (is the server older than "
+            "SdfParameters.samples?)")
+    if len(r.opposite) != (3 * n if opposite_points else 0):
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            f"the server sent {len(r.opposite)} opposite coordinates for {n} "
+            "samples" + (" (is the server older than "
+                         "SdfParameters.opposite_points?)"
+                         if opposite_points and not r.opposite else ""))
+    if asked is not None:
+        held = ((s.range.begin, s.range.end) if s.HasField("range")
+                else None)
+        if held != asked or n != asked[1] - asked[0]:
+            raise DataLossError(
+                grpc.StatusCode.DATA_LOSS,
+                f"samples [{asked[0]}, {asked[1]}) were asked for, the reply "
+                f"holds {n} samples of range {held} (is the server older "
+                "than ComputeSdfRequest.range?)")
+
+
+def merge_sdf(parts: Sequence[SdfReply], mesh_reply: Any, faces: bool,
+              jacobian: bool) -> Tuple[SdfReply, SdfSummary]:
+    """The whole call's reply from its ranges' (in order, tiling the
+    samples) and the session's mesh at their generation (GetMesh): arrays
+    and Jacobian rows concatenated, `normalized`, the statistics, missing
+    counts, integral and warnings computed from every value as the server
+    computes them (_summary), rays and frame fallbacks summed, the slowest
+    range's time. AbortedError when the ranges (or the mesh) are of
+    different generations."""
+    generations = [p.summary.generation for p in parts]
+    if len(set(generations)) != 1:
+        raise _moved(generations)
+    if mesh_reply.generation != generations[0]:
+        raise _moved([generations[0], mesh_reply.generation],
+                     "the ranges and the mesh")
+    try:
+        mesh = _summary.WholeMesh(mesh_reply)
+    except ValueError as e:
+        raise DataLossError(grpc.StatusCode.DATA_LOSS,
+                            f"GetMesh: {e}") from None
+    out = SdfReply()
+    for p in parts:
+        if p.first != len(out.values):
+            raise DataLossError(
+                grpc.StatusCode.DATA_LOSS,
+                f"the ranges do not tile the samples: [{p.first}, "
+                f"{p.first + len(p.values)}) follows sample {len(out.values)}")
+        out.values.extend(p.values)
+        out.status.extend(p.status)
+        out.hits.extend(p.hits)
+        out.kept.extend(p.kept)
+        out.opposite.extend(p.opposite)
+        if jacobian:
+            base = out.rows[-1]
+            out.rows.extend(base + o for o in p.rows[1:])
+            out.cols.extend(p.cols)
+            out.data.extend(p.data)
+    samples = mesh.num_faces if faces else mesh.num_vertices
+    if len(out.values) != samples:
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            f"the ranges cover {len(out.values)} of the mesh's {samples} "
+            f"{'face' if faces else 'vertex'} samples")
+    values = np.asarray(out.values, dtype=np.float64)
+    status = np.asarray(out.status, dtype=np.int64)
+    norm = _summary.normalized(values)
+    out.normalized = norm.tolist()
+    lo, hi, mean, median = _summary.value_stats(values)
+    missing_vertices, missing_faces, fraction = _summary.count_missing(
+        mesh, values, faces)
+    first = parts[0].summary
+    summary = SdfSummary(
+        generation=first.generation,
+        ok=int(np.count_nonzero(status == pb.VERTEX_STATUS_OK)),
+        no_hit=int(np.count_nonzero(status == pb.VERTEX_STATUS_NO_HIT)),
+        no_faces=int(np.count_nonzero(status == pb.VERTEX_STATUS_NO_FACES)),
+        degenerate_normal=int(np.count_nonzero(
+            status == pb.VERTEX_STATUS_DEGENERATE_NORMAL)),
+        sdf_min=lo, sdf_median=median, sdf_max=hi, sdf_mean=mean,
+        integral=_summary.integral(mesh, values, faces),
+        rays=sum(p.summary.rays for p in parts),
+        seconds=max(p.summary.seconds for p in parts),
+        reused_hits=all(p.summary.reused_hits for p in parts),
+        world_frame_vertices=sum(p.summary.world_frame_vertices
+                                 for p in parts),
+        missing_vertices=missing_vertices, missing_faces=missing_faces,
+        missing_fraction=fraction,
+        warnings=tuple(_summary.missing_warnings(
+            mesh, values, status, faces, fraction, missing_faces)),
+        samples="faces" if faces else "vertices")
+    return out, summary

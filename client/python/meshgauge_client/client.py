@@ -4,7 +4,9 @@ Arrays: vertices (N, d) floats (d = 2 or 3); faces an (M, k) int array or a
 list of index sequences (2 per segment in 2D; 3 to 256 corners in 3D,
 polygons triangulated by the server). Mesh files are read by the server. Every call
 of a session sends ``x-meshgauge-session`` (the balancer's routing key) and,
-with a token, ``authorization: Bearer <token>``. The channel retries
+with a token, ``authorization: Bearer <token>``; a range call of a
+fanned-out sdf or vjp (``fan_out=K``) adds ``x-meshgauge-range:
+BEGIN-END`` and ``x-meshgauge-part: I`` (_fan_out). The channel retries
 UNAVAILABLE with exponential backoff; a call keeps retrying UNAVAILABLE for
 ``retry_seconds`` (``connect_seconds`` while the server has never answered),
 then raises UnavailableError naming the target. Welded uploads
@@ -40,8 +42,8 @@ from meshgauge_client.options import SdfOptions
 from meshgauge_client.session import Session
 from meshgauge_client.results import (Calibration, FloatArray,
                                       GradCheckReport, MeshData,
-                                      PenaltyResult, SdfResult, ServerInfo,
-                                      SessionInfo)
+                                      PenaltyResult, SdfResult, SdfSummary,
+                                      ServerInfo, SessionInfo)
 
 SESSION_KEY = "x-meshgauge-session"
 # The prefix of a CANCELLED upload: the client never cancels one, so the
@@ -171,8 +173,9 @@ class MeshGaugeClient:
         # The channel's connectivity, kept by gRPC's callback.
         self._state: Any = None
         self._channel.subscribe(self._on_state, try_to_connect=False)
-        # Per session: its dimension and vertex count (fixed at upload).
-        self._shapes: "dict[str, Tuple[int, int]]" = {}
+        # Per session: its dimension, vertex and face counts (fixed at
+        # upload).
+        self._shapes: "dict[str, Tuple[int, int, int]]" = {}
         # Per welded session: its map between uploaded and session vertices.
         self._welds: "dict[str, _weld.WeldMap]" = {}
         self._server_info: Optional[ServerInfo] = None
@@ -317,10 +320,22 @@ class MeshGaugeClient:
         return self._retrying(invoke)
 
     def _shape(self, session_id: str) -> Tuple[int, int]:
+        """The session's dimension and vertex count."""
+        d, nv, _ = self._counts(session_id)
+        return d, nv
+
+    def _counts(self, session_id: str) -> Tuple[int, int, int]:
+        """The session's dimension, vertex count and face count (asked
+        once with GetSession unless this client uploaded it)."""
         if session_id not in self._shapes:
             info = self.info(session_id)
-            self._shapes[session_id] = (info.dimension, info.num_vertices)
+            self._shapes[session_id] = (info.dimension, info.num_vertices,
+                                        info.num_faces)
         return self._shapes[session_id]
+
+    def _samples(self, session_id: str, faces: bool) -> int:
+        """The session's vertex count, or its face count."""
+        return self._counts(session_id)[2 if faces else 1]
 
     def _dim(self, session_id: str) -> int:
         return self._shape(session_id)[0]
@@ -536,7 +551,8 @@ class MeshGaugeClient:
         welded = np.asarray(reply.welded_vertex, dtype=np.int64)
         info = _wire.session_info(reply.session,
                                   welded if welded.size else None)
-        self._shapes[info.session_id] = (info.dimension, info.num_vertices)
+        self._shapes[info.session_id] = (info.dimension, info.num_vertices,
+                                         info.num_faces)
         self._welds.pop(info.session_id, None)
         if welded.size:
             try:
@@ -667,7 +683,8 @@ class MeshGaugeClient:
     # Computations -----------------------------------------------------------
 
     def sdf(self, session_id: str, *, expected_generation: Optional[int] = None,
-            jacobian: bool = False, **params: Any) -> SdfResult:
+            jacobian: bool = False, fan_out: int = 1,
+            **params: Any) -> SdfResult:
         """SDF per vertex, or per face with samples="faces" (SdfResult).
         params: options=SdfOptions(...), or its fields as keywords (method,
         cone_angle_degrees, rays, kappa, max_distance, normals, samples; the
@@ -675,94 +692,38 @@ class MeshGaugeClient:
         Welded session: one vertex sample per uploaded vertex (each its
         session vertex's; the summary counts the session's vertices), the
         Jacobian's columns those of the uploaded vertices (a session
-        vertex's at its lowest-numbered copy)."""
+        vertex's at its lowest-numbered copy).
+
+        fan_out=K (default 1) splits the samples into K ranges computed at
+        once (through a balancer, by different replicas) and merges them:
+        the same result as one call, bit for bit (every array, the
+        Jacobian, and the summary, whose normalized values, statistics,
+        missing counts, integral and warnings are computed here from every
+        value as the server computes them, on the session's mesh fetched
+        with GetMesh). rays sums the ranges' traced rays, seconds is the
+        slowest range's, reused_hits whether every range reused its pass.
+        AbortedError when the session moved between the ranges."""
+        fan_out = _fan_out.check_fan_out(fan_out)
         wire_params = self._params(params)
         faces = wire_params.samples == pb.SAMPLE_SET_FACES
-        req = pb.ComputeSdfRequest(session_id=session_id, params=wire_params,
-                                   include_jacobian=jacobian)
-        if expected_generation is not None:
-            req.expected_generation = expected_generation
-
-        def stream(messages: Iterator[Any]) -> SdfResult:
-            values: List[float] = []
-            status: List[int] = []
-            hits: List[int] = []
-            kept: List[int] = []
-            normalized: List[float] = []
-            opposite: List[float] = []
-            rows: List[int] = [0]
-            cols: List[int] = []
-            data: List[float] = []
-            summary = None
-            for msg in messages:
-                if msg.HasField("summary"):
-                    summary = msg.summary
-                    continue
-                c = msg.chunk
-                values.extend(c.values)
-                status.extend(c.status)
-                hits.extend(c.hits)
-                kept.extend(c.kept)
-                normalized.extend(c.normalized)
-                opposite.extend(c.opposite)
-                if jacobian:
-                    base = rows[-1]
-                    rows.extend(base + o for o in list(c.row_offsets)[1:])
-                    cols.extend(c.columns)
-                    data.extend(c.derivatives)
-            n = len(values)
-            if summary is None:
-                raise DataLossError(grpc.StatusCode.DATA_LOSS,
-                                    "ComputeSdf stream ended without its "
-                                    "summary")
-            counted = (summary.ok + summary.no_hit + summary.no_faces
-                       + summary.degenerate_normal)
-            if counted != n or summary.ok != sum(
-                    1 for x in status if x == pb.VERTEX_STATUS_OK):
-                raise DataLossError(
-                    grpc.StatusCode.DATA_LOSS,
-                    f"the summary counts {counted} samples ({summary.ok} "
-                    f"with a value), the chunks carried {n}")
-            if faces != (summary.samples == pb.SAMPLE_SET_FACES):
-                raise DataLossError(
-                    grpc.StatusCode.DATA_LOSS,
-                    ("face" if faces else "vertex") + " samples were asked "
-                    "for, the reply holds others (is the server older than "
-                    "SdfParameters.samples?)")
-            if len(opposite) != (3 * n if wire_params.opposite_points else 0):
-                raise DataLossError(
-                    grpc.StatusCode.DATA_LOSS,
-                    f"the server sent {len(opposite)} opposite coordinates "
-                    f"for {n} samples" + (
-                        " (is the server older than "
-                        "SdfParameters.opposite_points?)"
-                        if wire_params.opposite_points and not opposite
-                        else ""))
-            jac = None
-            if jacobian:
-                d = len(data) // max(1, len(cols)) if cols else self._dim(session_id)
-                col = np.asarray(cols, dtype=np.int64)
-                full_cols = (col[:, None] * d + np.arange(d)).ravel()
-                counts = np.diff(np.asarray(rows, dtype=np.int64)) * d
-                indptr = np.concatenate([[0], np.cumsum(counts)])
-                nv = self._shape(session_id)[1] if faces else n
-                jac = scipy.sparse.csr_matrix(
-                    (np.asarray(data, dtype=np.float64), full_cols, indptr),
-                    shape=(n, nv * d))
-            result = SdfResult(np.asarray(values, dtype=np.float64),
-                               np.asarray(status, dtype=np.int64),
-                               np.asarray(hits, dtype=np.int64),
-                               np.asarray(kept, dtype=np.int64),
-                               np.asarray(normalized, dtype=np.float64),
-                               _wire.summary(summary), jac,
-                               np.asarray(opposite, dtype=np.float64)
-                               .reshape(-1, 3) if opposite else None)
-            for w in result.summary.warnings:
-                warnings.warn(w, MissingValuesWarning, stacklevel=6)
-            return result
-
-        result: SdfResult = self._call(self._stub.ComputeSdf, req, session_id,
-                                       stream)
+        summary: Optional[SdfSummary] = None
+        if fan_out > 1:
+            reply, summary = self._sdf_ranges(
+                session_id, wire_params, jacobian, expected_generation,
+                fan_out)
+        else:
+            req = pb.ComputeSdfRequest(session_id=session_id,
+                                       params=wire_params,
+                                       include_jacobian=jacobian)
+            if expected_generation is not None:
+                req.expected_generation = expected_generation
+            reply = self._call(self._stub.ComputeSdf, req, session_id,
+                               lambda m: _fan_out.read_sdf(m, jacobian))
+            _fan_out.check_sdf(reply, faces, wire_params.opposite_points)
+        result = self._sdf_result(session_id, reply, summary, faces,
+                                  jacobian)
+        for w in result.summary.warnings:
+            warnings.warn(w, MissingValuesWarning, stacklevel=2)
         m = self._welds.get(session_id)
         if m is None:
             return result
@@ -780,6 +741,68 @@ class MeshGaugeClient:
             opposite=None if result.opposite is None
             else _weld.expand(result.opposite, m))
 
+    def _sdf_result(self, session_id: str, r: "_fan_out.SdfReply",
+                    summary: Optional[SdfSummary], faces: bool,
+                    jacobian: bool) -> SdfResult:
+        """The SdfResult (session vertices) of a checked ComputeSdf reply,
+        with `summary` (a fanned-out call's) or the reply's own."""
+        n = len(r.values)
+        jac = None
+        if jacobian:
+            d = (len(r.data) // max(1, len(r.cols)) if r.cols
+                 else self._dim(session_id))
+            col = np.asarray(r.cols, dtype=np.int64)
+            full_cols = (col[:, None] * d + np.arange(d)).ravel()
+            counts = np.diff(np.asarray(r.rows, dtype=np.int64)) * d
+            indptr = np.concatenate([[0], np.cumsum(counts)])
+            nv = self._shape(session_id)[1] if faces else n
+            jac = scipy.sparse.csr_matrix(
+                (np.asarray(r.data, dtype=np.float64), full_cols, indptr),
+                shape=(n, nv * d))
+        return SdfResult(
+            np.asarray(r.values, dtype=np.float64),
+            np.asarray(r.status, dtype=np.int64),
+            np.asarray(r.hits, dtype=np.int64),
+            np.asarray(r.kept, dtype=np.int64),
+            np.asarray(r.normalized, dtype=np.float64),
+            summary if summary is not None else _wire.summary(r.summary),
+            jac,
+            np.asarray(r.opposite, dtype=np.float64).reshape(-1, 3)
+            if r.opposite else None)
+
+    def _sdf_ranges(self, session_id: str, wire_params: Any, jacobian: bool,
+                    expected_generation: Optional[int], fan_out: int
+                    ) -> Tuple["_fan_out.SdfReply", SdfSummary]:
+        """The fanned-out ComputeSdf: one streamed call per range at once
+        and GetMesh beside them (the merged summary needs the mesh),
+        merged."""
+        faces = wire_params.samples == pb.SAMPLE_SET_FACES
+        ranges = _fan_out.split_samples(self._samples(session_id, faces),
+                                        fan_out)
+
+        def call(part: int) -> "_fan_out.SdfReply":
+            r = ranges[part]
+            req = pb.ComputeSdfRequest(
+                session_id=session_id, params=wire_params,
+                include_jacobian=jacobian,
+                range=pb.SampleRange(begin=r[0], end=r[1]))
+            if expected_generation is not None:
+                req.expected_generation = expected_generation
+            reply: _fan_out.SdfReply = self._call(
+                self._stub.ComputeSdf, req, session_id,
+                lambda m: _fan_out.read_sdf(m, jacobian, r[0]),
+                extra_metadata=_fan_out.range_metadata(part, *r))
+            _fan_out.check_sdf(reply, faces, wire_params.opposite_points, r)
+            return reply
+
+        with concurrent.futures.ThreadPoolExecutor(len(ranges) + 1) as pool:
+            mesh = pool.submit(self._call, self._stub.GetMesh,
+                               pb.GetMeshRequest(session_id=session_id),
+                               session_id)
+            replies = list(pool.map(call, range(len(ranges))))
+            mesh_reply = mesh.result()
+        return _fan_out.merge_sdf(replies, mesh_reply, faces, jacobian)
+
     def vjp(self, session_id: str, weights: Any, *,
             expected_generation: Optional[int] = None, fan_out: int = 1,
             **params: Any) -> FloatArray:
@@ -792,7 +815,10 @@ class MeshGaugeClient:
         fan_out=K (default 1) splits the samples into K ranges sent at once
         (through a balancer, to different replicas) and adds their exact
         partial sums: the same bits as one call, for any K (AbortedError
-        when the session moved between the ranges)."""
+        when the session moved between the ranges). Each range call carries
+        x-meshgauge-range: BEGIN-END and x-meshgauge-part: I (its index
+        0..K-1), the balancer's keys."""
+        fan_out = _fan_out.check_fan_out(fan_out)
         g = np.asarray(weights, dtype=np.float64)
         if g.ndim != 1 or not np.all(np.isfinite(g)):
             raise ValueError("weights must be a finite (N,) array")
@@ -818,7 +844,8 @@ class MeshGaugeClient:
         """The fanned-out ComputeVjp: one call per range at once, merged."""
         ranges = _fan_out.split_samples(len(g), fan_out)
 
-        def call(r: Tuple[int, int]) -> Any:
+        def call(part: int) -> Any:
+            r = ranges[part]
             req = pb.ComputeVjpRequest(
                 session_id=session_id, params=wire_params,
                 weights=g[r[0]:r[1]],
@@ -826,10 +853,10 @@ class MeshGaugeClient:
             if expected_generation is not None:
                 req.expected_generation = expected_generation
             return self._call(self._stub.ComputeVjp, req, session_id,
-                              extra_metadata=[_fan_out.range_metadata(*r)])
+                              extra_metadata=_fan_out.range_metadata(part, *r))
 
         with concurrent.futures.ThreadPoolExecutor(len(ranges)) as pool:
-            replies = list(pool.map(call, ranges))
+            replies = list(pool.map(call, range(len(ranges))))
         return _fan_out.merge_vjp(replies)
 
     def penalty(self, session_id: str, t_min: float, *, form: str = "one-sided",

@@ -155,7 +155,8 @@ class Session:
         return self._with_session(lambda: self._client.info(self.session_id))
 
     def sdf(self, **params: Any) -> SdfResult:
-        """SdfResult at the latest positions (params as MeshGaugeClient.sdf)."""
+        """SdfResult at the latest positions (params as MeshGaugeClient.sdf,
+        fan_out=K included: K ranges at once, merged bit for bit)."""
         return self._with_session(lambda: self._client.sdf(
             self.session_id, expected_generation=self.generation, **params))
 
