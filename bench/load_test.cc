@@ -16,6 +16,13 @@
 // on the session's history), until SIGTERM or SIGINT: each client then ends
 // its iteration and stops (a fault test ends the load once its fault is
 // over, whatever the fault's length).
+// With --fan_out K > 1 (the big-client mode, usually with --clients 1 and a
+// large --frequency) the concurrent clients split each ComputeSdf,
+// ComputeVjp and ComputePenalty into K sample ranges sent at once (through
+// a balancer, to K replicas; docs/server.md, Fan-out) while the reference
+// makes single calls: every fanned-out reply must still be the reference's
+// bit for bit, and the run prints the time per iteration of both and their
+// ratio ("big client: ... speed-up").
 // With --recreate, a client whose session was lost (NOT_FOUND, UNAVAILABLE:
 // a replica died) re-creates it at the current iteration and continues.
 // At the end every client checks that its session is still there at its
@@ -52,7 +59,11 @@
 ABSL_FLAG(std::string, target, "127.0.0.1:50051", "server or balancer");
 ABSL_FLAG(int, clients, 4, "concurrent clients, 1..256");
 ABSL_FLAG(int, iterations, 5, "iterations per client, 1..10000");
-ABSL_FLAG(int, frequency, 12, "icosphere frequency (10 F^2 + 2 vertices)");
+ABSL_FLAG(int, frequency, 12,
+          "icosphere frequency (10 F^2 + 2 vertices), 1..1000");
+ABSL_FLAG(int, fan_out, 1,
+          "the concurrent clients split each pass, VJP and penalty into K "
+          "sample ranges (1..64; the reference does not)");
 ABSL_FLAG(double, time_limit_seconds, 300, "stop starting iterations after");
 ABSL_FLAG(bool, until_signal, false,
           "iterate until SIGTERM or SIGINT, the positions cycling through "
@@ -141,7 +152,7 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
 // client could not finish.
 bool RunClient(const std::string& target, const client::ClientOptions& options,
                const std::string& id, const Mesh& mesh, int iterations,
-               bool until_signal, const TimeLimit& limit,
+               bool until_signal, int fan_out, const TimeLimit& limit,
                std::vector<Reply>* replies, const std::vector<Reply>* reference,
                Stats& stats) {
   client::RemoteClient c(target, options);
@@ -178,15 +189,21 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     std::vector<double> gradient;
     if (up.ok()) {
       generation = up->generation;
-      sdf = timed("ComputeSdf", [&] { return c.ComputeSdf(id, params); });
+      Mesh moved = mesh;  // the session's mesh, for a fanned-out summary.
+      moved.positions = positions;
+      sdf = timed("ComputeSdf", [&] {
+        return c.ComputeSdf(id, params, {.fan_out = fan_out, .mesh = &moved});
+      });
       if (sdf.ok() && step % 2 == 0) {
-        auto vjp =
-            timed("ComputeVjp", [&] { return c.ComputeVjp(id, params, ones); });
+        auto vjp = timed("ComputeVjp", [&] {
+          return c.ComputeVjp(id, params, ones, std::nullopt, fan_out);
+        });
         derivative = vjp.status();
         if (vjp.ok()) AppendCoordinates(vjp->gradient, &gradient);
       } else if (sdf.ok()) {
         auto pen = timed("ComputePenalty", [&] {
-          return c.ComputePenalty(id, params, {.t_min = 2.5}, true);
+          return c.ComputePenalty(id, params, {.t_min = 2.5}, true,
+                                  std::nullopt, fan_out, sdf->result.values);
         });
         derivative = pen.status();
         if (pen.ok()) {
@@ -266,7 +283,8 @@ int Run() {
   const int clients = std::clamp(absl::GetFlag(FLAGS_clients), 1, 256);
   const int iterations = std::clamp(absl::GetFlag(FLAGS_iterations), 1, 10000);
   const Mesh mesh =
-      MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 200));
+      MakeIcosphere(1, std::clamp(absl::GetFlag(FLAGS_frequency), 1, 1000));
+  const int fan_out = std::clamp(absl::GetFlag(FLAGS_fan_out), 1, 64);
   const TimeLimit limit{.seconds = absl::GetFlag(FLAGS_time_limit_seconds)};
   const std::string prefix = absl::GetFlag(FLAGS_session_prefix);
   Stats ref_stats;
@@ -276,13 +294,15 @@ int Run() {
     std::signal(SIGTERM, RequestStop);
     std::signal(SIGINT, RequestStop);
   }
+  const Stopwatch ref_watch;
   if (!RunClient(target, options, prefix + "-reference", mesh, iterations,
-                 /*until_signal=*/false, limit, &reference, nullptr,
-                 ref_stats)) {
+                 /*until_signal=*/false, /*fan_out=*/1, limit, &reference,
+                 nullptr, ref_stats)) {
     std::printf("reference run failed\n");
     ref_stats.PrintErrors();
     return 1;
   }
+  const double ref_seconds = ref_watch.Seconds();
   if (stop_requested) {  // the clients would make no iteration and pass.
     std::printf("stopped by a signal before the concurrent phase\n");
     return 1;
@@ -296,8 +316,8 @@ int Run() {
   for (int i = 0; i < clients; ++i) {
     threads.emplace_back([&, i] {
       if (RunClient(target, options, absl::StrCat(prefix, "-", i), mesh,
-                    iterations, until_signal, limit, nullptr, &reference,
-                    stats)) {
+                    iterations, until_signal, fan_out, limit, nullptr,
+                    &reference, stats)) {
         ++finished;
       }
     });
@@ -336,6 +356,16 @@ int Run() {
   if (bound > 0) {
     std::printf("calls slower than %.1f s: %lld\n", bound,
                 static_cast<long long>(over_bound));
+  }
+  if (fan_out > 1 && stats.iterations > 0) {
+    // Per client: its iterations took the wall time; the reference's took
+    // ref_seconds (its upload included, as each client's is).
+    const double mine = wall * clients / stats.iterations;
+    const double single = ref_seconds / iterations;
+    std::printf(
+        "big client: fan-out %d: %.3f s per iteration, the single-call "
+        "reference %.3f s: speed-up %.2f\n",
+        fan_out, mine, single, single / mine);
   }
   std::printf("errors: %lld\n", static_cast<long long>(errors));
   stats.PrintErrors();

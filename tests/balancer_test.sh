@@ -27,6 +27,8 @@
 #   session's two parts reach different replicas and each part's VJP the
 #   replica of its pass (the request lines of the balancer's log, at level
 #   info here, name the replica and the part).
+# - Big client: meshgauge-load --fan_out 2 --clients 1: 0 errors, every
+#   fanned-out reply the single-call reference's bit for bit.
 # Every load also checks 0 mismatches and 0 lost sessions.
 #   balancer_test.sh SERVER LOAD CLI CFG [CYCLES]
 set -euo pipefail
@@ -240,3 +242,13 @@ for s in 1 2 3 4; do
     fail "session fan-out-$s: both parts went to one replica: $(cat "$tmp/parts")"
 done
 echo "PASS: 4 sessions' passes and VJPs fanned out in 2 parts: each session's parts on both replicas, each part's VJP where its pass was"
+
+# The load's big-client mode through the balancer: one client whose passes,
+# VJPs and penalties go out in 2 parts; every reply must be the single-call
+# reference's, bit for bit.
+"$load" --target "127.0.0.1:$hp" --clients 1 --iterations 4 --frequency 40 \
+  --fan_out 2 --session_prefix big --time_limit_seconds 120 \
+  --token_file "$tmp/token" >"$tmp/load.txt" 2>&1 ||
+  fail "the big client (fan-out 2) saw an error or a reply unlike the reference's"
+grep '^big client:' "$tmp/load.txt" || fail "the big client printed no speed-up"
+echo "PASS: a big client fanned out over 2 replicas got the single-call replies, bit for bit"
