@@ -9,6 +9,10 @@
 # --until_signal, SIGTERM), so the load outlasts any fault:
 #   kill     a replica's server process is SIGKILLed (a crash; its restart
 #            policy brings it back)
+#   fanout   the same crash under one big client instead (16k vertices,
+#            every pass, VJP and penalty split into 2 parts sent at once,
+#            one per replica): the killed replica's part is asked again
+#            and reaches the other replica
 #   restart  the replicas in turn are restarted (graceful stop, start;
 #            CHAOS_RESTARTS times, default 2: each once)
 #   scale    a third replica is added (deploy/stack.sh scale 3)
@@ -145,6 +149,12 @@ healthy 2
 # manual stop and suspend the restart policy).
 # The fault is over once the restart policy has brought the replica back.
 phase kill 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(stack_replica 1)")" && sleep 3 && healthy 2'
+# The same crash under one big client whose every pass, VJP and penalty
+# goes out in 2 parts, one per replica (meshgauge-load --fan_out 2): the
+# part the killed replica held is asked again and the balancer sends it to
+# the other; every merged reply is still the single-call reference's.
+phase fanout 'kill -9 "$(docker inspect -f "{{.State.Pid}}" "$(stack_replica 2)")" && sleep 3 && healthy 2' \
+  --clients 1 --fan_out 2 --frequency 40 --iterations 6 --progress_every 2
 restarts() {  # graceful restarts of replica 2, 1, 2, ..., each healthy again
   for i in $(seq 1 "$RESTARTS"); do
     local r=$((2 - (i + 1) % 2))
