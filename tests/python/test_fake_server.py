@@ -4,8 +4,9 @@ broken server sends must end in DATA_LOSS, never in values read as others.
 The fake is the generated servicer with GetSession (the counts of the
 octahedron), ComputeSdf (the reply the test sets, or for a range call the
 range's reply of a function the test sets), ComputeVjp (a ranged reply of
-zeros) and GetMesh (the octahedron); ComputeSdf and ComputeVjp record
-their requests' metadata, so that the fan-out's routing keys are seen."""
+zeros), ComputePenalty (the reply of a function the test sets) and GetMesh
+(the octahedron); ComputeSdf, ComputeVjp and ComputePenalty record their
+requests' metadata, so that the fan-out's routing keys are seen."""
 
 import os
 import subprocess
@@ -72,13 +73,39 @@ def range_reply(request: Any, generation: int = 0) -> List[Any]:
                 range=pb.SampleRange(begin=b, end=e)))]
 
 
+# A ranged penalty reply's partial sums: each range's rounded value 1 and
+# its tail 3 * 2^-54. Exactly summed over K ranges and rounded once, then
+# plus the measure part 0.5: K + 0.5 + 2^-51 for K = 2, 3 (summed in
+# doubles, or without the tails, 2.5 for K = 2).
+PENALTY_TAIL = 3 * 2.0 ** -54
+
+
+def penalty_reply(request: Any, generation: int = 0) -> Any:
+    """A well-formed reply to a penalty range call on the octahedron: the
+    partial sums above, the measure part 0.5 from the range at 0."""
+    reply = pb.ComputePenaltyResponse(
+        generation=generation, value=2.5, sdf_min=1.0, dimension=3,
+        world_frame_vertices=1, missing=pb.MissingValues(vertices=1),
+        skipped_faces=0)
+    if request.with_gradient:
+        reply.gradient.extend([1.0] * 18)
+        reply.tail_counts.extend([1] * 18)
+        reply.tails.extend([PENALTY_TAIL] * 18)
+        if request.range.begin == 0:
+            reply.measure_gradient.extend([0.5] * 18)
+    return reply
+
+
 class FakeServer(pb_grpc.MeshGaugeServicer):
     def __init__(self) -> None:
         self.reply: List[Any] = []
         # Set: the reply to a ComputeSdf call with a range.
         self.ranged: Optional[Callable[[Any], List[Any]]] = None
         self.mesh_generation = 0
-        # (method, request, metadata) of each ComputeSdf and ComputeVjp.
+        # The reply to a ComputePenalty call.
+        self.penalty: Callable[[Any], Any] = penalty_reply
+        # (method, request, metadata) of each ComputeSdf, ComputeVjp and
+        # ComputePenalty.
         self.calls: List[Any] = []
 
     def GetSession(self, request: Any, context: Any) -> Any:
@@ -105,6 +132,11 @@ class FakeServer(pb_grpc.MeshGaugeServicer):
                            dict(context.invocation_metadata())))
         return pb.ComputeVjpResponse(gradient=[0.0] * 18, dimension=3,
                                      tail_counts=[0] * 18)
+
+    def ComputePenalty(self, request: Any, context: Any) -> Any:
+        self.calls.append(("ComputePenalty", request,
+                           dict(context.invocation_metadata())))
+        return self.penalty(request)
 
 
 class WrongRepliesTest(unittest.TestCase):
@@ -243,6 +275,126 @@ class WrongRepliesTest(unittest.TestCase):
         with self.assertRaises(DataLossError) as e:
             self.client.sdf("fake", fan_out=2)
         self.assertIn("older than ComputeSdfRequest.range", e.exception.details)
+
+    def test_penalty_ranges_carry_range_values_and_part(self) -> None:
+        """A fanned-out penalty: the fanned-out ComputeSdf's ranges, then
+        one ComputePenalty per range, each with its range, every sample's
+        value, the values' generation as expected_generation, and
+        x-meshgauge-range and x-meshgauge-part; merged exactly."""
+        self.fake.ranged = range_reply
+        self.fake.penalty = penalty_reply
+        try:
+            for k, samples, n, ranges in (
+                    (2, "vertices", 6, ["0-3", "3-6"]),
+                    (3, "faces", 8, ["0-2", "2-5", "5-8"])):
+                self.fake.calls = []
+                r = self.client.penalty("fake", 1.0, fan_out=k, rays=9,
+                                        samples=samples)
+                sdf = [c for c in self.fake.calls if c[0] == "ComputeSdf"]
+                pen = [c for c in self.fake.calls
+                       if c[0] == "ComputePenalty"]
+                self.assertEqual(len(sdf) + len(pen), len(self.fake.calls))
+                for calls in (sdf, pen):
+                    keys: Dict[str, str] = {}
+                    for _, request, metadata in calls:
+                        self.assertEqual(metadata["x-meshgauge-session"],
+                                         "fake")
+                        self.assertTrue(request.HasField("range"))
+                        rng = metadata["x-meshgauge-range"]
+                        self.assertEqual(rng, f"{request.range.begin}-"
+                                              f"{request.range.end}")
+                        keys[rng] = metadata["x-meshgauge-part"]
+                        self.assertEqual(request.params.rays, 9)
+                        self.assertEqual(
+                            request.params.samples,
+                            pb.SAMPLE_SET_FACES if samples == "faces"
+                            else pb.SAMPLE_SET_VERTICES)
+                    self.assertEqual(
+                        keys, {x: str(i) for i, x in enumerate(ranges)})
+                for _, request, _ in pen:
+                    # Every sample's value (range_reply's 1 + i / 8), not
+                    # the range's.
+                    self.assertEqual(list(request.values),
+                                     [1 + i / 8 for i in range(n)])
+                    self.assertTrue(request.HasField("expected_generation"))
+                    self.assertEqual(request.expected_generation, 0)
+                    self.assertEqual(request.t_min, 1.0)
+                    self.assertTrue(request.with_gradient)
+                # The exact sum of the ranges' partial sums, rounded once,
+                # then the measure part.
+                expected = k + 0.5 + 2.0 ** -51
+                self.assertEqual(r.gradient.shape, (6, 3))
+                self.assertTrue(np.all(r.gradient == expected),
+                                f"K={k}: {r.gradient[0, 0]!r}")
+                self.assertEqual(r.value, 2.5)
+                self.assertEqual(r.missing_vertices, 1)
+                self.assertEqual(r.world_frame_vertices, k)
+            # Without the gradient: the range at 0's numbers.
+            self.fake.calls = []
+            r = self.client.penalty("fake", 1.0, fan_out=2, gradient=False)
+            self.assertIsNone(r.gradient)
+            self.assertEqual((r.value, r.world_frame_vertices), (2.5, 2))
+            # One call: no range, no values, no routing keys.
+            self.fake.calls = []
+            self.fake.penalty = lambda q: pb.ComputePenaltyResponse(
+                value=3.0, dimension=3, gradient=[0.25] * 18)
+            r = self.client.penalty("fake", 1.0)
+            self.assertEqual(r.value, 3.0)
+            (name, request, metadata), = self.fake.calls
+            self.assertEqual(name, "ComputePenalty")
+            self.assertFalse(request.HasField("range"))
+            self.assertEqual(len(request.values), 0)
+            self.assertNotIn("x-meshgauge-part", metadata)
+            self.assertNotIn("x-meshgauge-range", metadata)
+            for bad in (0, -1, True, 2.0, "2"):
+                with self.assertRaises(ValueError):
+                    self.client.penalty("fake", 1.0, fan_out=bad)
+        finally:
+            self.fake.penalty = penalty_reply
+            self.fake.ranged = None
+
+    def test_fanned_out_penalty_checks_its_ranges(self) -> None:
+        """Ranges of different generations are ABORTED; a server older
+        than penalty ranges (the whole call's reply to each range, no
+        partial sums) or a range at 0 without the measure part is
+        DATA_LOSS."""
+        self.fake.ranged = range_reply
+        try:
+            self.fake.penalty = lambda q: penalty_reply(
+                q, q.range.begin // 3)
+            with self.assertRaises(AbortedError) as e:
+                self.client.penalty("fake", 1.0, fan_out=2)
+            self.assertIn("generations [0, 1]", e.exception.details)
+            self.fake.penalty = lambda q: pb.ComputePenaltyResponse(
+                value=3.0, dimension=3, gradient=[0.25] * 18)
+            with self.assertRaises(DataLossError) as e:
+                self.client.penalty("fake", 1.0, fan_out=2)
+            self.assertIn("older than penalty ranges", e.exception.details)
+
+            def without_measure(q: Any) -> Any:
+                reply = penalty_reply(q)
+                del reply.measure_gradient[:]
+                return reply
+
+            self.fake.penalty = without_measure
+            with self.assertRaises(DataLossError) as e:
+                self.client.penalty("fake", 1.0, fan_out=3)
+            self.assertIn("0 measure values", e.exception.details)
+
+            def without_tails(q: Any) -> Any:
+                reply = penalty_reply(q)
+                if q.range.begin > 0:
+                    del reply.tail_counts[:]
+                    del reply.tails[:]
+                return reply
+
+            self.fake.penalty = without_tails
+            with self.assertRaises(DataLossError) as e:
+                self.client.penalty("fake", 1.0, fan_out=2)
+            self.assertIn("no exact partial sums", e.exception.details)
+        finally:
+            self.fake.penalty = penalty_reply
+            self.fake.ranged = None
 
     @unittest.skipUnless(CLI, "MESHGAUGE_CLI is not set")
     def test_the_cli_refuses_a_reply_of_another_face_count(self) -> None:

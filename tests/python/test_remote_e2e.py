@@ -494,6 +494,124 @@ class RemoteEndToEnd(unittest.TestCase):
                     self.assert_same_sdf(whole, s.sdf(fan_out=k, **kw),
                                          f"{samples} K={k}")
 
+    def recorded(self, method):
+        """The requests of this test's client's `method` calls from now on
+        (until the test ends): the stub's callable wrapped."""
+        stub = self.client._stub
+        real = getattr(stub, method)
+        calls = []
+
+        def record(request, **kwargs):
+            calls.append(request)
+            return real(request, **kwargs)
+
+        setattr(stub, method, record)
+        self.addCleanup(setattr, stub, method, real)
+        return calls
+
+    def assert_same_penalty(self, whole, fanned, label):
+        """Every field but reused_hits, floats by their bits, the gradient
+        by its bytes, the thin regions field by field."""
+        def exact(x):
+            if isinstance(x, float):
+                return bits(x)
+            if isinstance(x, (tuple, list)):
+                return [exact(y) for y in x]
+            return x
+
+        for field in dataclasses.fields(whole):
+            if field.name == "reused_hits":
+                continue
+            a, b = getattr(whole, field.name), getattr(fanned, field.name)
+            if field.name == "gradient":
+                self.assertEqual(a is None, b is None, label)
+                if a is not None:
+                    self.assertEqual((a.dtype, a.shape), (b.dtype, b.shape))
+                    self.assertTrue(
+                        a.tobytes() == b.tobytes(),
+                        f"{label}: {np.count_nonzero(a != b)} gradient "
+                        f"values differ, by up to {np.abs(a - b).max()}")
+            elif field.name == "thin":
+                self.assertEqual(a is None, b is None, label)
+                if a is not None:
+                    self.assertEqual(exact(dataclasses.astuple(a)),
+                                     exact(dataclasses.astuple(b)),
+                                     f"{label}: thin")
+            else:
+                self.assertEqual(exact(a), exact(b),
+                                 f"{label}: {field.name} {a!r} {b!r}")
+
+    def check_fanned_out_penalty(self, s, samples, n, label, **kw):
+        """penalty(fan_out=K) of both forms, with the gradient and thin
+        regions and without, at t_min the median of the SDF values, is
+        penalty()'s bit for bit for K = 2, 3, 7, and is K ranged calls."""
+        t_min = float(np.nanmedian(s.sdf(samples=samples, **kw).values))
+        sdf_calls = self.recorded("ComputeSdf")
+        calls = self.recorded("ComputePenalty")
+        for form in ("one-sided", "ks"):
+            for gradient in (True, False):
+                args = dict(form=form, samples=samples, gradient=gradient,
+                            thin_regions=True, **kw)
+                del calls[:]
+                whole = s.penalty(t_min, **args)
+                self.assertFalse(calls[0].HasField("range"))
+                if form == "one-sided":
+                    self.assertGreater(whole.value, 0, label)
+                    self.assertTrue(whole.thin.regions, label)
+                if gradient:
+                    self.assertGreater(np.abs(whole.gradient).max(), 0)
+                for k in (2, 3, 7):
+                    what = (f"{label} {samples} {form} "
+                            f"gradient={gradient} K={k}")
+                    del calls[:], sdf_calls[:]
+                    fanned = s.penalty(t_min, fan_out=k, **args)
+                    self.assert_same_penalty(whole, fanned, what)
+                    # K ranges of the pass, then K penalty ranges, each
+                    # with every sample's value.
+                    for c in (sdf_calls, calls):
+                        self.assertEqual(
+                            sorted((r.range.begin, r.range.end) for r in c),
+                            [(n * i // k, n * (i + 1) // k)
+                             for i in range(k)], what)
+                    self.assertTrue(all(len(r.values) == n for r in calls))
+
+    def test_1i_fanned_out_penalty_is_the_whole_call(self):
+        """penalty(fan_out=K): the fanned-out pass's values sent with K
+        ComputePenalty ranges, merged (exact partial sums rounded once,
+        then the measure part): the whole call's value, gradient, missing
+        counts, sdf_min and thin regions, bit for bit, for K = 2, 3, 7,
+        forms one-sided and ks, vertex and face samples, at a later
+        generation too."""
+        knight = os.path.join(os.environ["MESHGAUGE_MESH_DIR"],
+                              "decimated-knight.off")
+        with self.client.session_from_file(knight) as s:
+            nv, nf = s.positions.shape[0], len(s.faces)
+            for samples, n in (("vertices", nv), ("faces", nf)):
+                self.check_fanned_out_penalty(s, samples, n, "knight",
+                                              rays=30)
+            s.update(1.5 * s.positions)
+            self.assertEqual(s.generation, 1)
+            self.check_fanned_out_penalty(s, "vertices", nv, "generation 1",
+                                          rays=30)
+            with self.assertRaises(ValueError):
+                s.penalty(1.0, fan_out=0)
+            with self.assertRaises(ValueError):
+                s.constraint(1.0, fan_out=1.5)
+
+    def test_1j_fanned_out_penalty_of_a_welded_session(self):
+        """A welded session's fanned-out penalty: its ranges carry the
+        session's own values (98 vertices, not the 150 uploaded), and the
+        result, scattered to the uploaded vertices, is one call's."""
+        v, f = unwelded_cube(4)
+        with self.client.session(v, f, weld=True) as s:
+            self.assertEqual(s.info().num_vertices, 98)
+            self.check_fanned_out_penalty(s, "vertices", 98, "welded cube",
+                                          rays=40)
+            self.check_fanned_out_penalty(s, "faces", 96, "welded cube",
+                                          rays=40)
+            self.assertEqual(s.penalty(1.0, fan_out=3).gradient.shape,
+                             (150, 3))
+
     def test_2_errors_map_to_status_codes(self):
         with self.assertRaises(MeshGaugeError) as e:
             self.client.info("missing")

@@ -56,9 +56,26 @@ def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
     sum of each range's rounded value and tail, rounded once (math.fsum is
     correctly rounded, as the server's ExactSum), so it is the whole call's
     bit for bit."""
-    generations = {r.generation for r in replies}
-    if len(generations) != 1:
-        raise _moved([r.generation for r in replies])
+    generation = same_generation(replies)
+    return exact_sums(replies, "ranges"), generation
+
+
+def same_generation(replies: Sequence[Any]) -> int:
+    """The generation of every range's reply (AbortedError when they
+    differ: the session moved between them)."""
+    generations = [r.generation for r in replies]
+    if len(set(generations)) != 1:
+        raise _moved(generations)
+    return int(generations[0])
+
+
+def exact_sums(replies: Sequence[Any], older: str) -> FloatArray:
+    """Per value i, math.fsum of every reply's rounded gradient[i] and its
+    tails (tail_counts[i] of them): the exact sum of the ranges' exact
+    partial sums, rounded once. The replies are ranged ComputeVjpResponses
+    or ComputePenaltyResponses (the same three fields); DataLossError when
+    one lacks a value's partial sum (`older`: what a server that sends none
+    is older than)."""
     size = len(replies[0].gradient)
     terms: List[List[float]] = [[] for _ in range(size)]
     for r in replies:
@@ -66,7 +83,7 @@ def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
             raise DataLossError(
                 grpc.StatusCode.DATA_LOSS,
                 "a range's reply has no exact partial sums of every vertex "
-                "(is the server older than ranges?)")
+                f"(is the server older than {older}?)")
         tails = list(r.tails)
         at = 0
         for i, (head, count) in enumerate(zip(r.gradient, r.tail_counts)):
@@ -76,8 +93,48 @@ def merge_vjp(replies: Sequence[Any]) -> Tuple[FloatArray, int]:
         if at != len(tails):
             raise DataLossError(grpc.StatusCode.DATA_LOSS,
                                 "the reply's tails do not match its counts")
-    return (np.array([math.fsum(t) for t in terms], dtype=np.float64),
-            replies[0].generation)
+    return np.array([math.fsum(t) for t in terms], dtype=np.float64)
+
+
+def merge_penalty(replies: Sequence[Any], with_gradient: bool,
+                  gradient_size: int) -> Any:
+    """The whole call's ComputePenaltyResponse from its ranges' (in order:
+    replies[0] is the range that begins at sample 0), as the C++ client's
+    MergePenaltyReplies: the value, missing counts, sdf_min, skipped faces
+    and thin regions of the range at 0 (every range computes them from
+    every value), world_frame_vertices summed, reused_hits when every range
+    reused its pass, the slowest range's time. With the gradient
+    (`gradient_size` values: dimension per vertex), each value is the
+    exact sum of every range's partial sums rounded once (exact_sums, as
+    merge_vjp), plus the range at 0's measure_gradient with one float64
+    addition: the server's PenaltyGradient, so the whole call's bits.
+    AbortedError when the ranges are of different generations;
+    DataLossError when a range lacks its partial sums or the range at 0
+    its measure part (a server older than penalty ranges)."""
+    same_generation(replies)
+    out = pb.ComputePenaltyResponse()
+    out.CopyFrom(replies[0])
+    out.world_frame_vertices = sum(r.world_frame_vertices for r in replies)
+    out.reused_hits = all(r.reused_hits for r in replies)
+    out.seconds = max(r.seconds for r in replies)
+    del out.gradient[:]
+    del out.tail_counts[:]
+    del out.tails[:]
+    del out.measure_gradient[:]
+    if not with_gradient:
+        return out
+    first = replies[0]
+    if (gradient_size == 0 or len(first.gradient) != gradient_size
+            or len(first.measure_gradient) != gradient_size):
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            f"the first range's penalty reply holds {len(first.gradient)} "
+            f"partial sums and {len(first.measure_gradient)} measure values "
+            f"for {gradient_size} gradient values (is the server older than "
+            "penalty ranges?)")
+    measure = np.asarray(first.measure_gradient, dtype=np.float64)
+    out.gradient.extend(exact_sums(replies, "penalty ranges") + measure)
+    return out
 
 
 @dataclasses.dataclass
@@ -98,6 +155,36 @@ class SdfReply:
     cols: List[int] = dataclasses.field(default_factory=list)
     data: List[float] = dataclasses.field(default_factory=list)
     summary: Any = None
+
+
+def sample_values(parts: Sequence["SdfReply"]) -> Tuple[List[float], int]:
+    """Every sample's value and the generation from the checked replies
+    of a fanned-out ComputeSdf's ranges (in order, tiling the samples):
+    what a fanned-out penalty sends with each of its ranges."""
+    generation = _sdf_generation(parts)
+    values: List[float] = []
+    for p in parts:
+        _check_tiles(p, len(values))
+        values.extend(p.values)
+    return values, generation
+
+
+def _sdf_generation(parts: Sequence["SdfReply"]) -> int:
+    """The generation of every range's summary (AbortedError when they
+    differ)."""
+    generations = [p.summary.generation for p in parts]
+    if len(set(generations)) != 1:
+        raise _moved(generations)
+    return int(generations[0])
+
+
+def _check_tiles(part: "SdfReply", follows: int) -> None:
+    """DataLossError unless the range's first sample is `follows`."""
+    if part.first != follows:
+        raise DataLossError(
+            grpc.StatusCode.DATA_LOSS,
+            f"the ranges do not tile the samples: [{part.first}, "
+            f"{part.first + len(part.values)}) follows sample {follows}")
 
 
 def read_sdf(messages: Iterator[Any], jacobian: bool,
@@ -184,11 +271,9 @@ def merge_sdf(parts: Sequence[SdfReply], mesh_reply: Any, faces: bool,
     computes them (_summary), rays and frame fallbacks summed, the slowest
     range's time. AbortedError when the ranges (or the mesh) are of
     different generations."""
-    generations = [p.summary.generation for p in parts]
-    if len(set(generations)) != 1:
-        raise _moved(generations)
-    if mesh_reply.generation != generations[0]:
-        raise _moved([generations[0], mesh_reply.generation],
+    generation = _sdf_generation(parts)
+    if mesh_reply.generation != generation:
+        raise _moved([generation, mesh_reply.generation],
                      "the ranges and the mesh")
     try:
         mesh = _summary.WholeMesh(mesh_reply)
@@ -197,11 +282,7 @@ def merge_sdf(parts: Sequence[SdfReply], mesh_reply: Any, faces: bool,
                             f"GetMesh: {e}") from None
     out = SdfReply()
     for p in parts:
-        if p.first != len(out.values):
-            raise DataLossError(
-                grpc.StatusCode.DATA_LOSS,
-                f"the ranges do not tile the samples: [{p.first}, "
-                f"{p.first + len(p.values)}) follows sample {len(out.values)}")
+        _check_tiles(p, len(out.values))
         out.values.extend(p.values)
         out.status.extend(p.status)
         out.hits.extend(p.hits)

@@ -5,7 +5,7 @@ list of index sequences (2 per segment in 2D; 3 to 256 corners in 3D,
 polygons triangulated by the server). Mesh files are read by the server. Every call
 of a session sends ``x-meshgauge-session`` (the balancer's routing key) and,
 with a token, ``authorization: Bearer <token>``; a range call of a
-fanned-out sdf or vjp (``fan_out=K``) adds ``x-meshgauge-range:
+fanned-out sdf, vjp or penalty (``fan_out=K``) adds ``x-meshgauge-range:
 BEGIN-END`` and ``x-meshgauge-part: I`` (_fan_out). The channel retries
 UNAVAILABLE with exponential backoff; a call keeps retrying UNAVAILABLE for
 ``retry_seconds`` (``connect_seconds`` while the server has never answered),
@@ -777,6 +777,24 @@ class MeshGaugeClient:
         and GetMesh beside them (the merged summary needs the mesh),
         merged."""
         faces = wire_params.samples == pb.SAMPLE_SET_FACES
+        with concurrent.futures.ThreadPoolExecutor(1) as pool:
+            mesh = pool.submit(self._call, self._stub.GetMesh,
+                               pb.GetMeshRequest(session_id=session_id),
+                               session_id)
+            replies = self._sdf_range_replies(
+                session_id, wire_params, jacobian, expected_generation,
+                fan_out)
+            mesh_reply = mesh.result()
+        return _fan_out.merge_sdf(replies, mesh_reply, faces, jacobian)
+
+    def _sdf_range_replies(self, session_id: str, wire_params: Any,
+                           jacobian: bool,
+                           expected_generation: Optional[int], fan_out: int
+                           ) -> List["_fan_out.SdfReply"]:
+        """The checked replies of the fanned-out ComputeSdf's ranges (one
+        streamed call per range at once), in order: on the session's own
+        samples (a welded session's vertices, not the uploaded ones)."""
+        faces = wire_params.samples == pb.SAMPLE_SET_FACES
         ranges = _fan_out.split_samples(self._samples(session_id, faces),
                                         fan_out)
 
@@ -795,13 +813,9 @@ class MeshGaugeClient:
             _fan_out.check_sdf(reply, faces, wire_params.opposite_points, r)
             return reply
 
-        with concurrent.futures.ThreadPoolExecutor(len(ranges) + 1) as pool:
-            mesh = pool.submit(self._call, self._stub.GetMesh,
-                               pb.GetMeshRequest(session_id=session_id),
-                               session_id)
-            replies = list(pool.map(call, range(len(ranges))))
-            mesh_reply = mesh.result()
-        return _fan_out.merge_sdf(replies, mesh_reply, faces, jacobian)
+        with concurrent.futures.ThreadPoolExecutor(
+                max(1, len(ranges))) as pool:
+            return list(pool.map(call, range(len(ranges))))
 
     def vjp(self, session_id: str, weights: Any, *,
             expected_generation: Optional[int] = None, fan_out: int = 1,
@@ -864,7 +878,7 @@ class MeshGaugeClient:
                 max_missing_fraction: float = 0.5, gradient: bool = True,
                 expected_generation: Optional[int] = None,
                 thin_regions: bool = False, min_region_area: float = 0.0,
-                max_thin_regions: int = 1000,
+                max_thin_regions: int = 1000, fan_out: int = 1,
                 **params: Any) -> PenaltyResult:
         """Minimum-thickness penalty (form one-sided or thesis, power n >= 1)
         or the aggregated KS constraint (form "ks", rho > 0), with its
@@ -881,7 +895,20 @@ class MeshGaugeClient:
         thin_regions: also PenaltyResult.thin, where the surface is thinner
         than t_min (ThinSurface; the max_thin_regions largest regions,
         1..100000; regions under min_region_area marked speck), the table
-        of `meshgauge report`."""
+        of `meshgauge report`.
+
+        fan_out=K (default 1): the fanned-out sdf of the same params (K
+        ranges at once) gives every sample's value, then K ComputePenalty
+        range calls at once, each with its range and every value (and the
+        sdf's generation as expected_generation), merged: the value,
+        missing counts, sdf_min and thin regions of the range at 0,
+        world_frame_vertices summed, each gradient value the exact sum of
+        the ranges' partial sums rounded once, plus the measure part: the
+        same result as one call, bit for bit (reused_hits: whether every
+        range reused its pass). AbortedError when the session moved
+        between the ranges. Each range call carries x-meshgauge-range and
+        x-meshgauge-part, as vjp's."""
+        fan_out = _fan_out.check_fan_out(fan_out)
         t = _wire._number("t_min", t_min, 0, np.inf, lo_open=True)
         req = pb.ComputePenaltyRequest(
             session_id=session_id, params=self._params(params), t_min=t,
@@ -903,7 +930,10 @@ class MeshGaugeClient:
             req.max_thin_regions = max_thin_regions
         if expected_generation is not None:
             req.expected_generation = expected_generation
-        resp = self._call(self._stub.ComputePenalty, req, session_id)
+        if fan_out > 1:
+            resp = self._penalty_ranges(session_id, req, fan_out)
+        else:
+            resp = self._call(self._stub.ComputePenalty, req, session_id)
         result = _wire.penalty(resp, self._dim(session_id), form, t,
                                thin_regions)
         m = self._welds.get(session_id)
@@ -919,6 +949,40 @@ class MeshGaugeClient:
         return dataclasses.replace(
             result, thin=thin, gradient=None if result.gradient is None
             else _weld.scatter_gradient(result.gradient, m))
+
+    def _penalty_ranges(self, session_id: str, req: Any,
+                        fan_out: int) -> Any:
+        """The fanned-out ComputePenalty of `req` (a whole call's request):
+        the fanned-out ComputeSdf's values, then one call per range at
+        once, each with every value, merged into the whole call's reply."""
+        expected = (req.expected_generation
+                    if req.HasField("expected_generation") else None)
+        passes = self._sdf_range_replies(session_id, req.params, False,
+                                         expected, fan_out)
+        if not passes:  # no sample: the whole call's reply.
+            return self._call(self._stub.ComputePenalty, req, session_id)
+        values, generation = _fan_out.sample_values(passes)
+        whole = pb.ComputePenaltyRequest()
+        whole.CopyFrom(req)
+        whole.values.extend(values)
+        # The values' generation: a session moved since is ABORTED.
+        whole.expected_generation = generation
+        ranges = [(p.first, p.first + len(p.values)) for p in passes]
+
+        def call(part: int) -> Any:
+            begin, end = ranges[part]
+            part_req = pb.ComputePenaltyRequest()
+            part_req.CopyFrom(whole)
+            part_req.range.begin = begin
+            part_req.range.end = end
+            return self._call(
+                self._stub.ComputePenalty, part_req, session_id,
+                extra_metadata=_fan_out.range_metadata(part, begin, end))
+
+        with concurrent.futures.ThreadPoolExecutor(len(ranges)) as pool:
+            replies = list(pool.map(call, range(len(ranges))))
+        d, nv = self._shape(session_id)
+        return _fan_out.merge_penalty(replies, req.with_gradient, d * nv)
 
     def constraint(self, session_id: str, t_min: float, *, rho: float = 50.0,
                    **kwargs: Any) -> PenaltyResult:

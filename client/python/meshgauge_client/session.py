@@ -173,7 +173,9 @@ class Session:
             fan_out=fan_out, **params))
 
     def penalty(self, t_min: float, **kwargs: Any) -> PenaltyResult:
-        """MeshGaugeClient.penalty at the latest positions."""
+        """MeshGaugeClient.penalty at the latest positions (fan_out=K
+        included: the fanned-out pass, then K penalty ranges at once,
+        merged bit for bit)."""
         return self._with_session(lambda: self._client.penalty(
             self.session_id, t_min, expected_generation=self.generation,
             **kwargs))
