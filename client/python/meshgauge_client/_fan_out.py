@@ -7,7 +7,7 @@ call's result (its summary recomputed from every value: _summary)."""
 import dataclasses
 import math
 import numbers
-from typing import Any, Iterator, List, Optional, Sequence, Tuple
+from typing import Any, Iterable, Iterator, List, Optional, Sequence, Tuple
 
 import grpc
 import numpy as np
@@ -156,6 +156,24 @@ class SdfReply:
     data: List[float] = dataclasses.field(default_factory=list)
     summary: Any = None
 
+    def extend(self, values: Iterable[float], status: Iterable[int],
+               hits: Iterable[int], kept: Iterable[int],
+               opposite: Iterable[float], jacobian: bool,
+               row_offsets: Sequence[int], cols: Iterable[int],
+               data: Iterable[float]) -> None:
+        """Appends samples and, with `jacobian`, their rows (row_offsets
+        counted from 0, as a chunk's or another reply's)."""
+        self.values.extend(values)
+        self.status.extend(status)
+        self.hits.extend(hits)
+        self.kept.extend(kept)
+        self.opposite.extend(opposite)
+        if jacobian:
+            base = self.rows[-1]
+            self.rows.extend(base + o for o in list(row_offsets)[1:])
+            self.cols.extend(cols)
+            self.data.extend(data)
+
 
 def sample_values(parts: Sequence["SdfReply"]) -> Tuple[List[float], int]:
     """Every sample's value and the generation from the checked replies
@@ -207,17 +225,9 @@ def read_sdf(messages: Iterator[Any], jacobian: bool,
                 grpc.StatusCode.DATA_LOSS,
                 f"chunk [{c.vertex_begin}, {c.vertex_end}) does not continue "
                 f"{len(r.values)} samples from sample {first}")
-        r.values.extend(c.values)
-        r.status.extend(c.status)
-        r.hits.extend(c.hits)
-        r.kept.extend(c.kept)
+        r.extend(c.values, c.status, c.hits, c.kept, c.opposite, jacobian,
+                 c.row_offsets, c.columns, c.derivatives)
         r.normalized.extend(c.normalized)
-        r.opposite.extend(c.opposite)
-        if jacobian:
-            base = r.rows[-1]
-            r.rows.extend(base + o for o in list(c.row_offsets)[1:])
-            r.cols.extend(c.columns)
-            r.data.extend(c.derivatives)
     return r
 
 
@@ -283,16 +293,8 @@ def merge_sdf(parts: Sequence[SdfReply], mesh_reply: Any, faces: bool,
     out = SdfReply()
     for p in parts:
         _check_tiles(p, len(out.values))
-        out.values.extend(p.values)
-        out.status.extend(p.status)
-        out.hits.extend(p.hits)
-        out.kept.extend(p.kept)
-        out.opposite.extend(p.opposite)
-        if jacobian:
-            base = out.rows[-1]
-            out.rows.extend(base + o for o in p.rows[1:])
-            out.cols.extend(p.cols)
-            out.data.extend(p.data)
+        out.extend(p.values, p.status, p.hits, p.kept, p.opposite, jacobian,
+                   p.rows, p.cols, p.data)
     samples = mesh.num_faces if faces else mesh.num_vertices
     if len(out.values) != samples:
         raise DataLossError(
