@@ -143,7 +143,8 @@ void AppendCoordinates(const std::vector<Vec3>& v, std::vector<double>* out) {
 
 bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+         (a.empty() ||
+          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
 // One client's run: `iterations` of them, or with `until_signal` until
