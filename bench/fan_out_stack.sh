@@ -9,7 +9,9 @@
 #   bench/fan_out_stack.sh BUILD MESH [RAYS] [ROUNDS]
 # Its stack is a project of its own (meshgauge-fanout, gRPC port 50351,
 # secrets in /tmp/meshgauge-fanout-test), brought down at the end. Each run
-# uses its own --kappa, so that no replica's cached pass serves it.
+# uses its own cone angle (30 degrees plus a thousandth per run), so that no
+# replica's cached pass or hits serve it (a new --kappa alone would reuse
+# the hits of the pass before).
 set -euo pipefail
 build=$(realpath "$1") mesh=$(realpath "$2") rays=${3:-100} rounds=${4:-2}
 cd "$(dirname "$0")/.."
@@ -36,18 +38,16 @@ seconds() {  # COMMAND...: its wall time
   "$@" >/dev/null
   awk -v t0="$t0" -v t1="$(date +%s.%N)" 'BEGIN { printf "%.2f", t1 - t0 }'
 }
-run=0
-timed_pass() {  # K: one pass of the session `big` in K parts
-  local kappa
-  kappa=$(awk -v r="$run" 'BEGIN { printf "%.4f", 1 + r / 10000 }')
-  run=$((run + 1))
-  seconds remote sdf "$mesh" --session-id big --rays "$rays" --kappa "$kappa" --fan-out "$1"
+timed_pass() {  # K ROUND: one pass of the session `big` in K parts
+  local angle
+  angle=$(awk -v k="$1" -v r="$2" 'BEGIN { printf "%.3f", 30 + (10 * r + k) / 1000 }')
+  seconds remote sdf "$mesh" --session-id big --rays "$rays" --cone-angle "$angle" --fan-out "$1"
 }
 echo "mesh $mesh: $(grep -c '^v ' "$mesh") vertices, $rays rays, replicas with cpus: 1.0"
 echo "upload: $(seconds remote upload "$mesh" --session-id big) s"
 one=()
 for round in $(seq 1 "$rounds"); do
-  one+=("$(timed_pass 1)")
+  one+=("$(timed_pass 1 "$round")")
   echo "1 replica, round $round, fan-out 1: ${one[-1]} s"
 done
 deploy/stack.sh scale 2 >/dev/null
@@ -59,7 +59,7 @@ for _ in $(seq 1 120); do  # the new replica healthy, then in the balancer
 done
 sleep 5
 for round in $(seq 1 "$rounds"); do
-  t=$(timed_pass 2)
+  t=$(timed_pass 2 "$round")
   awk -v a="${one[$((round - 1))]}" -v b="$t" -v r="$round" \
     'BEGIN { printf "2 replicas, round %d, fan-out 2: %.2f s: ratio to round %d with 1 replica %.2f\n", r, b, r, a / b }'
 done
