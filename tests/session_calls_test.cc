@@ -272,6 +272,12 @@ TEST_F(SessionCallsRangeTest, ARangeEndingPastTheMeshIsInvalid) {
   auto vjp = calls_->Vjp("", RangeTarget(0, vertices() + 1),
                          std::vector<double>(vertices() + 1, 1.0), {});
   EXPECT_EQ(vjp.status().code(), absl::StatusCode::kInvalidArgument);
+  auto penalty = calls_->Penalty("", RangeTarget(2, vertices() + 1),
+                                 {.t_min = 0.1}, std::nullopt, true, {},
+                                 std::vector<double>(vertices(), 1.0));
+  EXPECT_EQ(penalty.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_THAT(penalty.status().message(),
+              ::testing::HasSubstr(absl::StrCat("[2, ", vertices() + 1, ")")));
 }
 
 TEST_F(SessionCallsRangeTest, AnEmptyOrReversedRangeIsInvalid) {
