@@ -43,6 +43,7 @@
 #include <cstring>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -190,10 +191,16 @@ bool RunClient(const std::string& target, const client::ClientOptions& options,
     std::vector<double> gradient;
     if (up.ok()) {
       generation = up->generation;
-      Mesh moved = mesh;  // the session's mesh, for a fanned-out summary.
-      moved.positions = positions;
+      // The session's mesh, for a fanned-out call's merged summary only.
+      std::optional<Mesh> moved;
+      if (fan_out > 1) {
+        moved = mesh;
+        moved->positions = positions;
+      }
       sdf = timed("ComputeSdf", [&] {
-        return c.ComputeSdf(id, params, {.fan_out = fan_out, .mesh = &moved});
+        return c.ComputeSdf(id, params,
+                            {.fan_out = fan_out,
+                             .mesh = moved ? &*moved : nullptr});
       });
       if (sdf.ok() && step % 2 == 0) {
         auto vjp = timed("ComputeVjp", [&] {

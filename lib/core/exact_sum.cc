@@ -182,10 +182,6 @@ std::vector<double> ExactSum::Terms() const {
   return terms;
 }
 
-void ExactSums::Add(int64_t i, const ExactSum& sum) {
-  for (double t : sum.Terms()) Add(i, t);
-}
-
 ExactSum ExactSums::Exact(int64_t i) const {
   ExactSum e;
   if (auto it = spill_.find(i); it != spill_.end()) e = it->second;

@@ -96,16 +96,14 @@ class ExactSums {
     }
     spill_[i].Add(x);
   }
-  // Adds every term of `sum` to sum i.
-  void Add(int64_t i, const ExactSum& sum);
-
   // As ExactSum::Round and ExactSum::Terms of sum i.
   double Round(int64_t i) const;
   std::vector<double> Terms(int64_t i) const;
-  // Sum i as an ExactSum.
-  ExactSum Exact(int64_t i) const;
 
  private:
+  // Sum i as an ExactSum (its spill, if any, and its two doubles).
+  ExactSum Exact(int64_t i) const;
+
   struct Pair {
     double hi = 0;
     double lo = 0;

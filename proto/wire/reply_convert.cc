@@ -1,6 +1,7 @@
 #include "proto/wire/reply_convert.h"
 
 #include "absl/strings/str_cat.h"
+#include "lib/core/sensitivity.h"
 #include "proto/wire/convert.h"
 
 namespace meshgauge::wire {
@@ -132,11 +133,8 @@ void ToWire(const PenaltyReply& r, int dimension, bool with_gradient,
   out->set_world_frame_vertices(r.world_frame_vertices);
   out->set_dimension(dimension);
   if (with_gradient && r.penalty.vjp_sums.size() > 0) {  // a range's part
-    for (int64_t j = 0; 3 * j < r.penalty.vjp_sums.size(); ++j) {
-      for (int c = 0; c < dimension; ++c) {
-        out->add_gradient(r.penalty.vjp_sums.Round(3 * j + c));
-      }
-    }
+    AppendFlattened(RoundVectors(r.penalty.vjp_sums), dimension,
+                    out->mutable_gradient());
     AppendTails(r.penalty.vjp_sums, dimension, out->mutable_tail_counts(),
                 out->mutable_tails());
     AppendFlattened(r.penalty.measure_gradient, dimension,
