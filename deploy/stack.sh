@@ -81,7 +81,8 @@ build() {
     # Replaced only when they changed (the build cache compares contents).
     mkdir -p .prebuilt
     local f
-    for f in server/meshgauge-server client/meshgauge bench/meshgauge-load; do
+    for f in server/meshgauge-server client/meshgauge client/meshgauge-remote \
+        bench/meshgauge-load; do
       cmp -s "$MESHGAUGE_PREBUILT_FROM/$f" ".prebuilt/${f#*/}" ||
         cp "$MESHGAUGE_PREBUILT_FROM/$f" .prebuilt/
     done

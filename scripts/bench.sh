@@ -6,7 +6,8 @@
 # igea with its vertices permuted and on a generated mesh of a million
 # vertices (25 rays);
 # Embree's watertight ray test against its fast one on every test mesh;
-# then incremental passes after patch updates (meshgauge_incremental_bench).
+# then incremental passes after patch updates (meshgauge_incremental_bench)
+# and the CLI's start-up (bench/cli_startup_bench.sh).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -30,3 +31,6 @@ build/bench/meshgauge_bench --ray_tests_only "$@" data/meshes/*.ply \
 # vertex moved, against a full pass.
 build/bench/meshgauge_incremental_bench data/meshes/igea-triangles.ply \
   data/meshes/rocker-arm.obj
+# Start-up of the CLI's programs: the local verbs' `meshgauge` loads no
+# gRPC; `meshgauge-remote` does.
+bench/cli_startup_bench.sh build

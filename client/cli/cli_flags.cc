@@ -10,7 +10,6 @@
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
-#include "client/remote/remote_client.h"
 #include "lib/core/stopwatch.h"
 #include "lib/io/mesh_io.h"
 
@@ -270,26 +269,6 @@ void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f, SdfFlags* sdf) {
                   "relative error allowed on clean samples, > 0")
       ->check(Positive())
       ->capture_default_str();
-}
-
-void AddRemoteFlags(CLI::App* app, RemoteFlags* f) {
-  app->add_option("--server", f->server, "server address host:port")
-      ->capture_default_str();
-  app->add_option("--tls-ca-file", f->tls_ca_file,
-                  "connect with TLS, trusting this PEM CA");
-  app->add_option("--tls-cert-file", f->tls_cert_file,
-                  "client certificate (PEM) for mutual TLS");
-  app->add_option("--tls-key-file", f->tls_key_file,
-                  "private key (PEM) of --tls-cert-file");
-  app->add_option("--token-file", f->token_file,
-                  "file whose first line is the bearer token (default: the "
-                  "MESHGAUGE_TOKEN environment variable)");
-  app->add_option(
-         "--connect-timeout", f->connect_timeout,
-         absl::StrCat("seconds a call waits for a connection (server down, "
-                      "wrong address, TLS mismatch) before it fails (default ",
-                      client::ClientOptions{}.connect_timeout_seconds, ")"))
-      ->check(Positive());
 }
 
 absl::StatusOr<SdfParams> ToSdfParams(const SdfFlags& f) {

@@ -136,6 +136,8 @@ void AddPenaltyFlags(CLI::App* app, PenaltyFlags* f, bool t_min_required);
 void AddGradFlags(CLI::App* app, GradFlags* f);
 void AddCalibrateFlags(CLI::App* app, CalibrateFlags* f);
 void AddGradcheckFlags(CLI::App* app, GradcheckFlags* f, SdfFlags* sdf);
+// In meshgauge_cli_remote_lib (remote_commands.cc): the local CLI links no
+// gRPC.
 void AddRemoteFlags(CLI::App* app, RemoteFlags* f);
 void AddReportFlags(CLI::App* app, ReportFlags* f);
 

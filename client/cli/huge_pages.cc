@@ -1,12 +1,13 @@
 #include "client/cli/huge_pages.h"
 
-#include <limits.h>
 #include <stdlib.h>
 #include <sys/auxv.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <string>
+
+#include "client/cli/self_exe.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -35,11 +36,8 @@ void ReexecWithHugePages(char** argv) {
        std::string(tunables).find(kTunable) != std::string::npos)) {
     return;
   }
-  char exe[PATH_MAX];
-  const ssize_t n = readlink("/proc/self/exe", exe, sizeof(exe) - 1);
-  if (n <= 0) return;
-  exe[n] = '\0';
-  const std::string path(exe);
+  const std::string path = SelfExecutable();
+  if (path.empty()) return;
   const std::string name = path.substr(path.rfind('/') + 1);
   if (name.rfind("ld-", 0) == 0 || name.rfind("ld.so", 0) == 0) return;
   std::string value = tunables != nullptr && *tunables != '\0'
@@ -47,7 +45,7 @@ void ReexecWithHugePages(char** argv) {
                           : std::string();
   value += std::string(kTunable) + "=1";
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
-  execv(exe, argv);
+  execv(path.c_str(), argv);
   // Not re-executed: this process keeps its small pages.
 }
 

@@ -80,7 +80,8 @@ class Local : public Backend {
 
 BackendFactory LocalBackend(ProgressMode progress, int threads) {
   return [progress, threads](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
-    auto ev = SdfEvaluator::Create(std::move(mesh));
+    auto ev = SdfEvaluator::Create(std::move(mesh),
+                                   {.bvh_policy = BvhUpdatePolicy::kRebuild});
     if (!ev.ok()) return ev.status();
     return std::make_unique<Local>(std::move(*ev), progress, threads);
   };

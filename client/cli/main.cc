@@ -8,6 +8,7 @@
 #include <functional>
 #include <iostream>
 #include <string>
+#include <string_view>
 
 #include "absl/status/status.h"
 #include "absl/strings/str_cat.h"
@@ -16,6 +17,7 @@
 #include "client/cli/cli_flags.h"
 #include "client/cli/commands.h"
 #include "client/cli/huge_pages.h"
+#include "client/cli/self_exe.h"
 
 namespace meshgauge::cli {
 namespace {
@@ -24,6 +26,8 @@ constexpr char kDescription[] =
     "meshgauge: local thickness of surface meshes (Shape Diameter Function), "
     "its exact derivatives, penalties and constraints; locally or through a "
     "meshgauge-server (remote).";
+constexpr char kRemoteDescription[] =
+    "the same verbs through a meshgauge-server, and its sessions";
 
 // What a parsed verb will do.
 using Run = std::function<absl::Status()>;
@@ -41,6 +45,7 @@ CLI::App* MeshVerb(CLI::App& app, const char* name, const char* help,
   return sub;
 }
 
+#if MESHGAUGE_CLI_REMOTE
 // A remote verb on the sessions, with --json.
 CLI::App* SessionVerb(CLI::App* remote, const char* name, const char* help,
                       RemoteInput* in, bool takes_id, Run* run) {
@@ -54,6 +59,7 @@ CLI::App* SessionVerb(CLI::App* remote, const char* name, const char* help,
   });
   return sub;
 }
+#endif
 
 // The verbs computing on a mesh file, here or (remote) on a server.
 struct MeshVerbs {
@@ -184,9 +190,9 @@ int Main(int argc, char** argv) {
       ->capture_default_str();
   sh->callback([&] { run = [&] { return RunShape(shape); }; });
 
+#if MESHGAUGE_CLI_REMOTE
   RemoteInput r;
-  CLI::App* remote = app.add_subcommand(
-      "remote", "the same verbs through a meshgauge-server, and its sessions");
+  CLI::App* remote = app.add_subcommand("remote", kRemoteDescription);
   remote->require_subcommand(1);
   AddRemoteFlags(remote, &r.remote);
   MeshVerbs remote_verbs;
@@ -243,6 +249,11 @@ int Main(int argc, char** argv) {
   for (CLI::App* sub : remote->get_subcommands({})) {
     AddRemoteFlags(sub, &r.remote);
   }
+#else
+  // Listed for --help only: main() hands `meshgauge remote ...` to
+  // meshgauge-remote before anything is parsed.
+  CLI::App* remote = app.add_subcommand("remote", kRemoteDescription);
+#endif
 
   if (const std::string unknown = UnknownVerb(app, argc, argv, 1);
       !unknown.empty()) {
@@ -281,6 +292,18 @@ int Main(int argc, char** argv) {
 }  // namespace meshgauge::cli
 
 int main(int argc, char** argv) {
+#if !MESHGAUGE_CLI_REMOTE
+  // The remote verbs (and the help listing every verb's flags) live in
+  // meshgauge-remote, beside this program, so that the local verbs do not
+  // load gRPC at start-up (docs/benchmarks.md, "Start-up").
+  if (const std::string_view verb = argc > 1 ? argv[1] : "";
+      verb == "remote" || verb == "--help-all") {
+    const absl::Status s =
+        meshgauge::cli::ExecSibling("meshgauge-remote", argv);
+    std::cerr << "meshgauge: error: " << s.message() << "\n";
+    return 1;
+  }
+#endif
   // Transparent huge pages when an argument names a file of 4 MiB or more
   // (client/cli/huge_pages.h; docs/benchmarks.md): on a million-vertex mesh
   // read 0.59 -> 0.16 s, checks 0.90 -> 0.43 s, setup 0.69 -> 0.52 s.

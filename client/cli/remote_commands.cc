@@ -128,4 +128,24 @@ absl::Status RunRemote(const RemoteInput& in) {
       absl::StrCat("unknown remote verb '", verb, "'"));
 }
 
+void AddRemoteFlags(CLI::App* app, RemoteFlags* f) {
+  app->add_option("--server", f->server, "server address host:port")
+      ->capture_default_str();
+  app->add_option("--tls-ca-file", f->tls_ca_file,
+                  "connect with TLS, trusting this PEM CA");
+  app->add_option("--tls-cert-file", f->tls_cert_file,
+                  "client certificate (PEM) for mutual TLS");
+  app->add_option("--tls-key-file", f->tls_key_file,
+                  "private key (PEM) of --tls-cert-file");
+  app->add_option("--token-file", f->token_file,
+                  "file whose first line is the bearer token (default: the "
+                  "MESHGAUGE_TOKEN environment variable)");
+  app->add_option(
+         "--connect-timeout", f->connect_timeout,
+         absl::StrCat("seconds a call waits for a connection (server down, "
+                      "wrong address, TLS mismatch) before it fails (default ",
+                      client::ClientOptions{}.connect_timeout_seconds, ")"))
+      ->check(Positive());
+}
+
 }  // namespace meshgauge::cli

@@ -1,0 +1,21 @@
+// The CLI's own executable and the programs installed beside it.
+#pragma once
+
+#include <string>
+
+#include "absl/status/status.h"
+
+namespace meshgauge::cli {
+
+// The path /proc/self/exe links to; empty when it cannot be read (no /proc).
+std::string SelfExecutable();
+
+// Replaces this process with the program `name` in the directory of
+// SelfExecutable(), with the same arguments (argv[0] kept, so that usage
+// messages still name the command the user typed) and environment. Returns
+// only on failure: NotFound naming the path when there is no such
+// executable, Internal with errno's text when execv fails otherwise.
+// `argv`: main's, null-terminated.
+absl::Status ExecSibling(const char* name, char** argv);
+
+}  // namespace meshgauge::cli

@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# The CLI's two programs (client/CMakeLists.txt): `meshgauge` runs the local
+# verbs without linking gRPC or Protobuf (its start-up does not load them)
+# and hands `remote ...` and --help-all to `meshgauge-remote` beside it, with
+# the same arguments and exit codes; without that program the remote verbs
+# fail with an error naming it, and the local verbs still work.
+# Usage: cli_split_test.sh CLI CLI_REMOTE MESH
+set -euo pipefail
+cli=$1 remote=$2 mesh=$3
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*"; exit 1; }
+
+needed=$(readelf -d "$cli" | sed -n 's/.*(NEEDED).*\[\(.*\)\]/\1/p')
+echo "meshgauge needs: $(tr '\n' ' ' <<<"$needed")"
+[[ -n $needed ]] || fail "readelf found no NEEDED entries in $cli"
+if grep -E 'grpc|protobuf|libssl|libcrypto|libcares|libre2|libupb' <<<"$needed"; then
+  fail "the local CLI links the libraries above"
+fi
+readelf -d "$remote" | grep -q 'libgrpc++' ||
+  fail "meshgauge-remote does not link gRPC (is this the right program?)"
+
+# A remote verb through the local program: meshgauge-remote's error and
+# exit code (1), the status code first.
+set +e
+out=$("$cli" remote list --server "unix://$tmp/no-server" --connect-timeout 1 2>&1)
+code=$?
+set -e
+echo "$out"
+[[ $code == 1 && $out == *"meshgauge: error: UNAVAILABLE"* ]] ||
+  fail "remote list without a server: exit $code"
+# A usage error under remote: exit 2, as before.
+set +e
+out=$("$cli" remote sdf --no-such-flag 2>&1)
+code=$?
+set -e
+[[ $code == 2 && $out == *"usage error"* ]] ||
+  fail "remote usage error: exit $code: $out"
+# Help: the local program lists `remote`; --help-all has every remote flag.
+"$cli" --help | grep -q '^  remote ' || fail "--help does not list remote"
+"$cli" --help-all | grep -q 'upload MESH as a session' ||
+  fail "--help-all lacks the remote verbs"
+"$cli" remote --help | grep -q 'upload' || fail "remote --help lacks upload"
+
+# Alone in a directory: local verbs work, remote ones name the missing
+# program.
+cp "$cli" "$tmp/meshgauge"
+"$tmp/meshgauge" sdf "$mesh" --json >"$tmp/sdf.json" ||
+  fail "a local verb failed without meshgauge-remote beside the CLI"
+grep -q '"ok"' "$tmp/sdf.json" || fail "no summary from the local verb"
+set +e
+out=$("$tmp/meshgauge" remote list 2>&1)
+code=$?
+set -e
+echo "$out"
+[[ $code == 1 && $out == *"$tmp/meshgauge-remote is missing"* ]] ||
+  fail "remote without meshgauge-remote: exit $code"
+echo PASS
