@@ -15,6 +15,8 @@
 #include "absl/strings/match.h"
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
+#include "client/cli/backend.h"
+#include "lib/io/mesh_io.h"
 #include "tests/cli_test_util.h"
 #include "tests/server_test_util.h"
 #include "tests/test_util.h"
@@ -271,6 +273,47 @@ TEST_F(CliRemoteTest, TemporarySessionsAreDeletedNamedOnesKeptAndChecked) {
       RunCli("remote sdf " + SharedMesh("spot_triangulated.obj") + on);
   EXPECT_EQ(other.exit_code, 1);
   EXPECT_THAT(other.out, HasSubstr("not the given mesh"));
+}
+
+// A remote backend asks for the VJP and the penalty at its pass's
+// generation: a session another client moved after the pass is ABORTED,
+// not answered for the new positions (with and without a fan-out).
+TEST_F(CliRemoteTest, ASessionMovedAfterThePassIsAbortedNotAnswered) {
+  const absl::StatusOr<Mesh> mesh =
+      ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok()) << mesh.status();
+  for (const int fan_out : {1, 2}) {
+    const std::string id = "moved" + std::to_string(fan_out);
+    cli::RemoteFlags flags;
+    flags.server = target_;
+    auto make = cli::RemoteBackend(flags, id, cli::ProgressMode::kNever,
+                                   fan_out);
+    ASSERT_TRUE(make.ok()) << make.status();
+    auto backend = (*make)(*mesh);
+    ASSERT_TRUE(backend.ok()) << backend.status();
+    SdfParams params;
+    params.rays = 10;
+    auto pass = (*backend)->Sdf(params, cli::Derivatives::kVjp);
+    ASSERT_TRUE(pass.ok()) << pass.status();
+    const std::vector<double> ones(mesh->num_vertices(), 1.0);
+    ASSERT_TRUE((*backend)->Vjp(ones).ok()) << "before the move";
+    auto info = client_->Get(id);
+    ASSERT_TRUE(info.ok()) << info.status();
+    std::vector<Vec3> moved = mesh->positions;
+    moved[0] = moved[0] * 1.001;
+    ASSERT_TRUE(client_
+                    ->UpdatePositions(id, info->generation, 3, {moved[0]},
+                                      {0})
+                    .ok());
+    EXPECT_EQ((*backend)->Vjp(ones).status().code(),
+              absl::StatusCode::kAborted)
+        << "fan-out " << fan_out;
+    PenaltyParams penalty;
+    penalty.t_min = 0.1;
+    EXPECT_EQ((*backend)->Penalty(*pass, penalty, true).status().code(),
+              absl::StatusCode::kAborted)
+        << "fan-out " << fan_out;
+  }
 }
 
 // remote server-info prints GetServerInfo: the release and the limits the

@@ -51,6 +51,7 @@ class Remote : public Backend {
                        " values for ", n, " ", SampleSetName(params.samples)));
     }
     jacobian_ = std::move(r->jacobian);
+    generation_ = r->facts.generation;
     return std::move(r->result);
   }
   absl::StatusOr<SparseJacobian> Jacobian() override {
@@ -59,7 +60,7 @@ class Remote : public Backend {
   }
   absl::StatusOr<std::vector<Vec3>> Vjp(
       const std::vector<double>& weights) override {
-    auto r = c_->ComputeVjp(id_, params_, weights, std::nullopt, fan_out_);
+    auto r = c_->ComputeVjp(id_, params_, weights, generation_, fan_out_);
     if (!r.ok()) return r.status();
     return std::move(r->gradient);
   }
@@ -69,7 +70,7 @@ class Remote : public Backend {
                                         const PenaltyParams& params,
                                         bool with_gradient) override {
     auto r = c_->ComputePenalty(id_, params_, params, with_gradient,
-                                std::nullopt, fan_out_, pass.values);
+                                generation_, fan_out_, pass.values);
     if (!r.ok()) return r.status();
     return std::move(r->penalty);
   }
@@ -93,6 +94,10 @@ class Remote : public Backend {
   const ProgressMode progress_;
   const int fan_out_;  // sample ranges per pass and VJP.
   SdfParams params_;
+  // The positions of Sdf()'s pass: the VJP and the penalty are asked for at
+  // that generation, so that a session another client moved in between
+  // fails ABORTED instead of answering for other positions.
+  std::optional<int64_t> generation_;
   std::optional<SparseJacobian> jacobian_;
 };
 
