@@ -21,7 +21,8 @@ readelf -d "$remote" | grep -q 'libgrpc++' ||
   fail "meshgauge-remote does not link gRPC (is this the right program?)"
 
 # A remote verb through the local program: meshgauge-remote's error and
-# exit code (1), the status code first.
+# exit code (1), the status code first; also when flags come first and when
+# the program is run through the dynamic loader.
 set +e
 out=$("$cli" remote list --server "unix://$tmp/no-server" --connect-timeout 1 2>&1)
 code=$?
@@ -29,6 +30,15 @@ set -e
 echo "$out"
 [[ $code == 1 && $out == *"meshgauge: error: UNAVAILABLE"* ]] ||
   fail "remote list without a server: exit $code"
+loader=$(readelf -l "$cli" | sed -n 's/.*program interpreter: \(.*\)\]/\1/p')
+set +e
+out=$("$loader" "$cli" remote list --server "unix://$tmp/no-server" \
+  --connect-timeout 1 2>&1)
+code=$?
+set -e
+[[ $code == 1 && $out == *"meshgauge: error: UNAVAILABLE"* ]] ||
+  fail "through $loader: exit $code: $out"
+"$cli" -h remote | grep -q 'upload' || fail "-h remote lacks upload"
 # A usage error under remote: exit 2, as before.
 set +e
 out=$("$cli" remote sdf --no-such-flag 2>&1)
@@ -43,7 +53,7 @@ set -e
 "$cli" remote --help | grep -q 'upload' || fail "remote --help lacks upload"
 
 # Alone in a directory: local verbs work, remote ones name the missing
-# program.
+# program (NOT_FOUND), --help-all lists the local verbs.
 cp "$cli" "$tmp/meshgauge"
 "$tmp/meshgauge" sdf "$mesh" --json >"$tmp/sdf.json" ||
   fail "a local verb failed without meshgauge-remote beside the CLI"
@@ -53,6 +63,10 @@ out=$("$tmp/meshgauge" remote list 2>&1)
 code=$?
 set -e
 echo "$out"
-[[ $code == 1 && $out == *"$tmp/meshgauge-remote is missing"* ]] ||
+[[ $code == 1 &&
+   $out == *"meshgauge: error: NOT_FOUND: $tmp/meshgauge-remote is missing"* ]] ||
   fail "remote without meshgauge-remote: exit $code"
+# --help-all then lists the local verbs.
+"$tmp/meshgauge" --help-all | grep -q -- '--cone-angle' ||
+  fail "--help-all without meshgauge-remote"
 echo PASS

@@ -27,24 +27,27 @@ bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes) {
   return false;
 }
 
-void ReexecWithHugePages(char** argv) {
+bool SetHugePagesTunable() {
   // A tunables string naming it already (a user's explicit 0 included)
   // is left as it is.
   const char* tunables = getenv("GLIBC_TUNABLES");
-  if (argv[0] == nullptr || getauxval(AT_SECURE) != 0 ||
+  if (getauxval(AT_SECURE) != 0 ||
       (tunables != nullptr &&
        std::string(tunables).find(kTunable) != std::string::npos)) {
-    return;
+    return false;
   }
-  const std::string path = SelfExecutable();
-  if (path.empty()) return;
-  const std::string name = path.substr(path.rfind('/') + 1);
-  if (name.rfind("ld-", 0) == 0 || name.rfind("ld.so", 0) == 0) return;
   std::string value = tunables != nullptr && *tunables != '\0'
                           ? std::string(tunables) + ":"
                           : std::string();
   value += std::string(kTunable) + "=1";
-  if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  return setenv("GLIBC_TUNABLES", value.c_str(), 1) == 0;
+}
+
+void ReexecWithHugePages(char** argv) {
+  if (argv[0] == nullptr) return;
+  const std::string path = SelfExecutable();
+  if (path.empty() || IsDynamicLoader(path)) return;
+  if (!SetHugePagesTunable()) return;
   execv(path.c_str(), argv);
   // Not re-executed: this process keeps its small pages.
 }

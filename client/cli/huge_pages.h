@@ -7,6 +7,10 @@
 
 namespace meshgauge::cli {
 
+// The CLI takes huge pages when an argument names a file of this size or
+// more (main.cc).
+inline constexpr int64_t kHugePagesFileBytes = int64_t{4} << 20;
+
 // Whether one of argv[1..] (inputs and outputs alike; `--flag=path` is not
 // split) names a regular file of at least `bytes`. `argv`: main's,
 // null-terminated.
@@ -26,5 +30,10 @@ bool ArgumentNamesFileOfAtLeast(char** argv, int64_t bytes);
 // should set glibc.malloc.hugetlb=0. `argv`: main's, null-terminated. Call
 // first in main, before any thread starts.
 void ReexecWithHugePages(char** argv);
+
+// Appends glibc.malloc.hugetlb=1 to GLIBC_TUNABLES, for a program this one
+// executes (meshgauge-remote); false, changing nothing, when the tunable is
+// named already or in a secure-execution process.
+bool SetHugePagesTunable();
 
 }  // namespace meshgauge::cli

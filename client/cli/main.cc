@@ -291,23 +291,53 @@ int Main(int argc, char** argv) {
 
 }  // namespace meshgauge::cli
 
+#if !MESHGAUGE_CLI_REMOTE
+namespace meshgauge::cli {
+
+// The remote verbs, and the help listing every verb, live in
+// meshgauge-remote beside this program, so that the local verbs do not
+// load gRPC at start-up (docs/benchmarks.md, "Issue 52's run"). When the
+// first argument that is not a flag is `remote`, or --help-all comes before
+// it, this process becomes meshgauge-remote with the same arguments (with
+// the huge-page tunable already set for a large file, so that it does not
+// re-execute itself). Returns the exit code when that fails (1, the status
+// first, as remote errors are printed), or -1 to go on here: no remote
+// verb, or --help-all without meshgauge-remote (the local verbs' help).
+int HandOverRemoteVerbs(int argc, char** argv) {
+  bool help_all = false, remote = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view arg = argv[i];
+    if (arg == "--help-all") help_all = true;
+    if (!arg.empty() && arg[0] == '-') continue;
+    remote = arg == "remote";
+    break;
+  }
+  if (!remote && !help_all) return -1;
+  if (ArgumentNamesFileOfAtLeast(argv, kHugePagesFileBytes)) {
+    SetHugePagesTunable();
+  }
+  const absl::Status s = ExecSibling("meshgauge-remote", argv);
+  if (!remote) return -1;
+  std::cerr << "meshgauge: error: "
+            << s.ToString(absl::StatusToStringMode::kWithNoExtraData) << "\n";
+  return 1;
+}
+
+}  // namespace meshgauge::cli
+#endif
+
 int main(int argc, char** argv) {
 #if !MESHGAUGE_CLI_REMOTE
-  // The remote verbs (and the help listing every verb's flags) live in
-  // meshgauge-remote, beside this program, so that the local verbs do not
-  // load gRPC at start-up (docs/benchmarks.md, "Start-up").
-  if (const std::string_view verb = argc > 1 ? argv[1] : "";
-      verb == "remote" || verb == "--help-all") {
-    const absl::Status s =
-        meshgauge::cli::ExecSibling("meshgauge-remote", argv);
-    std::cerr << "meshgauge: error: " << s.message() << "\n";
-    return 1;
+  if (const int code = meshgauge::cli::HandOverRemoteVerbs(argc, argv);
+      code >= 0) {
+    return code;
   }
 #endif
   // Transparent huge pages when an argument names a file of 4 MiB or more
   // (client/cli/huge_pages.h; docs/benchmarks.md): on a million-vertex mesh
   // read 0.59 -> 0.16 s, checks 0.90 -> 0.43 s, setup 0.69 -> 0.52 s.
-  if (meshgauge::cli::ArgumentNamesFileOfAtLeast(argv, int64_t{4} << 20)) {
+  if (meshgauge::cli::ArgumentNamesFileOfAtLeast(
+          argv, meshgauge::cli::kHugePagesFileBytes)) {
     meshgauge::cli::ReexecWithHugePages(argv);
   }
   // A run allocates and frees arrays of megabytes stage after stage (file,

@@ -17,11 +17,21 @@ std::string SelfExecutable() {
   return std::string(exe, n);
 }
 
+bool IsDynamicLoader(const std::string& path) {
+  const std::string name = path.substr(path.rfind('/') + 1);
+  return name.rfind("ld-", 0) == 0 || name.rfind("ld.so", 0) == 0;
+}
+
 absl::Status ExecSibling(const char* name, char** argv) {
-  const std::string self = SelfExecutable();
+  std::string self = SelfExecutable();
+  if (!self.empty() && IsDynamicLoader(self)) {
+    self = argv[0] != nullptr && std::strchr(argv[0], '/') ? argv[0] : "";
+  }
   if (self.empty()) {
-    return absl::InternalError(absl::StrCat(
-        "cannot find ", name, ": /proc/self/exe is not readable"));
+    return absl::NotFoundError(absl::StrCat(
+        "cannot find ", name,
+        " (it runs the remote verbs): this program's directory is unknown; "
+        "run ", name, " itself"));
   }
   const std::string path = self.substr(0, self.rfind('/') + 1) + name;
   if (access(path.c_str(), X_OK) != 0) {

@@ -827,6 +827,16 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertFalse(os.path.exists(os.path.join(bare, "views.png")))
         self.assertEqual(alone["thin"]["thin_fraction"],
                          report["thin"]["thin_fraction"])
+        # A CLI without meshgauge-remote beside it fails; the report an
+        # earlier call left in the directory is not returned for this one.
+        lone = os.path.join(self.tmp, "lone_cli")
+        os.makedirs(lone, exist_ok=True)
+        shutil.copy(os.environ["MESHGAUGE_CLI"], lone)
+        with self.client.session_from_file(knight) as s:
+            with self.assertRaisesRegex(RuntimeError, "meshgauge-remote"):
+                s.report(out, t_min=0.2, rays=20,
+                         cli=os.path.join(lone, "meshgauge"))
+        self.assertFalse(os.path.exists(os.path.join(out, "report.json")))
         chromium = shutil.which("chromium")
         if not chromium:
             return

@@ -304,7 +304,8 @@ _CLI_FLAGS = {"method": "--method", "cone_angle_degrees": "--cone-angle",
 def find_cli(cli: Optional[str]) -> Optional[str]:
     """The meshgauge CLI to draw the report's pictures: `cli` ("" for
     none), else $MESHGAUGE_CLI, else `meshgauge` on PATH; None when there is
-    none."""
+    none. Its `remote` verbs run `meshgauge-remote`, which must be installed
+    beside it (else the report fails with an error naming it)."""
     if cli is not None:
         return cli or None
     return os.environ.get("MESHGAUGE_CLI") or shutil.which("meshgauge")
@@ -351,8 +352,12 @@ def _write_with_cli(cli: str, session: Any, path: "str | os.PathLike[str]",
         env = dict(os.environ)
         if client.token:
             env["MESHGAUGE_TOKEN"] = client.token
-        run = subprocess.run(args, capture_output=True, text=True, env=env)
+        # A report.json left by an earlier report in `path` must not pass
+        # for this run's.
         report_json = os.path.join(path, "report.json")
+        if os.path.exists(report_json):
+            os.remove(report_json)
+        run = subprocess.run(args, capture_output=True, text=True, env=env)
         if run.returncode != 0 and not os.path.exists(report_json):
             raise RuntimeError(f"{cli} remote report failed: "
                                + (run.stdout + run.stderr).strip()[-2000:])
