@@ -150,8 +150,7 @@ struct RawBest {
 // wall time of --repeat runs, against the fastest raw pass over its rays
 // and against the library's values pass of this run (`values_seconds`).
 void BenchCli(const std::string& name, const std::string& file,
-              const SdfParams& params, double raw_rate,
-              double values_seconds) {
+              const SdfParams& params, double raw_rate, double values_seconds) {
   const std::string command = absl::StrCat(
       absl::GetFlag(FLAGS_cli), " sdf '", file, "' --json --reorient",
       " --threads ", absl::GetFlag(FLAGS_threads), " --cone-angle ",
@@ -185,9 +184,9 @@ void BenchCli(const std::string& name, const std::string& file,
       "fastest raw pass (%.3f s); read %.3f s, checks %.3f s, setup %.3f s, "
       "ray pass %.3f s\n",
       name.c_str(), best, best / values_seconds, values_seconds,
-      best / raw_seconds, raw_seconds,
-      t["read"].get<double>(), t["checks"].get<double>(),
-      t["setup"].get<double>(), t["rays"].get<double>());
+      best / raw_seconds, raw_seconds, t["read"].get<double>(),
+      t["checks"].get<double>(), t["setup"].get<double>(),
+      t["rays"].get<double>());
   const nlohmann::json& m = summary["memory_bytes"];
   auto mb = [&m](const char* key) { return m[key].get<double>() / 1e6; };
   const double counted = mb("mesh") + mb("bvh") + mb("hit_table");

@@ -364,8 +364,9 @@ absl::StatusOr<io::MeshFile> MeshAssembler::FinishArrays(
     corners.assign(indices_.begin() + offset,
                    indices_.begin() + offset + sizes_[f]);
     offset += sizes_[f];
-    if (absl::Status s = builder.AddFace(
-            corners, regions_.empty() ? 0 : regions_[f], "face_indices");
+    if (absl::Status s =
+            builder.AddFace(corners, regions_.empty() ? 0 : regions_[f],
+                            [] { return std::string("face_indices"); });
         !s.ok()) {
       return s;
     }

@@ -286,8 +286,8 @@ TEST_F(CliRemoteTest, ASessionMovedAfterThePassIsAbortedNotAnswered) {
     const std::string id = "moved" + std::to_string(fan_out);
     cli::RemoteFlags flags;
     flags.server = target_;
-    auto make = cli::RemoteBackend(flags, id, cli::ProgressMode::kNever,
-                                   fan_out);
+    auto make =
+        cli::RemoteBackend(flags, id, cli::ProgressMode::kNever, fan_out);
     ASSERT_TRUE(make.ok()) << make.status();
     auto backend = (*make)(*mesh);
     ASSERT_TRUE(backend.ok()) << backend.status();
@@ -301,12 +301,10 @@ TEST_F(CliRemoteTest, ASessionMovedAfterThePassIsAbortedNotAnswered) {
     ASSERT_TRUE(info.ok()) << info.status();
     std::vector<Vec3> moved = mesh->positions;
     moved[0] = moved[0] * 1.001;
-    ASSERT_TRUE(client_
-                    ->UpdatePositions(id, info->generation, 3, {moved[0]},
-                                      {0})
-                    .ok());
-    EXPECT_EQ((*backend)->Vjp(ones).status().code(),
-              absl::StatusCode::kAborted)
+    ASSERT_TRUE(
+        client_->UpdatePositions(id, info->generation, 3, {moved[0]}, {0})
+            .ok());
+    EXPECT_EQ((*backend)->Vjp(ones).status().code(), absl::StatusCode::kAborted)
         << "fan-out " << fan_out;
     PenaltyParams penalty;
     penalty.t_min = 0.1;

@@ -247,7 +247,9 @@ TEST(MeshBuilderTest, CancellationIsPolledEvery65536FacesNotPerFace) {
   }
   const int64_t corners[] = {0, 1, 2};
   for (int64_t f = 0; f < kFaces; ++f) {
-    ASSERT_TRUE(builder.AddFace(corners, 0, "face_indices").ok());
+    ASSERT_TRUE(
+        builder.AddFace(corners, 0, [] { return std::string("face_indices"); })
+            .ok());
   }
   // Every 65,536 faces, and when an array doubles (about log2 F times).
   EXPECT_LE(polls, kFaces / 65536 + 3 * 20);

@@ -79,7 +79,8 @@ class Local : public Backend {
 }  // namespace
 
 BackendFactory LocalBackend(ProgressMode progress, int threads) {
-  return [progress, threads](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
+  return [progress,
+          threads](Mesh mesh) -> absl::StatusOr<std::unique_ptr<Backend>> {
     auto ev = SdfEvaluator::Create(std::move(mesh),
                                    {.bvh_policy = BvhUpdatePolicy::kRebuild});
     if (!ev.ok()) return ev.status();

@@ -31,7 +31,8 @@ absl::Status ExecSibling(const char* name, char** argv) {
     return absl::NotFoundError(absl::StrCat(
         "cannot find ", name,
         " (it runs the remote verbs): this program's directory is unknown; "
-        "run ", name, " itself"));
+        "run ",
+        name, " itself"));
   }
   const std::string path = self.substr(0, self.rfind('/') + 1) + name;
   if (access(path.c_str(), X_OK) != 0) {

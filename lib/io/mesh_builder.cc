@@ -80,23 +80,24 @@ absl::Status MeshBuilder::ReserveFaces(int64_t n, int corners) {
 }
 
 absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
-                                  int32_t region, const std::string& where) {
+                                  int32_t region,
+                                  absl::FunctionRef<std::string()> where) {
   const int64_t n = std::ssize(corners);
   const int64_t min = file_.mesh.dimension == 2 ? 2 : 3;
   if (n < min || (file_.mesh.dimension == 2 && n != 2)) {
     return absl::InvalidArgumentError(absl::StrCat(
-        path_, ": ", where, ": face ", num_faces(), " has ", n, " corners (",
+        path_, ": ", where(), ": face ", num_faces(), " has ", n, " corners (",
         file_.mesh.dimension == 2 ? "2" : "at least 3", " needed)"));
   }
   if (n > kMaxPolygonCorners) {
     return absl::InvalidArgumentError(
-        absl::StrCat(path_, ": ", where, ": face ", num_faces(), " has ", n,
+        absl::StrCat(path_, ": ", where(), ": face ", num_faces(), " has ", n,
                      " corners (at most ", kMaxPolygonCorners, ")"));
   }
   for (int64_t c : corners) {
     if (c < 0 || c >= num_vertices()) {
       return absl::InvalidArgumentError(absl::StrCat(
-          path_, ": ", where, ": face ", num_faces(), " refers to vertex ", c,
+          path_, ": ", where(), ": face ", num_faces(), " refers to vertex ", c,
           " but ", num_vertices(), " vertices are defined"));
     }
   }
@@ -105,10 +106,10 @@ absl::Status MeshBuilder::AddFace(absl::Span<const int64_t> corners,
     std::sort(sorted.begin(), sorted.end());
     if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end()) {
       return absl::InvalidArgumentError(
-          absl::StrCat(path_, ": ", where, ": polygon face ", num_faces(),
+          absl::StrCat(path_, ": ", where(), ": polygon face ", num_faces(),
                        " repeats a vertex"));
     }
-    polygon_places_.emplace_back(num_faces(), where);
+    polygon_places_.emplace_back(num_faces(), where());
   }
   triangles_ += n > 4 ? n - 2 : 1;
   // Checked when an array is about to grow, and every 65,536 faces: never

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "absl/functional/function_ref.h"
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/io/mesh_file.h"
@@ -48,12 +49,14 @@ class MeshBuilder {
     return CheckLimits(num_vertices(), triangles_, 0);
   }
   int64_t num_vertices() const { return file_.mesh.num_vertices(); }
-  // `where` names the face's place in the file ("line 12", "byte 4096") for
-  // errors. Corner indices are 0-based. Errors: InvalidArgument for fewer
-  // than 2 (segments) or 3 corners, an index out of range [0, #V) or, in a
-  // polygon with more than four corners, a repeated index; the limits'.
+  // `where()` names the face's place in the file ("line 12", "byte 4096")
+  // for errors; it is called only for an error or a polygon (whose place
+  // Finish may report), not per face. Corner indices are 0-based. Errors:
+  // InvalidArgument for fewer than 2 (segments) or 3 corners, an index out of
+  // range [0, #V) or, in a polygon with more than four corners, a repeated
+  // index; the limits'.
   absl::Status AddFace(absl::Span<const int64_t> corners, int32_t region,
-                       const std::string& where);
+                       absl::FunctionRef<std::string()> where);
   int64_t num_faces() const { return std::ssize(sizes_); }
   // Triangulates the polygons and returns the mesh (not validated).
   // Errors: InvalidArgument naming the polygon's face id and place; the

@@ -477,7 +477,7 @@ class ElementReader {
           {row_[role_.xyz[0]], row_[role_.xyz[1]], row_[role_.xyz[2]]});
     }
     if (role_.is_face && !role_.is_strips) {
-      return builder_.AddFace(corners_, 0, in_.Where());
+      return builder_.AddFace(corners_, 0, [this] { return in_.Where(); });
     }
     return absl::OkStatus();
   }
@@ -512,7 +512,8 @@ class ElementReader {
           corners_.push_back(static_cast<int64_t>(item));
         }
       } else if (strip_.Add(static_cast<int64_t>(item), triangle)) {
-        if (absl::Status s = builder_.AddFace(triangle, 0, in_.Where());
+        if (absl::Status s =
+                builder_.AddFace(triangle, 0, [this] { return in_.Where(); });
             !s.ok()) {
           return s;
         }

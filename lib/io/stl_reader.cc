@@ -85,7 +85,9 @@ absl::StatusOr<MeshFile> ParseBinaryStl(absl::string_view data,
     }
     if (absl::Status s = builder.AddFace(
             corners, 0,
-            absl::StrCat("byte ", 84 + 50 * static_cast<size_t>(f)));
+            [f] {
+              return absl::StrCat("byte ", 84 + 50 * static_cast<size_t>(f));
+            });
         !s.ok())
       return s;
   }
@@ -156,8 +158,8 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
       }
       if (absl::Status s = expect("endloop"); !s.ok()) return s;
       if (absl::Status s = expect("endfacet"); !s.ok()) return s;
-      if (absl::Status s =
-              builder.AddFace(corners, 0, absl::StrCat("line ", line));
+      if (absl::Status s = builder.AddFace(
+              corners, 0, [line] { return absl::StrCat("line ", line); });
           !s.ok())
         return s;
     }
