@@ -5,6 +5,8 @@
 # the same arguments and exit codes; without that program the remote verbs
 # fail with an error naming it, and the local verbs still work.
 # Usage: cli_split_test.sh CLI CLI_REMOTE MESH
+# Outputs are captured before they are matched: `PROGRAM | grep -q` fails
+# under pipefail when grep exits before PROGRAM has written everything.
 set -euo pipefail
 cli=$1 remote=$2 mesh=$3
 tmp=$(mktemp -d)
@@ -17,7 +19,7 @@ echo "meshgauge needs: $(tr '\n' ' ' <<<"$needed")"
 if grep -E 'grpc|protobuf|libssl|libcrypto|libcares|libre2|libupb' <<<"$needed"; then
   fail "the local CLI links the libraries above"
 fi
-readelf -d "$remote" | grep -q 'libgrpc++' ||
+[[ $(readelf -d "$remote") == *'libgrpc++'* ]] ||
   fail "meshgauge-remote does not link gRPC (is this the right program?)"
 
 # A remote verb through the local program: meshgauge-remote's error and
@@ -39,7 +41,7 @@ code=$?
 set -e
 [[ $code == 1 && $out == *"meshgauge: error: NOT_FOUND: cannot open mesh"* ]] ||
   fail "through $loader: exit $code: $out"
-"$cli" -h remote | grep -q 'upload' || fail "-h remote lacks upload"
+[[ $("$cli" -h remote) == *upload* ]] || fail "-h remote lacks upload"
 # A usage error under remote: exit 2, as before.
 set +e
 out=$("$cli" remote sdf --no-such-flag 2>&1)
@@ -48,10 +50,10 @@ set -e
 [[ $code == 2 && $out == *"usage error"* ]] ||
   fail "remote usage error: exit $code: $out"
 # Help: the local program lists `remote`; --help-all has every remote flag.
-"$cli" --help | grep -q '^  remote ' || fail "--help does not list remote"
-"$cli" --help-all | grep -q 'upload MESH as a session' ||
+[[ $("$cli" --help) == *$'\n  remote '* ]] || fail "--help does not list remote"
+[[ $("$cli" --help-all) == *'upload MESH as a session'* ]] ||
   fail "--help-all lacks the remote verbs"
-"$cli" remote --help | grep -q 'upload' || fail "remote --help lacks upload"
+[[ $("$cli" remote --help) == *upload* ]] || fail "remote --help lacks upload"
 
 # Alone in a directory: local verbs work, remote ones name the missing
 # program (NOT_FOUND), --help-all lists the local verbs.
@@ -68,6 +70,6 @@ echo "$out"
    $out == *"meshgauge: error: NOT_FOUND: $tmp/meshgauge-remote is missing"* ]] ||
   fail "remote without meshgauge-remote: exit $code"
 # --help-all then lists the local verbs.
-"$tmp/meshgauge" --help-all | grep -q -- '--cone-angle' ||
+[[ $("$tmp/meshgauge" --help-all) == *--cone-angle* ]] ||
   fail "--help-all without meshgauge-remote"
 echo PASS
