@@ -3,6 +3,7 @@
 //   meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S]
 //                   [--generated_vertices N] [--cli PATH] MESH...
 //   meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...
+//   meshgauge_bench --read_only [--repeat N] MESH...
 //
 // For each mesh (closed meshes with negative volume are reversed first; with
 // --permute_seed also with its vertices permuted; with --generated_vertices
@@ -23,6 +24,8 @@
 // With --ray_tests_only, per mesh only the values pass with Embree's
 // watertight test (the default) and with its fast one, over the same rays:
 // both rates, hit fractions, and the vertices whose value differs.
+// With --read_only, per file only reading it: its bytes into memory (the
+// anchor) and ReadMeshFile (bytes, parse, mesh), best time of each.
 #include <algorithm>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -64,6 +67,9 @@ ABSL_FLAG(std::string, cli, "",
 ABSL_FLAG(bool, ray_tests_only, false,
           "per mesh, only compare the values pass with Embree's watertight "
           "test and with its fast one");
+ABSL_FLAG(bool, read_only, false,
+          "per file, only reading it: its bytes into memory (the anchor) "
+          "against ReadMeshFile, best of --repeat each");
 ABSL_FLAG(std::string, mesh_dir, "/tmp",
           "where the permuted and generated meshes are written for the CLI");
 
@@ -345,6 +351,39 @@ std::string Written(const Mesh& mesh, const std::string& name) {
   return path;
 }
 
+int BenchRead(const std::string& path) {
+  double best_bytes = 1e300, best_read = 1e300;
+  size_t size = 0;
+  std::vector<char> buffer;
+  for (int i = 0; i < absl::GetFlag(FLAGS_repeat); ++i) {
+    const Stopwatch bytes_watch;
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (f == nullptr) {
+      std::fprintf(stderr, "%s: cannot open\n", path.c_str());
+      return 1;
+    }
+    buffer.resize(1 << 20);
+    size = 0;
+    for (size_t n; (n = std::fread(buffer.data(), 1, buffer.size(), f)) > 0;) {
+      size += n;
+    }
+    std::fclose(f);
+    best_bytes = std::min(best_bytes, bytes_watch.Seconds());
+    const Stopwatch read_watch;
+    auto read = ReadMeshFile(path);
+    best_read = std::min(best_read, read_watch.Seconds());
+    if (!read.ok()) {
+      std::fprintf(stderr, "%s\n", std::string(read.status().message()).c_str());
+      return 1;
+    }
+  }
+  std::printf(
+      "%-28s %zu bytes: bytes alone %.3f s, ReadMeshFile %.3f s = %.1f x\n",
+      BaseName(path).c_str(), size, best_bytes, best_read,
+      best_read / best_bytes);
+  return 0;
+}
+
 }  // namespace
 }  // namespace meshgauge::bench
 
@@ -352,13 +391,17 @@ int main(int argc, char** argv) {
   using namespace meshgauge;
   using namespace meshgauge::bench;
   absl::SetProgramUsageMessage(
-      "meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S] [--generated_vertices N] [--cli PATH] MESH...\n  meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...");
+      "meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S] [--generated_vertices N] [--cli PATH] MESH...\n  meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...\n  meshgauge_bench --read_only [--repeat N] MESH...");
   // --help lists this file's flags (absl's own finds none: No flags matched).
   meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/sdf_bench.cc");
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
   int rc = 0;
   for (size_t i = 1; i < args.size(); ++i) {
     const std::string path = args[i];
+    if (absl::GetFlag(FLAGS_read_only)) {
+      rc |= BenchRead(path);
+      continue;
+    }
     auto mesh = ReadOutwardMesh(path);
     if (!mesh.ok()) {
       std::fprintf(stderr, "%s\n",

@@ -72,4 +72,22 @@ echo "$out"
 # --help-all then lists the local verbs.
 [[ $("$tmp/meshgauge" --help-all) == *--cone-angle* ]] ||
   fail "--help-all without meshgauge-remote"
+
+# What meshgauge-remote receives (a stand-in printing it): the same
+# arguments and, for a file of 4 MiB or more, the huge-page tunable already
+# set, so that it does not re-execute itself (and load gRPC) a second time;
+# for small files no tunable.
+cat >"$tmp/meshgauge-remote" <<'STAND_IN'
+#!/usr/bin/env bash
+echo "program=$0 args=$* tunables=${GLIBC_TUNABLES-unset}"
+STAND_IN
+chmod +x "$tmp/meshgauge-remote"
+truncate -s 5M "$tmp/big.obj"
+out=$(env -u GLIBC_TUNABLES "$tmp/meshgauge" remote sdf "$tmp/big.obj" --rays 3)
+echo "$out"
+[[ $out == "program=$tmp/meshgauge-remote args=remote sdf $tmp/big.obj --rays 3 tunables=glibc.malloc.hugetlb=1" ]] ||
+  fail "meshgauge-remote got: $out"
+out=$(env -u GLIBC_TUNABLES "$tmp/meshgauge" remote sdf "$mesh")
+[[ $out == *"args=remote sdf $mesh tunables=unset" ]] ||
+  fail "meshgauge-remote got, for a small file: $out"
 echo PASS
