@@ -373,7 +373,8 @@ int BenchRead(const std::string& path) {
     auto read = ReadMeshFile(path);
     best_read = std::min(best_read, read_watch.Seconds());
     if (!read.ok()) {
-      std::fprintf(stderr, "%s\n", std::string(read.status().message()).c_str());
+      std::fprintf(stderr, "%s\n",
+                   std::string(read.status().message()).c_str());
       return 1;
     }
   }
@@ -391,7 +392,10 @@ int main(int argc, char** argv) {
   using namespace meshgauge;
   using namespace meshgauge::bench;
   absl::SetProgramUsageMessage(
-      "meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed S] [--generated_vertices N] [--cli PATH] MESH...\n  meshgauge_bench --ray_tests_only [--repeat N] [--threads T] MESH...\n  meshgauge_bench --read_only [--repeat N] MESH...");
+      "meshgauge_bench [--repeat N] [--threads T] [--rays R] [--permute_seed "
+      "S] [--generated_vertices N] [--cli PATH] MESH...\n  meshgauge_bench "
+      "--ray_tests_only [--repeat N] [--threads T] MESH...\n  meshgauge_bench "
+      "--read_only [--repeat N] MESH...");
   // --help lists this file's flags (absl's own finds none: No flags matched).
   meshgauge::ListOwnFlagsInHelp(argc, argv, "bench/sdf_bench.cc");
   std::vector<char*> args = absl::ParseCommandLine(argc, argv);
