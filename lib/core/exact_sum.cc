@@ -182,6 +182,8 @@ std::vector<double> ExactSum::Terms() const {
   return terms;
 }
 
+void ExactSums::Spill(int64_t i, double x) { spill_[i].Add(x); }
+
 ExactSum ExactSums::Exact(int64_t i) const {
   ExactSum e;
   if (auto it = spill_.find(i); it != spill_.end()) e = it->second;

@@ -89,18 +89,20 @@ class ExactSums {
     const double t_e = t - p.lo;
     const double e2 = (p.lo - (t - t_e)) + (e1 - t_e);  // lo + e1 = t + e2
     // e2 is NaN when anything overflowed or x is not finite.
-    if (e2 == 0 && std::isfinite(t)) {
+    if (e2 == 0 && std::isfinite(t)) [[likely]] {
       p.hi = s;
       p.lo = t;
       return;
     }
-    spill_[i].Add(x);
+    Spill(i, x);
   }
   // As ExactSum::Round and ExactSum::Terms of sum i.
   double Round(int64_t i) const;
   std::vector<double> Terms(int64_t i) const;
 
  private:
+  // Adds x to sum i's ExactSum (out of line: Add's rare path).
+  void Spill(int64_t i, double x);
   // Sum i as an ExactSum (its spill, if any, and its two doubles).
   ExactSum Exact(int64_t i) const;
 

@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <optional>
 
@@ -40,30 +41,65 @@ struct Term {
 // (entries in the order of each vertex's first term, each the sum of its
 // terms in arrival order). A sample's rays hit few primitives, so the row
 // holds far fewer entries than its rays have corners. One per thread slot
-// of the computation's arena, kept across samples: its slot per vertex (4
-// bytes a vertex) finds a vertex's entry with one load.
+// of the computation's arena, kept across samples. A vertex's entry is
+// found through a small open-addressing index sized to the row (a few
+// KiB, in cache), not a slot per vertex of the mesh, which held 4 bytes a
+// vertex per thread (VjpMemoryTest).
 class Row {
  public:
-  explicit Row(int64_t num_vertices) : slots_(num_vertices, -1) {}
-
   void Clear() {
-    for (const Term& t : terms_) slots_[t.vertex] = -1;
     terms_.clear();
+    // Entries of earlier rows hold older stamps: nothing to erase.
+    if (++stamp_ == 0) {
+      std::fill(index_.begin(), index_.end(), 0);
+      stamp_ = 1;
+    }
   }
   void Add(int32_t vertex, const Vec3& d) {
-    int32_t& slot = slots_[vertex];
-    if (slot < 0) {
-      terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
-      slot = static_cast<int32_t>(terms_.size() - 1);
-    } else {
-      terms_[slot].d += d;
+    if (2 * (terms_.size() + 1) > index_.size()) Grow();
+    for (size_t h = Hash(vertex);; h = (h + 1) & mask_) {
+      const uint64_t entry = index_[h];
+      if (entry >> 32 != stamp_) {
+        index_[h] = Entry(terms_.size());
+        terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
+        return;
+      }
+      Term& t = terms_[static_cast<uint32_t>(entry)];
+      if (t.vertex == vertex) {
+        t.d += d;
+        return;
+      }
     }
   }
   const std::vector<Term>& terms() const { return terms_; }
 
  private:
+  uint64_t Entry(size_t term) const {
+    return uint64_t{stamp_} << 32 | static_cast<uint32_t>(term);
+  }
+  size_t Hash(int32_t vertex) const {
+    return (static_cast<uint32_t>(vertex) * 0x9E3779B1u) >> shift_;
+  }
+  // Doubles the index (at least 256 entries) and re-enters every term.
+  void Grow() {
+    const size_t size = std::max<size_t>(256, 2 * index_.size());
+    index_.assign(size, 0);
+    mask_ = size - 1;
+    shift_ = 32 - std::countr_zero(size);
+    for (size_t i = 0; i < terms_.size(); ++i) {
+      size_t h = Hash(terms_[i].vertex);
+      while (index_[h] >> 32 == stamp_) h = (h + 1) & mask_;
+      index_[h] = Entry(i);
+    }
+  }
+
   std::vector<Term> terms_;
-  std::vector<int32_t> slots_;  // per vertex: its index in terms_, or -1.
+  // Open addressing by vertex: the row's stamp (high 32 bits) and the
+  // term's position in terms_; an entry with another stamp is free.
+  std::vector<uint64_t> index_;
+  uint32_t stamp_ = 1;
+  size_t mask_ = 0;
+  int shift_ = 32;
 };
 
 // Everything a sample's gradient needs, shared read-only by the workers.
@@ -292,7 +328,6 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
   const int64_t ns = ctx.first + ctx.samples;  // the end of the samples.
   const size_t num_rays = ctx.hits.cone.size();
-  const int64_t nv = ctx.ev.mesh().num_vertices();
   ControlGate gate(control, ctx.samples);
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];
@@ -313,7 +348,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
           std::vector<HitGeometry> geo(num_rays);
           std::optional<Row>& row =
               thread_rows[tbb::this_task_arena::current_thread_index()].row;
-          if (!row) row.emplace(nv);
+          if (!row) row.emplace();
           PrefetchPrimitives(ctx, r.begin());
           if (r.size() > 1) PrefetchPrimitives(ctx, r.begin() + 1);
           PrefetchCorners(ctx, r.begin());
