@@ -91,7 +91,7 @@ absl::Status RunRemote(const RemoteInput& in) {
     auto serving = c.Serving();
     if (!serving.ok()) return serving.status();
     if (!*serving) return absl::UnavailableError("NOT_SERVING (draining)");
-    std::cout << "SERVING\n";
+    std::cout << (json ? R"({"status":"SERVING"})" : "SERVING") << "\n";
     return absl::OkStatus();
   }
   if (verb == "list") {
@@ -122,7 +122,12 @@ absl::Status RunRemote(const RemoteInput& in) {
     Print(InfoJson(*info), json);
     return absl::OkStatus();
   }
-  if (verb == "delete") return c.Delete(in.target);
+  if (verb == "delete") {
+    if (absl::Status s = c.Delete(in.target); !s.ok()) return s;
+    if (json)
+      std::cout << nlohmann::json{{"deleted", in.target}}.dump() << "\n";
+    return absl::OkStatus();
+  }
   if (verb == "update") return Update(c, in);
   return absl::InvalidArgumentError(
       absl::StrCat("unknown remote verb '", verb, "'"));

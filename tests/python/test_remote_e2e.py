@@ -742,7 +742,11 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertEqual(up["generation"], 1)
         ids = [s["session_id"] for s in json.loads(run("list").stdout)]
         self.assertIn("cli", ids)
-        run("delete", "cli")
+        # Every verb prints one JSON object or array with --json.
+        self.assertEqual(json.loads(run("health").stdout),
+                         {"status": "SERVING"})
+        self.assertEqual(json.loads(run("delete", "cli").stdout),
+                         {"deleted": "cli"})
         missing = run("info", "cli", ok=False)
         self.assertEqual(missing.returncode, 1)
         self.assertIn("no session 'cli'", missing.stderr)
