@@ -152,8 +152,7 @@ class ValueSource {
   ValueSource(absl::string_view data, size_t body, Format format)
       : format_(format),
         tokens_(data.substr(body)),
-        bytes_(data, body, format == Format::kBig),
-        body_(body) {}
+        bytes_(data, body, format == Format::kBig) {}
   // False at the end of the data or on a token that is not a number.
   bool Next(Type t, double* out) {
     if (format_ != Format::kAscii) {
@@ -187,7 +186,6 @@ class ValueSource {
   Format format_;
   TokenScanner tokens_;
   ByteReader bytes_;
-  size_t body_;
   int64_t header_lines_ = 0;
 };
 
