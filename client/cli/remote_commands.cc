@@ -124,8 +124,11 @@ absl::Status RunRemote(const RemoteInput& in) {
   }
   if (verb == "delete") {
     if (absl::Status s = c.Delete(in.target); !s.ok()) return s;
-    if (json)
-      std::cout << nlohmann::json{{"deleted", in.target}}.dump() << "\n";
+    if (json) {
+      std::cout
+          << nlohmann::json{{"session_id", in.target}, {"deleted", true}}.dump()
+          << "\n";
+    }
     return absl::OkStatus();
   }
   if (verb == "update") return Update(c, in);

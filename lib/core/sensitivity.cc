@@ -42,9 +42,9 @@ struct Term {
 // terms in arrival order). A sample's rays hit few primitives, so the row
 // holds far fewer entries than its rays have corners. One per thread slot
 // of the computation's arena, kept across samples. A vertex's entry is
-// found through a small open-addressing index sized to the row (a few
-// KiB, in cache), not a slot per vertex of the mesh, which held 4 bytes a
-// vertex per thread (VjpMemoryTest).
+// found through a small open-addressing index sized to the row (at least
+// 256 entries, twice the row's), not a slot per vertex of the mesh, which
+// held 4 bytes a vertex per thread (VjpMemoryTest).
 class Row {
  public:
   void Clear() {

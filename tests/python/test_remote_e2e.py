@@ -746,7 +746,7 @@ class RemoteEndToEnd(unittest.TestCase):
         self.assertEqual(json.loads(run("health").stdout),
                          {"status": "SERVING"})
         self.assertEqual(json.loads(run("delete", "cli").stdout),
-                         {"deleted": "cli"})
+                         {"session_id": "cli", "deleted": True})
         missing = run("info", "cli", ok=False)
         self.assertEqual(missing.returncode, 1)
         self.assertIn("no session 'cli'", missing.stderr)
