@@ -118,7 +118,7 @@ absl::Status ReadFaceOrPolyline(TokenScanner& scan, const std::string& path,
     }
     corners.push_back(index);
   }
-  auto where = [line] { return absl::StrCat("line ", line); };
+  const auto where = AtLine(line);
   if (!polyline) return builder.AddFace(corners, region, where);
   if (corners.size() < 2) {
     return LineError(path, line, "a polyline needs at least 2 vertices");

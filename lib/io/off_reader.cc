@@ -116,8 +116,7 @@ absl::Status ReadFace(TokenScanner& scan, const std::string& path, int64_t f,
                        absl::StrCat("face ", f, ": unexpected ", Quote(tok)));
     }
   }
-  return builder.AddFace(corners, 0,
-                         [line] { return absl::StrCat("line ", line); });
+  return builder.AddFace(corners, 0, AtLine(line));
 }
 
 }  // namespace

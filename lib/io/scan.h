@@ -74,6 +74,12 @@ class ByteReader {
   bool big_endian_;
 };
 
+// A text file's place "line N", made only when called: what
+// MeshBuilder::AddFace takes as a face's place.
+inline auto AtLine(int64_t line) {
+  return [line] { return absl::StrCat("line ", line); };
+}
+
 // InvalidArgument "path: line N: message" / "path: byte N: message".
 absl::Status LineError(const std::string& path, int64_t line,
                        absl::string_view message);

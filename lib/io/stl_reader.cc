@@ -158,9 +158,7 @@ absl::StatusOr<MeshFile> ParseAsciiStl(absl::string_view text,
       }
       if (absl::Status s = expect("endloop"); !s.ok()) return s;
       if (absl::Status s = expect("endfacet"); !s.ok()) return s;
-      if (absl::Status s = builder.AddFace(
-              corners, 0, [line] { return absl::StrCat("line ", line); });
-          !s.ok())
+      if (absl::Status s = builder.AddFace(corners, 0, AtLine(line)); !s.ok())
         return s;
     }
   }
