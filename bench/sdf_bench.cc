@@ -12,6 +12,9 @@
 //    each, and the fastest;
 //  * meshgauge's values pass (CONE, defaults): best rate, ratio to the
 //    fastest raw configuration;
+//  * the same pass with every ray started at the surface (no empty ball,
+//    lib/embree/ray_start.h): best rate, the share of samples that fell
+//    back to it in the default pass, and whether both gave the same bits;
 //  * a values-only pass vs a values pass keeping the hit table (best time
 //    also shown alone) followed by the VJP (all-ones g): best times and
 //    their ratio;
@@ -28,6 +31,7 @@
 // anchor) and ReadMeshFile (bytes, parse, mesh), best time of each.
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
@@ -106,6 +110,12 @@ Mesh BumpyTorus(int64_t vertices) {
     p = centre + r * (1 + 0.33 * std::sin(5 * u) * std::cos(3 * v));
   }
   return mesh;
+}
+
+// True when both hold the same doubles bit for bit (NaNs included).
+bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
 // Best rates of every raw configuration, one round (each configuration
@@ -219,6 +229,15 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   }
   auto refit_evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRefit});
+  // The same pass with every ray started at the surface (the Embree pass
+  // before issue 52's empty balls): its rate, and that it gives the same
+  // bits.
+  auto surface_evaluator =
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
+                                  .ray_start = RayStartMode::kSurface});
+  double best_surface = 0;
+  int64_t past_ball = 0, traced_samples = 0;
+  bool same_bits = true;
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
   double best_sdf = 0, best_values = 1e300;
@@ -262,6 +281,19 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
     auto refit_pass = (*refit_evaluator)->Compute(params, control);
     best_refit = std::max(best_refit,
                           refit_pass->rays_traced / refit_pass->trace_seconds);
+    auto surface = (*surface_evaluator)->Compute(params, control);
+    if (!surface.ok()) {
+      std::fprintf(stderr, "surface-start pass failed\n");
+      return 1;
+    }
+    best_surface =
+        std::max(best_surface, surface->rays_traced / surface->trace_seconds);
+    same_bits &= SameBits(sdf->values, surface->values) &&
+                 surface->hits == sdf->hits && surface->kept == sdf->kept;
+    past_ball = sdf->samples_past_ball;
+    traced_samples = std::ssize(sdf->values) -
+                     sdf->CountStatus(VertexStatus::kNoFaces) -
+                     sdf->CountStatus(VertexStatus::kDegenerateNormal);
     best_sdf = std::max(best_sdf, sdf->rays_traced / sdf->trace_seconds);
     rays = sdf->rays_traced;
     values = sdf->values;
@@ -291,6 +323,16 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       "%-28s with ROBUST and a no-op filter %.3e rays/s = %.3f of the "
       "fastest raw; sdf %.3f of it\n",
       "", ceiling, ceiling / best_raw, best_sdf / ceiling);
+  std::printf(
+      "%-28s rays started at the surface (the Embree pass) %.3e rays/s = "
+      "%.3f of the ceiling; sdf %.3f of it; fall-back share %.4f (%lld of "
+      "%lld samples); values, hits and kept %s\n",
+      "", best_surface, best_surface / ceiling, best_sdf / best_surface,
+      traced_samples > 0 ? 1 - static_cast<double>(past_ball) / traced_samples
+                         : 0.0,
+      static_cast<long long>(traced_samples - past_ball),
+      static_cast<long long>(traced_samples),
+      same_bits ? "bit-identical" : "DIFFER");
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);
   std::printf(

@@ -200,48 +200,6 @@ bool Rho(const Inputs<S>& in, const V<S>& s, S* rho, bool* inside) {
   return std::isfinite(Val(*rho));
 }
 
-// True when the primitive meets the closed ball (centre, radius), up to
-// rounding.
-bool ClosestPointWithin(const PrimitiveCorners& pc, const Vec3& centre,
-                        double radius) {
-  // The closest point of the primitive to the centre (Ericson, Real-Time
-  // Collision Detection, 5.1.5), by its Voronoi regions.
-  const Vec3 ab = pc.b - pc.a, ap = centre - pc.a;
-  Vec3 closest;
-  if (pc.segment) {
-    const double t = std::clamp(Dot(ap, ab) / Dot(ab, ab), 0.0, 1.0);
-    closest = pc.a + ab * t;
-  } else {
-    const Vec3 ac = pc.c - pc.a;
-    const double d1 = Dot(ab, ap), d2 = Dot(ac, ap);
-    const Vec3 bp = centre - pc.b, cp = centre - pc.c;
-    const double d3 = Dot(ab, bp), d4 = Dot(ac, bp);
-    const double d5 = Dot(ab, cp), d6 = Dot(ac, cp);
-    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
-                 va = d3 * d6 - d5 * d4;
-    if (d1 <= 0 && d2 <= 0) {
-      closest = pc.a;
-    } else if (d3 >= 0 && d4 <= d3) {
-      closest = pc.b;
-    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-      closest = pc.a + ab * (d1 / (d1 - d3));
-    } else if (d6 >= 0 && d5 <= d6) {
-      closest = pc.c;
-    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-      closest = pc.a + ac * (d2 / (d2 - d6));
-    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-      closest = pc.b + (pc.c - pc.b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    } else {
-      const double denom = 1 / (va + vb + vc);
-      closest = pc.a + ab * (vb * denom) + ac * (vc * denom);
-    }
-  }
-  const Vec3 d = closest - centre;
-  // Rounding of the closest point: a relative 1e-9 of the sizes involved.
-  const double slack = 1e-9 * (radius + Norm(ap) + Norm(ab));
-  return Dot(d, d) <= (radius + slack) * (radius + slack);
-}
-
 // The corners relative to x (x is the origin of the computation, so that
 // rounding scales with the primitive's distance, not with where the part
 // sits).
@@ -315,6 +273,46 @@ bool SeparatingNormal(const ContactCone& cone, const Vec3& w, Vec3* nu) {
   if (!(length > 0)) return false;
   *nu = across * (cone.cos_beta / length) - cone.axis * cone.sin_beta;
   return true;
+}
+
+bool ClosestPointWithin(const PrimitiveCorners& pc, const Vec3& centre,
+                        double radius) {
+  // The closest point of the primitive to the centre (Ericson, Real-Time
+  // Collision Detection, 5.1.5), by its Voronoi regions.
+  const Vec3 ab = pc.b - pc.a, ap = centre - pc.a;
+  Vec3 closest;
+  if (pc.segment) {
+    const double t = std::clamp(Dot(ap, ab) / Dot(ab, ab), 0.0, 1.0);
+    closest = pc.a + ab * t;
+  } else {
+    const Vec3 ac = pc.c - pc.a;
+    const double d1 = Dot(ab, ap), d2 = Dot(ac, ap);
+    const Vec3 bp = centre - pc.b, cp = centre - pc.c;
+    const double d3 = Dot(ab, bp), d4 = Dot(ac, bp);
+    const double d5 = Dot(ab, cp), d6 = Dot(ac, cp);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6,
+                 va = d3 * d6 - d5 * d4;
+    if (d1 <= 0 && d2 <= 0) {
+      closest = pc.a;
+    } else if (d3 >= 0 && d4 <= d3) {
+      closest = pc.b;
+    } else if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+      closest = pc.a + ab * (d1 / (d1 - d3));
+    } else if (d6 >= 0 && d5 <= d6) {
+      closest = pc.c;
+    } else if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+      closest = pc.a + ac * (d2 / (d2 - d6));
+    } else if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+      closest = pc.b + (pc.c - pc.b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    } else {
+      const double denom = 1 / (va + vb + vc);
+      closest = pc.a + ab * (vb * denom) + ac * (vc * denom);
+    }
+  }
+  const Vec3 d = closest - centre;
+  // Rounding of the closest point: a relative 1e-9 of the sizes involved.
+  const double slack = 1e-9 * (radius + Norm(ap) + Norm(ab));
+  return Dot(d, d) <= (radius + slack) * (radius + slack);
 }
 
 bool MayTouchBall(const PrimitiveCorners& pc, const Vec3& x,

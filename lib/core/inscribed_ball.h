@@ -63,6 +63,14 @@ inline bool BeyondCone(const ContactCone& cone, const Vec3& nu, const Vec3& w,
 // direction of `w` across the axis; false when w is on the axis.
 bool SeparatingNormal(const ContactCone& cone, const Vec3& w, Vec3* nu);
 
+// True when the primitive may meet the closed ball (centre, radius): its
+// closest point to the centre (Ericson's Voronoi regions) lies within the
+// radius, with a slack of a relative 1e-9 of the sizes involved, so that
+// rounding never makes it false for a primitive that meets the ball. Best
+// called with coordinates relative to a point near the centre.
+bool ClosestPointWithin(const PrimitiveCorners& pc, const Vec3& centre,
+                        double radius);
+
 // False when no admissible point of the primitive lies in the closed ball
 // of `radius` tangent at x (centre x + radius axis): the primitive is
 // outside the ball or outside the contact cone. Conservative: rounding

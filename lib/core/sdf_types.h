@@ -124,6 +124,9 @@ struct SdfResult {
   // cone used the world frame (SPEC v2 §3 fallback); 0 in 2D, for kSphere
   // (no rays, no frame) and for face samples (a face's corners give one).
   int64_t world_frame_vertices = 0;
+  // Samples whose rays started past an empty ball (lib/embree/ray_start.h);
+  // the other traced samples fell back to starting at the surface.
+  int64_t samples_past_ball = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;

@@ -180,17 +180,30 @@ int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
 // tangent at x through a point) of the box's point nearest the ball's
 // centre, +infinity on or behind the tangent plane: the order of the search,
 // not a bound (a smaller ball is likelier in a box with a smaller key).
+// Per child of a node, the squared distance (single precision) from the
+// point `centre` (relative to the tree's origin) to its box.
+__m128 BoxDistances2(const Inner& n, const Vec3& centre) {
+  const __m128 zero = _mm_setzero_ps();
+  __m128 d2 = zero;
+  for (int k = 0; k < 3; ++k) {
+    const __m128 c = _mm_set1_ps(static_cast<float>(centre[k]));
+    const __m128 d =
+        _mm_max_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(n.lo[k]), c), zero),
+                   _mm_sub_ps(c, _mm_load_ps(n.hi[k])));
+    d2 = _mm_add_ps(d2, _mm_mul_ps(d, d));
+  }
+  return d2;
+}
+
 int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
                    float abs_margin, float key_out[kArity]) {
   const __m128 zero = _mm_setzero_ps();
-  __m128 d2 = zero, along = zero, w2 = zero;
+  const __m128 d2 = BoxDistances2(n, x + axis * r);
+  __m128 along = zero, w2 = zero;
   for (int k = 0; k < 3; ++k) {
     const __m128 c = _mm_set1_ps(static_cast<float>(x[k] + axis[k] * r));
     const __m128 lo = _mm_load_ps(n.lo[k]);
     const __m128 hi = _mm_load_ps(n.hi[k]);
-    const __m128 d =
-        _mm_max_ps(_mm_max_ps(_mm_sub_ps(lo, c), zero), _mm_sub_ps(c, hi));
-    d2 = _mm_add_ps(d2, _mm_mul_ps(d, d));
     const __m128 w = _mm_sub_ps(_mm_min_ps(_mm_max_ps(c, lo), hi),
                                 _mm_set1_ps(static_cast<float>(x[k])));
     along = _mm_add_ps(along,
@@ -268,7 +281,8 @@ BallTree::~BallTree() {
 
 void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
                      double radius,
-                     absl::FunctionRef<double(int32_t prim)> visit) const {
+                     absl::FunctionRef<double(int32_t prim)> visit,
+                     double near_radius) const {
   if (root_ == nullptr) return;
   const Vec3 x = x_world - origin_;
   const Vec3& axis = cone.axis;
@@ -281,6 +295,12 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
     const double reach = r * (1 + 1e-12) + 1e-12 * MaxAbs(centre);
     return DistanceSquared(b, centre) <= reach * reach;
   };
+  // Boxes within near_radius of x: the margin covers the single-precision
+  // rounding of x and of the distances (below 1e-6 of the coordinates).
+  const bool near_too = near_radius > 0;
+  const float near_reach = static_cast<float>(near_radius * (1 + 1e-6) +
+                                              1e-6 * (reach_ + MaxAbs(x)));
+  const __m128 near_reach2 = _mm_set1_ps(near_reach * near_reach);
   // Single-precision rounding of the ball's centre (relative to the tree's
   // origin) is below 1e-7 of it.
   const float abs_margin = static_cast<float>(1e-6 * (reach_ + MaxAbs(x)));
@@ -304,20 +324,29 @@ void BallTree::Visit(const Vec3& x_world, const ContactCone& cone,
     const Entry e = stack.back();
     stack.pop_back();
     if (e.r != r && e.parent != nullptr &&
-        !in_ball(e.parent->BoxOf(e.lane), r)) {
+        !in_ball(e.parent->BoxOf(e.lane), r) &&
+        !(near_too && DistanceSquared(e.parent->BoxOf(e.lane), x) <=
+                          static_cast<double>(near_reach) * near_reach)) {
       continue;
     }
     if (e.node->leaf) {
       const auto* leaf = static_cast<const Leaf*>(e.node);
-      for (uint32_t i = 0; i < leaf->count; ++i) r = visit(leaf->prims()[i]);
+      for (uint32_t i = 0; i < leaf->count && r >= 0; ++i) {
+        r = visit(leaf->prims()[i]);
+      }
+      if (r < 0) return;
       continue;
     }
     // The children that may hold a point, the smallest key on top.
     const auto* inner = static_cast<const Inner*>(e.node);
     float key[kArity];
     const int touched = ChildrenInBall(*inner, x, axis, r, abs_margin, key);
-    const int held =
+    int held =
         touched == 0 ? 0 : touched & ~ChildrenOutsideCone(*inner, x, lanes);
+    if (near_too) {
+      held |=
+          _mm_movemask_ps(_mm_cmple_ps(BoxDistances2(*inner, x), near_reach2));
+    }
     int order[kArity];
     int num_held = 0;
     for (int i = 0; i < kArity; ++i) {

@@ -31,12 +31,14 @@ class BallTree {
 
   // Calls visit(prim) for every primitive whose box may hold a point within
   // the ball of radius r tangent at x (centre x + r cone.axis) and within
-  // the contact cone around x, the box likeliest to hold a smaller ball
+  // the contact cone around x, or a point within `near_radius` of x (a
+  // plain ball; 0 for none), the box likeliest to hold a smaller ball
   // first (the order changes the work, not the result); r starts at
   // `radius` and is what visit returns after each call (it may only
-  // shrink). Thread-safe.
+  // shrink; a negative r ends the visit). Thread-safe.
   void Visit(const Vec3& x, const ContactCone& cone, double radius,
-             absl::FunctionRef<double(int32_t prim)> visit) const;
+             absl::FunctionRef<double(int32_t prim)> visit,
+             double near_radius = 0) const;
 
  private:
   BallTree() = default;

@@ -348,7 +348,8 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
 void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             const FanLimits& limits,
                             absl::Span<const int32_t> excluded,
-                            absl::Span<HitCandidates> out) const {
+                            absl::Span<HitCandidates> out,
+                            absl::Span<const float> starts) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c.Reset(reach);
@@ -360,7 +361,10 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   fan.near_below = NearBelow(limits, reach);
   fan.t_far = limits.t_far;
   fan.segments = dimension_ == 2;
-  const float t_near = limits.t_near, t_far = limits.t_far;
+  const float t_far = limits.t_far;
+  auto start = [&](size_t k) {
+    return starts.empty() ? limits.t_near : starts[k];
+  };
   // Where Embree has no native 16-wide packets (built without them, or a
   // CPU without AVX-512) rays are traced one at a time.
   static const bool packets =
@@ -369,7 +373,7 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   if (!packets) {
     for (size_t k = 0; k < dirs.size(); ++k) {
       fan.out = &out[k];
-      RTCRayHit rh = MakeRayHit(o, dirs[k], t_near, t_far);
+      RTCRayHit rh = MakeRayHit(o, dirs[k], start(k), t_far);
       rtcIntersect1(scene_, &fan.rtc, &rh);
     }
     return;
@@ -382,7 +386,8 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
         static_cast<int>(std::min<size_t>(kWidth, dirs.size() - first));
     for (int j = 0; j < kWidth; ++j) {
       valid[j] = j < n ? -1 : 0;
-      SetPacketRay(rh, j, o, dirs[first + std::min(j, n - 1)], t_near, t_far);
+      const size_t k = first + std::min(j, n - 1);
+      SetPacketRay(rh, j, o, dirs[k], start(k), t_far);
     }
     fan.out = &out[first];
     rtcIntersect16(valid, scene_, &fan.rtc, &rh);

@@ -136,10 +136,13 @@ class RayScene {
   // every primitive within HitCandidates' window of the closest, found
   // whatever the BVH's history (see hit_candidates.h). Traced in packets of
   // 16 rays where Embree has them (a cone's rays share their origin and are
-  // coherent). dirs.size() == out.size(). Thread-safe.
+  // coherent). dirs.size() == out.size(). `starts`, when not empty (one
+  // per ray, each at or above limits.t_near), replaces limits.t_near as ray
+  // k's start (ray_start.h: only past a stretch proven empty). Thread-safe.
   void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                     const FanLimits& limits, absl::Span<const int32_t> excluded,
-                    absl::Span<HitCandidates> out) const;
+                    absl::Span<HitCandidates> out,
+                    absl::Span<const float> starts = {}) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)

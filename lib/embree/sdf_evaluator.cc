@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <optional>
 
 #include "absl/base/attributes.h"
 #include "absl/strings/str_cat.h"
@@ -25,11 +26,15 @@
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/inscribed_ball_query.h"
 #include "lib/embree/moved_boxes.h"
+#include "lib/embree/ray_start.h"
 
 namespace meshgauge {
 namespace {
 
 constexpr int64_t kVertexBlock = 64;
+// A pass starts rays past empty balls when it traces at least this many
+// rays a primitive (ray_start.h).
+constexpr int64_t kStartsPerPrimitive = 8;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Where a ray meets a primitive's plane: the distance t and how far the
@@ -198,6 +203,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   if (absl::Status s = ev->Init(std::move(mesh)); !s.ok()) return s;
   ev->policy_ = options.bvh_policy;
   ev->ray_test_ = options.ray_test;
+  ev->ray_start_ = options.ray_start;
   ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;
   ev->order_ = MortonOrder(ev->mesh_.positions);
@@ -483,7 +489,8 @@ struct SampleScratch {
   std::vector<Vec3> dirs, retrace_dirs;
   std::vector<uint8_t> kept;
   std::vector<double> estimator;
-  int64_t traced = 0, world_frames = 0;
+  std::vector<float> starts;
+  int64_t traced = 0, world_frames = 0, past_ball = 0;
 };
 
 // A sample's rows of the hit tables; null when none are kept.
@@ -506,14 +513,17 @@ using pass_state::SetUpPass;
 // for disjoint samples concurrently.
 class SdfEvaluator::SampleTracer {
  public:
+  // `starts`: null, or the rays' starts past an empty ball over
+  // `ball_tree` (then not null).
   SampleTracer(const SdfEvaluator& ev, const PassSetup& setup,
                const ReusePlan* plan, const BallTree* ball_tree,
-               PassOutput* out)
+               const RayStarts* starts, PassOutput* out)
       : ev_(ev),
         setup_(setup),
         params_(setup.resolved.params),
         plan_(plan),
         ball_tree_(ball_tree),
+        starts_(starts),
         out_(*out) {}
 
   // Sample i of the pass's visiting order `visit` (vertices in Morton
@@ -618,7 +628,7 @@ class SdfEvaluator::SampleTracer {
       for (int k = 0; k < num_rays; ++k) s.retrace.push_back(k);
     }
     directions();
-    const bool near = Trace(p, sample.x, reach, reuse, s);
+    const bool near = Trace(p, sample.x, vc.frame.axis, reach, reuse, s);
     Estimate(p, sample.x, reuse, near, rows, s);
   }
 
@@ -643,8 +653,8 @@ class SdfEvaluator::SampleTracer {
   // primitive, then picks each ray's hit in double precision once it has
   // arrived, into s.prims and s.t. Returns whether a hit lay near t_min
   // (HitTable::near), in this pass or in the reused one.
-  bool Trace(int64_t p, const Vec3& x, double reach, bool reuse,
-             SampleScratch& s) const {
+  bool Trace(int64_t p, const Vec3& x, const Vec3& axis, double reach,
+             bool reuse, SampleScratch& s) const {
     absl::Span<const Vec3> fan_dirs = s.dirs;
     if (reuse) {
       s.retrace_dirs.clear();
@@ -654,7 +664,20 @@ class SdfEvaluator::SampleTracer {
     SampleExclusions(ev_.mesh_, ev_.topo_, params_.samples, /*ball=*/false, p,
                      &s.excluded);
     const auto fan = absl::MakeSpan(s.candidates.data(), s.retrace.size());
-    ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan);
+    absl::Span<const float> starts;
+    if (starts_ != nullptr && !reuse) {
+      const double r = starts_->EmptyBall(
+          ev_, *ball_tree_, x, axis, s.excluded,
+          RayStarts::kCapEdgeLengths * ev_.mean_edge_length(), reach,
+          setup_.limits);
+      if (r > 0) {
+        starts_->Fill(r, s.retrace, setup_.limits, &s.starts);
+        starts = s.starts;
+        ++s.past_ball;
+      }
+    }
+    ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan,
+                             starts);
     for (const HitCandidates& c : fan) {
       if (c.count() > 0) ev_.PrefetchPrimitive(c[0].prim);
     }
@@ -721,7 +744,8 @@ class SdfEvaluator::SampleTracer {
   const PassSetup& setup_;
   const SdfParams& params_;
   const ReusePlan* plan_;      // null: trace every ray.
-  const BallTree* ball_tree_;  // kSphere only.
+  const BallTree* ball_tree_;  // kSphere, or with starts_.
+  const RayStarts* starts_;
   PassOutput& out_;
 };
 
@@ -741,11 +765,26 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     plan = std::move(*planned);
   }
   PassOutput out = NewOutput(*setup, hits != nullptr);
-  std::unique_ptr<BallTree> ball_tree;
-  if (setup->sphere) {
-    auto made = BallTree::Create(mesh_, topo_);
+  const Stopwatch watch;
+  // Rays start past empty balls in 3D passes whose samples traced in full
+  // (all, or an incremental pass's moved ones) trace enough rays a
+  // primitive that the tree's build is a small share of the pass.
+  std::optional<RayStarts> starts;
+  const int64_t full_samples =
+      plan ? std::count(plan->dirty.begin(), plan->dirty.end(), 1)
+           : setup->samples;
+  if (ray_start_ == RayStartMode::kPastEmptyBall && !setup->sphere &&
+      mesh_.dimension == 3 &&
+      full_samples * setup->num_rays >=
+          kStartsPerPrimitive * std::ssize(topo_.primitives)) {
+    starts.emplace(setup->cone);
+    if (starts->empty()) starts.reset();
+  }
+  std::shared_ptr<const BallTree> ball_tree;
+  if (setup->sphere || starts) {
+    auto made = CurrentBallTree();
     if (!made.ok()) return made.status();
-    ball_tree = std::move(*made);
+    ball_tree = *std::move(made);
   }
   const int64_t ns = setup->samples;
   // A vertex range's vertices in the pass's Morton order.
@@ -761,9 +800,10 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   const absl::Span<const int32_t> visit =
       params.range.all() ? absl::MakeConstSpan(order_) : range_order;
   ControlGate gate(control, ns);
-  std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0};
-  const Stopwatch watch;
-  const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(), &out);
+  std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
+      samples_past_ball{0};
+  const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
+                            starts ? &*starts : nullptr, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
     if (!gate.Poll()) return;
     SampleScratch s(setup->num_rays);
@@ -772,6 +812,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     }
     rays_traced += s.traced;
     world_frame_vertices += s.world_frames;
+    samples_past_ball += s.past_ball;
     gate.Done(range.size());
   };
   tbb::task_arena arena(ThreadCount(control.threads));
@@ -784,6 +825,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.trace_seconds = watch.Seconds();
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
+  result.samples_past_ball = samples_past_ball;
   result.normalized = NormalizedSdf(result.values);
   if (params.range.all()) {
     result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
@@ -855,6 +897,17 @@ absl::Status SdfEvaluator::UpdatePositions(absl::Span<const int32_t> indices,
   return CommitPositions(std::move(old));
 }
 
+absl::StatusOr<std::shared_ptr<const BallTree>> SdfEvaluator::CurrentBallTree()
+    const {
+  const std::lock_guard<std::mutex> lock(ball_tree_mutex_);
+  if (ball_tree_ == nullptr) {
+    auto made = BallTree::Create(mesh_, topo_);
+    if (!made.ok()) return made.status();
+    ball_tree_ = *std::move(made);
+  }
+  return ball_tree_;
+}
+
 absl::Status SdfEvaluator::CommitPositions(std::vector<Vec3> old_positions) {
   if (absl::Status s = ValidateMesh(mesh_); !s.ok()) {
     mesh_.positions = std::move(old_positions);
@@ -877,6 +930,10 @@ absl::Status SdfEvaluator::CommitPositions(std::vector<Vec3> old_positions) {
     ++refits_;
   }
   RefreshDerivedGeometry();
+  {
+    const std::lock_guard<std::mutex> lock(ball_tree_mutex_);
+    ball_tree_.reset();
+  }
   ++generation_;
   return absl::OkStatus();
 }

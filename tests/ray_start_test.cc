@@ -1,0 +1,263 @@
+// Rays started past an empty tangent ball (lib/embree/ray_start.h, issue
+// 52): the ball holds no primitive of any ray, and a pass gives the same
+// bits as one whose rays start at the surface, on every test mesh.
+#include "lib/embree/ray_start.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "lib/core/components.h"
+#include "lib/core/normals.h"
+#include "lib/core/shapes.h"
+#include "lib/core/vertex_cone.h"
+#include "lib/embree/ball_tree.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+using testing::SameBits;
+
+struct Pass {
+  SdfResult result;
+  HitTable hits;
+};
+
+Pass PassFrom(const Mesh& mesh, const SdfParams& params, RayStartMode start) {
+  auto ev = SdfEvaluator::Create(mesh, {.ray_start = start});
+  EXPECT_TRUE(ev.ok()) << ev.status();
+  Pass pass;
+  auto r = (*ev)->Compute(params, {.threads = 2}, &pass.hits);
+  EXPECT_TRUE(r.ok()) << r.status();
+  pass.result = *std::move(r);
+  return pass;
+}
+
+// The result, the hit table and its near flags of both passes, bit for bit.
+void ExpectSameBits(const Pass& a, const Pass& b, const std::string& what) {
+  EXPECT_TRUE(SameBits(a.result.values, b.result.values)) << what;
+  EXPECT_TRUE(SameBits(a.result.opposite, b.result.opposite)) << what;
+  EXPECT_EQ(a.result.status, b.result.status) << what;
+  EXPECT_EQ(a.result.hits, b.result.hits) << what;
+  EXPECT_EQ(a.result.kept, b.result.kept) << what;
+  EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
+  EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
+  EXPECT_EQ(a.hits.near, b.hits.near) << what;
+}
+
+int64_t Traced(const SdfResult& r) {
+  return std::ssize(r.values) - r.CountStatus(VertexStatus::kNoFaces) -
+         r.CountStatus(VertexStatus::kDegenerateNormal);
+}
+
+TEST(RayStartTest, EveryTestMeshGivesTheBitsOfRaysStartedAtTheSurface) {
+  for (const char* name :
+       {"igea-triangles.ply", "horse.ply", "stanford-bunny.obj",
+        "rocker-arm.obj", "fandisk.obj", "spot_triangulated.obj", "teapot.obj",
+        "decimated-knight.off", "1002_tray_bottom.STL"}) {
+    auto mesh = ReadMesh(testing::SharedMesh(name));
+    ASSERT_TRUE(mesh.ok()) << mesh.status();
+    // The horse's faces turn inward: its rays would leave the part.
+    ReorientComponents(*mesh);
+    for (double angle : {30.0, 60.0}) {
+      SdfParams params;
+      params.rays = 24;
+      params.cone_angle_degrees = angle;
+      params.opposite_points = true;
+      const std::string what = absl::StrCat(name, " at ", angle, " degrees");
+      const Pass ball = PassFrom(*mesh, params, RayStartMode::kPastEmptyBall);
+      const Pass surface = PassFrom(*mesh, params, RayStartMode::kSurface);
+      ExpectSameBits(ball, surface, what);
+      EXPECT_EQ(surface.result.samples_past_ball, 0) << what;
+      // Most samples start past a ball (the first of each block of 64 has
+      // no guess yet; thin or crowded places fall back).
+      EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2) << what;
+    }
+  }
+}
+
+TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  SdfParams params;
+  params.rays = 32;
+  params.samples = SampleSet::kFaces;
+  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
+  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "faces");
+  EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2);
+  params.samples = SampleSet::kVertices;
+  params.cone_angle_degrees = 150;
+  const Pass wide = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
+  ExpectSameBits(wide, PassFrom(mesh, params, RayStartMode::kSurface), "150");
+  EXPECT_GT(wide.result.samples_past_ball, 0);
+}
+
+// A second copy of the sphere on the first, with vertices of its own: each
+// sample has primitives through it that it does not exclude, so no ball is
+// empty and every sample falls back.
+TEST(RayStartTest, ACoincidentSurfaceLeavesNoBall) {
+  const Mesh sphere = MakeIcosphere(1, 8);
+  Mesh mesh = sphere;
+  const int32_t n = sphere.num_vertices();
+  mesh.positions.insert(mesh.positions.end(), sphere.positions.begin(),
+                        sphere.positions.end());
+  for (Face f : sphere.faces) {
+    for (int k = 0; k < f.size; ++k) f.v[k] += n;
+    mesh.faces.push_back(f);
+  }
+  SdfParams params;
+  params.rays = 32;
+  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
+  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "twice");
+  EXPECT_EQ(ball.result.samples_past_ball, 0);
+}
+
+// The ball EmptyBall returns holds no admissible point of any primitive but
+// the excluded ones (checked against every primitive), and nothing but them
+// comes within ApexRadius of the sample.
+TEST(RayStartTest, TheBallHoldsNoPrimitiveBesidesTheOneRing) {
+  std::vector<std::pair<std::string, Mesh>> meshes;
+  meshes.emplace_back("knight", testing::Knight());
+  meshes.emplace_back("box", MakeBox(2, 2, 1, 0.25));
+  meshes.emplace_back("jittered torus",
+                      testing::Jitter(MakeTorus(1, 0.3, 48, 24), 0.01));
+  for (const auto& [name, mesh] : meshes) {
+    const MeshTopology topo = MeshTopology::Build(mesh);
+    auto tree = BallTree::Create(mesh, topo);
+    ASSERT_TRUE(tree.ok());
+    auto ev = SdfEvaluator::Create(mesh);
+    ASSERT_TRUE(ev.ok());
+    SdfParams params;
+    params.rays = 32;
+    const ResolvedParams resolved = ResolveParams(params, 3);
+    const std::vector<ConeRay> cone = *MakeCone(
+        3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
+    const RayStarts starts(cone);
+    ASSERT_FALSE(starts.empty());
+    RayScene::FanLimits limits;
+    limits.t_min = static_cast<float>(1e-6 * MeanEdgeLength(mesh));
+    limits.t_near = limits.t_min / 2;
+    limits.near_below = limits.t_min;
+    const Vec3 origin = SceneOrigin(mesh);
+    const double cap = BoundingBoxDiagonal(mesh) / 2;
+    std::vector<int32_t> excluded;
+    int64_t balls = 0;
+    for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+      const VertexCone vc = MakeVertexCone(
+          mesh, topo, p,
+          UnnormalizedNormal(mesh, topo, p, NormalWeighting::kArea));
+      if (!vc.valid) continue;
+      OneRingPrimitives(topo, p, &excluded);
+      const Vec3& x = mesh.positions[p];
+      const double reach = MaxAbs(x - origin);
+      // A large cap: the ball shrinks to the nearest admissible point.
+      const double r = starts.EmptyBall(**ev, **tree, x, vc.frame.axis,
+                                        excluded, cap, reach, limits);
+      if (r == 0) continue;
+      ++balls;
+      const double apex = RayStarts::ApexRadius(reach, limits);
+      for (int32_t prim = 0; prim < std::ssize(topo.primitives); ++prim) {
+        if (std::binary_search(excluded.begin(), excluded.end(), prim)) {
+          continue;
+        }
+        PrimitiveCorners pc = (*ev)->Corners(prim);
+        EXPECT_GE(
+            MinimumTangentBall(pc, x, vc.frame.axis, starts.cos_beta()).radius,
+            r)
+            << name << " vertex " << p << " primitive " << prim;
+        pc.a = pc.a - x;
+        pc.b = pc.b - x;
+        pc.c = pc.c - x;
+        EXPECT_FALSE(ClosestPointWithin(pc, Vec3(), apex))
+            << name << " vertex " << p << " primitive " << prim;
+      }
+    }
+    EXPECT_GT(balls, mesh.num_vertices() / 2) << name;
+  }
+}
+
+// A small triangle, not connected to the mesh, beside a vertex (closer than
+// ApexRadius, outside the rays' cone): that vertex gets no ball.
+TEST(RayStartTest, APrimitiveBesideTheSampleLeavesNoBall) {
+  Mesh mesh = MakeBox(1, 1, 1, 0.25);
+  const MeshTopology before = MeshTopology::Build(mesh);
+  const int32_t p = 7;
+  const Vec3 x = mesh.positions[p];
+  const VertexCone vc = MakeVertexCone(
+      mesh, before, p,
+      UnnormalizedNormal(mesh, before, p, NormalWeighting::kArea));
+  ASSERT_TRUE(vc.valid);
+  // Across the axis, a hundredth of the apex radius from x.
+  Vec3 across = Cross(vc.frame.axis, Vec3(1, 0, 0));
+  if (Norm(across) < 0.5) across = Cross(vc.frame.axis, Vec3(0, 1, 0));
+  across = across / Norm(across);
+  RayScene::FanLimits limits;
+  limits.t_min = static_cast<float>(1e-6 * MeanEdgeLength(mesh));
+  limits.t_near = limits.t_min / 2;
+  limits.near_below = limits.t_min;
+  const double reach = MaxAbs(x - SceneOrigin(mesh));
+  const double gap = RayStarts::ApexRadius(reach, limits) / 100;
+  const int32_t first = mesh.num_vertices();
+  mesh.positions.push_back(x + across * gap);
+  mesh.positions.push_back(x + across * (gap + 0.1) - vc.frame.axis * 0.05);
+  mesh.positions.push_back(x + across * (gap + 0.1) + vc.frame.axis * 0.05 +
+                           Cross(vc.frame.axis, across) * 0.1);
+  mesh.faces.push_back(Face::Triangle(first, first + 1, first + 2));
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  auto tree = BallTree::Create(mesh, topo);
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(tree.ok() && ev.ok());
+  SdfParams params;
+  params.rays = 32;
+  const ResolvedParams resolved = ResolveParams(params, 3);
+  const RayStarts starts(*MakeCone(3, resolved.aperture_radians, resolved.rays,
+                                   resolved.min_weight_angle));
+  std::vector<int32_t> excluded;
+  OneRingPrimitives(topo, p, &excluded);
+  EXPECT_EQ(starts.EmptyBall(**ev, **tree, x, vc.frame.axis, excluded, 0.2,
+                             reach, limits),
+            0);
+  // Without the triangle the same vertex gets one.
+  Mesh plain = MakeBox(1, 1, 1, 0.25);
+  auto plain_tree = BallTree::Create(plain, before);
+  auto plain_ev = SdfEvaluator::Create(plain);
+  ASSERT_TRUE(plain_tree.ok() && plain_ev.ok());
+  OneRingPrimitives(before, p, &excluded);
+  EXPECT_GT(starts.EmptyBall(**plain_ev, **plain_tree, x, vc.frame.axis,
+                             excluded, 0.2, reach, limits),
+            0);
+}
+
+// An incremental pass whose moved patch is large starts its moved samples'
+// rays past balls and still equals a fresh pass from the surface.
+TEST(RayStartTest, AnIncrementalPassStartsMovedSamplesPastBalls) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  // Enough moved samples' rays (64 a sample) to build the ball tree.
+  SdfParams params;
+  params.rays = 64;
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(ev.ok());
+  Pass last;
+  last.result = *(*ev)->Compute(params, {}, &last.hits);
+  std::vector<Vec3> moved = mesh.positions;
+  const std::vector<int32_t> patch =
+      testing::Patch(mesh, 5000, 0.3 * BoundingBoxDiagonal(mesh));
+  for (int32_t v : patch) moved[v] += Vec3(1e-3, -2e-3, 1e-3);
+  ASSERT_TRUE((*ev)->UpdatePositions(moved).ok());
+  Pass next;
+  const PreviousPass previous{&last.result, &last.hits};
+  auto r = (*ev)->Compute(params, {}, &next.hits, &previous);
+  ASSERT_TRUE(r.ok());
+  next.result = *std::move(r);
+  EXPECT_LT(next.result.rays_traced, last.result.rays_traced);
+  EXPECT_GT(next.result.samples_past_ball, std::ssize(patch) / 2);
+  Mesh at = mesh;
+  at.positions = moved;
+  ExpectSameBits(next, PassFrom(at, params, RayStartMode::kSurface),
+                 "incremental");
+}
+
+}  // namespace
+}  // namespace meshgauge
