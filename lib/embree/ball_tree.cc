@@ -225,7 +225,7 @@ int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
 }  // namespace
 
 absl::StatusOr<std::unique_ptr<BallTree>> BallTree::Create(
-    const Mesh& mesh, const MeshTopology& topo) {
+    const Mesh& mesh, const MeshTopology& topo, Build build) {
   std::unique_ptr<BallTree> tree(new BallTree());
   // Boxes relative to the mesh's centre keep single precision close.
   Box all;
@@ -257,7 +257,8 @@ absl::StatusOr<std::unique_ptr<BallTree>> BallTree::Create(
   if (!device) return absl::InternalError("rtcNewDevice failed");
   tree->bvh_ = rtcNewBVH(device);
   RTCBuildArguments args = rtcDefaultBuildArguments();
-  args.buildQuality = RTC_BUILD_QUALITY_MEDIUM;
+  args.buildQuality =
+      build == Build::kSah ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_LOW;
   args.maxBranchingFactor = kArity;
   args.maxLeafSize = 4;
   args.bvh = tree->bvh_;

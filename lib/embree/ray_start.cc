@@ -13,7 +13,8 @@ namespace {
 constexpr double kOriginRounding = 0x1p-21;
 // The rounding of its unit direction.
 constexpr double kDirectionRounding = 0x1p-20;
-// Balls below this share of the reach fall back.
+// Balls below this share of the reach (over cos^2 of the largest ray
+// angle) fall back.
 constexpr double kMinRadius = 0x1p-11;
 // The stretch kept before the ball's far side.
 constexpr double kChordShare = 1 - 0x1p-8;
@@ -26,6 +27,7 @@ RayStarts::RayStarts(absl::Span<const ConeRay> cone) {
   const double beta = max_angle + kAngleMargin;
   if (cone.empty() || !(beta < 80 * std::numbers::pi / 180)) return;
   cos_beta_ = std::cos(beta);
+  min_radius_ = kMinRadius / (std::cos(max_angle) * std::cos(max_angle));
   for (const ConeRay& ray : cone) {
     chord_cos_.push_back(2 * std::cos(ray.angle) * kChordShare);
   }
@@ -44,7 +46,7 @@ double RayStarts::EmptyBall(const MeshGeometry& g, const BallTree& tree,
                             double reach,
                             const RayScene::FanLimits& limits) const {
   const double apex = ApexRadius(reach, limits);
-  const double smallest = std::max(reach * kMinRadius, apex);
+  const double smallest = std::max(reach * min_radius_, apex);
   if (empty() || !(cap > smallest)) return 0;
   // The ball, shrunk to the nearest admissible point of any primitive, and
   // nothing but the excluded primitives near x (else r < 0: no ball).

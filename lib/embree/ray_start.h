@@ -2,29 +2,37 @@
 //
 // Every ray of a sample leaves the surface at the sample point x, inside the
 // cone of half-angle max_angle around the axis. A general ray tracer walks
-// each ray's BVH from x, through the dense boxes of the surface around it;
-// about a quarter of a pass's traversal lies there (docs/benchmarks.md). A
-// single query per sample on the BallTree certifies that no primitive but
-// the excluded ones (the one-ring) has a point in the ball of radius r
-// tangent at x (centre x + r axis) within the contact cone of half-angle
-// max_angle + kAngleMargin: a ray at angle theta from the axis then meets
-// nothing before it leaves the ball, at t = 2 r cos(theta), and Embree may
-// start it there. The hits, candidates and near() marks of every ray are
-// those of rays started at the surface (the start only skips a stretch
-// proven empty): the values, hit tables and near flags stay the same bits.
+// each ray's BVH from x, through the dense boxes of the surface around it:
+// started 2 mean edge lengths out, Embree's rays took about 0.7 of the time
+// on igea (docs/benchmarks.md). A single query per sample on a BallTree
+// certifies that no primitive but the excluded ones (the one-ring) has a
+// point in the ball of radius r tangent at x (centre x + r axis) within
+// the contact cone of half-angle max_angle + kAngleMargin: a ray at angle
+// theta from the axis then meets nothing before it leaves the ball, at
+// t = 2 r cos(theta), and Embree may start it there. The hits, candidates
+// and near() marks of every ray are those of rays started at the surface
+// (the start only skips a stretch proven empty): the values, hit tables and
+// near flags stay the same bits.
 //
 // Why the single-precision rays keep that promise (docs/numerics.md,
 // "Starting rays past an empty ball"):
 //  * Embree traces from the origin and direction rounded to single
-//    precision: within a = reach 2^-21 of x and 2^-21 of the direction, so
+//    precision: within a = reach 2^-21 of x and 2^-20 of the direction, so
 //    for t >= t_apex = a / (sin(kAngleMargin) - 2^-20) the traced ray stays
 //    inside the wider contact cone. Nearer to x than t_apex + a it may not:
 //    no primitive but the excluded ones may come within ApexRadius of x, or
 //    the sample falls back to starting at the surface.
-//  * The start is 2 r cos(theta) (1 - 2^-8): the stretch left before the
-//    ball's far side (r 2^-7 at least) exceeds the rounding of the traced
-//    ray and of Embree's distances (a relative 2^-20 of reach + t) once r
-//    is at least reach 2^-11; smaller balls fall back.
+//  * The start is 2 r cos(theta) (1 - 2^-8). The ray crosses the sphere at
+//    the angle theta to its normal, so the start lies 2 r cos^2(theta) 2^-8
+//    inside the ball: at least reach 2^-18, because balls below
+//    reach 2^-11 / cos^2(max_angle) fall back. That is 8 times the rounding
+//    of the traced ray (a + 2 r 2^-20) and of Embree's distance to a
+//    primitive met at an angle that is not grazing.
+// Limit: Embree's single-precision distance to a primitive met at a
+// grazing angle (nearly parallel to the ray) may be off by far more; such
+// a primitive lying just past the ball, rounded to a distance before the
+// start, would be reported from the surface and not from the start. No
+// test mesh shows one (RayStartTest compares every ray).
 // The ball looked for is at most kCapEdgeLengths mean edge lengths: where
 // the part is thinner it shrinks to the far wall; its size changes the
 // work, never a hit.
@@ -81,6 +89,7 @@ class RayStarts {
 
  private:
   double cos_beta_ = 0;
+  double min_radius_ = 0;          // of the reach: 2^-11 / cos^2(max_angle).
   std::vector<double> chord_cos_;  // per ray: 2 cos(theta) (1 - 2^-8).
 };
 

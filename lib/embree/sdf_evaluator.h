@@ -6,7 +6,6 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
-#include <mutex>
 #include <vector>
 
 #include "absl/functional/function_ref.h"
@@ -23,15 +22,16 @@
 
 namespace meshgauge {
 
-class BallTree;
-
 // Where a pass's rays start.
 enum class RayStartMode {
   // At the sample (Embree walks the surface's boxes around it).
   kSurface,
   // Past a tangent ball proven empty within the rays' cone, where one is
-  // found (ray_start.h); elsewhere at the sample.
+  // found (ray_start.h); elsewhere at the sample. 3D only.
   kPastEmptyBall,
+  // kPastEmptyBall for 3D passes large enough that building the ball's
+  // tree costs less than it saves (sdf_evaluator.cc), else kSurface.
+  kAuto,
 };
 
 struct EvaluatorOptions {
@@ -47,9 +47,9 @@ struct EvaluatorOptions {
   // kFast only to measure what the watertight test costs (it breaks SPEC
   // §4 on rays through shared edges).
   RayTest ray_test = RayTest::kWatertight;
-  // Where a full 3D pass starts its rays (ray_start.h). kSurface only to
+  // Where a 3D pass starts its rays (ray_start.h). The others only to
   // measure what the empty ball saves and that it changes no bit.
-  RayStartMode ray_start = RayStartMode::kPastEmptyBall;
+  RayStartMode ray_start = RayStartMode::kAuto;
 };
 
 // True when the BVH of `generation` is built from scratch rather than
@@ -68,8 +68,9 @@ struct PreviousPass {
 // The bytes SdfEvaluator::Compute(params, control, &hits) returns and
 // keeps for `mesh`: the hit table (5 per ray, 1 per sample, 24 per vertex)
 // and the result (25 per sample, 24 more with opposite points), equal to
-// PassBytes of the pass. Per-thread buffers and the kSphere pass's ball
-// tree, freed when Compute returns, are not counted. For bounding a pass
+// PassBytes of the pass. Per-thread buffers and the ball tree of a kSphere
+// pass or of rays started past empty balls (ray_start.h), freed when
+// Compute returns, are not counted. For bounding a pass
 // before it is traced (the server's memory budget); params must be valid
 // (ResolveParams).
 int64_t EstimatePassBytes(const Mesh& mesh, const SdfParams& params);
@@ -95,8 +96,8 @@ class SdfEvaluator : public MeshGeometry {
   // full pass's, bit for bit, and rays_traced counts the rays traced. A
   // previous pass that does not fit (other parameters, another frame of the ray
   // tracer, over half the vertices moved) gives a full pass, as does every
-  // kSphere pass (the ball has no rays to reuse; it walks
-  // CurrentBallTree()) and every face-sample pass. Errors: InvalidArgument for
+  // kSphere pass (the ball has no rays to reuse; it builds its own BVH,
+  // ball_tree.h) and every face-sample pass. Errors: InvalidArgument for
   // bad params or control.threads; Cancelled when control.cancelled() returned
   // true; Internal from Embree.
   absl::StatusOr<SdfResult> Compute(
@@ -114,11 +115,7 @@ class SdfEvaluator : public MeshGeometry {
                                absl::Span<const Vec3> positions);
 
   const RayScene& scene() const { return *scene_; }
-  // The inscribed-ball tree (ball_tree.h) at the current positions, for
-  // kSphere passes and rays started past empty balls: built on first use,
-  // kept until the positions change. Thread-safe. Errors: Internal from
-  // Embree.
-  absl::StatusOr<std::shared_ptr<const BallTree>> CurrentBallTree() const;
+
   // BVH builds (creation, kRebuild updates, base generations) and refits
   // (other kRefit updates): each update counts once.
   // Safe to read while another thread updates the positions.
@@ -150,13 +147,10 @@ class SdfEvaluator : public MeshGeometry {
 
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   RayTest ray_test_ = RayTest::kWatertight;
-  RayStartMode ray_start_ = RayStartMode::kPastEmptyBall;
+  RayStartMode ray_start_ = RayStartMode::kAuto;
   int rebuild_every_updates_ = 0;
   std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;
-  mutable std::mutex ball_tree_mutex_;
-  // Null until CurrentBallTree builds it; reset by position updates.
-  mutable std::shared_ptr<const BallTree> ball_tree_;
   // The ray pass visits vertices in this Morton order of the positions at
   // creation (kept across updates; results stay in vertex order and do not
   // depend on it).
