@@ -200,6 +200,9 @@ void MeshGaugeServer::SweepLoop() {
     for (const std::string& line : uploads_.AbortIdle()) {
       std::cerr << "meshgauge-server: CreateSession: " << line << std::endl;
     }
+    // Cancelled only after their lines are logged, so that a call ends after
+    // its line.
+    uploads_.CancelAborted();
     since_sweep += period;
     if (since_sweep >= options_.sweep_interval_seconds) {
       store_->Sweep();

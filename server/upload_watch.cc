@@ -112,7 +112,6 @@ std::vector<std::string> UploadWatch::AbortIdle() {
     const bool idle = now - e.last > options_.upload_idle_seconds;
     if (!idle && !(e.discard && now - e.start > kMaxDiscardSeconds)) continue;
     e.aborted = true;
-    e.ctx->TryCancel();
     aborted.push_back(
         e.discard
             ? absl::StrCat("a refused upload's remainder was cancelled after ",
@@ -123,6 +122,16 @@ std::vector<std::string> UploadWatch::AbortIdle() {
                            " bytes in ", now - e.start, " s"));
   }
   return aborted;
+}
+
+void UploadWatch::CancelAborted() {
+  absl::MutexLock lock(&mu_);
+  // An entry lives until its call's Finish, so its context is alive here.
+  for (auto& [id, e] : uploads_) {
+    if (!e.aborted || e.cancelled) continue;
+    e.ctx->TryCancel();
+    e.cancelled = true;
+  }
 }
 
 }  // namespace meshgauge::server

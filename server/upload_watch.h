@@ -65,12 +65,15 @@ class UploadWatch {
   void Received(int64_t id);
   // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
   absl::Status Finish(int64_t id);
-  // Cancels every upload idle longer than the limit (still receiving), and
-  // every discard older than kMaxDiscardSeconds (silent or not); returns
-  // one line for the server's log per upload cancelled, naming the flag and
-  // what the client sent. (A cancelled call carries no status of the
-  // server's: the client sees CANCELLED.)
+  // Marks aborted every upload idle longer than the limit (still
+  // receiving), and every discard older than kMaxDiscardSeconds (silent or
+  // not); returns one line for the server's log per upload aborted, naming
+  // the flag and what the client sent. CancelAborted then cancels them, so
+  // that the line is logged before the call ends. (A cancelled call carries
+  // no status of the server's: the client sees CANCELLED.)
   std::vector<std::string> AbortIdle();
+  // Cancels the calls of the uploads AbortIdle aborted that are still open.
+  void CancelAborted();
 
  private:
   struct Entry {
@@ -79,6 +82,7 @@ class UploadWatch {
     int64_t bytes = 0;
     int64_t messages = 0;
     bool aborted = false;
+    bool cancelled = false;  // CancelAborted cancelled the call.
     bool discard = false;
     bool received = false;  // Received: the stream was read to its end.
   };

@@ -27,15 +27,18 @@ inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // True when both hold the same doubles, bit for bit (NaNs and signed zeros
 // included).
+// (memcmp is not called on empty vectors: their data() may be null.)
 inline bool SameBits(const std::vector<double>& a,
                      const std::vector<double>& b) {
   return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
+         (a.empty() ||
+          std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
 inline bool SameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   return a.size() == b.size() &&
-         std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0;
+         (a.empty() ||
+          std::memcmp(a.data(), b.data(), a.size() * sizeof(Vec3)) == 0);
 }
 
 inline absl::StatusCode Code(const absl::Status& s) { return s.code(); }
