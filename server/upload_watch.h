@@ -63,7 +63,7 @@ class UploadWatch {
   // checks the mesh, which is not the client's idleness, so AbortIdle and
   // the rate and deadline checks leave it alone.
   void Received(int64_t id);
-  // OK, or DEADLINE_EXCEEDED when AbortIdle cancelled this upload.
+  // OK, or DEADLINE_EXCEEDED when AbortIdle aborted this upload.
   absl::Status Finish(int64_t id);
   // Marks aborted every upload idle longer than the limit (still
   // receiving), and every discard older than kMaxDiscardSeconds (silent or

@@ -172,14 +172,6 @@ int ChildrenOutsideCone(const Inner& n, const Vec3& x, const ConeLanes& q) {
   return _mm_movemask_ps(outside);
 }
 
-// The ball's test for the four children of a node at once, in single
-// precision (SSE), with a margin (relative 1e-6 of the radius and of the
-// coordinates) far above its rounding, so that it keeps every box the
-// double-precision test keeps: a bit per child that may hold a point of
-// the ball. `key_out` receives, per child, rho (the radius of the ball
-// tangent at x through a point) of the box's point nearest the ball's
-// centre, +infinity on or behind the tangent plane: the order of the search,
-// not a bound (a smaller ball is likelier in a box with a smaller key).
 // Per child of a node, the squared distance (single precision) from the
 // point `centre` (relative to the tree's origin) to its box.
 __m128 BoxDistances2(const Inner& n, const Vec3& centre) {
@@ -195,13 +187,22 @@ __m128 BoxDistances2(const Inner& n, const Vec3& centre) {
   return d2;
 }
 
+// The ball's test for the four children of a node at once, in single
+// precision (SSE), with a margin (relative 1e-6 of the radius and of the
+// coordinates) far above its rounding, so that it keeps every box the
+// double-precision test keeps: a bit per child that may hold a point of
+// the ball. `key_out` receives, per child, rho (the radius of the ball
+// tangent at x through a point) of the box's point nearest the ball's
+// centre, +infinity on or behind the tangent plane: the order of the search,
+// not a bound (a smaller ball is likelier in a box with a smaller key).
 int ChildrenInBall(const Inner& n, const Vec3& x, const Vec3& axis, double r,
                    float abs_margin, float key_out[kArity]) {
   const __m128 zero = _mm_setzero_ps();
-  const __m128 d2 = BoxDistances2(n, x + axis * r);
+  const Vec3 centre = x + axis * r;
+  const __m128 d2 = BoxDistances2(n, centre);
   __m128 along = zero, w2 = zero;
   for (int k = 0; k < 3; ++k) {
-    const __m128 c = _mm_set1_ps(static_cast<float>(x[k] + axis[k] * r));
+    const __m128 c = _mm_set1_ps(static_cast<float>(centre[k]));
     const __m128 lo = _mm_load_ps(n.lo[k]);
     const __m128 hi = _mm_load_ps(n.hi[k]);
     const __m128 w = _mm_sub_ps(_mm_min_ps(_mm_max_ps(c, lo), hi),

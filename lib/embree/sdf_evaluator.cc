@@ -770,19 +770,21 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   }
   PassOutput out = NewOutput(*setup, hits != nullptr);
   const Stopwatch watch;
-  // kAuto starts rays past empty balls in 3D passes whose samples traced in
-  // full (all, or an incremental pass's moved ones) trace enough rays that
-  // the tree's build is a small share of the pass.
+  // Rays start past empty balls in 3D cone passes; with kAuto only where
+  // the samples traced in full (all, or an incremental pass's moved ones)
+  // trace enough rays that the tree's build is a small share of the pass.
+  bool use_starts = ray_start_ != RayStartMode::kSurface && !setup->sphere &&
+                    mesh_.dimension == 3;
+  if (use_starts && ray_start_ == RayStartMode::kAuto) {
+    const int64_t full_samples =
+        plan ? std::count(plan->dirty.begin(), plan->dirty.end(), 1)
+             : setup->samples;
+    use_starts = full_samples * setup->num_rays >=
+                 std::max(kStartsMinRays,
+                          kStartsPerPrimitive * std::ssize(topo_.primitives));
+  }
   std::optional<RayStarts> starts;
-  const int64_t full_samples =
-      plan ? std::count(plan->dirty.begin(), plan->dirty.end(), 1)
-           : setup->samples;
-  const bool large = full_samples * setup->num_rays >=
-                     std::max(kStartsMinRays, kStartsPerPrimitive *
-                                                  std::ssize(topo_.primitives));
-  if ((ray_start_ == RayStartMode::kPastEmptyBall ||
-       (ray_start_ == RayStartMode::kAuto && large)) &&
-      !setup->sphere && mesh_.dimension == 3) {
+  if (use_starts) {
     starts.emplace(setup->cone);
     if (starts->empty()) starts.reset();
   }
