@@ -32,4 +32,4 @@ export ASAN_OPTIONS="halt_on_error=1:detect_leaks=1:abort_on_error=1"
 export LSAN_OPTIONS="suppressions=$PWD/../tests/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"
 export MESHGAUGE_SANITIZED=1
-ctest --output-on-failure --no-tests=error -j"$(nproc)" "$@"
+../scripts/ctest_failures.sh --output-on-failure --no-tests=error -j"$(nproc)" "$@"

@@ -22,4 +22,4 @@ if [ "$deps_rc" -ne 0 ]; then cat "$log"; exit "$deps_rc"; fi
 [ "$build_rc" -eq 0 ] || exit "$build_rc"
 cd build
 # --no-tests=error: a configuration that lost its tests must not pass.
-ctest --output-on-failure --no-tests=error -j"$(nproc)"
+../scripts/ctest_failures.sh --output-on-failure --no-tests=error -j"$(nproc)"
