@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "lib/core/components.h"
@@ -304,6 +305,101 @@ TEST(RayStartTest, TheDefaultStartsPastBallsInLargePassesOnly) {
   EXPECT_EQ(small->samples_past_ball, 0);
 }
 
+// The samples an incremental pass traces in full after `moved` moved: the
+// corners of every face with a moved corner (docs/numerics.md,
+// "Incremental passes").
+int64_t MovedSamples(const Mesh& mesh, const std::vector<int32_t>& moved) {
+  std::vector<uint8_t> is_moved(mesh.num_vertices(), 0), dirty = is_moved;
+  for (int32_t v : moved) is_moved[v] = 1;
+  for (const Face& f : mesh.faces) {
+    bool any = false;
+    for (int k = 0; k < f.size; ++k) any |= is_moved[f.v[k]] != 0;
+    if (any) {
+      for (int k = 0; k < f.size; ++k) dirty[f.v[k]] = 1;
+    }
+  }
+  return std::count(dirty.begin(), dirty.end(), 1);
+}
+
+constexpr Vec3 kMove(1e-3, -2e-3, 1e-3);
+
+// `mesh` with the vertices `patch` moved by kMove.
+Mesh Moved(const Mesh& mesh, const std::vector<int32_t>& patch) {
+  Mesh at = mesh;
+  for (int32_t v : patch) at.positions[v] += kMove;
+  return at;
+}
+
+// The incremental pass of `ev` after the vertices `patch` of `mesh` moved,
+// from a pass at the original positions.
+Pass IncrementalPass(SdfEvaluator& ev, const Mesh& mesh,
+                     const std::vector<int32_t>& patch,
+                     const SdfParams& params) {
+  Pass last;
+  last.result = *ev.Compute(params, {}, &last.hits);
+  EXPECT_TRUE(ev.UpdatePositions(Moved(mesh, patch).positions).ok());
+  Pass next;
+  const PreviousPass previous{&last.result, &last.hits};
+  auto r = ev.Compute(params, {}, &next.hits, &previous);
+  EXPECT_TRUE(r.ok()) << r.status();
+  next.result = *std::move(r);
+  EXPECT_LT(next.result.rays_traced, last.result.rays_traced);
+  return next;
+}
+
+// A small moved patch: the unmoved samples whose cones see it retrace
+// rays, and those retracing many start them past balls too (more samples
+// start past balls than the pass traces in full), with the bits of a
+// fresh pass from the surface.
+TEST(RayStartTest, AnIncrementalPassStartsUnmovedSamplesRetracedRaysPastBalls) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  SdfParams params;
+  params.rays = 64;
+  auto ev =
+      SdfEvaluator::Create(mesh, {.ray_start = RayStartMode::kPastEmptyBall});
+  ASSERT_TRUE(ev.ok());
+  const std::vector<int32_t> patch =
+      testing::Patch(mesh, 5000, 0.05 * BoundingBoxDiagonal(mesh));
+  ASSERT_GT(patch.size(), 20u);
+  const Pass next = IncrementalPass(**ev, mesh, patch, params);
+  EXPECT_GT(next.result.samples_past_ball, MovedSamples(mesh, patch) + 20);
+  ExpectSameBits(next,
+                 PassFrom(Moved(mesh, patch), params, RayStartMode::kSurface),
+                 "small patch");
+}
+
+// kAuto in an incremental pass counts twice its moved samples' rays (its
+// unmoved samples retrace about as many): rocker-arm's threshold is 2^18
+// rays; a patch whose moved samples trace 100 rays each, between a half
+// and all of it, starts rays past balls, a small one does not.
+TEST(RayStartTest, TheDefaultCountsAnIncrementalPassByItsMovedSamples) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
+  ASSERT_LT(8 * mesh.num_faces(), int64_t{1} << 18);
+  SdfParams params;
+  params.rays = 100;
+  const double diagonal = BoundingBoxDiagonal(mesh);
+  const std::vector<int32_t> small =
+      testing::Patch(mesh, 5000, 0.05 * diagonal);
+  std::vector<int32_t> medium;
+  for (double radius = 0.05; radius < 1; radius *= 1.1) {
+    medium = testing::Patch(mesh, 5000, radius * diagonal);
+    if (100 * MovedSamples(mesh, medium) > (int64_t{1} << 17)) break;
+  }
+  const int64_t medium_rays = 100 * MovedSamples(mesh, medium);
+  ASSERT_GT(medium_rays, int64_t{1} << 17);
+  ASSERT_LT(medium_rays, int64_t{1} << 18);
+  ASSERT_LT(100 * MovedSamples(mesh, small), int64_t{1} << 17);
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(ev.ok());
+  EXPECT_EQ(IncrementalPass(**ev, mesh, small, params).result.samples_past_ball,
+            0);
+  auto again = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(again.ok());
+  EXPECT_GT(
+      IncrementalPass(**again, mesh, medium, params).result.samples_past_ball,
+      MovedSamples(mesh, medium) / 2);
+}
+
 // An incremental pass whose moved patch is large starts its moved samples'
 // rays past balls and still equals a fresh pass from the surface.
 TEST(RayStartTest, AnIncrementalPassStartsMovedSamplesPastBalls) {
@@ -313,23 +409,12 @@ TEST(RayStartTest, AnIncrementalPassStartsMovedSamplesPastBalls) {
   auto ev =
       SdfEvaluator::Create(mesh, {.ray_start = RayStartMode::kPastEmptyBall});
   ASSERT_TRUE(ev.ok());
-  Pass last;
-  last.result = *(*ev)->Compute(params, {}, &last.hits);
-  std::vector<Vec3> moved = mesh.positions;
   const std::vector<int32_t> patch =
       testing::Patch(mesh, 5000, 0.3 * BoundingBoxDiagonal(mesh));
-  for (int32_t v : patch) moved[v] += Vec3(1e-3, -2e-3, 1e-3);
-  ASSERT_TRUE((*ev)->UpdatePositions(moved).ok());
-  Pass next;
-  const PreviousPass previous{&last.result, &last.hits};
-  auto r = (*ev)->Compute(params, {}, &next.hits, &previous);
-  ASSERT_TRUE(r.ok());
-  next.result = *std::move(r);
-  EXPECT_LT(next.result.rays_traced, last.result.rays_traced);
+  const Pass next = IncrementalPass(**ev, mesh, patch, params);
   EXPECT_GT(next.result.samples_past_ball, std::ssize(patch) / 2);
-  Mesh at = mesh;
-  at.positions = moved;
-  ExpectSameBits(next, PassFrom(at, params, RayStartMode::kSurface),
+  ExpectSameBits(next,
+                 PassFrom(Moved(mesh, patch), params, RayStartMode::kSurface),
                  "incremental");
 }
 

@@ -39,6 +39,16 @@ constexpr int64_t kVertexBlock = 64;
 // spot, 293,000, 1.15 times as fast).
 constexpr int64_t kStartsPerPrimitive = 8;
 constexpr int64_t kStartsMinRays = int64_t{1} << 18;
+// In an incremental pass that starts rays past balls, an unmoved sample
+// looks for its ball only when it retraces at least this many rays: on
+// igea the walk of the tree costs about 1 us a sample and a start saves
+// about 0.1 us a ray.
+constexpr size_t kStartsMinRetraced = 16;
+// kAuto counts an incremental pass's rays as this many times its moved
+// samples' rays: it retraces about as many rays in the unmoved samples
+// whose cones see the moved patch (igea and rocker-arm, 10 % patches:
+// 0.8 and 1.1 times as many; meshgauge_incremental_bench).
+constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Where a ray meets a primitive's plane: the distance t and how far the
@@ -669,7 +679,8 @@ class SdfEvaluator::SampleTracer {
                      &s.excluded);
     const auto fan = absl::MakeSpan(s.candidates.data(), s.retrace.size());
     absl::Span<const float> starts;
-    if (starts_ != nullptr && !reuse) {
+    if (starts_ != nullptr &&
+        (!reuse || s.retrace.size() >= kStartsMinRetraced)) {
       const double r = starts_->EmptyBall(
           ev_, *ball_tree_, x, axis, s.excluded,
           RayStarts::kCapEdgeLengths * ev_.mean_edge_length(), reach,
@@ -771,17 +782,19 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   PassOutput out = NewOutput(*setup, hits != nullptr);
   const Stopwatch watch;
   // Rays start past empty balls in 3D cone passes; with kAuto only where
-  // the samples traced in full (all, or an incremental pass's moved ones)
-  // trace enough rays that the tree's build is a small share of the pass.
+  // the pass traces enough rays (all of a full pass's, an estimate from an
+  // incremental pass's moved samples) that the tree's build is a small
+  // share of it.
   bool use_starts = ray_start_ != RayStartMode::kSurface && !setup->sphere &&
                     mesh_.dimension == 3;
   if (use_starts && ray_start_ == RayStartMode::kAuto) {
-    const int64_t full_samples =
-        plan ? std::count(plan->dirty.begin(), plan->dirty.end(), 1)
-             : setup->samples;
-    use_starts = full_samples * setup->num_rays >=
-                 std::max(kStartsMinRays,
-                          kStartsPerPrimitive * std::ssize(topo_.primitives));
+    const int64_t rays =
+        plan ? kIncrementalRaysPerMovedRay * setup->num_rays *
+                   std::count(plan->dirty.begin(), plan->dirty.end(), 1)
+             : setup->num_rays * setup->samples;
+    use_starts =
+        rays >= std::max(kStartsMinRays,
+                         kStartsPerPrimitive * std::ssize(topo_.primitives));
   }
   std::optional<RayStarts> starts;
   if (use_starts) {

@@ -27,7 +27,9 @@ enum class RayStartMode {
   // At the sample (Embree walks the surface's boxes around it).
   kSurface,
   // Past a tangent ball proven empty within the rays' cone, where one is
-  // found (ray_start.h); elsewhere at the sample. 3D only.
+  // found (ray_start.h); elsewhere at the sample, and so in an incremental
+  // pass are an unmoved sample's rays when it retraces only a few
+  // (sdf_evaluator.cc). 3D only.
   kPastEmptyBall,
   // kPastEmptyBall for 3D passes large enough that building the ball's
   // tree costs less than it saves (sdf_evaluator.cc), else kSurface.
