@@ -110,6 +110,17 @@ TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
   EXPECT_GT(wide.result.samples_past_ball, 0);
 }
 
+// A curve's pass (traced against its extrusion) starts its rays at the
+// curve whatever the mode: the certificate is for 3D primitives.
+TEST(RayStartTest, ACurvesPassStartsAtTheCurve) {
+  const Mesh circle = MakeCircle(1, 10000);
+  SdfParams params;
+  const Pass ball = PassFrom(circle, params, RayStartMode::kPastEmptyBall);
+  ExpectSameBits(ball, PassFrom(circle, params, RayStartMode::kSurface), "2D");
+  EXPECT_EQ(ball.result.samples_past_ball, 0);
+  EXPECT_GT(ball.result.rays_traced, int64_t{1} << 17);
+}
+
 // A second copy of the sphere on the first, with vertices of its own: each
 // sample has primitives through it that it does not exclude, so no ball is
 // empty and every sample falls back.
