@@ -125,7 +125,9 @@ struct SdfResult {
   // (no rays, no frame) and for face samples (a face's corners give one).
   int64_t world_frame_vertices = 0;
   // Samples whose rays started past an empty ball (lib/embree/ray_start.h);
-  // the other traced samples fell back to starting at the surface.
+  // the others traced from the surface: no ball was found, the pass did not
+  // look for one (kSurface, 2D, kAuto's small passes, an incremental pass's
+  // unmoved samples retracing fewer than 16 rays) or traced nothing.
   int64_t samples_past_ball = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).

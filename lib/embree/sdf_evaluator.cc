@@ -40,14 +40,16 @@ constexpr int64_t kVertexBlock = 64;
 constexpr int64_t kStartsPerPrimitive = 8;
 constexpr int64_t kStartsMinRays = int64_t{1} << 18;
 // In an incremental pass that starts rays past balls, an unmoved sample
-// looks for its ball only when it retraces at least this many rays: on
-// igea the walk of the tree costs about 1 us a sample and a start saves
-// about 0.1 us a ray.
+// looks for its ball only when it retraces at least this many rays: the
+// walk of the tree costs about as much as starting ten rays past it saves
+// (an estimate from igea's run in docs/benchmarks.md and a profile: the walk
+// is about 1 us of a sample's thread time, a start saves about 0.1 us a
+// ray).
 constexpr size_t kStartsMinRetraced = 16;
 // kAuto counts an incremental pass's rays as this many times its moved
-// samples' rays: it retraces about as many rays in the unmoved samples
-// whose cones see the moved patch (igea and rocker-arm, 10 % patches:
-// 0.8 and 1.1 times as many; meshgauge_incremental_bench).
+// samples' rays: it retraces rays in the unmoved samples whose cones see
+// the moved patch too, 0.5 to 2.0 times as many
+// (meshgauge_incremental_bench on igea, rocker-arm and horse).
 constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
