@@ -21,6 +21,7 @@
 #include "absl/flags/usage.h"
 #include "bench/bench_mesh.h"
 #include "lib/core/stopwatch.h"
+#include "lib/core/topology.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "server/flags_help.h"
 
@@ -64,7 +65,7 @@ int Bench(const std::string& name, const Mesh& mesh) {
     }
     evaluators.push_back(*std::move(created));
   }
-  SdfEvaluator& ev = *evaluators[0];
+  const MeshTopology topology = MeshTopology::Build(mesh);
   const int64_t nv = mesh.num_vertices();
   const Vec3 by = Vec3(1, -1, 1) * (1e-3 * BoundingBoxDiagonal(mesh) / 1.732);
   struct Case {
@@ -97,15 +98,9 @@ int Bench(const std::string& name, const Mesh& mesh) {
               name.c_str(), static_cast<long long>(nv), full,
               static_cast<long long>(base.rays_traced));
   for (const Case& c : cases) {
-    // The samples a pass traces in full: the corners of every face with a
-    // moved corner (docs/numerics.md, "Incremental passes").
-    std::vector<uint8_t> is_moved(nv, 0), dirty(nv, 0);
-    for (int32_t v : c.moved) is_moved[v] = 1;
-    for (const Face& f : mesh.faces) {
-      bool any = false;
-      for (int k = 0; k < f.size; ++k) any |= is_moved[f.v[k]] != 0;
-      for (int k = 0; any && k < f.size; ++k) dirty[f.v[k]] = 1;
-    }
+    // The samples the pass traces in full.
+    const std::vector<uint8_t> dirty =
+        CornersOfFacesAround(topology, mesh, c.moved);
     const int64_t moved_rays = std::ssize(bases[0].hits.cone) *
                                std::count(dirty.begin(), dirty.end(), 1);
     std::vector<Vec3> to;

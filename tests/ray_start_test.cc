@@ -13,6 +13,7 @@
 #include "lib/core/components.h"
 #include "lib/core/normals.h"
 #include "lib/core/shapes.h"
+#include "lib/core/topology.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/ball_tree.h"
 #include "lib/embree/sdf_evaluator.h"
@@ -329,19 +330,10 @@ TEST(RayStartTest, TheDefaultStartsPastBallsInLargePassesOnly) {
   EXPECT_EQ(small->samples_past_ball, 0);
 }
 
-// The samples an incremental pass traces in full after `moved` moved: the
-// corners of every face with a moved corner (docs/numerics.md,
-// "Incremental passes").
+// The samples an incremental pass traces in full after `moved` moved.
 int64_t MovedSamples(const Mesh& mesh, const std::vector<int32_t>& moved) {
-  std::vector<uint8_t> is_moved(mesh.num_vertices(), 0), dirty = is_moved;
-  for (int32_t v : moved) is_moved[v] = 1;
-  for (const Face& f : mesh.faces) {
-    bool any = false;
-    for (int k = 0; k < f.size; ++k) any |= is_moved[f.v[k]] != 0;
-    if (any) {
-      for (int k = 0; k < f.size; ++k) dirty[f.v[k]] = 1;
-    }
-  }
+  const std::vector<uint8_t> dirty =
+      CornersOfFacesAround(MeshTopology::Build(mesh), mesh, moved);
   return std::count(dirty.begin(), dirty.end(), 1);
 }
 

@@ -101,6 +101,19 @@ void OneRingPrimitives(const MeshTopology& topo, int64_t p,
   out->erase(std::unique(out->begin(), out->end()), out->end());
 }
 
+std::vector<uint8_t> CornersOfFacesAround(const MeshTopology& topo,
+                                          const Mesh& mesh,
+                                          absl::Span<const int32_t> vertices) {
+  std::vector<uint8_t> corners(mesh.num_vertices(), 0);
+  for (int32_t v : vertices) {
+    for (int32_t f : topo.vertex_faces.Of(v)) {
+      const Face& face = mesh.faces[f];
+      for (int k = 0; k < face.size; ++k) corners[face.v[k]] = 1;
+    }
+  }
+  return corners;
+}
+
 void AppendPrimitivesNear(const MeshTopology& topo, const Mesh& mesh,
                           int32_t prim, const Vec3& y, double near,
                           std::vector<int32_t>* out) {

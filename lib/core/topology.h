@@ -65,6 +65,14 @@ struct MeshTopology {
   static MeshTopology Build(const Mesh& mesh);
 };
 
+// Per vertex of `mesh`, 1 when it is a corner of a face incident to one of
+// `vertices` (an incremental pass traces these samples in full once those
+// vertices moved: docs/numerics.md, "Incremental passes"), else 0.
+// Precondition: every index in [0, #V).
+std::vector<uint8_t> CornersOfFacesAround(const MeshTopology& topo,
+                                          const Mesh& mesh,
+                                          absl::Span<const int32_t> vertices);
+
 // The primitives a point `y` on primitive `prim` lies within `near` of,
 // through `prim`'s neighbourhood, appended to `out` (with repeats): those
 // sharing each edge of `prim` within `near` of y (both ends' lists

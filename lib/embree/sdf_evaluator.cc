@@ -298,13 +298,9 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
   }
   // Beyond half the vertices a full pass costs less than the checks.
   if (2 * std::ssize(moved) > nv) return nullptr;
-  plan->dirty.assign(nv, 0);
+  plan->dirty = CornersOfFacesAround(topo_, mesh_, moved);
   plan->moved_primitive.assign(topo_.primitives.size(), 0);
   for (int32_t v : moved) {
-    for (int32_t f : topo_.vertex_faces.Of(v)) {
-      const Face& face = mesh_.faces[f];
-      for (int k = 0; k < face.size; ++k) plan->dirty[face.v[k]] = 1;
-    }
     for (int32_t q : topo_.PrimitivesOf(v)) {
       plan->moved_primitive[q] = 1;
     }
