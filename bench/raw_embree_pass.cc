@@ -5,6 +5,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <atomic>
 #include <limits>
 
@@ -117,9 +118,28 @@ std::vector<RawConfig> RawConfigs() {
       configs.push_back({.robust = robust, .high_quality = true, .trace = t});
     }
   }
-  configs.push_back(
-      {.robust = true, .trace = RawTrace::kPacket16, .noop_filter = true});
+  for (RawTrace t : {RawTrace::kSingle, RawTrace::kPacket4, RawTrace::kPacket8,
+                     RawTrace::kPacket16, RawTrace::kStream}) {
+    configs.push_back({.robust = true, .trace = t, .noop_filter = true});
+  }
   return configs;
+}
+
+size_t SpecCeiling(absl::Span<const RawConfig> configs,
+                   absl::Span<const double> rate,
+                   absl::Span<const int64_t> hits) {
+  int64_t most = 0;
+  for (size_t c = 0; c < configs.size(); ++c) {
+    if (configs[c].noop_filter) most = std::max(most, hits[c]);
+  }
+  size_t best = configs.size();
+  for (size_t c = 0; c < configs.size(); ++c) {
+    if (!configs[c].noop_filter || !configs[c].robust || hits[c] < most) {
+      continue;
+    }
+    if (best == configs.size() || rate[c] > rate[best]) best = c;
+  }
+  return best;
 }
 
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "absl/types/span.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
 
@@ -42,9 +43,20 @@ struct RawConfig {
 
 // The configurations the benchmark tries, with and without ROBUST: MEDIUM
 // quality with single rays, packets of 4, 8 and 16 and streams; HIGH
-// quality with single rays and packets of 16; and last, meshgauge's own
-// (MEDIUM ROBUST packets of 16) with a no-op filter.
+// quality with single rays and packets of 16; and last, MEDIUM ROBUST with
+// a no-op filter and each way of tracing (the candidates for the SPEC
+// ceiling: meshgauge's own is packets of 16).
 std::vector<RawConfig> RawConfigs();
+
+// The SPEC ceiling among `configs`, measured at rate[c] rays per second
+// with hits[c] rays hit (the fewest over the rounds): the fastest ROBUST
+// configuration with the no-op filter whose hits are the most of any of
+// them (one that hits fewer rays misses hits, as Embree's coherent streams
+// do on spot, and is no ceiling). configs.size() when no configuration has
+// the no-op filter. All three spans have one entry per configuration.
+size_t SpecCeiling(absl::Span<const RawConfig> configs,
+                   absl::Span<const double> rate,
+                   absl::Span<const int64_t> hits);
 
 struct RawPassResult {
   int64_t rays = 0;

@@ -34,9 +34,10 @@ namespace {
 constexpr int64_t kVertexBlock = 64;
 // A pass starts rays past empty balls when it traces at least this many
 // rays a primitive and this many rays in all (ray_start.h): below them
-// building the tree cost more than the starts saved (the knight, 50,200
-// rays, and the tray, 221,600, were 0.87 and 0.77 times as fast with them;
-// spot, 293,000, 1.15 times as fast).
+// the tree's build and its walk per sample cost more than the starts saved
+// (the knight, 50,200 rays, and the tray, 221,600, were 0.87 and 0.77
+// times as fast with them, mostly for the walks; spot, 293,000, 1.15
+// times as fast).
 constexpr int64_t kStartsPerPrimitive = 8;
 constexpr int64_t kStartsMinRays = int64_t{1} << 18;
 // In an incremental pass that starts rays past balls, an unmoved sample
