@@ -125,19 +125,23 @@ std::vector<RawConfig> RawConfigs() {
   return configs;
 }
 
-size_t SpecCeiling(absl::Span<const RawConfig> configs,
-                   absl::Span<const double> rate,
-                   absl::Span<const int64_t> hits) {
+std::optional<size_t> SpecCeiling(absl::Span<const RawConfig> configs,
+                                  absl::Span<const double> rate,
+                                  absl::Span<const int64_t> hits) {
+  if (rate.size() != configs.size() || hits.size() != configs.size()) {
+    return std::nullopt;
+  }
+  auto candidate = [&](size_t c) {
+    return configs[c].robust && configs[c].noop_filter;
+  };
   int64_t most = 0;
   for (size_t c = 0; c < configs.size(); ++c) {
-    if (configs[c].noop_filter) most = std::max(most, hits[c]);
+    if (candidate(c)) most = std::max(most, hits[c]);
   }
-  size_t best = configs.size();
+  std::optional<size_t> best;
   for (size_t c = 0; c < configs.size(); ++c) {
-    if (!configs[c].noop_filter || !configs[c].robust || hits[c] < most) {
-      continue;
-    }
-    if (best == configs.size() || rate[c] > rate[best]) best = c;
+    if (!candidate(c) || hits[c] < most) continue;
+    if (!best || rate[c] > rate[*best]) best = c;
   }
   return best;
 }

@@ -5,7 +5,9 @@
 // streams), so meshgauge's ray pass is compared with the fastest of them.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -50,13 +52,14 @@ std::vector<RawConfig> RawConfigs();
 
 // The SPEC ceiling among `configs`, measured at rate[c] rays per second
 // with hits[c] rays hit (the fewest over the rounds): the fastest ROBUST
-// configuration with the no-op filter whose hits are the most of any of
-// them (one that hits fewer rays misses hits, as Embree's coherent streams
-// do on spot, and is no ceiling). configs.size() when no configuration has
-// the no-op filter. All three spans have one entry per configuration.
-size_t SpecCeiling(absl::Span<const RawConfig> configs,
-                   absl::Span<const double> rate,
-                   absl::Span<const int64_t> hits);
+// configuration with the no-op filter whose hits are the most of any such
+// configuration (one that hits fewer rays misses hits, as Embree's coherent
+// streams do on spot, and is no ceiling); the first of equally fast ones.
+// nullopt when no configuration is ROBUST with the filter or the three
+// spans differ in size.
+std::optional<size_t> SpecCeiling(absl::Span<const RawConfig> configs,
+                                  absl::Span<const double> rate,
+                                  absl::Span<const int64_t> hits);
 
 struct RawPassResult {
   int64_t rays = 0;

@@ -7,7 +7,7 @@
 # run; and ignore a log older than the run (another run's).
 # Usage: ctest_failures_test.sh SCRIPT
 set -euo pipefail
-script=$1
+script=$(realpath "${1:?usage: ctest_failures_test.sh SCRIPT}")
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fail() { echo "FAIL: $*"; exit 1; }
@@ -78,12 +78,17 @@ Required regular expression not found.
 
 End testing: Dec 06 18:16 UTC
 EOF
-# The fake ctest: writes the fixture as this run's log (unless told not
-# to) and exits with the code it is given.
+# The fake ctest: records its arguments, writes the fixture as this run's
+# log (unless told not to; dated a few seconds ahead, so that it is newer
+# than the script's start on any file system's clock) and exits with the
+# code it is given.
 cat >"$tmp/bin/ctest" <<EOF
 #!/usr/bin/env bash
-[[ \${FAKE_WRITE_LOG:-1} == 1 ]] &&
+echo "\$*" >"$tmp/ctest_args"
+if [[ \${FAKE_WRITE_LOG:-1} == 1 ]]; then
   cp "$tmp/fixture.log" Testing/Temporary/LastTest.log
+  touch -d "@\$(( \$(date +%s) + 3 ))" Testing/Temporary/LastTest.log
+fi
 exit \${FAKE_CTEST_CODE:-8}
 EOF
 chmod +x "$tmp/bin/ctest"
@@ -98,6 +103,8 @@ code=$?
 set -e
 cat "$tmp/out"
 [[ $code == 8 ]] || fail "exit code $code, expected CTest's 8"
+[[ $(cat "$tmp/ctest_args") == "-j2" ]] ||
+  fail "ctest got '$(cat "$tmp/ctest_args")', not the script's arguments"
 out=$(cat "$tmp/out")
 [[ $out == *"== why the failed tests failed"* ]] || fail "no heading"
 [[ $out == *"-- Suite.Breaks"* ]] || fail "Suite.Breaks not named"
@@ -117,7 +124,7 @@ FAKE_CTEST_CODE=0 run || fail "a passing run exited non-zero"
 [[ ! -s $tmp/out ]] || fail "a passing run printed: $(cat "$tmp/out")"
 
 # A failing run that wrote no log leaves the older one alone.
-touch -d '2 minutes ago' "$tmp/build/Testing/Temporary/LastTest.log"
+touch -d '-2 minutes' "$tmp/build/Testing/Temporary/LastTest.log"
 set +e
 FAKE_WRITE_LOG=0 run
 code=$?
