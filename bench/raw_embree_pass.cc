@@ -131,16 +131,13 @@ std::optional<size_t> SpecCeiling(absl::Span<const RawConfig> configs,
   if (rate.size() != configs.size() || hits.size() != configs.size()) {
     return std::nullopt;
   }
-  auto candidate = [&](size_t c) {
-    return configs[c].robust && configs[c].noop_filter;
-  };
   int64_t most = 0;
   for (size_t c = 0; c < configs.size(); ++c) {
-    if (candidate(c)) most = std::max(most, hits[c]);
+    if (configs[c].CeilingCandidate()) most = std::max(most, hits[c]);
   }
   std::optional<size_t> best;
   for (size_t c = 0; c < configs.size(); ++c) {
-    if (!candidate(c) || hits[c] < most) continue;
+    if (!configs[c].CeilingCandidate() || hits[c] < most) continue;
     if (!best || rate[c] > rate[*best]) best = c;
   }
   return best;

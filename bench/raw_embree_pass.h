@@ -41,6 +41,9 @@ struct RawConfig {
   // e.g. "MEDIUM ROBUST rtcIntersect8", "MEDIUM ROBUST rtcIntersect16
   // no-op filter".
   std::string Name() const;
+  // Whether it may be the SPEC ceiling (SpecCeiling): ROBUST, with the
+  // no-op filter.
+  bool CeilingCandidate() const { return robust && noop_filter; }
 };
 
 // The configurations the benchmark tries, with and without ROBUST: MEDIUM

@@ -164,8 +164,7 @@ struct RawBest {
     std::printf("%-28s fastest raw: %s, %.3e rays/s\n", name.c_str(),
                 configs[Fastest()].Name().c_str(), rate[Fastest()]);
     for (size_t c = 0; c < configs.size(); ++c) {
-      if (configs[c].robust && configs[c].noop_filter &&
-          hits[c] < hits[ceiling]) {
+      if (configs[c].CeilingCandidate() && hits[c] < hits[ceiling]) {
         std::printf(
             "%-28s %s misses %lld of the %lld hits of the others: not a "
             "ceiling\n",

@@ -378,7 +378,6 @@ Pass IncrementalPass(SdfEvaluator& ev, const Mesh& mesh,
 // bit against a fresh pass from the surface at the moved positions.
 struct PatchPass {
   Pass pass;
-  int64_t samples = 0;  // the mesh's vertices.
   int64_t patch_vertices = 0;
   int64_t moved_samples = 0;  // MovedSamples of the patch.
 };
@@ -394,8 +393,8 @@ PatchPass RockerArmPatchPass(double radius, int rays) {
   }
   const std::vector<int32_t> patch =
       testing::Patch(mesh, 5000, radius * BoundingBoxDiagonal(mesh));
-  PatchPass out{IncrementalPass(**ev, mesh, patch, params), mesh.num_vertices(),
-                std::ssize(patch), MovedSamples(mesh, patch)};
+  PatchPass out{IncrementalPass(**ev, mesh, patch, params), std::ssize(patch),
+                MovedSamples(mesh, patch)};
   ExpectSameBits(out.pass,
                  PassFrom(Moved(mesh, patch), params, RayStartMode::kSurface),
                  absl::StrCat("patch of radius ", radius));
