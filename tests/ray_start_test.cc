@@ -9,6 +9,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <map>
+#include <tuple>
 
 #include "lib/core/components.h"
 #include "lib/core/normals.h"
@@ -145,6 +147,25 @@ TEST(RayStartTest, ACoincidentSurfaceLeavesNoBall) {
   const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
   ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "twice");
   EXPECT_EQ(ball.result.samples_past_ball, 0);
+}
+
+// The teapot's OBJ repeats the vertices of its seams: at each of those
+// samples another vertex's primitives touch the sample, so no ball is
+// certified there (as in ACoincidentSurfaceLeavesNoBall), and every other
+// sample finds one.
+TEST(RayStartTest, TheTeapotFallsBackExactlyAtItsRepeatedVertices) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("teapot.obj"));
+  std::map<std::tuple<double, double, double>, int> at;
+  for (const Vec3& x : mesh.positions) ++at[{x.x, x.y, x.z}];
+  int64_t repeated = 0;
+  for (const Vec3& x : mesh.positions) repeated += at[{x.x, x.y, x.z}] > 1;
+  ASSERT_GT(repeated, 0);
+  SdfParams params;
+  params.rays = 24;
+  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
+  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface),
+                 "teapot");
+  EXPECT_EQ(Traced(ball.result) - ball.result.samples_past_ball, repeated);
 }
 
 // The ball EmptyBall returns holds no admissible point of any primitive but
