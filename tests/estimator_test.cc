@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <vector>
 
 namespace meshgauge {
@@ -51,6 +53,50 @@ TEST(EstimatorTest, MissesAreIgnoredAndNoHitKeepsNothing) {
   EXPECT_EQ(e.hits, 2);
   EXPECT_EQ(e.kept, 2);
   EXPECT_EQ(e.value, 4.0);
+}
+
+// SelectMiddle against std::nth_element: every count from 1 to 130, values
+// in tight clusters with ties (most fall in one bucket), spread ones, and a
+// range too small for buckets (hi - lo subnormal: scale overflows) and one
+// too large (hi - lo overflows).
+TEST(EstimatorTest, SelectMiddleGivesTheValuesOfTheMiddleRanks) {
+  std::mt19937 rng(7);
+  std::normal_distribution<double> tight(1.0, 1e-3);
+  std::uniform_real_distribution<double> spread(0.5, 40.0);
+  for (int n = 1; n <= 130; ++n) {
+    for (int kind = 0; kind < 5; ++kind) {
+      std::vector<double> v(n);
+      for (double& x : v) {
+        switch (kind) {
+          case 0:
+            x = rng() % 10 < 7 ? tight(rng) : spread(rng);
+            break;
+          case 1:
+            x = std::round(spread(rng));
+            break;  // many ties
+          case 2:
+            x = 1e-310 * (1 + rng() % 3);
+            break;  // subnormal range
+          case 3:
+            x = (rng() % 2 == 0 ? 1.5e308 : -1.5e308) / (1 + rng() % 3);
+            break;
+          default:
+            x = rng() % 2 == 0 ? 2.0 : 3.0;
+        }
+      }
+      std::vector<double> sorted = v;
+      std::sort(sorted.begin(), sorted.end());
+      const size_t mid = v.size() / 2;
+      const MiddleValues m = SelectMiddle(v, sorted.front(), sorted.back());
+      EXPECT_EQ(m.upper, sorted[mid]) << n << " " << kind;
+      EXPECT_EQ(m.lower, n % 2 == 0 ? sorted[mid - 1] : sorted[mid])
+          << n << " " << kind;
+    }
+  }
+  std::vector<double> none;
+  const MiddleValues empty = SelectMiddle(none, 0, 0);
+  EXPECT_EQ(empty.lower, 0);
+  EXPECT_EQ(empty.upper, 0);
 }
 
 }  // namespace

@@ -2,36 +2,77 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 
 namespace meshgauge {
+
+MiddleValues SelectMiddle(std::vector<double>& v, double lo, double hi) {
+  const size_t n = v.size();
+  const size_t mid = n / 2;
+  if (n == 0) return {};
+  if (!(lo < hi)) return {lo, lo};
+  // Rank `mid` (and `mid - 1` for an even count) by buckets first: the
+  // bucket of x is monotone in x, so the middle ranks lie in the buckets
+  // that hold them, and only those buckets' values are selected among.
+  constexpr int kBuckets = 64;
+  const double scale = kBuckets / (hi - lo);
+  if (!std::isfinite(scale) || !(scale > 0)) {  // a tiny or huge range
+    std::nth_element(v.begin(), v.begin() + mid, v.end());
+    const double upper = v[mid];
+    return {n % 2 == 0 ? *std::max_element(v.begin(), v.begin() + mid) : upper,
+            upper};
+  }
+  auto bucket = [&](double x) {
+    return std::min(kBuckets - 1, static_cast<int>((x - lo) * scale));
+  };
+  uint32_t count[kBuckets] = {};
+  for (double x : v) ++count[bucket(x)];
+  const size_t low_rank = n % 2 == 0 ? mid - 1 : mid;
+  // The buckets of ranks low_rank and mid, and how many values lie below
+  // the first.
+  int first = 0;
+  size_t below = 0;
+  while (below + count[first] <= low_rank) below += count[first++];
+  int last = first;
+  size_t through = below + count[first];
+  while (through <= mid) through += count[++last];
+  const auto middle = std::partition(v.begin(), v.end(), [&](double x) {
+    const int b = bucket(x);
+    return b >= first && b <= last;
+  });
+  const auto at = v.begin() + static_cast<ptrdiff_t>(mid - below);
+  std::nth_element(v.begin(), at, middle);
+  const double upper = *at;
+  return {n % 2 == 0 ? *std::max_element(v.begin(), at) : upper, upper};
+}
 
 ConeEstimate EstimateCone(absl::Span<const double> t,
                           absl::Span<const ConeRay> cone, double kappa,
                           absl::Span<uint8_t> kept,
                           std::vector<double>& scratch) {
   ConeEstimate est;
-  scratch.clear();
+  scratch.resize(t.size());
   double sum = 0;
+  double lo = std::numeric_limits<double>::infinity();
+  double hi = -lo;
+  size_t n = 0;
   for (double tk : t) {
-    if (!std::isnan(tk)) {
-      scratch.push_back(tk);
-      sum += tk;
-    }
+    if (std::isnan(tk)) continue;
+    scratch[n++] = tk;
+    sum += tk;
+    lo = std::min(lo, tk);
+    hi = std::max(hi, tk);
   }
+  scratch.resize(n);
   std::fill(kept.begin(), kept.end(), 0);
-  const size_t n = scratch.size();
   est.hits = static_cast<int32_t>(n);
   if (n == 0) return est;
   const double mean = sum / static_cast<double>(n);
   double var = 0;
   for (double tk : scratch) var += (tk - mean) * (tk - mean);
   const double sigma = std::sqrt(var / static_cast<double>(n));
-  const size_t mid = n / 2;
-  std::nth_element(scratch.begin(), scratch.begin() + mid, scratch.end());
-  const double upper = scratch[mid];
-  const double lower =
-      n % 2 == 0 ? *std::max_element(scratch.begin(), scratch.begin() + mid)
-                 : upper;
+  const auto [lower, upper] = SelectMiddle(scratch, lo, hi);
   const double median = (lower + upper) / 2;
   const double tolerance = 1e-12 * std::abs(median);
   const double bound = kappa * sigma + tolerance;
