@@ -143,24 +143,8 @@ std::optional<size_t> SpecCeiling(absl::Span<const RawConfig> configs,
   return best;
 }
 
-absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params, int threads,
-                                         const RawConfig& config) {
-  if (mesh.dimension != 3) {
-    return absl::InvalidArgumentError("the raw pass is for 3D meshes");
-  }
-  const MeshTopology topo = MeshTopology::Build(mesh);
-  const ResolvedParams resolved = ResolveParams(params, 3);
-  auto cone = MakeCone(3, resolved.aperture_radians, resolved.rays,
-                       resolved.min_weight_angle);
-  if (!cone.ok()) return cone.status();
-  if (params.method == SdfMethod::kNormalRay) {
-    *cone = {{Vec3(0, 0, 1), 0.0, 1.0}};
-  }
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
-
-  RTCDevice device = rtcNewDevice(nullptr);
+RTCScene NewRawScene(RTCDevice device, const Mesh& mesh,
+                     const MeshTopology& topo, const RawConfig& config) {
   RTCScene scene = rtcNewScene(device);
   int flags = config.robust ? RTC_SCENE_FLAG_ROBUST : RTC_SCENE_FLAG_NONE;
   if (config.noop_filter) flags |= RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION;
@@ -187,6 +171,28 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
   rtcCommitGeometry(geom);
   rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
+  return scene;
+}
+
+absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
+                                         const SdfParams& params, int threads,
+                                         const RawConfig& config) {
+  if (mesh.dimension != 3) {
+    return absl::InvalidArgumentError("the raw pass is for 3D meshes");
+  }
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  const ResolvedParams resolved = ResolveParams(params, 3);
+  auto cone = MakeCone(3, resolved.aperture_radians, resolved.rays,
+                       resolved.min_weight_angle);
+  if (!cone.ok()) return cone.status();
+  if (params.method == SdfMethod::kNormalRay) {
+    *cone = {{Vec3(0, 0, 1), 0.0, 1.0}};
+  }
+  const std::vector<Vec3> normals =
+      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
+
+  RTCDevice device = rtcNewDevice(nullptr);
+  RTCScene scene = NewRawScene(device, mesh, topo, config);
   tbb::task_arena arena(ThreadCount(threads));
   RawPassResult result;
   const Stopwatch build;

@@ -5,6 +5,8 @@
 // streams), so meshgauge's ray pass is compared with the fastest of them.
 #pragma once
 
+#include <embree3/rtcore.h>
+
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -15,6 +17,7 @@
 #include "absl/types/span.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/topology.h"
 
 namespace meshgauge::bench {
 
@@ -71,11 +74,17 @@ struct RawPassResult {
   double build_seconds = 0;  // the scene's BVH build
 };
 
+// An Embree scene of the mesh's triangles (3D only; `topo` is the mesh's)
+// with `config`'s scene flags and build quality, not yet committed; the
+// caller commits and releases it.
+RTCScene NewRawScene(RTCDevice device, const Mesh& mesh,
+                     const MeshTopology& topo, const RawConfig& config);
+
 // Builds an Embree scene of the mesh's triangles (3D only) as `config` says
-// and traces, for every vertex with faces in the mesh's vertex order, the
-// resolved cone of `params` with tnear = eps * h and tfar = bounding-box
-// diagonal, over vertices in a oneTBB parallel_for with `threads` threads
-// (0: all cores). The ray pass and the build are timed separately.
+// (NewRawScene) and traces, for every vertex with faces in the mesh's vertex
+// order, the resolved cone of `params` with tnear = eps * h and tfar =
+// bounding-box diagonal, over vertices in a oneTBB parallel_for with `threads`
+// threads (0: all cores). The ray pass and the build are timed separately.
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
                                          const SdfParams& params, int threads,
                                          const RawConfig& config = {});
