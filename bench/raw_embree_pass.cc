@@ -83,7 +83,8 @@ int64_t TraceVertex(RawTrace trace, bool noop_filter, RTCScene scene,
       ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
       stream.resize(dirs.size());
       for (size_t k = 0; k < dirs.size(); ++k) {
-        stream[k] = MakeRayHit(x, dirs[k], t_near, t_far);
+        stream[k] = MakeStreamRayHit(x, dirs[k], t_near, t_far,
+                                     static_cast<unsigned>(k));
       }
       rtcIntersect1M(scene, &ctx, stream.data(),
                      static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));

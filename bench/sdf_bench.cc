@@ -17,6 +17,9 @@
 //  * the same pass with every ray started at the surface (no empty ball,
 //    lib/embree/ray_start.h): best rate, the share of samples that fell
 //    back to it in the default pass, and whether both gave the same bits;
+//  * the same pass with each traversal forced (FanTraversal: packets of 16,
+//    one coherent stream per sample): best rates against the SPEC ceiling,
+//    which one the default pass chose, and whether all gave the same bits;
 //  * a values-only pass vs a values pass keeping the hit table (best time
 //    also shown alone) followed by the VJP (all-ones g): best times and
 //    their ratio;
@@ -254,6 +257,16 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   double best_surface = 0;
   int64_t past_ball = 0, traced_samples = 0;
   bool same_bits = true;
+  // The same pass with each traversal (FanTraversal): their rates, and that
+  // they give the same bits.
+  auto packet_evaluator =
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
+                                  .fan_traversal = FanTraversal::kPackets});
+  auto stream_evaluator =
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
+                                  .fan_traversal = FanTraversal::kStream});
+  double best_packets = 0, best_stream = 0;
+  bool streamed = false, same_traversal_bits = true;
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
   double best_sdf = 0, best_values = 1e300;
@@ -306,6 +319,19 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
         std::max(best_surface, surface->rays_traced / surface->trace_seconds);
     same_bits &= SameBits(sdf->values, surface->values) &&
                  surface->hits == sdf->hits && surface->kept == sdf->kept;
+    for (const auto& [ev, best] :
+         {std::pair{&packet_evaluator, &best_packets},
+          std::pair{&stream_evaluator, &best_stream}}) {
+      auto pass = (**ev)->Compute(params, control);
+      if (!pass.ok()) {
+        std::fprintf(stderr, "traversal pass failed\n");
+        return 1;
+      }
+      *best = std::max(*best, pass->rays_traced / pass->trace_seconds);
+      same_traversal_bits &= SameBits(sdf->values, pass->values) &&
+                             pass->hits == sdf->hits && pass->kept == sdf->kept;
+    }
+    streamed = sdf->rays_streamed;
     past_ball = sdf->samples_past_ball;
     traced_samples = std::ssize(sdf->values) -
                      sdf->CountStatus(VertexStatus::kNoFaces) -
@@ -355,6 +381,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       static_cast<long long>(traced_samples - past_ball),
       static_cast<long long>(traced_samples),
       same_bits ? "bit-identical" : "DIFFER");
+  std::printf(
+      "%-28s traversal: the pass %s; packets %.3e rays/s = %.3f of the "
+      "ceiling, streams %.3e rays/s = %.3f of it; values, hits and kept %s\n",
+      "", streamed ? "streamed" : "traced packets", best_packets,
+      best_packets / ceiling, best_stream, best_stream / ceiling,
+      same_traversal_bits ? "bit-identical" : "DIFFER");
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);
   std::printf(

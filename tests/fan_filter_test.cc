@@ -13,6 +13,7 @@ namespace {
 struct Lane {
   int32_t prim;
   float t, u, v;
+  unsigned id = 0;  // the ray's id (a stream's index of the ray)
 };
 
 // Calls FanFilter once on a packet of lanes.size() lanes (laid out for
@@ -33,6 +34,7 @@ std::vector<int> Filter(const FanContext& fan, const std::vector<Lane>& lanes,
     RTCHitN_u(hits, n, i) = lanes[i].u;
     RTCHitN_v(hits, n, i) = lanes[i].v;
     RTCRayN_tfar(rays, n, i) = lanes[i].t;
+    RTCRayN_id(rays, n, i) = lanes[i].id;
   }
   RTCFilterFunctionNArguments args{};
   args.valid = valid.data();
@@ -122,6 +124,28 @@ TEST(FanFilterTest, ASingleRayCollectsItsWindow) {
   ASSERT_EQ(out[0].count(), 2);
   EXPECT_EQ(out[0][0].prim, 7);
   EXPECT_EQ(out[0][1].prim, 8);
+}
+
+// A stream's rays reach the filter in groups Embree makes: with
+// lanes_by_id each lane records into the candidates of its ray's id, not
+// of its lane.
+TEST(FanFilterTest, AStreamsLanesRecordIntoTheirRaysCandidates) {
+  std::vector<HitCandidates> out(40);
+  const std::vector<int32_t> none;
+  FanContext fan = Context(none, out);
+  fan.lanes_by_id = true;
+  std::vector<Lane> lanes(8);
+  for (int i = 0; i < 8; ++i) {
+    lanes[i] = {20 + i, 1.5f, 0.2f, 0.2f, static_cast<unsigned>(39 - 3 * i)};
+  }
+  Filter(fan, lanes);
+  for (int k = 0; k < 40; ++k) {
+    const bool traced = k <= 39 && (39 - k) % 3 == 0 && (39 - k) / 3 < 8;
+    ASSERT_EQ(out[k].count(), traced ? 1 : 0) << k;
+    if (traced) {
+      EXPECT_EQ(out[k][0].prim, 20 + (39 - k) / 3) << k;
+    }
+  }
 }
 
 }  // namespace

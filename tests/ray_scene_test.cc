@@ -9,7 +9,11 @@
 #include <cmath>
 #include <random>
 
+#include "lib/core/cone.h"
+#include "lib/core/normals.h"
 #include "lib/core/shapes.h"
+#include "lib/core/vertex_cone.h"
+#include "lib/io/mesh_io.h"
 #include "tests/ray_test_util.h"
 #include "tests/test_util.h"
 
@@ -166,6 +170,62 @@ int64_t RaysLostAtSharedEdges(RayTest test) {
 TEST(RaySceneTest, RaysThroughSharedEdgesAndVerticesAreNotLost) {
   EXPECT_EQ(RaysLostAtSharedEdges(RayTest::kWatertight), 0);
   EXPECT_GT(RaysLostAtSharedEdges(RayTest::kFast), 0);
+}
+
+// A fan traced as a coherent stream finds exactly the candidates of the
+// same fan in packets (primitives, single-precision distances, edge and
+// near flags), on every vertex of spot with the pass's own cone and
+// one-ring excluded: among them the 7 vertices on spot's plane of symmetry
+// whose first ray has a direction component just below zero, whose rays
+// Embree's streams lose unless MakeStreamRayHit makes it -0
+// (EmbreeStreamTest).
+TEST(RaySceneTest, AStreamFindsThePacketsCandidatesEvenBesideAZeroComponent) {
+  const Mesh mesh = *ReadMesh(SharedMesh("spot_triangulated.obj"));
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const ResolvedParams resolved = ResolveParams(SdfParams{}, 3);
+  const std::vector<ConeRay> cone = *MakeCone(
+      3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
+  const std::vector<Vec3> normals =
+      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
+  const auto h = static_cast<float>(MeanEdgeLength(mesh));
+  const RayScene::FanLimits limits = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
+  std::vector<HitCandidates> packets(cone.size()), stream(cone.size());
+  std::vector<Vec3> dirs(cone.size());
+  std::vector<int32_t> ring;
+  int leaning = 0;
+  int64_t hits = 0;
+  for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+    const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
+    ASSERT_TRUE(vc.valid) << p;
+    bool leans = false;
+    for (size_t k = 0; k < cone.size(); ++k) {
+      dirs[k] = RayDirection(vc.frame, cone[k]);
+      for (double c : {dirs[k].x, dirs[k].y, dirs[k].z}) {
+        leans |= static_cast<float>(c) < 0 && static_cast<float>(c) > -1e-18f;
+      }
+    }
+    leaning += leans;
+    OneRingPrimitives(topo, p, &ring);
+    (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
+                           absl::MakeSpan(packets), {}, FanTraversal::kPackets);
+    (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
+                           absl::MakeSpan(stream), {}, FanTraversal::kStream);
+    for (size_t k = 0; k < cone.size(); ++k) {
+      SCOPED_TRACE(::testing::Message() << "vertex " << p << " ray " << k);
+      ASSERT_EQ(stream[k].count(), packets[k].count());
+      hits += packets[k].count() > 0;
+      EXPECT_EQ(stream[k].near(), packets[k].near());
+      for (int i = 0; i < packets[k].count(); ++i) {
+        EXPECT_EQ(stream[k][i].prim, packets[k][i].prim);
+        EXPECT_EQ(stream[k][i].t, packets[k][i].t);
+        EXPECT_EQ(stream[k][i].edge, packets[k][i].edge);
+      }
+    }
+  }
+  EXPECT_EQ(leaning, 7);
+  EXPECT_EQ(hits, mesh.num_vertices() * std::ssize(cone));  // closed
 }
 
 }  // namespace

@@ -20,46 +20,16 @@
 #include "lib/embree/ball_tree.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
+#include "tests/pass_test_util.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
 
+using testing::ExpectSameBits;
+using testing::Pass;
+using testing::PassFrom;
 using testing::SameBits;
-
-struct Pass {
-  SdfResult result;
-  HitTable hits;
-};
-
-// A fresh evaluator's pass (empty, with a failure, when it fails).
-Pass PassFrom(const Mesh& mesh, const SdfParams& params, RayStartMode start) {
-  Pass pass;
-  auto ev = SdfEvaluator::Create(mesh, {.ray_start = start});
-  if (!ev.ok()) {
-    ADD_FAILURE() << ev.status();
-    return pass;
-  }
-  auto r = (*ev)->Compute(params, {.threads = 2}, &pass.hits);
-  if (!r.ok()) {
-    ADD_FAILURE() << r.status();
-    return pass;
-  }
-  pass.result = *std::move(r);
-  return pass;
-}
-
-// The result, the hit table and its near flags of both passes, bit for bit.
-void ExpectSameBits(const Pass& a, const Pass& b, const std::string& what) {
-  EXPECT_TRUE(SameBits(a.result.values, b.result.values)) << what;
-  EXPECT_TRUE(SameBits(a.result.opposite, b.result.opposite)) << what;
-  EXPECT_EQ(a.result.status, b.result.status) << what;
-  EXPECT_EQ(a.result.hits, b.result.hits) << what;
-  EXPECT_EQ(a.result.kept, b.result.kept) << what;
-  EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
-  EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
-  EXPECT_EQ(a.hits.near, b.hits.near) << what;
-}
 
 int64_t Traced(const SdfResult& r) {
   return std::ssize(r.values) - r.CountStatus(VertexStatus::kNoFaces) -
@@ -95,8 +65,10 @@ TEST(RayStartTest, EveryTestMeshGivesTheBitsOfRaysStartedAtTheSurface) {
       params.cone_angle_degrees = angle;
       params.opposite_points = true;
       const std::string what = absl::StrCat(name, " at ", angle, " degrees");
-      const Pass ball = PassFrom(*mesh, params, RayStartMode::kPastEmptyBall);
-      const Pass surface = PassFrom(*mesh, params, RayStartMode::kSurface);
+      const Pass ball =
+          PassFrom(*mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+      const Pass surface =
+          PassFrom(*mesh, params, {.ray_start = RayStartMode::kSurface});
       ExpectSameBits(ball, surface, what);
       EXPECT_EQ(surface.result.samples_past_ball, 0) << what;
       // Most samples start past a ball (thin or crowded places fall back).
@@ -110,13 +82,19 @@ TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
   SdfParams params;
   params.rays = 32;
   params.samples = SampleSet::kFaces;
-  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
-  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "faces");
+  const Pass ball =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(ball,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 "faces");
   EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2);
   params.samples = SampleSet::kVertices;
   params.cone_angle_degrees = 150;
-  const Pass wide = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
-  ExpectSameBits(wide, PassFrom(mesh, params, RayStartMode::kSurface), "150");
+  const Pass wide =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(wide,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 "150");
   EXPECT_GT(wide.result.samples_past_ball, 0);
 }
 
@@ -126,12 +104,13 @@ TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
 TEST(RayStartTest, ACurvesPassStartsAtTheCurve) {
   const Mesh circle = MakeCircle(1, 10000);
   SdfParams params;
-  const Pass surface = PassFrom(circle, params, RayStartMode::kSurface);
+  const Pass surface =
+      PassFrom(circle, params, {.ray_start = RayStartMode::kSurface});
   ASSERT_GE(surface.result.rays_traced,
             std::max<int64_t>(int64_t{1} << 18, 8 * circle.num_faces()));
   for (RayStartMode mode :
        {RayStartMode::kPastEmptyBall, RayStartMode::kAuto}) {
-    const Pass pass = PassFrom(circle, params, mode);
+    const Pass pass = PassFrom(circle, params, {.ray_start = mode});
     ExpectSameBits(pass, surface, "2D");
     EXPECT_EQ(pass.result.samples_past_ball, 0);
   }
@@ -144,8 +123,11 @@ TEST(RayStartTest, ACoincidentSurfaceLeavesNoBall) {
   const Mesh mesh = TwoSpheres(Vec3());
   SdfParams params;
   params.rays = 32;
-  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
-  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "twice");
+  const Pass ball =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(ball,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 "twice");
   EXPECT_EQ(ball.result.samples_past_ball, 0);
 }
 
@@ -162,8 +144,10 @@ TEST(RayStartTest, TheTeapotFallsBackExactlyAtItsRepeatedVertices) {
   ASSERT_GT(repeated, 0);
   SdfParams params;
   params.rays = 24;
-  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
-  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface),
+  const Pass ball =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(ball,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
                  "teapot");
   EXPECT_EQ(Traced(ball.result) - ball.result.samples_past_ball, repeated);
 }
@@ -329,8 +313,11 @@ TEST(RayStartTest, PartsFarFromTheSceneOriginGiveTheSameBits) {
   const Mesh mesh = TwoSpheres(Vec3(400, 0, 0));
   SdfParams params;
   params.rays = 32;
-  const Pass ball = PassFrom(mesh, params, RayStartMode::kPastEmptyBall);
-  ExpectSameBits(ball, PassFrom(mesh, params, RayStartMode::kSurface), "far");
+  const Pass ball =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(ball,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 "far");
   EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2);
 }
 
@@ -417,7 +404,8 @@ PatchPass RockerArmPatchPass(double radius, int rays) {
   PatchPass out{IncrementalPass(**ev, mesh, patch, params), std::ssize(patch),
                 MovedSamples(mesh, patch)};
   ExpectSameBits(out.pass,
-                 PassFrom(Moved(mesh, patch), params, RayStartMode::kSurface),
+                 PassFrom(Moved(mesh, patch), params,
+                          {.ray_start = RayStartMode::kSurface}),
                  absl::StrCat("patch of radius ", radius));
   return out;
 }

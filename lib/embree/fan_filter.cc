@@ -14,7 +14,9 @@ void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
     args->valid[i] = 0;
     return;
   }
-  HitCandidates& c = fan.out[args->N == 1 ? 0 : i];
+  HitCandidates& c = fan.out[fan.lanes_by_id ? RTCRayN_id(args->ray, args->N, i)
+                             : args->N == 1  ? 0
+                                             : i];
   float& tfar = RTCRayN_tfar(args->ray, args->N, i);
   if (tfar < fan.near_below) c.MarkNear();
   if (tfar < fan.t_min) {

@@ -19,7 +19,10 @@ struct FanContext {
   absl::Span<const int32_t> excluded;  // ascending.
   float t_min = 0, near_below = 0, t_far = 0;
   bool segments = false;  // 2D: extruded quads, whose u runs along the segment.
-  HitCandidates* out = nullptr;  // out[lane] for packets; out[0] for N == 1.
+  // out[lane] for packets, out[0] for N == 1; with lanes_by_id out[ray id]
+  // (a stream, whose rays Embree regroups).
+  HitCandidates* out = nullptr;
+  bool lanes_by_id = false;
 };
 
 // Called by Embree (args->context is a FanContext) for every hit within a

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "lib/embree/fan_filter.h"
@@ -335,6 +336,16 @@ RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
   return rh;
 }
 
+RTCRayHit MakeStreamRayHit(const Vec3& origin, const Vec3& dir, float t_near,
+                           float t_far, unsigned id) {
+  RTCRayHit rh = MakeRayHit(origin, dir, t_near, t_far);
+  for (float* d : {&rh.ray.dir_x, &rh.ray.dir_y, &rh.ray.dir_z}) {
+    if (*d < 0 && *d > -1e-18f) *d = -0.0f;
+  }
+  rh.ray.id = id;
+  return rh;
+}
+
 RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
                                   float t_near, float t_far) const {
   RTCIntersectContext ctx;
@@ -349,7 +360,8 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                             const FanLimits& limits,
                             absl::Span<const int32_t> excluded,
                             absl::Span<HitCandidates> out,
-                            absl::Span<const float> starts) const {
+                            absl::Span<const float> starts,
+                            FanTraversal traversal) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c.Reset(reach);
@@ -365,6 +377,21 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   auto start = [&](size_t k) {
     return starts.empty() ? limits.t_near : starts[k];
   };
+  if (traversal == FanTraversal::kStream) {
+    // Reused by the thread's fans: no allocation per fan.
+    thread_local std::vector<RTCRayHit> stream;
+    stream.resize(dirs.size());
+    for (size_t k = 0; k < dirs.size(); ++k) {
+      stream[k] = MakeStreamRayHit(o, dirs[k], start(k), t_far,
+                                   static_cast<unsigned>(k));
+    }
+    fan.lanes_by_id = true;
+    fan.out = out.data();
+    fan.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+    rtcIntersect1M(scene_, &fan.rtc, stream.data(),
+                   static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));
+    return;
+  }
   // Where Embree has no native 16-wide packets (built without them, or a
   // CPU without AVX-512) rays are traced one at a time.
   static const bool packets =

@@ -50,6 +50,20 @@ Vec3 SceneOrigin(const Mesh& mesh);
 // a store can refuse positions before it commits them.
 absl::Status CheckTraceable(const Mesh& mesh);
 
+// How RayScene::IntersectFan hands a fan's rays to Embree. Both find the
+// same candidates (RaySceneTest); only the time differs.
+enum class FanTraversal {
+  // Packets of 16 consecutive rays (rtcIntersect16; single rays where
+  // Embree has no 16-wide packets): each ray walks the BVH on its own.
+  kPackets,
+  // All of the fan's rays as one coherent stream (rtcIntersect1M with
+  // RTC_INTERSECT_CONTEXT_FLAG_COHERENT, MakeStreamRayHit): Embree walks
+  // the BVH once per group of rays with a frustum test, which pays where a
+  // few large primitives fill the cone (coarse meshes, CAD parts) and
+  // costs where the cone spreads over many small ones.
+  kStream,
+};
+
 // The ray-primitive test Embree runs.
 enum class RayTest {
   // Embree's ROBUST mode, a watertight test: a ray through an edge or
@@ -134,15 +148,16 @@ class RayScene {
   // origin + t * dirs[k] within `limits`, ignoring the primitives in
   // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
   // every primitive within HitCandidates' window of the closest, found
-  // whatever the BVH's history (see hit_candidates.h). Traced in packets of
-  // 16 rays where Embree has them (a cone's rays share their origin and are
-  // coherent). dirs.size() == out.size(). `starts`, when not empty (one
+  // whatever the BVH's history (see hit_candidates.h). Traced as
+  // `traversal` says (a cone's rays share their origin and are coherent).
+  // dirs.size() == out.size(). `starts`, when not empty (one
   // per ray, each at or above limits.t_near), replaces limits.t_near as ray
   // k's start (ray_start.h: only past a stretch proven empty). Thread-safe.
   void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
                     const FanLimits& limits, absl::Span<const int32_t> excluded,
                     absl::Span<HitCandidates> out,
-                    absl::Span<const float> starts = {}) const;
+                    absl::Span<const float> starts = {},
+                    FanTraversal traversal = FanTraversal::kPackets) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)

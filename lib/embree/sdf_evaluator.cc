@@ -52,6 +52,14 @@ constexpr size_t kStartsMinRetraced = 16;
 // the moved patch too, 0.5 to 2.0 times as many
 // (meshgauge_incremental_bench on igea, rocker-arm and horse).
 constexpr int64_t kIncrementalRaysPerMovedRay = 2;
+// A pass whose rays start at the surface streams them (FanTraversal::
+// kStream) on scenes of fewer primitives than this; on larger ones Embree's
+// frustum walks cost more than they share. Measured (docs/benchmarks.md,
+// "Coherent streams"): streams took 0.65-0.70 of the packets' time on the
+// knight (1,000 primitives) and the tray (4,520), 0.87-0.93 on the teapot
+// (6,320), about the same on spot (5,856); 1.06-1.16 on fandisk (12,946)
+// and 1.2-1.25 on ranges of bunny, horse and igea.
+constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Where a ray meets a primitive's plane: the distance t and how far the
@@ -221,6 +229,7 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   ev->policy_ = options.bvh_policy;
   ev->ray_test_ = options.ray_test;
   ev->ray_start_ = options.ray_start;
+  ev->fan_traversal_ = options.fan_traversal;
   ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;
   ev->order_ = MortonOrder(ev->mesh_.positions);
@@ -530,13 +539,14 @@ class SdfEvaluator::SampleTracer {
   // `ball_tree` (then not null).
   SampleTracer(const SdfEvaluator& ev, const PassSetup& setup,
                const ReusePlan* plan, const BallTree* ball_tree,
-               const RayStarts* starts, PassOutput* out)
+               const RayStarts* starts, FanTraversal traversal, PassOutput* out)
       : ev_(ev),
         setup_(setup),
         params_(setup.resolved.params),
         plan_(plan),
         ball_tree_(ball_tree),
         starts_(starts),
+        traversal_(traversal),
         out_(*out) {}
 
   // Sample i of the pass's visiting order `visit` (vertices in Morton
@@ -691,7 +701,7 @@ class SdfEvaluator::SampleTracer {
       }
     }
     ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan,
-                             starts);
+                             starts, traversal_);
     for (const HitCandidates& c : fan) {
       if (c.count() > 0) ev_.PrefetchPrimitive(c[0].prim);
     }
@@ -760,6 +770,7 @@ class SdfEvaluator::SampleTracer {
   const ReusePlan* plan_;      // null: trace every ray.
   const BallTree* ball_tree_;  // kSphere, or with starts_.
   const RayStarts* starts_;
+  FanTraversal traversal_;
   PassOutput& out_;
 };
 
@@ -826,8 +837,12 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0};
+  const FanTraversal traversal = fan_traversal_.value_or(
+      !starts && std::ssize(topo_.primitives) < kStreamMaxPrimitives
+          ? FanTraversal::kStream
+          : FanTraversal::kPackets);
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
-                            starts ? &*starts : nullptr, &out);
+                            starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
     if (!gate.Poll()) return;
     SampleScratch s(setup->num_rays);
@@ -850,6 +865,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
   result.samples_past_ball = samples_past_ball;
+  result.rays_streamed = traversal == FanTraversal::kStream;
   result.normalized = NormalizedSdf(result.values);
   if (params.range.all()) {
     result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "absl/functional/function_ref.h"
@@ -52,6 +53,11 @@ struct EvaluatorOptions {
   // Where a 3D pass starts its rays (ray_start.h). The others only to
   // measure what the empty ball saves and that it changes no bit.
   RayStartMode ray_start = RayStartMode::kAuto;
+  // How a pass hands each sample's rays to Embree; nullopt: kStream where
+  // the pass starts its rays at the surface on a scene of fewer than
+  // kStreamMaxPrimitives primitives, else kPackets (sdf_evaluator.cc). The
+  // others only to measure both; neither changes a bit.
+  std::optional<FanTraversal> fan_traversal = std::nullopt;
 };
 
 // True when the BVH of `generation` is built from scratch rather than
@@ -150,6 +156,7 @@ class SdfEvaluator : public MeshGeometry {
   BvhUpdatePolicy policy_ = BvhUpdatePolicy::kRefit;
   RayTest ray_test_ = RayTest::kWatertight;
   RayStartMode ray_start_ = RayStartMode::kAuto;
+  std::optional<FanTraversal> fan_traversal_;
   int rebuild_every_updates_ = 0;
   std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;

@@ -1,0 +1,54 @@
+// Whole passes compared bit for bit (ray starts, traversals).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <string>
+#include <utility>
+
+#include "lib/core/hit_table.h"
+#include "lib/core/mesh.h"
+#include "lib/core/sdf_types.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "tests/test_util.h"
+
+namespace meshgauge::testing {
+
+struct Pass {
+  SdfResult result;
+  HitTable hits;
+};
+
+// A fresh evaluator's pass on 2 threads, with its hit table (empty, with a
+// failure, when it fails).
+inline Pass PassFrom(const Mesh& mesh, const SdfParams& params,
+                     const EvaluatorOptions& options) {
+  Pass pass;
+  auto ev = SdfEvaluator::Create(mesh, options);
+  if (!ev.ok()) {
+    ADD_FAILURE() << ev.status();
+    return pass;
+  }
+  auto r = (*ev)->Compute(params, {.threads = 2}, &pass.hits);
+  if (!r.ok()) {
+    ADD_FAILURE() << r.status();
+    return pass;
+  }
+  pass.result = *std::move(r);
+  return pass;
+}
+
+// The result, the hit table and its near flags of both passes, bit for bit.
+inline void ExpectSameBits(const Pass& a, const Pass& b,
+                           const std::string& what) {
+  EXPECT_TRUE(SameBits(a.result.values, b.result.values)) << what;
+  EXPECT_TRUE(SameBits(a.result.opposite, b.result.opposite)) << what;
+  EXPECT_EQ(a.result.status, b.result.status) << what;
+  EXPECT_EQ(a.result.hits, b.result.hits) << what;
+  EXPECT_EQ(a.result.kept, b.result.kept) << what;
+  EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
+  EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
+  EXPECT_EQ(a.hits.near, b.hits.near) << what;
+}
+
+}  // namespace meshgauge::testing
