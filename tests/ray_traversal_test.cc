@@ -1,8 +1,8 @@
 // How a pass hands each sample's rays to Embree (FanTraversal): one
 // coherent stream per sample and packets of 16 give the same bits on the
 // test meshes, at both cone angles, with and without ray starts, for vertex
-// ranges, face samples, 2D curves and quads; and a pass left to choose
-// streams exactly the small scenes whose rays start at the surface.
+// ranges, face samples, 2D curves, quads and hub fans; and a pass left to
+// choose streams exactly the small scenes whose rays start at the surface.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -57,7 +57,7 @@ TEST(RayTraversalTest, StreamsAndPacketsGiveTheSameBitsOnTheTestMeshes) {
   }
 }
 
-TEST(RayTraversalTest, RangesFaceSamplesCurvesAndQuadsGiveTheSameBits) {
+TEST(RayTraversalTest, RangesFaceSamplesCurvesQuadsAndHubFansGiveTheSameBits) {
   const Mesh teapot = *ReadMesh(testing::SharedMesh("teapot.obj"));
   SdfParams range;
   range.range = {1000, 1600};
@@ -70,6 +70,12 @@ TEST(RayTraversalTest, RangesFaceSamplesCurvesAndQuadsGiveTheSameBits) {
                         RayStartMode::kSurface, "2D");
   ExpectTraversalsAgree(MakeBox(2, 1, 0.5, 0.1, /*quads=*/true), SdfParams{},
                         RayStartMode::kSurface, "quads");
+  // Hubs in 300 and 600 primitives: traced by HubFans' user geometry, whose
+  // hits reach the filter through Embree's stream too.
+  ExpectTraversalsAgree(MakeFanCone(300), SdfParams{}, RayStartMode::kSurface,
+                        "fan cone");
+  ExpectTraversalsAgree(MakeFanCylinder(300), SdfParams{},
+                        RayStartMode::kSurface, "fan cylinder");
 }
 
 // kAuto's rule (sdf_evaluator.cc, kStreamMaxPrimitives = 2^13): streams

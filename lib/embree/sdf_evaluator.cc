@@ -837,10 +837,14 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0};
-  const FanTraversal traversal = fan_traversal_.value_or(
-      !starts && std::ssize(topo_.primitives) < kStreamMaxPrimitives
-          ? FanTraversal::kStream
-          : FanTraversal::kPackets);
+  // The inscribed ball traces no fan.
+  const FanTraversal traversal =
+      setup->sphere
+          ? FanTraversal::kPackets
+          : fan_traversal_.value_or(!starts && std::ssize(topo_.primitives) <
+                                                   kStreamMaxPrimitives
+                                        ? FanTraversal::kStream
+                                        : FanTraversal::kPackets);
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
                             starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
