@@ -55,10 +55,10 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // A pass whose rays start at the surface streams them (FanTraversal::
 // kStream) on scenes of fewer primitives than this; on larger ones Embree's
 // frustum walks cost more than they share. Measured (docs/benchmarks.md,
-// "Coherent streams"): streams took 0.65-0.70 of the packets' time on the
+// "coherent streams"): streams took 0.64-0.72 of the packets' time on the
 // knight (1,000 primitives) and the tray (4,520), 0.87-0.93 on the teapot
-// (6,320), about the same on spot (5,856); 1.06-1.16 on fandisk (12,946)
-// and 1.2-1.25 on ranges of bunny, horse and igea.
+// (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
+// 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
