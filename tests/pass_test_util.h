@@ -3,13 +3,18 @@
 
 #include <gtest/gtest.h>
 
+#include <initializer_list>
 #include <string>
 #include <utility>
 
+#include "absl/functional/function_ref.h"
+#include "absl/strings/str_cat.h"
+#include "lib/core/components.h"
 #include "lib/core/hit_table.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
 
 namespace meshgauge::testing {
@@ -49,6 +54,27 @@ inline void ExpectSameBits(const Pass& a, const Pass& b,
   EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
   EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
   EXPECT_EQ(a.hits.near, b.hits.near) << what;
+}
+
+// For each named test mesh (faces turned outward: the horse's turn inward,
+// and its rays would leave the part) at 30° and 60°: `check` with the mesh,
+// 24-ray parameters with opposite points, and "NAME at ANGLE degrees".
+inline void ForEachTestMeshAndAngle(
+    std::initializer_list<const char*> names,
+    absl::FunctionRef<void(const Mesh&, const SdfParams&, const std::string&)>
+        check) {
+  for (const char* name : names) {
+    auto mesh = ReadMesh(SharedMesh(name));
+    ASSERT_TRUE(mesh.ok()) << mesh.status();
+    ReorientComponents(*mesh);
+    for (double angle : {30.0, 60.0}) {
+      SdfParams params;
+      params.rays = 24;
+      params.cone_angle_degrees = angle;
+      params.opposite_points = true;
+      check(*mesh, params, absl::StrCat(name, " at ", angle, " degrees"));
+    }
+  }
 }
 
 }  // namespace meshgauge::testing

@@ -51,30 +51,21 @@ Mesh TwoSpheres(const Vec3& offset) {
 }
 
 TEST(RayStartTest, EveryTestMeshGivesTheBitsOfRaysStartedAtTheSurface) {
-  for (const char* name :
-       {"igea-triangles.ply", "horse.ply", "stanford-bunny.obj",
-        "rocker-arm.obj", "fandisk.obj", "spot_triangulated.obj", "teapot.obj",
-        "decimated-knight.off", "1002_tray_bottom.STL"}) {
-    auto mesh = ReadMesh(testing::SharedMesh(name));
-    ASSERT_TRUE(mesh.ok()) << mesh.status();
-    // The horse's faces turn inward: its rays would leave the part.
-    ReorientComponents(*mesh);
-    for (double angle : {30.0, 60.0}) {
-      SdfParams params;
-      params.rays = 24;
-      params.cone_angle_degrees = angle;
-      params.opposite_points = true;
-      const std::string what = absl::StrCat(name, " at ", angle, " degrees");
-      const Pass ball =
-          PassFrom(*mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-      const Pass surface =
-          PassFrom(*mesh, params, {.ray_start = RayStartMode::kSurface});
-      ExpectSameBits(ball, surface, what);
-      EXPECT_EQ(surface.result.samples_past_ball, 0) << what;
-      // Most samples start past a ball (thin or crowded places fall back).
-      EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2) << what;
-    }
-  }
+  testing::ForEachTestMeshAndAngle(
+      {"igea-triangles.ply", "horse.ply", "stanford-bunny.obj",
+       "rocker-arm.obj", "fandisk.obj", "spot_triangulated.obj", "teapot.obj",
+       "decimated-knight.off", "1002_tray_bottom.STL"},
+      [](const Mesh& mesh, const SdfParams& params, const std::string& what) {
+        const Pass ball =
+            PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+        const Pass surface =
+            PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface});
+        ExpectSameBits(ball, surface, what);
+        EXPECT_EQ(surface.result.samples_past_ball, 0) << what;
+        // Most samples start past a ball (thin or crowded places fall back).
+        EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2)
+            << what;
+      });
 }
 
 TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {

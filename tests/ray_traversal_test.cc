@@ -7,8 +7,6 @@
 
 #include <string>
 
-#include "absl/strings/str_cat.h"
-#include "lib/core/components.h"
 #include "lib/core/shapes.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
@@ -38,23 +36,15 @@ void ExpectTraversalsAgree(const Mesh& mesh, const SdfParams& params,
 
 TEST(RayTraversalTest, StreamsAndPacketsGiveTheSameBitsOnTheTestMeshes) {
   // igea is left out for time; kAuto never streams a scene that large.
-  for (const char* name : {"horse.ply", "stanford-bunny.obj", "rocker-arm.obj",
-                           "fandisk.obj", "spot_triangulated.obj", "teapot.obj",
-                           "decimated-knight.off", "1002_tray_bottom.STL"}) {
-    auto mesh = ReadMesh(testing::SharedMesh(name));
-    ASSERT_TRUE(mesh.ok()) << mesh.status();
-    ReorientComponents(*mesh);
-    for (double angle : {30.0, 60.0}) {
-      SdfParams params;
-      params.rays = 24;
-      params.cone_angle_degrees = angle;
-      params.opposite_points = true;
-      const std::string what = absl::StrCat(name, " at ", angle, " degrees");
-      ExpectTraversalsAgree(*mesh, params, RayStartMode::kSurface, what);
-      ExpectTraversalsAgree(*mesh, params, RayStartMode::kPastEmptyBall,
-                            what + " past balls");
-    }
-  }
+  testing::ForEachTestMeshAndAngle(
+      {"horse.ply", "stanford-bunny.obj", "rocker-arm.obj", "fandisk.obj",
+       "spot_triangulated.obj", "teapot.obj", "decimated-knight.off",
+       "1002_tray_bottom.STL"},
+      [](const Mesh& mesh, const SdfParams& params, const std::string& what) {
+        ExpectTraversalsAgree(mesh, params, RayStartMode::kSurface, what);
+        ExpectTraversalsAgree(mesh, params, RayStartMode::kPastEmptyBall,
+                              what + " past balls");
+      });
 }
 
 TEST(RayTraversalTest, RangesFaceSamplesCurvesQuadsAndHubFansGiveTheSameBits) {
