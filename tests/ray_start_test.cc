@@ -12,7 +12,6 @@
 #include <map>
 #include <tuple>
 
-#include "lib/core/components.h"
 #include "lib/core/normals.h"
 #include "lib/core/shapes.h"
 #include "lib/core/topology.h"
