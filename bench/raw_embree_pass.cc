@@ -80,12 +80,16 @@ int64_t TraceVertex(RawTrace trace, bool noop_filter, RTCScene scene,
     case RawTrace::kPacket16:
       return TracePackets<16, RTCRayHit16>(scene, &ctx, x, dirs, t_near, t_far);
     case RawTrace::kStream:
-      ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
       stream.resize(dirs.size());
       for (size_t k = 0; k < dirs.size(); ++k) {
-        stream[k] = MakeStreamRayHit(x, dirs[k], t_near, t_far,
-                                     static_cast<unsigned>(k));
+        stream[k] = MakeRayHit(x, dirs[k], t_near, t_far);
+        // As the pass does: such a vertex's rays one at a time.
+        if (StreamMayLoseHits(stream[k].ray)) {
+          return TraceVertex(RawTrace::kSingle, noop_filter, scene, x, dirs,
+                             t_near, t_far, stream);
+        }
       }
+      ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
       rtcIntersect1M(scene, &ctx, stream.data(),
                      static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));
       for (const RTCRayHit& rh : stream) {

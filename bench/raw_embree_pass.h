@@ -28,7 +28,7 @@ enum class RawTrace {
   kPacket8,   // rtcIntersect8
   kPacket16,  // rtcIntersect16
   kStream,    // rtcIntersect1M over all rays of one vertex, COHERENT context
-              // (MakeStreamRayHit)
+              // (rtcIntersect1 where a ray has StreamMayLoseHits, as the pass)
 };
 
 struct RawConfig {
@@ -61,7 +61,7 @@ std::vector<RawConfig> RawConfigs();
 // with hits[c] rays hit (the fewest over the rounds): the fastest ROBUST
 // configuration with the no-op filter whose hits are the most of any such
 // configuration (one that hits fewer rays misses hits, as Embree's coherent
-// streams did on spot before MakeStreamRayHit, and is no ceiling); the
+// streams did on spot before StreamMayLoseHits, and is no ceiling); the
 // first of equally fast ones.
 // nullopt when no configuration is ROBUST with the filter or the three
 // spans differ in size.

@@ -266,7 +266,8 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .fan_traversal = FanTraversal::kStream});
   double best_packets = 0, best_stream = 0;
-  bool streamed = false, same_traversal_bits = true;
+  int64_t streamed = 0;
+  bool same_traversal_bits = true;
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
   double best_sdf = 0, best_values = 1e300;
@@ -331,7 +332,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       same_traversal_bits &= SameBits(sdf->values, pass->values) &&
                              pass->hits == sdf->hits && pass->kept == sdf->kept;
     }
-    streamed = sdf->rays_streamed;
+    streamed = sdf->samples_streamed;
     past_ball = sdf->samples_past_ball;
     traced_samples = std::ssize(sdf->values) -
                      sdf->CountStatus(VertexStatus::kNoFaces) -
@@ -382,9 +383,11 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       static_cast<long long>(traced_samples),
       same_bits ? "bit-identical" : "DIFFER");
   std::printf(
-      "%-28s traversal: the pass %s; packets %.3e rays/s = %.3f of the "
-      "ceiling, streams %.3e rays/s = %.3f of it; values, hits and kept %s\n",
-      "", streamed ? "streamed" : "traced packets", best_packets,
+      "%-28s traversal: the pass streamed %lld of %lld samples; packets "
+      "%.3e rays/s = %.3f of the ceiling, streams %.3e rays/s = %.3f of it; "
+      "values, hits and kept %s\n",
+      "", static_cast<long long>(streamed),
+      static_cast<long long>(traced_samples), best_packets,
       best_packets / ceiling, best_stream, best_stream / ceiling,
       same_traversal_bits ? "bit-identical" : "DIFFER");
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",

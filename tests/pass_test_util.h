@@ -6,6 +6,7 @@
 #include <initializer_list>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "absl/functional/function_ref.h"
 #include "absl/strings/str_cat.h"
@@ -54,6 +55,48 @@ inline void ExpectSameBits(const Pass& a, const Pass& b,
   EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
   EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
   EXPECT_EQ(a.hits.near, b.hits.near) << what;
+}
+
+// The samples a pass traced: those with faces and a cone.
+inline int64_t Traced(const SdfResult& r) {
+  return std::ssize(r.values) - r.CountStatus(VertexStatus::kNoFaces) -
+         r.CountStatus(VertexStatus::kDegenerateNormal);
+}
+
+inline constexpr Vec3 kMove(1e-3, -2e-3, 1e-3);
+
+// `mesh` with the vertices `patch` moved by kMove.
+inline Mesh Moved(const Mesh& mesh, const std::vector<int32_t>& patch) {
+  Mesh at = mesh;
+  for (int32_t v : patch) at.positions[v] += kMove;
+  return at;
+}
+
+// The incremental pass of `ev` after the vertices `patch` of `mesh` moved,
+// from a pass at the original positions (empty, with a failure, when a
+// step fails).
+inline Pass IncrementalPass(SdfEvaluator& ev, const Mesh& mesh,
+                            const std::vector<int32_t>& patch,
+                            const SdfParams& params) {
+  Pass last, next;
+  auto first = ev.Compute(params, {}, &last.hits);
+  absl::Status moved = first.ok()
+                           ? ev.UpdatePositions(Moved(mesh, patch).positions)
+                           : first.status();
+  if (!moved.ok()) {
+    ADD_FAILURE() << moved;
+    return next;
+  }
+  last.result = *std::move(first);
+  const PreviousPass previous{&last.result, &last.hits};
+  auto r = ev.Compute(params, {}, &next.hits, &previous);
+  if (!r.ok()) {
+    ADD_FAILURE() << r.status();
+    return next;
+  }
+  next.result = *std::move(r);
+  EXPECT_LT(next.result.rays_traced, last.result.rays_traced);
+  return next;
 }
 
 // For each named test mesh (faces turned outward: the horse's turn inward,

@@ -26,14 +26,12 @@ namespace meshgauge {
 namespace {
 
 using testing::ExpectSameBits;
+using testing::IncrementalPass;
+using testing::Moved;
 using testing::Pass;
 using testing::PassFrom;
 using testing::SameBits;
-
-int64_t Traced(const SdfResult& r) {
-  return std::ssize(r.values) - r.CountStatus(VertexStatus::kNoFaces) -
-         r.CountStatus(VertexStatus::kDegenerateNormal);
-}
+using testing::Traced;
 
 // Two unit icospheres, the second moved by `offset`, each with vertices of
 // its own.
@@ -333,42 +331,6 @@ int64_t MovedSamples(const Mesh& mesh, const std::vector<int32_t>& moved) {
   const std::vector<uint8_t> dirty =
       CornersOfFacesAround(MeshTopology::Build(mesh), mesh, moved);
   return std::count(dirty.begin(), dirty.end(), 1);
-}
-
-constexpr Vec3 kMove(1e-3, -2e-3, 1e-3);
-
-// `mesh` with the vertices `patch` moved by kMove.
-Mesh Moved(const Mesh& mesh, const std::vector<int32_t>& patch) {
-  Mesh at = mesh;
-  for (int32_t v : patch) at.positions[v] += kMove;
-  return at;
-}
-
-// The incremental pass of `ev` after the vertices `patch` of `mesh` moved,
-// from a pass at the original positions (empty, with a failure, when a
-// step fails).
-Pass IncrementalPass(SdfEvaluator& ev, const Mesh& mesh,
-                     const std::vector<int32_t>& patch,
-                     const SdfParams& params) {
-  Pass last, next;
-  auto first = ev.Compute(params, {}, &last.hits);
-  absl::Status moved = first.ok()
-                           ? ev.UpdatePositions(Moved(mesh, patch).positions)
-                           : first.status();
-  if (!moved.ok()) {
-    ADD_FAILURE() << moved;
-    return next;
-  }
-  last.result = *std::move(first);
-  const PreviousPass previous{&last.result, &last.hits};
-  auto r = ev.Compute(params, {}, &next.hits, &previous);
-  if (!r.ok()) {
-    ADD_FAILURE() << r.status();
-    return next;
-  }
-  next.result = *std::move(r);
-  EXPECT_LT(next.result.rays_traced, last.result.rays_traced);
-  return next;
 }
 
 // Rocker-arm's incremental pass (`rays` rays, starts asked for) after the

@@ -7,6 +7,19 @@
 
 namespace meshgauge {
 
+namespace {
+
+// The middle values of [begin, end) once `at` holds the value of its rank
+// (std::nth_element): that value, and for an even count n of all the values
+// (whose ranks below `at` lie in [begin, at)) the greatest below it.
+MiddleValues MiddleAt(std::vector<double>::iterator begin,
+                      std::vector<double>::iterator at, size_t n) {
+  const double upper = *at;
+  return {n % 2 == 0 ? *std::max_element(begin, at) : upper, upper};
+}
+
+}  // namespace
+
 MiddleValues SelectMiddle(std::vector<double>& v, double lo, double hi) {
   const size_t n = v.size();
   const size_t mid = n / 2;
@@ -19,14 +32,14 @@ MiddleValues SelectMiddle(std::vector<double>& v, double lo, double hi) {
   const double scale = kBuckets / (hi - lo);
   if (!std::isfinite(scale) || !(scale > 0)) {  // a tiny or huge range
     std::nth_element(v.begin(), v.begin() + mid, v.end());
-    const double upper = v[mid];
-    return {n % 2 == 0 ? *std::max_element(v.begin(), v.begin() + mid) : upper,
-            upper};
+    return MiddleAt(v.begin(), v.begin() + mid, n);
   }
+  // Clamped before the conversion: a value outside [lo, hi] (a caller's
+  // error) cannot index outside the counts.
   auto bucket = [&](double x) {
-    return std::min(kBuckets - 1, static_cast<int>((x - lo) * scale));
+    return static_cast<int>(std::clamp((x - lo) * scale, 0.0, kBuckets - 1.0));
   };
-  uint32_t count[kBuckets] = {};
+  size_t count[kBuckets] = {};
   for (double x : v) ++count[bucket(x)];
   const size_t low_rank = n % 2 == 0 ? mid - 1 : mid;
   // The buckets of ranks low_rank and mid, and how many values lie below
@@ -43,8 +56,7 @@ MiddleValues SelectMiddle(std::vector<double>& v, double lo, double hi) {
   });
   const auto at = v.begin() + static_cast<ptrdiff_t>(mid - below);
   std::nth_element(v.begin(), at, middle);
-  const double upper = *at;
-  return {n % 2 == 0 ? *std::max_element(v.begin(), at) : upper, upper};
+  return MiddleAt(v.begin(), at, n);
 }
 
 ConeEstimate EstimateCone(absl::Span<const double> t,

@@ -16,14 +16,14 @@ struct ConeEstimate {
   int32_t kept = 0;       // rays that passed the filter.
 };
 
-// The values of ranks n/2 - 1 and n/2 (0-based, ascending) of the n
-// values `v` (no NaN) for an even n, of rank n/2 twice for an odd one; both
-// 0 for none. `lo`, `hi`: the least and the greatest of them. Reorders `v`.
-// Exact: the values std::nth_element would select.
 struct MiddleValues {
   double lower = 0;
   double upper = 0;
 };
+// The values of ranks n/2 - 1 and n/2 (0-based, ascending) of the n
+// values `v` (no NaN) for an even n, of rank n/2 twice for an odd one; both
+// 0 for none. `lo`, `hi`: the least and the greatest of them. Reorders `v`.
+// Exact: the values std::nth_element would select.
 MiddleValues SelectMiddle(std::vector<double>& v, double lo, double hi);
 
 // t[k]: hit distance of ray k, or NaN for a miss. kappa >= 0. Writes

@@ -129,9 +129,9 @@ struct SdfResult {
   // look for one (kSurface, 2D, kAuto's small passes, an incremental pass's
   // unmoved samples retracing fewer than 16 rays) or traced nothing.
   int64_t samples_past_ball = 0;
-  // Whether each sample's rays went to Embree as one coherent stream
-  // (FanTraversal::kStream) rather than in packets.
-  bool rays_streamed = false;
+  // Samples whose rays went to Embree as one coherent stream
+  // (FanTraversal::kStream); the others' in packets.
+  int64_t samples_streamed = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;

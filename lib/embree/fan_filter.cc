@@ -6,6 +6,13 @@
 namespace meshgauge {
 namespace {
 
+// Which of fan.out lane i's ray records into.
+unsigned CandidatesIndex(const FanContext& fan,
+                         const RTCFilterFunctionNArguments* args, unsigned i) {
+  if (fan.lanes_by_id) return RTCRayN_id(args->ray, args->N, i);
+  return args->N == 1 ? 0 : i;
+}
+
 // FanFilter's work on lane i.
 void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
                 unsigned i) {
@@ -14,9 +21,7 @@ void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
     args->valid[i] = 0;
     return;
   }
-  HitCandidates& c = fan.out[fan.lanes_by_id ? RTCRayN_id(args->ray, args->N, i)
-                             : args->N == 1  ? 0
-                                             : i];
+  HitCandidates& c = fan.out[CandidatesIndex(fan, args, i)];
   float& tfar = RTCRayN_tfar(args->ray, args->N, i);
   if (tfar < fan.near_below) c.MarkNear();
   if (tfar < fan.t_min) {

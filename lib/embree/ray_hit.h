@@ -11,17 +11,18 @@ namespace meshgauge {
 RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
                      float t_far);
 
-// MakeRayHit's ray as ray `id` of a coherent stream (rtcIntersect1M with
-// RTC_INTERSECT_CONTEXT_FLAG_COHERENT), with every direction component in
-// (-1e-18, 0) made -0. Embree 3.13 takes a component below 1e-18 in
-// magnitude as +1e-18 when it forms the reciprocal, but its coherent
-// streams group rays by the component's sign: a ray whose component lies
-// just below zero, and the rays walked with it, lose their hits
-// (EmbreeStreamTest: 7 of spot's vertices, on its plane of symmetry). The
-// change is far below single-precision rounding of a unit direction; the
-// pass's values do not depend on it (RaySceneTest, RayTraversalTest).
-RTCRayHit MakeStreamRayHit(const Vec3& origin, const Vec3& dir, float t_near,
-                           float t_far, unsigned id);
+// Whether a direction component, in single precision, lies in (-1e-18, 0).
+// Embree 3.13 forms a component below 1e-18 in magnitude as +1e-18 when it
+// takes the reciprocal, while its coherent streams (rtcIntersect1M with
+// RTC_INTERSECT_CONTEXT_FLAG_COHERENT) group rays by the component's sign:
+// a stream holding such a ray loses hits of the rays walked with it
+// (EmbreeStreamTest: 7 of spot's vertices, on its plane of symmetry).
+inline bool JustBelowZero(float c) { return c < 0 && c > -1e-18f; }
+// Whether a ray has such a component: a coherent stream must not hold it.
+inline bool StreamMayLoseHits(const RTCRay& ray) {
+  return JustBelowZero(ray.dir_x) || JustBelowZero(ray.dir_y) ||
+         JustBelowZero(ray.dir_z);
+}
 
 // Lane `lane` of an Embree packet (RTCRayHit4/8/16) as MakeRayHit's ray.
 template <typename RayHitN>

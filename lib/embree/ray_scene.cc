@@ -315,6 +315,71 @@ int64_t RayTracerBytes() {
   return ray_tracer_bytes.load(std::memory_order_relaxed);
 }
 
+namespace {
+
+// A fan's rays in the tracer's coordinates: ray k from `origin` along
+// dirs[k] over [start(k), t_far].
+struct FanRays {
+  Vec3 origin;
+  absl::Span<const Vec3> dirs;
+  absl::Span<const float> starts;  // empty: every ray from t_near.
+  float t_near = 0, t_far = 0;
+  float start(size_t k) const { return starts.empty() ? t_near : starts[k]; }
+};
+
+// The fan as one coherent stream, out[k] found by ray id k; false, tracing
+// nothing, when a ray has a component Embree's streams mishandle
+// (StreamMayLoseHits).
+bool IntersectStream(RTCScene scene, const FanRays& rays, FanContext& fan,
+                     absl::Span<HitCandidates> out) {
+  // Reused by the thread's fans: no allocation per fan.
+  thread_local std::vector<RTCRayHit> stream;
+  stream.resize(rays.dirs.size());
+  for (size_t k = 0; k < rays.dirs.size(); ++k) {
+    stream[k] =
+        MakeRayHit(rays.origin, rays.dirs[k], rays.start(k), rays.t_far);
+    if (StreamMayLoseHits(stream[k].ray)) return false;
+    stream[k].ray.id = static_cast<unsigned>(k);
+  }
+  fan.lanes_by_id = true;
+  fan.out = out.data();
+  fan.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcIntersect1M(scene, &fan.rtc, stream.data(),
+                 static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));
+  return true;
+}
+
+// The fan in packets of 16 consecutive rays, or one ray at a time without
+// native packets.
+void IntersectPackets(RTCScene scene, const FanRays& rays, bool packets,
+                      FanContext& fan, absl::Span<HitCandidates> out) {
+  if (!packets) {
+    for (size_t k = 0; k < rays.dirs.size(); ++k) {
+      fan.out = &out[k];
+      RTCRayHit rh =
+          MakeRayHit(rays.origin, rays.dirs[k], rays.start(k), rays.t_far);
+      rtcIntersect1(scene, &fan.rtc, &rh);
+    }
+    return;
+  }
+  constexpr int kWidth = 16;
+  alignas(64) RTCRayHit16 rh;
+  alignas(64) int valid[kWidth];
+  const size_t n_rays = rays.dirs.size();
+  for (size_t first = 0; first < n_rays; first += kWidth) {
+    const int n = static_cast<int>(std::min<size_t>(kWidth, n_rays - first));
+    for (int j = 0; j < kWidth; ++j) {
+      valid[j] = j < n ? -1 : 0;
+      const size_t k = first + std::min(j, n - 1);
+      SetPacketRay(rh, j, rays.origin, rays.dirs[k], rays.start(k), rays.t_far);
+    }
+    fan.out = &out[first];
+    rtcIntersect16(valid, scene, &fan.rtc, &rh);
+  }
+}
+
+}  // namespace
+
 RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
                      float t_far) {
   RTCRayHit rh;
@@ -336,16 +401,6 @@ RTCRayHit MakeRayHit(const Vec3& origin, const Vec3& dir, float t_near,
   return rh;
 }
 
-RTCRayHit MakeStreamRayHit(const Vec3& origin, const Vec3& dir, float t_near,
-                           float t_far, unsigned id) {
-  RTCRayHit rh = MakeRayHit(origin, dir, t_near, t_far);
-  for (float* d : {&rh.ray.dir_x, &rh.ray.dir_y, &rh.ray.dir_z}) {
-    if (*d < 0 && *d > -1e-18f) *d = -0.0f;
-  }
-  rh.ray.id = id;
-  return rh;
-}
-
 RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
                                   float t_near, float t_far) const {
   RTCIntersectContext ctx;
@@ -356,12 +411,10 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
 
-void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
-                            const FanLimits& limits,
-                            absl::Span<const int32_t> excluded,
-                            absl::Span<HitCandidates> out,
-                            absl::Span<const float> starts,
-                            FanTraversal traversal) const {
+FanTraversal RayScene::IntersectFan(
+    const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
+    absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
+    absl::Span<const float> starts, FanTraversal traversal) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c.Reset(reach);
@@ -373,52 +426,21 @@ void RayScene::IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
   fan.near_below = NearBelow(limits, reach);
   fan.t_far = limits.t_far;
   fan.segments = dimension_ == 2;
-  const float t_far = limits.t_far;
-  auto start = [&](size_t k) {
-    return starts.empty() ? limits.t_near : starts[k];
-  };
-  if (traversal == FanTraversal::kStream) {
-    // Reused by the thread's fans: no allocation per fan.
-    thread_local std::vector<RTCRayHit> stream;
-    stream.resize(dirs.size());
-    for (size_t k = 0; k < dirs.size(); ++k) {
-      stream[k] = MakeStreamRayHit(o, dirs[k], start(k), t_far,
-                                   static_cast<unsigned>(k));
-    }
-    fan.lanes_by_id = true;
-    fan.out = out.data();
-    fan.rtc.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-    rtcIntersect1M(scene_, &fan.rtc, stream.data(),
-                   static_cast<unsigned>(stream.size()), sizeof(RTCRayHit));
-    return;
-  }
-  // Where Embree has no native 16-wide packets (built without them, or a
-  // CPU without AVX-512) rays are traced one at a time.
+  const FanRays rays{o, dirs, starts, limits.t_near, limits.t_far};
+  // Where Embree has no streams (built without packets) or no native
+  // 16-wide packets (or a CPU without AVX-512), rays go one at a time.
+  static const bool streams =
+      rtcGetDeviceProperty(device_, RTC_DEVICE_PROPERTY_RAY_STREAM_SUPPORTED) !=
+      0;
   static const bool packets =
       rtcGetDeviceProperty(device_,
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
-  if (!packets) {
-    for (size_t k = 0; k < dirs.size(); ++k) {
-      fan.out = &out[k];
-      RTCRayHit rh = MakeRayHit(o, dirs[k], start(k), t_far);
-      rtcIntersect1(scene_, &fan.rtc, &rh);
-    }
-    return;
+  if (traversal == FanTraversal::kStream && streams &&
+      IntersectStream(scene_, rays, fan, out)) {
+    return FanTraversal::kStream;
   }
-  constexpr int kWidth = 16;
-  alignas(64) RTCRayHit16 rh;
-  alignas(64) int valid[kWidth];
-  for (size_t first = 0; first < dirs.size(); first += kWidth) {
-    const int n =
-        static_cast<int>(std::min<size_t>(kWidth, dirs.size() - first));
-    for (int j = 0; j < kWidth; ++j) {
-      valid[j] = j < n ? -1 : 0;
-      const size_t k = first + std::min(j, n - 1);
-      SetPacketRay(rh, j, o, dirs[k], start(k), t_far);
-    }
-    fan.out = &out[first];
-    rtcIntersect16(valid, scene_, &fan.rtc, &rh);
-  }
+  IntersectPackets(scene_, rays, packets, fan, out);
+  return FanTraversal::kPackets;
 }
 
 }  // namespace meshgauge

@@ -50,14 +50,15 @@ Vec3 SceneOrigin(const Mesh& mesh);
 // a store can refuse positions before it commits them.
 absl::Status CheckTraceable(const Mesh& mesh);
 
-// How RayScene::IntersectFan hands a fan's rays to Embree. Both find the
-// same candidates (RaySceneTest); only the time differs.
+// How RayScene::IntersectFan hands a fan's rays to Embree. Both found the
+// same candidates under the watertight test on every fan tried
+// (RaySceneTest, RayTraversalTest); only the time differs.
 enum class FanTraversal {
   // Packets of 16 consecutive rays (rtcIntersect16; single rays where
   // Embree has no 16-wide packets): each ray walks the BVH on its own.
   kPackets,
   // All of the fan's rays as one coherent stream (rtcIntersect1M with
-  // RTC_INTERSECT_CONTEXT_FLAG_COHERENT, MakeStreamRayHit): Embree walks
+  // RTC_INTERSECT_CONTEXT_FLAG_COHERENT): Embree walks
   // the BVH once per group of rays with a frustum test, which pays where a
   // few large primitives fill the cone (coarse meshes, CAD parts) and
   // costs where the cone spreads over many small ones.
@@ -149,15 +150,17 @@ class RayScene {
   // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
   // every primitive within HitCandidates' window of the closest, found
   // whatever the BVH's history (see hit_candidates.h). Traced as
-  // `traversal` says (a cone's rays share their origin and are coherent).
-  // dirs.size() == out.size(). `starts`, when not empty (one
+  // `traversal` says (a cone's rays share their origin and are coherent),
+  // but in packets where Embree has no streams or a ray has a direction
+  // component its streams mishandle (StreamMayLoseHits); returns the way
+  // it traced. dirs.size() == out.size(). `starts`, when not empty (one
   // per ray, each at or above limits.t_near), replaces limits.t_near as ray
   // k's start (ray_start.h: only past a stretch proven empty). Thread-safe.
-  void IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
-                    const FanLimits& limits, absl::Span<const int32_t> excluded,
-                    absl::Span<HitCandidates> out,
-                    absl::Span<const float> starts = {},
-                    FanTraversal traversal = FanTraversal::kPackets) const;
+  FanTraversal IntersectFan(
+      const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
+      absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
+      absl::Span<const float> starts = {},
+      FanTraversal traversal = FanTraversal::kPackets) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)

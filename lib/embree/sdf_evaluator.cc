@@ -60,6 +60,16 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
+// The traversal of a pass that EvaluatorOptions::fan_traversal leaves
+// open: streams where the rays start at the surface on a small scene under
+// the watertight test (Embree's fast test met other primitives in streams
+// than in packets: the tray's raw plain passes, docs/benchmarks.md).
+FanTraversal ChooseTraversal(bool starts, RayTest test, int64_t primitives) {
+  return !starts && test == RayTest::kWatertight &&
+                 primitives < kStreamMaxPrimitives
+             ? FanTraversal::kStream
+             : FanTraversal::kPackets;
+}
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Where a ray meets a primitive's plane: the distance t and how far the
@@ -512,7 +522,7 @@ struct SampleScratch {
   std::vector<uint8_t> kept;
   std::vector<double> estimator;
   std::vector<float> starts;
-  int64_t traced = 0, world_frames = 0, past_ball = 0;
+  int64_t traced = 0, world_frames = 0, past_ball = 0, streamed = 0;
 };
 
 // A sample's rows of the hit tables; null when none are kept.
@@ -700,8 +710,10 @@ class SdfEvaluator::SampleTracer {
         ++s.past_ball;
       }
     }
-    ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan,
-                             starts, traversal_);
+    if (ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan,
+                                 starts, traversal_) == FanTraversal::kStream) {
+      ++s.streamed;
+    }
     for (const HitCandidates& c : fan) {
       if (c.count() > 0) ev_.PrefetchPrimitive(c[0].prim);
     }
@@ -836,15 +848,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       params.range.all() ? absl::MakeConstSpan(order_) : range_order;
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
-      samples_past_ball{0};
-  // The inscribed ball traces no fan.
-  const FanTraversal traversal =
-      setup->sphere
-          ? FanTraversal::kPackets
-          : fan_traversal_.value_or(!starts && std::ssize(topo_.primitives) <
-                                                   kStreamMaxPrimitives
-                                        ? FanTraversal::kStream
-                                        : FanTraversal::kPackets);
+      samples_past_ball{0}, samples_streamed{0};
+  const FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
+      starts.has_value(), ray_test_, std::ssize(topo_.primitives)));
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
                             starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
@@ -856,6 +862,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     rays_traced += s.traced;
     world_frame_vertices += s.world_frames;
     samples_past_ball += s.past_ball;
+    samples_streamed += s.streamed;
     gate.Done(range.size());
   };
   tbb::task_arena arena(ThreadCount(control.threads));
@@ -869,7 +876,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.rays_traced = rays_traced;
   result.world_frame_vertices = world_frame_vertices;
   result.samples_past_ball = samples_past_ball;
-  result.rays_streamed = traversal == FanTraversal::kStream;
+  result.samples_streamed = samples_streamed;
   result.normalized = NormalizedSdf(result.values);
   if (params.range.all()) {
     result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
