@@ -96,8 +96,8 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameBits) {
 }
 
 // kAuto's rule (sdf_evaluator.cc, kStreamMaxPrimitives = 2^13): streams
-// where the pass starts its rays at the surface on fewer primitives, with
-// the watertight test.
+// where the pass starts its rays at the surface on fewer primitives, in 3D
+// with the watertight test.
 TEST(RayTraversalTest, APassStreamsSmallScenesWhoseRaysStartAtTheSurface) {
   auto streamed = [](const Mesh& mesh, const SdfParams& params,
                      RayStartMode start = RayStartMode::kAuto,
@@ -127,8 +127,9 @@ TEST(RayTraversalTest, APassStreamsSmallScenesWhoseRaysStartAtTheSurface) {
   // The teapot's whole pass starts past balls; without them it streams.
   EXPECT_FALSE(streamed(teapot, all));
   EXPECT_TRUE(streamed(teapot, all, RayStartMode::kSurface));
-  // Embree's fast test: packets.
+  // Embree's fast test, and 2D: packets.
   EXPECT_FALSE(streamed(knight, all, RayStartMode::kAuto, RayTest::kFast));
+  EXPECT_FALSE(streamed(MakeCircle(1, 400), all));
 }
 
 }  // namespace

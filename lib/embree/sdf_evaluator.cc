@@ -61,12 +61,15 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
-// open: streams where the rays start at the surface on a small scene under
-// the watertight test (Embree's fast test met other primitives in streams
-// than in packets: the tray's raw plain passes, docs/benchmarks.md).
-FanTraversal ChooseTraversal(bool starts, RayTest test, int64_t primitives) {
+// open: streams where the rays start at the surface on a small 3D scene
+// under the watertight test. Embree's fast test met other primitives in
+// streams than in packets (the tray's raw plain passes); a 2D circle of
+// 4,000 segments took 1.30-1.35 times as long streamed (a throwaway
+// program; docs/benchmarks.md).
+FanTraversal ChooseTraversal(bool starts, RayTest test, int64_t primitives,
+                             int dimension) {
   return !starts && test == RayTest::kWatertight &&
-                 primitives < kStreamMaxPrimitives
+                 primitives < kStreamMaxPrimitives && dimension == 3
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
 }
@@ -849,8 +852,9 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0}, samples_streamed{0};
-  const FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
-      starts.has_value(), ray_test_, std::ssize(topo_.primitives)));
+  const FanTraversal traversal = fan_traversal_.value_or(
+      ChooseTraversal(starts.has_value(), ray_test_,
+                      std::ssize(topo_.primitives), mesh_.dimension));
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
                             starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {

@@ -54,7 +54,7 @@ struct EvaluatorOptions {
   // measure what the empty ball saves and that it changes no bit.
   RayStartMode ray_start = RayStartMode::kAuto;
   // How a pass hands each sample's rays to Embree; nullopt: kStream where
-  // the pass starts its rays at the surface on a scene of fewer than
+  // the pass starts its rays at the surface on a 3D scene of fewer than
   // kStreamMaxPrimitives primitives with the watertight test, else
   // kPackets (sdf_evaluator.cc). The others only to measure both; neither
   // changed a bit on the fans tried (RayTraversalTest).
