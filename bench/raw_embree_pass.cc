@@ -83,7 +83,7 @@ int64_t TraceVertex(RawTrace trace, bool noop_filter, RTCScene scene,
       stream.resize(dirs.size());
       for (size_t k = 0; k < dirs.size(); ++k) {
         stream[k] = MakeRayHit(x, dirs[k], t_near, t_far);
-        // As the pass does: such a vertex's rays one at a time.
+        // Such a vertex's rays one at a time (the pass: in packets).
         if (StreamMayLoseHits(stream[k].ray)) {
           return TraceVertex(RawTrace::kSingle, noop_filter, scene, x, dirs,
                              t_near, t_far, stream);

@@ -28,7 +28,8 @@ enum class RawTrace {
   kPacket8,   // rtcIntersect8
   kPacket16,  // rtcIntersect16
   kStream,    // rtcIntersect1M over all rays of one vertex, COHERENT context
-              // (rtcIntersect1 where a ray has StreamMayLoseHits, as the pass)
+              // (rtcIntersect1 where a ray has StreamMayLoseHits; the pass
+              // traces such a vertex in packets)
 };
 
 struct RawConfig {

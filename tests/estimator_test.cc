@@ -91,6 +91,12 @@ TEST(EstimatorTest, SelectMiddleGivesTheValuesOfTheMiddleRanks) {
       EXPECT_EQ(m.upper, sorted[mid]) << n << " " << kind;
       EXPECT_EQ(m.lower, n % 2 == 0 ? sorted[mid - 1] : sorted[mid])
           << n << " " << kind;
+      // Bounds inside the values (a caller's error) clamp the buckets: the
+      // same values, no access outside them.
+      const MiddleValues inner =
+          SelectMiddle(v, sorted[n / 4], sorted[(3 * n) / 4]);
+      EXPECT_EQ(inner.upper, m.upper) << n << " " << kind;
+      EXPECT_EQ(inner.lower, m.lower) << n << " " << kind;
     }
   }
   std::vector<double> none;

@@ -11,6 +11,7 @@
 
 #include "lib/core/cone.h"
 #include "lib/core/normals.h"
+#include "lib/core/sdf_types.h"
 #include "lib/core/shapes.h"
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_hit.h"
@@ -179,8 +180,8 @@ TEST(RaySceneTest, RaysThroughSharedEdgesAndVerticesAreNotLost) {
 // one-ring excluded; and it streams all but the 7 vertices on spot's plane
 // of symmetry whose first ray has a direction component just below zero
 // (JustBelowZero), which Embree's streams mishandle (EmbreeStreamTest).
-TEST(RaySceneTest, AStreamFindsThePacketsCandidatesEvenBesideAZeroComponent) {
-  const Mesh mesh = *ReadMesh(SharedMesh("spot_triangulated.obj"));
+TEST(RaySceneTest, AStreamFindsThePacketsCandidatesAndLeavesLeaningFans) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("spot_triangulated.obj"));
   const MeshTopology topo = MeshTopology::Build(mesh);
   auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
   ASSERT_TRUE(scene.ok()) << scene.status();

@@ -9,9 +9,10 @@ namespace meshgauge {
 
 namespace {
 
-// The middle values of [begin, end) once `at` holds the value of its rank
-// (std::nth_element): that value, and for an even count n of all the values
-// (whose ranks below `at` lie in [begin, at)) the greatest below it.
+// The middle values of n values once std::nth_element has put the value of
+// rank n/2 at `at`, selecting among [begin, ...): that value, and for an
+// even n the greatest in [begin, at), which holds rank n/2 - 1 (the ranks
+// below the selected range lie elsewhere and are all smaller).
 MiddleValues MiddleAt(std::vector<double>::iterator begin,
                       std::vector<double>::iterator at, size_t n) {
   const double upper = *at;
@@ -84,7 +85,10 @@ ConeEstimate EstimateCone(absl::Span<const double> t,
   double var = 0;
   for (double tk : scratch) var += (tk - mean) * (tk - mean);
   const double sigma = std::sqrt(var / static_cast<double>(n));
-  const auto [lower, upper] = SelectMiddle(scratch, lo, hi);
+  // Named, not bound: clang 14 cannot capture a structured binding.
+  const MiddleValues middle = SelectMiddle(scratch, lo, hi);
+  const double lower = middle.lower;
+  const double upper = middle.upper;
   const double median = (lower + upper) / 2;
   const double tolerance = 1e-12 * std::abs(median);
   const double bound = kappa * sigma + tolerance;

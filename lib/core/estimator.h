@@ -16,6 +16,7 @@ struct ConeEstimate {
   int32_t kept = 0;       // rays that passed the filter.
 };
 
+// SelectMiddle's result: the two middle values (equal for an odd count).
 struct MiddleValues {
   double lower = 0;
   double upper = 0;

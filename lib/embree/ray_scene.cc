@@ -427,13 +427,15 @@ FanTraversal RayScene::IntersectFan(
   fan.t_far = limits.t_far;
   fan.segments = dimension_ == 2;
   const FanRays rays{o, dirs, starts, limits.t_near, limits.t_far};
-  // Where Embree has no streams (built without packets) or no native
-  // 16-wide packets (or a CPU without AVX-512), rays go one at a time.
+  // Every scene is on the process's SharedDevice. Where Embree has no
+  // streams (built without packets) a fan asked to stream goes in packets;
+  // where it has no native 16-wide packets (built without them, or a CPU
+  // without AVX-512) packets go one ray at a time.
   static const bool streams =
-      rtcGetDeviceProperty(device_, RTC_DEVICE_PROPERTY_RAY_STREAM_SUPPORTED) !=
-      0;
+      rtcGetDeviceProperty(SharedDevice(),
+                           RTC_DEVICE_PROPERTY_RAY_STREAM_SUPPORTED) != 0;
   static const bool packets =
-      rtcGetDeviceProperty(device_,
+      rtcGetDeviceProperty(SharedDevice(),
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
   if (traversal == FanTraversal::kStream && streams &&
       IntersectStream(scene_, rays, fan, out)) {

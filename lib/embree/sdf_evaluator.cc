@@ -66,9 +66,9 @@ constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 // streams than in packets (the tray's raw plain passes); a 2D circle of
 // 4,000 segments took 1.30-1.35 times as long streamed (a throwaway
 // program; docs/benchmarks.md).
-FanTraversal ChooseTraversal(bool starts, RayTest test, int64_t primitives,
+FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
                              int dimension) {
-  return !starts && test == RayTest::kWatertight &&
+  return !past_balls && test == RayTest::kWatertight &&
                  primitives < kStreamMaxPrimitives && dimension == 3
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
@@ -685,7 +685,7 @@ class SdfEvaluator::SampleTracer {
     }
   }
 
-  // Traces the rays s.retrace (in packets), prefetching each candidate
+  // Traces the rays s.retrace (as traversal_ says), prefetching each candidate
   // primitive, then picks each ray's hit in double precision once it has
   // arrived, into s.prims and s.t. Returns whether a hit lay near t_min
   // (HitTable::near), in this pass or in the reused one.
