@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cstring>
 #include <map>
+#include <string>
 #include <tuple>
 
 #include "lib/core/normals.h"
@@ -32,6 +33,18 @@ using testing::Pass;
 using testing::PassFrom;
 using testing::SameBits;
 using testing::Traced;
+
+// The pass past empty balls, checked bit for bit against the pass whose
+// rays start at the surface (`what` names the case in a failure).
+Pass PassPastBallsAsFromTheSurface(const Mesh& mesh, const SdfParams& params,
+                                   const std::string& what) {
+  Pass ball =
+      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  ExpectSameBits(ball,
+                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 what);
+  return ball;
+}
 
 // Two unit icospheres, the second moved by `offset`, each with vertices of
 // its own.
@@ -70,19 +83,11 @@ TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
   SdfParams params;
   params.rays = 32;
   params.samples = SampleSet::kFaces;
-  const Pass ball =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-  ExpectSameBits(ball,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
-                 "faces");
+  const Pass ball = PassPastBallsAsFromTheSurface(mesh, params, "faces");
   EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2);
   params.samples = SampleSet::kVertices;
   params.cone_angle_degrees = 150;
-  const Pass wide =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-  ExpectSameBits(wide,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
-                 "150");
+  const Pass wide = PassPastBallsAsFromTheSurface(mesh, params, "150");
   EXPECT_GT(wide.result.samples_past_ball, 0);
 }
 
@@ -111,11 +116,7 @@ TEST(RayStartTest, ACoincidentSurfaceLeavesNoBall) {
   const Mesh mesh = TwoSpheres(Vec3());
   SdfParams params;
   params.rays = 32;
-  const Pass ball =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-  ExpectSameBits(ball,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
-                 "twice");
+  const Pass ball = PassPastBallsAsFromTheSurface(mesh, params, "twice");
   EXPECT_EQ(ball.result.samples_past_ball, 0);
 }
 
@@ -132,11 +133,7 @@ TEST(RayStartTest, TheTeapotFallsBackExactlyAtItsRepeatedVertices) {
   ASSERT_GT(repeated, 0);
   SdfParams params;
   params.rays = 24;
-  const Pass ball =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-  ExpectSameBits(ball,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
-                 "teapot");
+  const Pass ball = PassPastBallsAsFromTheSurface(mesh, params, "teapot");
   EXPECT_EQ(Traced(ball.result) - ball.result.samples_past_ball, repeated);
 }
 
@@ -301,11 +298,7 @@ TEST(RayStartTest, PartsFarFromTheSceneOriginGiveTheSameBits) {
   const Mesh mesh = TwoSpheres(Vec3(400, 0, 0));
   SdfParams params;
   params.rays = 32;
-  const Pass ball =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-  ExpectSameBits(ball,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
-                 "far");
+  const Pass ball = PassPastBallsAsFromTheSurface(mesh, params, "far");
   EXPECT_GT(ball.result.samples_past_ball, Traced(ball.result) / 2);
 }
 
