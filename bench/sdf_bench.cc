@@ -318,8 +318,12 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
     }
     best_surface =
         std::max(best_surface, surface->rays_traced / surface->trace_seconds);
-    same_bits &= SameBits(sdf->values, surface->values) &&
-                 surface->hits == sdf->hits && surface->kept == sdf->kept;
+    // Values, hits and kept of `pass` are those of the default pass.
+    auto same_as_default = [&](const SdfResult& pass) {
+      return SameBits(sdf->values, pass.values) && pass.hits == sdf->hits &&
+             pass.kept == sdf->kept;
+    };
+    same_bits &= same_as_default(*surface);
     for (const auto& [ev, best] :
          {std::pair{&packet_evaluator, &best_packets},
           std::pair{&stream_evaluator, &best_stream}}) {
@@ -329,8 +333,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
         return 1;
       }
       *best = std::max(*best, pass->rays_traced / pass->trace_seconds);
-      same_traversal_bits &= SameBits(sdf->values, pass->values) &&
-                             pass->hits == sdf->hits && pass->kept == sdf->kept;
+      same_traversal_bits &= same_as_default(*pass);
     }
     streamed = sdf->samples_streamed;
     past_ball = sdf->samples_past_ball;
