@@ -179,22 +179,45 @@ RTCScene NewRawScene(RTCDevice device, const Mesh& mesh,
   return scene;
 }
 
-absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
-                                         const SdfParams& params, int threads,
-                                         const RawConfig& config) {
+absl::StatusOr<RawRays> RawRays::Create(const Mesh& mesh,
+                                        const MeshTopology& topo,
+                                        const SdfParams& params) {
   if (mesh.dimension != 3) {
     return absl::InvalidArgumentError("the raw pass is for 3D meshes");
   }
-  const MeshTopology topo = MeshTopology::Build(mesh);
+  RawRays rays(mesh, topo);
   const ResolvedParams resolved = ResolveParams(params, 3);
   auto cone = MakeCone(3, resolved.aperture_radians, resolved.rays,
                        resolved.min_weight_angle);
   if (!cone.ok()) return cone.status();
+  rays.cone_ = *std::move(cone);
   if (params.method == SdfMethod::kNormalRay) {
-    *cone = {{Vec3(0, 0, 1), 0.0, 1.0}};
+    rays.cone_ = {{Vec3(0, 0, 1), 0.0, 1.0}};
   }
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
+  rays.normals_ = UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
+  rays.t_near_ =
+      static_cast<float>(params.self_hit_epsilon * MeanEdgeLength(mesh));
+  rays.t_far_ = static_cast<float>(BoundingBoxDiagonal(mesh));
+  return rays;
+}
+
+bool RawRays::Directions(int64_t p, std::vector<Vec3>& dirs) const {
+  if (topo_.vertex_faces.Of(p).empty()) return false;
+  const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals_[p]);
+  if (!vc.valid) return false;
+  dirs.resize(cone_.size());
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    dirs[k] = RayDirection(vc.frame, cone_[k]);
+  }
+  return true;
+}
+
+absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
+                                         const SdfParams& params, int threads,
+                                         const RawConfig& config) {
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  auto raw_rays = RawRays::Create(mesh, topo, params);
+  if (!raw_rays.ok()) return raw_rays.status();
 
   RTCDevice device = rtcNewDevice(nullptr);
   RTCScene scene = NewRawScene(device, mesh, topo, config);
@@ -204,9 +227,6 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
   arena.execute([&] { rtcCommitScene(scene); });
   result.build_seconds = build.Seconds();
 
-  const float t_near =
-      static_cast<float>(params.self_hit_epsilon * MeanEdgeLength(mesh));
-  const float t_far = static_cast<float>(BoundingBoxDiagonal(mesh));
   std::atomic<int64_t> rays{0}, hits{0};
   const Stopwatch pass;
   arena.execute([&] {
@@ -214,18 +234,13 @@ absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
         tbb::blocked_range<int64_t>(0, mesh.num_vertices(), 64),
         [&](const tbb::blocked_range<int64_t>& r) {
           int64_t local_rays = 0, local_hits = 0;
-          std::vector<Vec3> dirs(cone->size());
+          std::vector<Vec3> dirs;
           std::vector<RTCRayHit> stream;
           for (int64_t p = r.begin(); p < r.end(); ++p) {
-            if (topo.vertex_faces.Of(p).empty()) continue;
-            const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
-            if (!vc.valid) continue;
-            for (size_t k = 0; k < dirs.size(); ++k) {
-              dirs[k] = RayDirection(vc.frame, (*cone)[k]);
-            }
-            local_hits +=
-                TraceVertex(config.trace, config.noop_filter, scene,
-                            mesh.positions[p], dirs, t_near, t_far, stream);
+            if (!raw_rays->Directions(p, dirs)) continue;
+            local_hits += TraceVertex(
+                config.trace, config.noop_filter, scene, mesh.positions[p],
+                dirs, raw_rays->t_near(), raw_rays->t_far(), stream);
             local_rays += std::ssize(dirs);
           }
           rays += local_rays;

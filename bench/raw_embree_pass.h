@@ -15,9 +15,11 @@
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
+#include "lib/core/cone.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/topology.h"
+#include "lib/core/vec3.h"
 
 namespace meshgauge::bench {
 
@@ -77,6 +79,33 @@ struct RawPassResult {
   double build_seconds = 0;  // the scene's BVH build
 };
 
+// The rays the raw pass traces: from every vertex with faces and a valid
+// cone, the resolved cone of `params` (one ray along the normal for
+// kNormalRay) around its area-weighted normal, over [t_near, t_far] with
+// t_near = eps * h and t_far = the bounding-box diagonal. Keeps references
+// to `mesh` and `topo`. 3D only.
+class RawRays {
+ public:
+  static absl::StatusOr<RawRays> Create(const Mesh& mesh,
+                                        const MeshTopology& topo,
+                                        const SdfParams& params);
+  // Vertex p's directions into `dirs` (resized to the cone); false, leaving
+  // them, where p traces no ray.
+  bool Directions(int64_t p, std::vector<Vec3>& dirs) const;
+  size_t rays_per_vertex() const { return cone_.size(); }
+  float t_near() const { return t_near_; }
+  float t_far() const { return t_far_; }
+
+ private:
+  RawRays(const Mesh& mesh, const MeshTopology& topo)
+      : mesh_(mesh), topo_(topo) {}
+  const Mesh& mesh_;
+  const MeshTopology& topo_;
+  std::vector<ConeRay> cone_;
+  std::vector<Vec3> normals_;
+  float t_near_ = 0, t_far_ = 0;
+};
+
 // An Embree scene of the mesh's triangles (3D only; `topo` is the mesh's)
 // with `config`'s scene flags and build quality, not yet committed; the
 // caller commits and releases it.
@@ -84,10 +113,9 @@ RTCScene NewRawScene(RTCDevice device, const Mesh& mesh,
                      const MeshTopology& topo, const RawConfig& config);
 
 // Builds an Embree scene of the mesh's triangles (3D only) as `config` says
-// (NewRawScene) and traces, for every vertex with faces in the mesh's vertex
-// order, the resolved cone of `params` with tnear = eps * h and tfar =
-// bounding-box diagonal, over vertices in a oneTBB parallel_for with `threads`
-// threads (0: all cores). The ray pass and the build are timed separately.
+// (NewRawScene) and traces RawRays in the mesh's vertex order, over
+// vertices in a oneTBB parallel_for with `threads` threads (0: all cores).
+// The ray pass and the build are timed separately.
 absl::StatusOr<RawPassResult> RunRawPass(const Mesh& mesh,
                                          const SdfParams& params, int threads,
                                          const RawConfig& config = {});

@@ -5,13 +5,9 @@
 #include <embree3/rtcore.h>
 #include <gtest/gtest.h>
 
-#include <cmath>
 #include <optional>
 #include <vector>
 
-#include "lib/core/cone.h"
-#include "lib/core/normals.h"
-#include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_hit.h"
 #include "lib/io/mesh_io.h"
 
@@ -86,18 +82,11 @@ TEST(EmbreeStreamTest, RaysWithAComponentJustBelowZeroLoseTheirStreamsHits) {
   auto mesh = ReadMesh(MESHGAUGE_MESH_DIR "/spot_triangulated.obj");
   ASSERT_TRUE(mesh.ok()) << mesh.status();
   const MeshTopology topo = MeshTopology::Build(*mesh);
-  const ResolvedParams resolved = ResolveParams(SdfParams{}, 3);
-  auto cone = MakeCone(3, resolved.aperture_radians, resolved.rays,
-                       resolved.min_weight_angle);
-  ASSERT_TRUE(cone.ok());
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(*mesh, topo, NormalWeighting::kArea);
+  auto raw_rays = RawRays::Create(*mesh, topo, SdfParams{});
+  ASSERT_TRUE(raw_rays.ok()) << raw_rays.status();
   RTCDevice device = rtcNewDevice(nullptr);
   RTCScene scene = NewRawScene(device, *mesh, topo, {.robust = true});
   rtcCommitScene(scene);
-  const auto t_near =
-      static_cast<float>(SdfParams{}.self_hit_epsilon * MeanEdgeLength(*mesh));
-  const auto t_far = static_cast<float>(BoundingBoxDiagonal(*mesh));
   auto hit = [](const RTCRayHit& r) {
     return r.hit.geomID != RTC_INVALID_GEOMETRY_ID;
   };
@@ -112,14 +101,14 @@ TEST(EmbreeStreamTest, RaysWithAComponentJustBelowZeroLoseTheirStreamsHits) {
   int leaning_vertices = 0;
   int64_t single_hits = 0, lost = 0, lost_elsewhere = 0, lost_cleared = 0;
   int64_t rays_traced = 0;
+  std::vector<Vec3> dirs;
   for (int64_t p = 0; p < mesh->num_vertices(); ++p) {
-    const VertexCone vc = MakeVertexCone(*mesh, topo, p, normals[p]);
-    if (!vc.valid) continue;
+    if (!raw_rays->Directions(p, dirs)) continue;
     std::vector<RTCRayHit> rays, cleared;
     bool leans = false;
-    for (const ConeRay& c : *cone) {
-      rays.push_back(MakeRayHit(mesh->positions[p], RayDirection(vc.frame, c),
-                                t_near, t_far));
+    for (const Vec3& d : dirs) {
+      rays.push_back(MakeRayHit(mesh->positions[p], d, raw_rays->t_near(),
+                                raw_rays->t_far()));
       RTCRayHit r = rays.back();
       leans |= StreamMayLoseHits(r.ray);
       for (float* d : {&r.ray.dir_x, &r.ray.dir_y, &r.ray.dir_z}) {
