@@ -36,15 +36,16 @@ using testing::SharedMesh;
 using testing::Tmp;
 
 // An unwelded export (a cube of six grids, every edge a seam): without
-// --weld the normal rays at the seams find no value; --weld merges the
-// seams, every vertex gets one, and the CSV keeps the file's 150 rows with
-// each seam copy carrying its welded vertex's value.
+// --weld each of the 150 vertices is measured on its own, the seams' copies
+// along their own grid's normal; --weld merges the seams into 98 vertices,
+// every one gets a value, and the CSV keeps the file's 150 rows with each
+// seam copy carrying its welded vertex's value.
 TEST(CliTest, WeldMeasuresAnUnweldedCubeAndKeepsTheFilesRows) {
   const std::string obj = Tmp("six_grids.obj");
   ASSERT_TRUE(WriteObj(obj, testing::SixGridCube()).ok());
   const CliRun raw = RunCli("sdf " + obj + " --method normal --json");
   ASSERT_EQ(raw.exit_code, 0) << raw.out;
-  EXPECT_GT(nlohmann::json::parse(raw.out)["no_hit"].get<int64_t>(), 0);
+  EXPECT_EQ(nlohmann::json::parse(raw.out)["vertices"], 150);
   const std::string csv = Tmp("six_grids.csv");
   // --weld before the mesh takes no value: give TOL as --weld=TOL there.
   const CliRun welded =

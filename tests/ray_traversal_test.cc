@@ -1,8 +1,9 @@
-// How a pass hands each sample's rays to Embree (FanTraversal): one
-// coherent stream per sample and packets of 16 give the same bits on the
+// How a pass traces each sample's rays (FanTraversal): packets of 16, one
+// coherent stream per sample and the cone walk give the same bits on the
 // test meshes, at both cone angles, with and without ray starts, for vertex
 // ranges, face samples, 2D curves, quads and hub fans; and a pass left to
-// choose streams exactly the small scenes whose rays start at the surface.
+// choose walks cones on small scenes at narrow angles (from the surface)
+// and streams the other small scenes whose rays start at the surface.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -23,7 +24,7 @@ using testing::Pass;
 using testing::PassFrom;
 using testing::Traced;
 
-// Both traversals with `start`: the same bits, and each reported.
+// The three traversals with `start`: the same bits, and each reported.
 void ExpectTraversalsAgree(const Mesh& mesh, const SdfParams& params,
                            RayStartMode start, const std::string& what) {
   const Pass packets =
@@ -32,17 +33,30 @@ void ExpectTraversalsAgree(const Mesh& mesh, const SdfParams& params,
   const Pass stream =
       PassFrom(mesh, params,
                {.ray_start = start, .fan_traversal = FanTraversal::kStream});
-  ExpectSameBits(packets, stream, what);
+  const Pass cone = PassFrom(
+      mesh, params, {.ray_start = start, .fan_traversal = FanTraversal::kCone});
+  ExpectSameBits(packets, stream, what + " streamed");
+  ExpectSameBits(packets, cone, what + " walked");
   EXPECT_EQ(packets.result.samples_streamed, 0) << what;
+  EXPECT_EQ(packets.result.samples_cone_walked, 0) << what;
   // Every sample but those whose rays Embree's streams mishandle: spot's 7
   // on its plane of symmetry (StreamMayLoseHits), traced in packets.
   const int64_t mishandled = what.starts_with("spot") ? 7 : 0;
   EXPECT_EQ(stream.result.samples_streamed, Traced(stream.result) - mishandled)
       << what;
+  // The walk traces every sample or gives it to Embree; in 3D it walks some.
+  EXPECT_EQ(
+      cone.result.samples_cone_walked + cone.result.samples_cone_fell_back,
+      Traced(cone.result))
+      << what;
+  if (mesh.dimension == 3) {
+    EXPECT_GT(cone.result.samples_cone_walked, 0) << what;
+  }
 }
 
-TEST(RayTraversalTest, StreamsAndPacketsGiveTheSameBitsOnTheTestMeshes) {
-  // igea is left out for time; kAuto never streams a scene that large.
+TEST(RayTraversalTest, AllTraversalsGiveTheSameBitsOnTheTestMeshes) {
+  // igea is left out for time; kAuto never streams a scene that large, nor
+  // walks its cones.
   testing::ForEachTestMeshAndAngle(
       {"horse.ply", "stanford-bunny.obj", "rocker-arm.obj", "fandisk.obj",
        "spot_triangulated.obj", "teapot.obj", "decimated-knight.off",
@@ -76,7 +90,7 @@ TEST(RayTraversalTest, RangesFaceSamplesCurvesQuadsAndHubFansGiveTheSameBits) {
 }
 
 // An incremental pass's retraced rays, from every sample whose cone sees
-// the moved patch (fans of a few rays), streamed and in packets.
+// the moved patch (fans of a few rays), in packets, streamed and walked.
 TEST(RayTraversalTest, AnIncrementalPassGivesTheSameBits) {
   const Mesh mesh = *ReadMesh(testing::SharedMesh("teapot.obj"));
   const std::vector<int32_t> patch =
@@ -91,49 +105,76 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameBits) {
                                     .fan_traversal = FanTraversal::kPackets});
   const Pass stream = incremental({.ray_start = RayStartMode::kSurface,
                                    .fan_traversal = FanTraversal::kStream});
-  ExpectSameBits(packets, stream, "incremental");
+  const Pass cone = incremental({.ray_start = RayStartMode::kSurface,
+                                 .fan_traversal = FanTraversal::kCone});
+  ExpectSameBits(packets, stream, "incremental, streamed");
+  ExpectSameBits(packets, cone, "incremental, walked");
   EXPECT_EQ(packets.result.samples_streamed, 0);
   EXPECT_GT(stream.result.samples_streamed, std::ssize(patch));
-  // Left to choose, a pass this small starts at the surface and streams.
-  EXPECT_EQ(incremental({}).result.samples_streamed,
-            stream.result.samples_streamed);
+  EXPECT_GT(cone.result.samples_cone_walked, std::ssize(patch));
+  // Left to choose, a pass this small walks its retraced rays' cones.
+  EXPECT_EQ(incremental({}).result.samples_cone_walked,
+            cone.result.samples_cone_walked);
 }
 
-// kAuto's rule (sdf_evaluator.cc, kStreamMaxPrimitives = 2^13): streams
-// where the pass starts its rays at the surface on fewer primitives, in 3D
-// with the watertight test.
-TEST(RayTraversalTest, APassStreamsSmallScenesWhoseRaysStartAtTheSurface) {
-  auto streamed = [](const Mesh& mesh, const SdfParams& params,
-                     RayStartMode start = RayStartMode::kAuto,
-                     RayTest test = RayTest::kWatertight) {
+// kAuto's rule (sdf_evaluator.cc): on 3D scenes of fewer than 2^13
+// primitives with the watertight test, the cone walk from the surface for
+// cones up to 45 degrees, else streams where the rays start at the surface;
+// packets elsewhere.
+TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
+  struct Used {
+    bool walked = false, streamed = false, past_balls = false;
+  };
+  auto traced = [](const Mesh& mesh, const SdfParams& params,
+                   RayStartMode start = RayStartMode::kAuto,
+                   RayTest test = RayTest::kWatertight) {
     auto ev =
         SdfEvaluator::Create(mesh, {.ray_test = test, .ray_start = start});
     auto r = (*ev)->Compute(params, {.threads = 2});
     EXPECT_TRUE(r.ok()) << r.status();
-    if (!r.ok()) return false;
-    // All of the pass's samples, or none.
-    if (r->samples_streamed == 0) return false;
-    EXPECT_EQ(r->samples_streamed, Traced(*r));
-    return true;
+    if (!r.ok()) return Used{};
+    const int64_t all = Traced(*r);
+    // All of the pass's samples, or none; the walk's fall-backs stream.
+    const int64_t walk = r->samples_cone_walked + r->samples_cone_fell_back;
+    if (walk != 0) {
+      EXPECT_EQ(walk, all);
+      EXPECT_EQ(r->samples_streamed, r->samples_cone_fell_back);
+    } else if (r->samples_streamed != 0) {
+      EXPECT_EQ(r->samples_streamed, all);
+    }
+    return Used{r->samples_cone_walked > 0, r->samples_streamed == all,
+                r->samples_past_ball > 0};
   };
   const Mesh knight = testing::Knight();  // 1,000 primitives
   const Mesh teapot = *ReadMesh(testing::SharedMesh("teapot.obj"));    // 6,320
   const Mesh fandisk = *ReadMesh(testing::SharedMesh("fandisk.obj"));  // 12,946
   SdfParams all;
-  SdfParams half;
-  half.range = {0, teapot.num_vertices() / 2};
+  SdfParams wide;
+  wide.cone_angle_degrees = 60;
   SdfParams few;
   few.range = {0, 500};
-  // Too few rays for starts: at the surface.
-  EXPECT_TRUE(streamed(knight, all));
-  EXPECT_TRUE(streamed(teapot, half));
-  EXPECT_FALSE(streamed(fandisk, few));  // too many primitives
-  // The teapot's whole pass starts past balls; without them it streams.
-  EXPECT_FALSE(streamed(teapot, all));
-  EXPECT_TRUE(streamed(teapot, all, RayStartMode::kSurface));
+  EXPECT_TRUE(traced(knight, all).walked);
+  // The teapot's whole pass would start past balls; it walks from the
+  // surface instead, at 30 degrees (45 too), not at 60.
+  const Used teapot_all = traced(teapot, all);
+  EXPECT_TRUE(teapot_all.walked);
+  EXPECT_FALSE(teapot_all.past_balls);
+  SdfParams at45 = all;
+  at45.cone_angle_degrees = 45;
+  EXPECT_TRUE(traced(teapot, at45).walked);
+  const Used teapot_wide = traced(teapot, wide);
+  EXPECT_FALSE(teapot_wide.walked);
+  EXPECT_TRUE(teapot_wide.past_balls);
+  EXPECT_TRUE(traced(teapot, wide, RayStartMode::kSurface).streamed);
+  EXPECT_TRUE(traced(knight, wide).streamed);  // too few rays for starts
+  // Too many primitives: neither.
+  const Used fandisk_few = traced(fandisk, few);
+  EXPECT_FALSE(fandisk_few.walked || fandisk_few.streamed);
   // Embree's fast test, and 2D: packets.
-  EXPECT_FALSE(streamed(knight, all, RayStartMode::kAuto, RayTest::kFast));
-  EXPECT_FALSE(streamed(MakeCircle(1, 400), all));
+  const Used fast = traced(knight, all, RayStartMode::kAuto, RayTest::kFast);
+  EXPECT_FALSE(fast.walked || fast.streamed);
+  const Used curve = traced(MakeCircle(1, 400), all);
+  EXPECT_FALSE(curve.walked || curve.streamed);
 }
 
 }  // namespace

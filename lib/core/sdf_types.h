@@ -130,8 +130,13 @@ struct SdfResult {
   // unmoved samples retracing fewer than 16 rays) or traced nothing.
   int64_t samples_past_ball = 0;
   // Samples whose rays went to Embree as one coherent stream
-  // (FanTraversal::kStream); the others' in packets.
+  // (FanTraversal::kStream); the others' in packets or the cone walk.
   int64_t samples_streamed = 0;
+  // Samples whose rays the cone walk traced (FanTraversal::kCone), and
+  // those it gave up on, which Embree traced (its fall-back share:
+  // fell_back / (walked + fell_back)).
+  int64_t samples_cone_walked = 0;
+  int64_t samples_cone_fell_back = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;

@@ -23,17 +23,15 @@ void FilterLane(const FanContext& fan, const RTCFilterFunctionNArguments* args,
   }
   HitCandidates& c = fan.out[CandidatesIndex(fan, args, i)];
   float& tfar = RTCRayN_tfar(args->ray, args->N, i);
-  if (tfar < fan.near_below) c.MarkNear();
-  if (tfar < fan.t_min) {
+  const float u = RTCHitN_u(args->hit, args->N, i);
+  const float v = RTCHitN_v(args->hit, args->N, i);
+  const bool edge = fan.segments
+                        ? std::min(u, 1 - u) < HitCandidates::kEdge
+                        : std::min({u, v, 1 - u - v}) < HitCandidates::kEdge;
+  if (!RecordHit(fan, c, prim, tfar, edge)) {
     args->valid[i] = 0;
     return;
   }
-  constexpr float kEdge = 0x1p-10f;
-  const float u = RTCHitN_u(args->hit, args->N, i);
-  const float v = RTCHitN_v(args->hit, args->N, i);
-  const bool edge = fan.segments ? std::min(u, 1 - u) < kEdge
-                                 : std::min({u, v, 1 - u - v}) < kEdge;
-  c.Add(prim, tfar, edge);
   // Embree keeps a tfar that the filter set when it accepts the hit.
   tfar = std::min(c.Limit(), fan.t_far);
 }

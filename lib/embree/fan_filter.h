@@ -35,4 +35,17 @@ struct FanContext {
 // primitive in it is still reported.
 void FanFilter(const RTCFilterFunctionNArguments* args);
 
+// FanFilter's rule for a hit at t_f = `t` of a primitive not excluded, for
+// other traversals (cone_walk.h): marks `c` near() below fan.near_below;
+// ignores the hit below fan.t_min (false); else records it
+// (HitCandidates::Add) and returns true, and the ray must then look no
+// farther than min(c.Limit(), fan.t_far).
+inline bool RecordHit(const FanContext& fan, HitCandidates& c, int32_t prim,
+                      float t, bool edge) {
+  if (t < fan.near_below) c.MarkNear();
+  if (t < fan.t_min) return false;
+  c.Add(prim, t, edge);
+  return true;
+}
+
 }  // namespace meshgauge

@@ -21,6 +21,9 @@ namespace meshgauge {
 class HitCandidates {
  public:
   static constexpr int kMax = 8;
+  // A hit whose smallest barycentric coordinate is below this lies near
+  // the primitive's boundary (Entry::edge).
+  static constexpr float kEdge = 0x1p-10f;
   struct Entry {
     int32_t prim;
     float t;

@@ -274,6 +274,7 @@ absl::Status RayScene::FillVertices(const Mesh& mesh) {
     }
     fans_.Update(vertex_buffer_, largest + diagonal);
   }
+  cone_walk_built_ = std::make_unique<std::once_flag>();
   return absl::OkStatus();
 }
 
@@ -289,6 +290,16 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   if (fan_geometry_) rtcCommitGeometry(fan_geometry_);
   rtcCommitScene(scene_);
   return DeviceStatus(device_, "rtcCommitScene (update)");
+}
+
+const ConeWalk& RayScene::Walk() const {
+  std::call_once(*cone_walk_built_, [this] {
+    if (dimension_ == 3 &&
+        std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
+      cone_walk_.Build(vertex_buffer_, topo_.primitives);
+    }
+  });
+  return cone_walk_;
 }
 
 namespace {
@@ -437,7 +448,13 @@ FanTraversal RayScene::IntersectFan(
   static const bool packets =
       rtcGetDeviceProperty(SharedDevice(),
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
-  if (traversal == FanTraversal::kStream && streams &&
+  if (traversal == FanTraversal::kCone) {
+    if (Walk().Intersect(o, dirs, starts, limits.t_near, fan, out)) {
+      return FanTraversal::kCone;
+    }
+    for (HitCandidates& c : out) c.Reset(reach);
+  }
+  if (traversal != FanTraversal::kPackets && streams &&
       IntersectStream(scene_, rays, fan, out)) {
     return FanTraversal::kStream;
   }

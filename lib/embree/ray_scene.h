@@ -9,12 +9,14 @@
 #include <algorithm>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <vector>
 
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
+#include "lib/embree/cone_walk.h"
 #include "lib/embree/hit_candidates.h"
 #include "lib/embree/hub_fans.h"
 
@@ -50,9 +52,9 @@ Vec3 SceneOrigin(const Mesh& mesh);
 // a store can refuse positions before it commits them.
 absl::Status CheckTraceable(const Mesh& mesh);
 
-// How RayScene::IntersectFan hands a fan's rays to Embree. Both found the
-// same candidates under the watertight test on every fan tried
-// (RaySceneTest, RayTraversalTest); only the time differs.
+// How RayScene::IntersectFan traces a fan's rays. All found the same
+// candidates under the watertight test on every fan tried (RaySceneTest,
+// RayTraversalTest, ConeWalkTest); only the time differs.
 enum class FanTraversal {
   // Packets of 16 consecutive rays (rtcIntersect16; single rays where
   // Embree has no 16-wide packets): each ray walks the BVH on its own.
@@ -63,6 +65,12 @@ enum class FanTraversal {
   // few large primitives fill the cone (coarse meshes, CAD parts) and
   // costs where the cone spreads over many small ones.
   kStream,
+  // meshgauge's own walk (cone_walk.h): one descent per fan for all its
+  // rays, each candidate triangle tested against the rays that can meet it.
+  // On 3D scenes of at most ConeWalk::kMaxPrimitives primitives; a fan it
+  // gives up on (too many candidates, too wide a cone, too few rays) goes
+  // to Embree as kStream would.
+  kCone,
 };
 
 // The ray-primitive test Embree runs.
@@ -150,12 +158,14 @@ class RayScene {
   // `excluded` (ascending; SPEC §4's one-ring: OneRingPrimitives):
   // every primitive within HitCandidates' window of the closest, found
   // whatever the BVH's history (see hit_candidates.h). Traced as
-  // `traversal` says (a cone's rays share their origin and are coherent),
-  // but in packets where Embree has no streams or a ray has a direction
-  // component its streams mishandle (StreamMayLoseHits); returns the way
-  // it traced. dirs.size() == out.size(). `starts`, when not empty (one
-  // per ray, each at or above limits.t_near), replaces limits.t_near as ray
-  // k's start (ray_start.h: only past a stretch proven empty). Thread-safe.
+  // `traversal` says (a cone's rays share their origin and are coherent):
+  // a fan the cone walk gives up on (ConeWalk::Intersect) is streamed, and
+  // a fan streamed goes in packets where Embree has no streams or a ray has
+  // a direction component its streams mishandle (StreamMayLoseHits);
+  // returns the way it traced. dirs.size() == out.size(). `starts`, when not
+  // empty (one per ray, each at or above limits.t_near), replaces limits.t_near
+  // as ray k's start (ray_start.h: only past a stretch proven empty).
+  // Thread-safe.
   FanTraversal IntersectFan(
       const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
       absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
@@ -186,6 +196,12 @@ class RayScene {
   // fan_geometry_ (null without fans).
   HubFans fans_;
   RTCGeometryTy* fan_geometry_ = nullptr;
+  // Over the coordinates Embree sees, built on a fan's first use after
+  // each FillVertices (a pass that does not walk cones does not pay for
+  // it); empty in 2D and on scenes of over ConeWalk::kMaxPrimitives.
+  const ConeWalk& Walk() const;
+  mutable ConeWalk cone_walk_;
+  mutable std::unique_ptr<std::once_flag> cone_walk_built_;
 };
 
 }  // namespace meshgauge

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <optional>
 
 #include "absl/base/attributes.h"
@@ -60,16 +61,35 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
+// On the same scenes, with cones no wider than this, the cone walk
+// (FanTraversal::kCone) from the surface beat Embree's streams and the
+// pass past empty balls alike; at 60 degrees it lost on spot and the
+// teapot, where a cone meets over a thousand candidate triangles
+// (docs/benchmarks.md, "The cone walk").
+constexpr double kConeMaxAperture = 45 * std::numbers::pi / 180;
+// Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
+// kAuto or kSurface starts) walks cones: 3D scenes of fewer than
+// kStreamMaxPrimitives under the watertight test, cones no wider than
+// kConeMaxAperture. Such a pass starts its rays at the surface.
+bool WalksCones(RayTest test, int64_t primitives, int dimension,
+                double aperture_radians) {
+  return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
+         dimension == 3 && aperture_radians <= kConeMaxAperture;
+}
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
-// open: streams where the rays start at the surface on a small 3D scene
-// under the watertight test. Embree's fast test met other primitives in
-// streams than in packets (the tray's raw plain passes); a 2D circle of
-// 4,000 segments took 1.30-1.35 times as long streamed (a throwaway
-// program; docs/benchmarks.md).
+// open: the cone walk where WalksCones; else streams where the rays start
+// at the surface on a small 3D scene under the watertight test. Embree's
+// fast test met other primitives in streams than in packets (the tray's
+// raw plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
+// long streamed (a throwaway program; docs/benchmarks.md).
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension) {
-  return !past_balls && test == RayTest::kWatertight &&
-                 primitives < kStreamMaxPrimitives && dimension == 3
+                             int dimension, double aperture_radians) {
+  if (past_balls) return FanTraversal::kPackets;
+  if (WalksCones(test, primitives, dimension, aperture_radians)) {
+    return FanTraversal::kCone;
+  }
+  return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
+                 dimension == 3
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
 }
@@ -526,6 +546,7 @@ struct SampleScratch {
   std::vector<double> estimator;
   std::vector<float> starts;
   int64_t traced = 0, world_frames = 0, past_ball = 0, streamed = 0;
+  int64_t walked = 0, fell_back = 0;
 };
 
 // A sample's rows of the hit tables; null when none are kept.
@@ -713,10 +734,12 @@ class SdfEvaluator::SampleTracer {
         ++s.past_ball;
       }
     }
-    if (ev_.scene_->IntersectFan(x, fan_dirs, setup_.limits, s.excluded, fan,
-                                 starts, traversal_) == FanTraversal::kStream) {
-      ++s.streamed;
-    }
+    const FanTraversal used = ev_.scene_->IntersectFan(
+        x, fan_dirs, setup_.limits, s.excluded, fan, starts, traversal_);
+    s.streamed += used == FanTraversal::kStream;
+    s.walked += used == FanTraversal::kCone;
+    s.fell_back +=
+        traversal_ == FanTraversal::kCone && used != FanTraversal::kCone;
     for (const HitCandidates& c : fan) {
       if (c.count() > 0) ev_.PrefetchPrimitive(c[0].prim);
     }
@@ -812,6 +835,12 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   // share of it.
   bool use_starts = ray_start_ != RayStartMode::kSurface && !setup->sphere &&
                     mesh_.dimension == 3;
+  if (use_starts && ray_start_ == RayStartMode::kAuto &&
+      !fan_traversal_.has_value() &&
+      WalksCones(ray_test_, std::ssize(topo_.primitives), mesh_.dimension,
+                 setup->resolved.aperture_radians)) {
+    use_starts = false;
+  }
   if (use_starts && ray_start_ == RayStartMode::kAuto) {
     const int64_t rays =
         plan ? kIncrementalRaysPerMovedRay * setup->num_rays *
@@ -851,10 +880,11 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       params.range.all() ? absl::MakeConstSpan(order_) : range_order;
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
-      samples_past_ball{0}, samples_streamed{0};
-  const FanTraversal traversal = fan_traversal_.value_or(
-      ChooseTraversal(starts.has_value(), ray_test_,
-                      std::ssize(topo_.primitives), mesh_.dimension));
+      samples_past_ball{0}, samples_streamed{0}, samples_walked{0},
+      samples_fell_back{0};
+  const FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
+      starts.has_value(), ray_test_, std::ssize(topo_.primitives),
+      mesh_.dimension, setup->resolved.aperture_radians));
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
                             starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
@@ -867,6 +897,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     world_frame_vertices += s.world_frames;
     samples_past_ball += s.past_ball;
     samples_streamed += s.streamed;
+    samples_walked += s.walked;
+    samples_fell_back += s.fell_back;
     gate.Done(range.size());
   };
   tbb::task_arena arena(ThreadCount(control.threads));
@@ -881,6 +913,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.world_frame_vertices = world_frame_vertices;
   result.samples_past_ball = samples_past_ball;
   result.samples_streamed = samples_streamed;
+  result.samples_cone_walked = samples_walked;
+  result.samples_cone_fell_back = samples_fell_back;
   result.normalized = NormalizedSdf(result.values);
   if (params.range.all()) {
     result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)

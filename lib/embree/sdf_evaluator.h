@@ -53,11 +53,13 @@ struct EvaluatorOptions {
   // Where a 3D pass starts its rays (ray_start.h). The others only to
   // measure what the empty ball saves and that it changes no bit.
   RayStartMode ray_start = RayStartMode::kAuto;
-  // How a pass hands each sample's rays to Embree; nullopt: kStream where
-  // the pass starts its rays at the surface on a 3D scene of fewer than
-  // kStreamMaxPrimitives primitives with the watertight test, else
-  // kPackets (sdf_evaluator.cc). The others only to measure both; neither
-  // changed a bit on the fans tried (RayTraversalTest).
+  // How a pass traces each sample's rays; nullopt: kCone on a 3D scene of
+  // fewer than 2^13 primitives with the watertight test and a cone no wider
+  // than 45 degrees (the pass then starts its rays at the surface, whatever
+  // kAuto would have chosen); else kStream where the pass starts its rays
+  // at the surface on such a scene, and kPackets otherwise
+  // (sdf_evaluator.cc). The others only to measure them; none changed a bit
+  // on the fans tried (RayTraversalTest).
   std::optional<FanTraversal> fan_traversal = std::nullopt;
 };
 

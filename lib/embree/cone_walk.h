@@ -1,0 +1,86 @@
+// A traversal built for cones (issue 52): one descent of a BVH per fan for
+// all of its rays, which share their origin and lie in a narrow cone, with
+// every candidate triangle tested against the rays that can meet it, eight
+// at a time. RayScene::IntersectFan uses it for FanTraversal::kCone and
+// falls back to Embree where it gives up.
+//
+// What it finds is what FanFilter finds through Embree: for each ray, every
+// primitive within HitCandidates' window of its closest hit, so the pick in
+// double precision (PickClosest) sees the same primitive. Its
+// single-precision test is watertight as SPEC §4 needs (a ray through an
+// edge or a vertex shared by triangles meets at least one of them): a
+// triangle's edge functions are scalar triple products of the ray with its
+// corners, and the two triangles of an edge compute them from the same
+// corners, exactly negated. Its distances t_f may differ from Embree's by a
+// rounding, which moves no candidate into or out of the window but one
+// within a rounding of its end (docs/numerics.md "The cone walk").
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "absl/types/span.h"
+#include "lib/core/topology.h"
+#include "lib/core/vec3.h"
+#include "lib/embree/hit_candidates.h"
+
+namespace meshgauge {
+
+struct FanContext;  // fan_filter.h
+
+class ConeWalk {
+ public:
+  // Scenes of more primitives get no walk (its BVH would hold tens of
+  // megabytes); passes left to choose walk cones on far smaller ones
+  // (EvaluatorOptions::fan_traversal).
+  static constexpr int64_t kMaxPrimitives = int64_t{1} << 18;
+  // A fan whose walk meets more candidate triangles gives up (the share is
+  // reported: SdfResult::samples_cone_fell_back).
+  static constexpr int kMaxCandidates = 1024;
+  // Fans of more rays go to Embree.
+  static constexpr int kMaxRays = 512;
+
+  // Whether this CPU runs the walk (AVX2 and FMA); without, every fan
+  // gives up.
+  static bool Supported();
+
+  // Builds the BVH over the triangles `primitives` (3D; every v[2] >= 0)
+  // at `vertices`, 4 floats (x, y, z, unused) per mesh vertex in the
+  // tracer's coordinates (RayScene's vertex buffer). Hub fans' triangles
+  // (hub_fans.h) are ordinary triangles here. O(n log n).
+  void Build(const float* vertices, absl::Span<const Primitive> primitives);
+  bool empty() const { return nodes_.empty(); }
+
+  // As RayScene::IntersectFan with `fan` set up as for FanFilter (excluded,
+  // t_min, near_below, t_far): out[k] receives ray k's candidates, found
+  // from `origin` (tracer coordinates) along dirs[k] over (start(k), t_far]
+  // with start(k) = starts[k], or t_near when `starts` is empty. Returns
+  // false, leaving `out` to be reset, when it gives up: no walk, a CPU
+  // without AVX2, no ray or more than kMaxRays rays, rays not
+  // within a cone of half-angle below 80 degrees, or more than
+  // kMaxCandidates candidate triangles. Thread-safe.
+  bool Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
+                 absl::Span<const float> starts, float t_near,
+                 const FanContext& fan, absl::Span<HitCandidates> out) const;
+
+  // The walk's BVH (cone_walk.cc): nodes of up to kWidth children, each a
+  // node or a leaf of triangles, with their bounding spheres (structure of
+  // arrays, tested together).
+  static constexpr int kWidth = 8;
+  struct Node {
+    alignas(32) float x[kWidth], y[kWidth], z[kWidth], radius[kWidth];
+    int32_t child[kWidth];  // >= 0: a node; -1: triangles [first, + count).
+    int32_t first[kWidth], count[kWidth];
+    int32_t children = 0;
+  };
+  struct Triangle {
+    float a[3], b[3], c[3];
+    int32_t prim;
+  };
+
+ private:
+  std::vector<Node> nodes_;
+  std::vector<Triangle> triangles_;  // in leaf order.
+};
+
+}  // namespace meshgauge

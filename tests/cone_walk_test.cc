@@ -1,0 +1,248 @@
+// The cone walk (lib/embree/cone_walk.h): the candidates Embree's filter
+// finds, rays through shared edges and corners never slipping through,
+// and the fans it gives up on.
+#include "lib/embree/cone_walk.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <tuple>
+#include <vector>
+
+#include "lib/core/cone.h"
+#include "lib/core/normals.h"
+#include "lib/core/sdf_types.h"
+#include "lib/core/shapes.h"
+#include "lib/core/topology.h"
+#include "lib/core/vertex_cone.h"
+#include "lib/embree/ray_scene.h"
+#include "lib/embree/sdf_evaluator.h"
+#include "lib/io/mesh_io.h"
+#include "tests/test_util.h"
+
+namespace meshgauge {
+namespace {
+
+// Every fan of `mesh` (its vertices' cones of `aperture_degrees`), traced
+// in packets and by the cone walk, into `check(p, walked, packets, cone)`.
+template <typename Check>
+void ForEachFan(const Mesh& mesh, double aperture_degrees, Check check) {
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  SdfParams params;
+  params.cone_angle_degrees = aperture_degrees;
+  const ResolvedParams resolved = ResolveParams(params, 3);
+  const std::vector<ConeRay> cone = *MakeCone(
+      3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
+  const std::vector<Vec3> normals =
+      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
+  const auto h = static_cast<float>(MeanEdgeLength(mesh));
+  const RayScene::FanLimits limits = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
+  std::vector<HitCandidates> packets(cone.size()), walked(cone.size());
+  std::vector<Vec3> dirs(cone.size());
+  std::vector<int32_t> ring;
+  for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
+    const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
+    if (!vc.valid) continue;
+    for (size_t k = 0; k < cone.size(); ++k) {
+      dirs[k] = RayDirection(vc.frame, cone[k]);
+    }
+    OneRingPrimitives(topo, p, &ring);
+    (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
+                           absl::MakeSpan(packets), {}, FanTraversal::kPackets);
+    const FanTraversal used =
+        (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
+                               absl::MakeSpan(walked), {}, FanTraversal::kCone);
+    check(p, used == FanTraversal::kCone, packets, walked);
+  }
+}
+
+// The walk's single-precision distances round differently from Embree's,
+// which may change which of two primitives sharing an edge each reports
+// for a ray along that edge; PickClosest looks at both (HitCandidates'
+// edge flag), so a ray's candidates may differ only there.
+TEST(ConeWalkTest, FindsTheCandidatesEmbreeFindsOnEveryFanOfSpot) {
+  const Mesh mesh = *ReadMesh(testing::SharedMesh("spot_triangulated.obj"));
+  for (double aperture : {30.0, 60.0}) {
+    SCOPED_TRACE(::testing::Message() << aperture << " degrees");
+    int64_t walked_fans = 0, rays = 0, differing = 0;
+    ForEachFan(
+        mesh, aperture,
+        [&](int64_t p, bool walked, absl::Span<const HitCandidates> packets,
+            absl::Span<const HitCandidates> cone) {
+          if (!walked) return;
+          ++walked_fans;
+          for (size_t k = 0; k < packets.size(); ++k) {
+            SCOPED_TRACE(::testing::Message()
+                         << "vertex " << p << " ray " << k);
+            const HitCandidates& a = packets[k];
+            const HitCandidates& b = cone[k];
+            ++rays;
+            ASSERT_EQ(a.count() > 0, b.count() > 0);
+            EXPECT_EQ(a.near(), b.near());
+            bool same = a.count() == b.count();
+            for (int i = 0; same && i < a.count(); ++i) {
+              same = a[i].prim == b[i].prim && a[i].edge == b[i].edge;
+            }
+            if (same || a.count() == 0) continue;
+            ++differing;
+            for (const HitCandidates* c : {&a, &b}) {
+              for (int i = 0; i < c->count(); ++i) EXPECT_TRUE((*c)[i].edge);
+            }
+            EXPECT_NEAR(a[0].t, b[0].t, 1e-6 * a[0].t);
+          }
+        });
+    // Most fans walk (the others hold over kMaxCandidates candidates).
+    EXPECT_GT(walked_fans, mesh.num_vertices() / 2);
+    EXPECT_LT(differing, rays / 1000);
+  }
+}
+
+// A fan from the centre of a cube of 8 x 8 cells a face towards every
+// corner and edge midpoint of the triangles of its top face: every ray
+// meets the face, at its exact distance.
+TEST(ConeWalkTest, RaysThroughSharedEdgesAndCornersDoNotSlipThrough) {
+  const Mesh box = MakeBox(1, 1, 1, 0.125);
+  const MeshTopology topo = MeshTopology::Build(box);
+  auto scene = RayScene::Create(box, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const Vec3 centre(0.5, 0.5, 0.5);
+  std::vector<Vec3> targets;
+  for (const Primitive& prim : topo.primitives) {
+    const Vec3& a = box.positions[prim.v[0]];
+    if (a.z != 1 || box.positions[prim.v[1]].z != 1) continue;
+    for (int i = 0; i < 3; ++i) {
+      const Vec3& p = box.positions[prim.v[i]];
+      const Vec3& q = box.positions[prim.v[(i + 1) % 3]];
+      targets.push_back(p);
+      targets.push_back((p + q) * 0.5);
+    }
+  }
+  std::sort(targets.begin(), targets.end(), [](const Vec3& a, const Vec3& b) {
+    return std::tie(a.x, a.y) < std::tie(b.x, b.y);
+  });
+  targets.erase(std::unique(targets.begin(), targets.end()), targets.end());
+  ASSERT_EQ(std::ssize(targets), 81 + 2 * 72 + 64);  // corners, edges
+  std::vector<Vec3> dirs;
+  for (const Vec3& t : targets) dirs.push_back((t - centre) / Norm(t - centre));
+  std::vector<HitCandidates> out(dirs.size());
+  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
+  ASSERT_EQ(
+      (*scene)->IntersectFan(centre, dirs, limits, {}, absl::MakeSpan(out), {},
+                             FanTraversal::kCone),
+      FanTraversal::kCone);
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    ASSERT_GT(out[k].count(), 0) << "ray " << k << " slipped through";
+    EXPECT_NEAR(out[k][0].t, 0.5 / dirs[k].z, 1e-6) << k;
+  }
+}
+
+// Gives up, and IntersectFan streams the fan instead with the same
+// candidates: a cone wider than 80 degrees, over 512 rays, and a fan that
+// meets more than kMaxCandidates triangles (from the centre of a fine
+// sphere, whose every triangle in the cone lies at the same distance).
+TEST(ConeWalkTest, GivesUpOnWideConesManyRaysAndTooManyCandidates) {
+  const Mesh sphere = MakeIcosphere(1, 48);  // 46,080 triangles
+  const MeshTopology topo = MeshTopology::Build(sphere);
+  auto scene = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
+  auto fan = [](int rays, double half_angle) {
+    std::vector<Vec3> dirs;
+    for (int k = 0; k < rays; ++k) {
+      const double theta = half_angle * (k + 0.5) / rays;
+      const double phi = 2.399963 * k;
+      dirs.emplace_back(std::sin(theta) * std::cos(phi),
+                        std::sin(theta) * std::sin(phi), std::cos(theta));
+    }
+    return dirs;
+  };
+  auto traced = [&](const std::vector<Vec3>& dirs) {
+    std::vector<HitCandidates> packets(dirs.size()), cone(dirs.size());
+    (*scene)->IntersectFan(Vec3(), dirs, limits, {}, absl::MakeSpan(packets),
+                           {}, FanTraversal::kPackets);
+    const FanTraversal used =
+        (*scene)->IntersectFan(Vec3(), dirs, limits, {}, absl::MakeSpan(cone),
+                               {}, FanTraversal::kCone);
+    for (size_t k = 0; k < dirs.size(); ++k) {
+      EXPECT_EQ(cone[k].count(), packets[k].count()) << k;
+      if (cone[k].count() > 0 && packets[k].count() > 0) {
+        EXPECT_EQ(cone[k][0].prim, packets[k][0].prim) << k;
+      }
+    }
+    return used;
+  };
+  // A narrow cone of 100 rays meets a few hundred triangles: walked.
+  EXPECT_EQ(traced(fan(100, 0.1)), FanTraversal::kCone);
+  EXPECT_EQ(traced(fan(512, 0.1)), FanTraversal::kCone);
+  EXPECT_EQ(traced(fan(513, 0.1)), FanTraversal::kStream);
+  // 30 degrees of the sphere: about 3,000 triangles.
+  EXPECT_EQ(traced(fan(100, 0.5)), FanTraversal::kStream);
+}
+
+TEST(ConeWalkTest, GivesUpOnConesWiderThan80Degrees) {
+  const Mesh sphere = MakeIcosphere(1, 2);  // 80 triangles
+  const MeshTopology topo = MeshTopology::Build(sphere);
+  auto scene = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
+  // Rays on two circles about z: every ray's angle to their mean is the
+  // circle's.
+  auto walked = [&](double degrees) {
+    std::vector<Vec3> dirs;
+    const double theta = degrees * std::numbers::pi / 180;
+    for (int k = 0; k < 16; ++k) {
+      const double phi = 2 * std::numbers::pi * k / 16;
+      dirs.emplace_back(std::sin(theta) * std::cos(phi),
+                        std::sin(theta) * std::sin(phi), std::cos(theta));
+    }
+    std::vector<HitCandidates> out(dirs.size());
+    return (*scene)->IntersectFan(Vec3(), dirs, limits, {}, absl::MakeSpan(out),
+                                  {},
+                                  FanTraversal::kCone) == FanTraversal::kCone;
+  };
+  EXPECT_TRUE(walked(60));
+  EXPECT_TRUE(walked(79));
+  EXPECT_FALSE(walked(81));
+}
+
+// Where the walk and Embree differ (docs/numerics.md "The cone walk"): a
+// ray with a zero direction component lying exactly on the upper face of a
+// bounding box misses that box in Embree's traversal (its reciprocal of 0
+// is +1e18, so the box's slab is [-huge, 0]), and so the primitives in it.
+// On a cube of six unwelded grids, the normal rays of 54 seam vertices run
+// along such faces to the far grid's boundary; the walk meets it at the
+// cube's width, Embree finds nothing.
+TEST(ConeWalkTest, MeetsTheFarFaceAlongASeamWhereEmbreesBoxTestMisses) {
+  const Mesh cube = testing::SixGridCube();
+  const MeshTopology topo = MeshTopology::Build(cube);
+  auto scene = RayScene::Create(cube, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  EXPECT_EQ((*scene)->Intersect(Vec3(0, 0, 0), Vec3(1, 0, 0), 1e-6f, 10).prim,
+            32);
+  EXPECT_EQ((*scene)->Intersect(Vec3(0, 0, 1), Vec3(1, 0, 0), 1e-6f, 10).prim,
+            -1);
+  SdfParams normal_ray;
+  normal_ray.method = SdfMethod::kNormalRay;
+  for (FanTraversal traversal : {FanTraversal::kPackets, FanTraversal::kCone}) {
+    auto ev = SdfEvaluator::Create(cube, {.fan_traversal = traversal});
+    ASSERT_TRUE(ev.ok()) << ev.status();
+    auto r = (*ev)->Compute(normal_ray, {.threads = 2});
+    ASSERT_TRUE(r.ok()) << r.status();
+    int64_t without = 0;
+    for (size_t v = 0; v < r->values.size(); ++v) {
+      if (r->status[v] != VertexStatus::kOk) {
+        ++without;
+      } else {
+        EXPECT_EQ(r->values[v], 1) << v;
+      }
+    }
+    EXPECT_EQ(without, traversal == FanTraversal::kCone ? 0 : 54);
+  }
+}
+
+}  // namespace
+}  // namespace meshgauge
