@@ -15,6 +15,7 @@
 #include "lib/core/hit_table.h"
 #include "lib/core/mesh.h"
 #include "lib/core/sdf_types.h"
+#include "lib/core/topology.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
 #include "tests/test_util.h"
@@ -45,17 +46,52 @@ inline Pass PassFrom(const Mesh& mesh, const SdfParams& params,
   return pass;
 }
 
-// The result, the hit table and its near flags of both passes, bit for bit.
-inline void ExpectSameBits(const Pass& a, const Pass& b,
-                           const std::string& what) {
+// The results of both passes (values, opposite points, statuses, counts)
+// and which rays their hit tables keep, bit for bit.
+inline void ExpectSameResults(const Pass& a, const Pass& b,
+                              const std::string& what) {
   EXPECT_TRUE(SameBits(a.result.values, b.result.values)) << what;
   EXPECT_TRUE(SameBits(a.result.opposite, b.result.opposite)) << what;
   EXPECT_EQ(a.result.status, b.result.status) << what;
   EXPECT_EQ(a.result.hits, b.result.hits) << what;
   EXPECT_EQ(a.result.kept, b.result.kept) << what;
-  EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
   EXPECT_EQ(a.hits.kept, b.hits.kept) << what;
+}
+
+// The result, the hit table and its near flags of both passes, bit for bit.
+inline void ExpectSameBits(const Pass& a, const Pass& b,
+                           const std::string& what) {
+  ExpectSameResults(a, b, what);
+  EXPECT_EQ(a.hits.primitives, b.hits.primitives) << what;
   EXPECT_EQ(a.hits.near, b.hits.near) << what;
+}
+
+// ExpectSameResults, and hit tables that differ only where two tracers'
+// single-precision tests may (docs/numerics.md "The cone walk"): a ray
+// whose primitives differ met both at a corner they share, at the same
+// distance (the values are the same bits); near flags differ in under 1 %
+// of the samples (a primitive within rounding of the sample).
+inline void ExpectSameResultsUpToTies(const Mesh& mesh, const Pass& a,
+                                      const Pass& b, const std::string& what) {
+  ExpectSameResults(a, b, what);
+  ASSERT_EQ(a.hits.primitives.size(), b.hits.primitives.size()) << what;
+  const MeshTopology topo = MeshTopology::Build(mesh);
+  for (size_t i = 0; i < a.hits.primitives.size(); ++i) {
+    const int32_t p = a.hits.primitives[i], q = b.hits.primitives[i];
+    if (p == q) continue;
+    ASSERT_TRUE(p >= 0 && q >= 0) << what << ": ray " << i;
+    bool share = false;
+    for (int32_t u : topo.primitives[p].v) {
+      for (int32_t v : topo.primitives[q].v) share |= u >= 0 && u == v;
+    }
+    EXPECT_TRUE(share) << what << ": ray " << i << " met " << p << " and " << q;
+  }
+  ASSERT_EQ(a.hits.near.size(), b.hits.near.size()) << what;
+  int64_t near_differ = 0;
+  for (size_t i = 0; i < a.hits.near.size(); ++i) {
+    near_differ += a.hits.near[i] != b.hits.near[i];
+  }
+  EXPECT_LE(100 * near_differ, std::ssize(a.hits.near)) << what;
 }
 
 // The samples a pass traced: those with faces and a cone.

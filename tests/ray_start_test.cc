@@ -34,14 +34,22 @@ using testing::PassFrom;
 using testing::SameBits;
 using testing::Traced;
 
+// Every pass here traces in packets, so that the starts alone differ: a
+// pass left to choose would walk the cones of small scenes from the
+// surface, whose hit tables may differ at ties (RayTraversalTest).
+constexpr FanTraversal kPackets = FanTraversal::kPackets;
+
 // The pass past empty balls, checked bit for bit against the pass whose
 // rays start at the surface (`what` names the case in a failure).
 Pass PassPastBallsAsFromTheSurface(const Mesh& mesh, const SdfParams& params,
                                    const std::string& what) {
-  Pass ball =
-      PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
+  Pass ball = PassFrom(
+      mesh, params,
+      {.ray_start = RayStartMode::kPastEmptyBall, .fan_traversal = kPackets});
   ExpectSameBits(ball,
-                 PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface}),
+                 PassFrom(mesh, params,
+                          {.ray_start = RayStartMode::kSurface,
+                           .fan_traversal = kPackets}),
                  what);
   return ball;
 }
@@ -66,10 +74,12 @@ TEST(RayStartTest, EveryTestMeshGivesTheBitsOfRaysStartedAtTheSurface) {
        "rocker-arm.obj", "fandisk.obj", "spot_triangulated.obj", "teapot.obj",
        "decimated-knight.off", "1002_tray_bottom.STL"},
       [](const Mesh& mesh, const SdfParams& params, const std::string& what) {
-        const Pass ball =
-            PassFrom(mesh, params, {.ray_start = RayStartMode::kPastEmptyBall});
-        const Pass surface =
-            PassFrom(mesh, params, {.ray_start = RayStartMode::kSurface});
+        const Pass ball = PassFrom(mesh, params,
+                                   {.ray_start = RayStartMode::kPastEmptyBall,
+                                    .fan_traversal = kPackets});
+        const Pass surface = PassFrom(
+            mesh, params,
+            {.ray_start = RayStartMode::kSurface, .fan_traversal = kPackets});
         ExpectSameBits(ball, surface, what);
         EXPECT_EQ(surface.result.samples_past_ball, 0) << what;
         // Most samples start past a ball (thin or crowded places fall back).
@@ -97,8 +107,9 @@ TEST(RayStartTest, FaceSamplesAndWideConesGiveTheSameBits) {
 TEST(RayStartTest, ACurvesPassStartsAtTheCurve) {
   const Mesh circle = MakeCircle(1, 10000);
   SdfParams params;
-  const Pass surface =
-      PassFrom(circle, params, {.ray_start = RayStartMode::kSurface});
+  const Pass surface = PassFrom(
+      circle, params,
+      {.ray_start = RayStartMode::kSurface, .fan_traversal = kPackets});
   ASSERT_GE(surface.result.rays_traced,
             std::max<int64_t>(int64_t{1} << 18, 8 * circle.num_faces()));
   for (RayStartMode mode :
@@ -338,8 +349,9 @@ PatchPass RockerArmPatchPass(double radius, int rays) {
   const Mesh mesh = *ReadMesh(testing::SharedMesh("rocker-arm.obj"));
   SdfParams params;
   params.rays = rays;
-  auto ev =
-      SdfEvaluator::Create(mesh, {.ray_start = RayStartMode::kPastEmptyBall});
+  auto ev = SdfEvaluator::Create(
+      mesh,
+      {.ray_start = RayStartMode::kPastEmptyBall, .fan_traversal = kPackets});
   if (!ev.ok()) {
     ADD_FAILURE() << ev.status();
     return {};
@@ -350,7 +362,8 @@ PatchPass RockerArmPatchPass(double radius, int rays) {
                 MovedSamples(mesh, patch)};
   ExpectSameBits(out.pass,
                  PassFrom(Moved(mesh, patch), params,
-                          {.ray_start = RayStartMode::kSurface}),
+                          {.ray_start = RayStartMode::kSurface,
+                           .fan_traversal = kPackets}),
                  absl::StrCat("patch of radius ", radius));
   return out;
 }

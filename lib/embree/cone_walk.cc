@@ -27,14 +27,14 @@ constexpr float kMargin = 1e-4f;
 // A fan's rays, regrouped kLanes at a time by where they point
 // (structure of arrays; slot s = group * kLanes + lane).
 struct FanSlots {
-  // Ray d sheared along its group's axis z (x, y the next two, cyclically):
-  // sx = d_x / d_z, sy = d_y / d_z, iz = 1 / d_z.
+  // In the cone's frame (u, v, axis) ray d runs along (sx, sy, 1) / iz:
+  // sx = d.u / d.axis, sy = d.v / d.axis, iz = 1 / d.axis.
   std::vector<float> sx, sy, iz, start, limit;
   std::vector<int32_t> ray;  // -1: padding.
   // Per group (padded to a multiple of kLanes groups): the box of its rays'
   // projections onto the plane at distance 1 along the axis.
   std::vector<float> lo_x, hi_x, lo_y, hi_y;
-  std::vector<float> fx, fy, fz, px, py;  // per ray.
+  std::vector<float> fx, fy, fz, px, py, inv;  // per ray.
   std::vector<uint8_t> axis;              // per group: 0, 1, 2 for x, y, z.
   std::vector<uint8_t> key;               // per ray.
   std::vector<int32_t> order;
@@ -67,9 +67,9 @@ struct Cone {
 }
 
 // The fan's cone and its rays' slots; false for rays outside a cone of
-// half-angle 80 degrees.
+// half-angle 80 degrees about `axis` (null: the rays' mean direction).
 __attribute__((target("avx2,fma"))) bool SetUpFan(
-    const Vec3& origin, absl::Span<const Vec3> dirs,
+    const Vec3& origin, absl::Span<const Vec3> dirs, const Vec3* axis,
     absl::Span<const float> starts, float t_near, float t_far, Cone& cone,
     FanSlots& s) {
   const size_t n = dirs.size();
@@ -79,6 +79,7 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
     sum += d;
     longest2 = std::max(longest2, Dot(d, d));
   }
+  if (axis != nullptr) sum = *axis;
   const double longest = std::sqrt(longest2);
   const double sum_norm = Norm(sum);
   if (!(sum_norm > 0) || !(longest > 0)) return false;
@@ -99,7 +100,9 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
   // The rays in single precision (padded with copies of the last), then
   // their projections, 8 at a time.
   const size_t padded = (n + kLanes - 1) / kLanes * kLanes;
-  for (auto* f : {&s.fx, &s.fy, &s.fz, &s.px, &s.py}) f->resize(padded);
+  for (auto* f : {&s.fx, &s.fy, &s.fz, &s.px, &s.py, &s.inv}) {
+    f->resize(padded);
+  }
   for (size_t k = 0; k < padded; ++k) {
     const Vec3& d = dirs[std::min(k, n - 1)];
     s.fx[k] = static_cast<float>(d.x);
@@ -123,6 +126,7 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
     const __m256 inv = _mm256_div_ps(_mm256_set1_ps(1), along);
     const __m256 px = _mm256_mul_ps(Dot8(x, y, z, cone.u), inv);
     const __m256 py = _mm256_mul_ps(Dot8(x, y, z, cone.v), inv);
+    _mm256_storeu_ps(&s.inv[k], inv);
     _mm256_storeu_ps(&s.px[k], px);
     _mm256_storeu_ps(&s.py[k], py);
     lo_x = _mm256_min_ps(lo_x, px);
@@ -137,60 +141,52 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
   cone.cos_half = std::max(0.0f, cos_min - kMargin);
   cone.sin_half = std::sqrt(1 - cone.cos_half * cone.cos_half);
 
-  // Rays sorted by the axis of their largest component (each ray's test
-  // shears along it, as Embree's, so that it depends on the ray alone and
-  // not on the fan it came in), then by their cell of a 4 x 4 grid over the
-  // projections, the cells in Morton order, so that kLanes consecutive rays
-  // point close together; a counting sort, stable. A group holds rays of
-  // one axis.
+  // Rays sorted by their cell of a 4 x 4 grid over the projections, the
+  // cells in Morton order, so that kLanes consecutive rays point close
+  // together; a counting sort, stable.
   s.key.resize(n);
   const float scale_x = box_hi_x > box_lo_x ? 4 / (box_hi_x - box_lo_x) : 0;
   const float scale_y = box_hi_y > box_lo_y ? 4 / (box_hi_y - box_lo_y) : 0;
-  int counts[3 * 16 + 1] = {};
+  int counts[17] = {};
   for (size_t k = 0; k < n; ++k) {
-    const float ax = std::abs(s.fx[k]), ay = std::abs(s.fy[k]),
-                az = std::abs(s.fz[k]);
-    const int axis = ax >= ay && ax >= az ? 0 : (ay >= az ? 1 : 2);
     const int cx =
         std::min(3, static_cast<int>((s.px[k] - box_lo_x) * scale_x));
     const int cy =
         std::min(3, static_cast<int>((s.py[k] - box_lo_y) * scale_y));
-    const int cell = (cx & 1) | (cy & 1) << 1 | (cx & 2) << 1 | (cy & 2) << 2;
-    s.key[k] = static_cast<uint8_t>(16 * axis + cell);
+    s.key[k] = static_cast<uint8_t>((cx & 1) | (cy & 1) << 1 | (cx & 2) << 1 |
+                                    (cy & 2) << 2);
     ++counts[s.key[k] + 1];
   }
-  for (int c = 0; c < 3 * 16; ++c) counts[c + 1] += counts[c];
+  for (int c = 0; c < 16; ++c) counts[c + 1] += counts[c];
   s.order.resize(n);
   for (size_t k = 0; k < n; ++k) {
     s.order[counts[s.key[k]]++] = static_cast<int32_t>(k);
   }
 
-  // Slots: the sorted rays, a group padded where the axis changes.
-  const size_t max_slots = (n / kLanes + 3) * kLanes;
-  for (auto* f : {&s.sx, &s.sy, &s.iz, &s.start}) f->assign(max_slots, 0);
-  s.limit.assign(max_slots, -kInf);
-  s.ray.assign(max_slots, -1);
-  const size_t max_groups = max_slots / kLanes;
-  const size_t padded_groups = (max_groups + kLanes - 1) / kLanes * kLanes;
+  s.groups = static_cast<int>((n + kLanes - 1) / kLanes);
+  const size_t slots = static_cast<size_t>(s.groups) * kLanes;
+  for (auto* f : {&s.sx, &s.sy, &s.iz, &s.start, &s.limit}) f->resize(slots);
+  s.ray.resize(slots);
+  const size_t padded_groups = (s.groups + kLanes - 1) / kLanes * kLanes;
   for (auto* f : {&s.lo_x, &s.lo_y}) f->assign(padded_groups, kInf);
   for (auto* f : {&s.hi_x, &s.hi_y}) f->assign(padded_groups, -kInf);
-  s.axis.assign(max_groups, 0);
   const float pad =
       kMargin * (1 + std::max({std::abs(box_lo_x), std::abs(box_hi_x),
                                std::abs(box_lo_y), std::abs(box_hi_y)}));
-  size_t slot = 0;
-  for (size_t i = 0; i < n; ++i) {
-    const int32_t k = s.order[i];
-    const int axis = s.key[k] / 16;
-    if (slot % kLanes != 0 && s.axis[slot / kLanes] != axis) {
-      slot += kLanes - slot % kLanes;
-    }
+  for (size_t slot = 0; slot < slots; ++slot) {
     const size_t g = slot / kLanes;
-    s.axis[g] = static_cast<uint8_t>(axis);
-    const float d[3] = {s.fx[k], s.fy[k], s.fz[k]};
-    s.sx[slot] = d[(axis + 1) % 3] / d[axis];
-    s.sy[slot] = d[(axis + 2) % 3] / d[axis];
-    s.iz[slot] = 1 / d[axis];
+    if (slot >= n) {
+      // No start before infinity, no limit past -infinity.
+      s.sx[slot] = s.sy[slot] = s.iz[slot] = 0;
+      s.start[slot] = kInf;
+      s.limit[slot] = -kInf;
+      s.ray[slot] = -1;
+      continue;
+    }
+    const int32_t k = s.order[slot];
+    s.sx[slot] = s.px[k];
+    s.sy[slot] = s.py[k];
+    s.iz[slot] = s.inv[k];
     s.start[slot] = starts.empty() ? t_near : starts[k];
     s.limit[slot] = t_far;
     s.ray[slot] = k;
@@ -198,27 +194,22 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
     s.hi_x[g] = std::max(s.hi_x[g], s.px[k] + pad);
     s.lo_y[g] = std::min(s.lo_y[g], s.py[k] - pad);
     s.hi_y[g] = std::max(s.hi_y[g], s.py[k] + pad);
-    ++slot;
-  }
-  s.groups = static_cast<int>((slot + kLanes - 1) / kLanes);
-  // Padding slots: no start before infinity, no limit after -infinity.
-  for (size_t i = 0; i < max_slots; ++i) {
-    if (s.ray[i] < 0) s.start[i] = kInf;
   }
   return true;
 }
 
 // Up to kLanes candidate triangles, tested together: their corners, then
-// the corners relative to the fan's origin.
+// the corners relative to the fan's origin in the cone's frame (u, v,
+// axis): frame[corner][0, 1, 2] = X, Y, Z.
 struct Batch {
   alignas(32) float corner[3][3][kLanes];  // [corner][coordinate][lane]
-  alignas(32) float relative[3][3][kLanes];
+  alignas(32) float frame[3][3][kLanes];
   int32_t prim[kLanes];
   int count = 0;
 };
 
 // Which lanes of the batch group g's rays can meet, per group; the batch's
-// corners relative to the origin. The lanes of a triangle whose corners all lie
+// corners in the cone's frame. The lanes of a triangle whose corners all lie
 // behind the plane through the origin normal to the axis meet none; one with a
 // corner near or behind it may meet every group; the others, the groups whose
 // boxes their projection's box overlaps.
@@ -243,7 +234,9 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
     z[i] = Dot8(c[i][0], c[i][1], c[i][2], cone.axis);
     px[i] = Dot8(c[i][0], c[i][1], c[i][2], cone.u);
     py[i] = Dot8(c[i][0], c[i][1], c[i][2], cone.v);
-    for (int j = 0; j < 3; ++j) _mm256_store_ps(b.relative[i][j], c[i][j]);
+    _mm256_store_ps(b.frame[i][0], px[i]);
+    _mm256_store_ps(b.frame[i][1], py[i]);
+    _mm256_store_ps(b.frame[i][2], z[i]);
   }
   const __m256 tiny = _mm256_mul_ps(_mm256_set1_ps(kMargin), size);
   const __m256 z_lo = _mm256_min_ps(z[0], _mm256_min_ps(z[1], z[2]));
@@ -281,24 +274,22 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
 }
 
 // Tests group g's rays against lane `lane` of the batch, as Embree's
-// watertight test does: each corner sheared along the group's axis z to
-// (x - sx z, y - sy z), the edge functions w[i] the 2D cross products of
-// the other two corners (each a product minus a product, no fused
-// multiply-add, so that a shared edge's are exact negations in its two
-// triangles), t the corners' z interpolated, times iz. Each ray's result
-// depends on it, the origin and the triangle alone. Records the hits as
-// FanFilter would; returns whether a ray's limit changed.
+// watertight test does: each corner sheared along the ray to (X - sx Z,
+// Y - sy Z) in the cone's frame, the edge functions w[i] the 2D cross
+// products of the other two corners (each a product minus a product, no
+// fused multiply-add, so that a shared edge's are exact negations in its
+// two triangles), t the corners' Z interpolated, times iz. Records the
+// hits as FanFilter would; returns whether a ray's limit changed.
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) bool TestLane(
     const Batch& b, int lane, __m256 sx, __m256 sy, __m256 iz, int g,
     const FanContext& fan, FanSlots& s, HitCandidates* out) {
-  const int kz = s.axis[g], kx = (kz + 1) % 3, ky = (kz + 2) % 3;
   __m256 x[3], y[3], z[3];
   for (int i = 0; i < 3; ++i) {
-    z[i] = _mm256_broadcast_ss(&b.relative[i][kz][lane]);
-    x[i] = _mm256_fnmadd_ps(sx, z[i],
-                            _mm256_broadcast_ss(&b.relative[i][kx][lane]));
-    y[i] = _mm256_fnmadd_ps(sy, z[i],
-                            _mm256_broadcast_ss(&b.relative[i][ky][lane]));
+    z[i] = _mm256_broadcast_ss(&b.frame[i][2][lane]);
+    x[i] =
+        _mm256_fnmadd_ps(sx, z[i], _mm256_broadcast_ss(&b.frame[i][0][lane]));
+    y[i] =
+        _mm256_fnmadd_ps(sy, z[i], _mm256_broadcast_ss(&b.frame[i][1][lane]));
   }
   __m256 w[3];
   for (int i = 0; i < 3; ++i) {
@@ -346,7 +337,7 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) bool
 TestBatch(const Cone& cone, const FanContext& fan, FanSlots& s, Batch& b,
           HitCandidates* out) {
-  uint8_t lanes_of_group[ConeWalk::kMaxRays / kLanes + 3];
+  uint8_t lanes_of_group[ConeWalk::kMaxRays / kLanes];
   PrepareBatch(cone, s, b, lanes_of_group);
   bool changed = false;
   for (int g = 0; g < s.groups; ++g) {
@@ -631,14 +622,14 @@ __attribute__((target("avx2,fma"))) bool Walk(
 }  // namespace
 
 bool ConeWalk::Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
-                         absl::Span<const float> starts, float t_near,
-                         const FanContext& fan,
+                         const Vec3* axis, absl::Span<const float> starts,
+                         float t_near, const FanContext& fan,
                          absl::Span<HitCandidates> out) const {
   const auto n = std::ssize(dirs);
   if (empty() || !Supported() || n == 0 || n > kMaxRays) return false;
   thread_local FanSlots s;
   Cone cone;
-  return SetUpFan(origin, dirs, starts, t_near, fan.t_far, cone, s) &&
+  return SetUpFan(origin, dirs, axis, starts, t_near, fan.t_far, cone, s) &&
          Walk(nodes_, triangles_, cone, fan, s, out.data());
 }
 

@@ -36,7 +36,7 @@ class ConeWalk {
   static constexpr int64_t kMaxPrimitives = int64_t{1} << 18;
   // A fan whose walk meets more candidate triangles gives up (the share is
   // reported: SdfResult::samples_cone_fell_back).
-  static constexpr int kMaxCandidates = 1024;
+  static constexpr int kMaxCandidates = 2048;
   // Fans of more rays go to Embree.
   static constexpr int kMaxRays = 512;
 
@@ -54,13 +54,17 @@ class ConeWalk {
   // As RayScene::IntersectFan with `fan` set up as for FanFilter (excluded,
   // t_min, near_below, t_far): out[k] receives ray k's candidates, found
   // from `origin` (tracer coordinates) along dirs[k] over (start(k), t_far]
-  // with start(k) = starts[k], or t_near when `starts` is empty. Returns
-  // false, leaving `out` to be reset, when it gives up: no walk, a CPU
-  // without AVX2, no ray or more than kMaxRays rays, rays not
-  // within a cone of half-angle below 80 degrees, or more than
-  // kMaxCandidates candidate triangles. Thread-safe.
+  // with start(k) = starts[k], or t_near when `starts` is empty. Every ray
+  // is tested in the frame of `axis` (unit; null: the rays' mean
+  // direction), so that its candidates depend on the ray, the origin and
+  // the axis alone, not on which other rays share the fan (an incremental
+  // pass retraces some of a sample's rays: give the sample's cone axis).
+  // Returns false, leaving `out` to be reset, when it gives up: no walk, a
+  // CPU without AVX2, no ray or more than kMaxRays rays, rays not within 80
+  // degrees of the axis, or more than kMaxCandidates candidate triangles.
+  // Thread-safe.
   bool Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
-                 absl::Span<const float> starts, float t_near,
+                 const Vec3* axis, absl::Span<const float> starts, float t_near,
                  const FanContext& fan, absl::Span<HitCandidates> out) const;
 
   // The walk's BVH (cone_walk.cc): nodes of up to kWidth children, each a

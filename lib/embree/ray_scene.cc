@@ -425,7 +425,8 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
 FanTraversal RayScene::IntersectFan(
     const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
     absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
-    absl::Span<const float> starts, FanTraversal traversal) const {
+    absl::Span<const float> starts, FanTraversal traversal,
+    const Vec3* axis) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c.Reset(reach);
@@ -449,7 +450,7 @@ FanTraversal RayScene::IntersectFan(
       rtcGetDeviceProperty(SharedDevice(),
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
   if (traversal == FanTraversal::kCone) {
-    if (Walk().Intersect(o, dirs, starts, limits.t_near, fan, out)) {
+    if (Walk().Intersect(o, dirs, axis, starts, limits.t_near, fan, out)) {
       return FanTraversal::kCone;
     }
     for (HitCandidates& c : out) c.Reset(reach);

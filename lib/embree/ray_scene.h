@@ -162,15 +162,19 @@ class RayScene {
   // a fan the cone walk gives up on (ConeWalk::Intersect) is streamed, and
   // a fan streamed goes in packets where Embree has no streams or a ray has
   // a direction component its streams mishandle (StreamMayLoseHits);
-  // returns the way it traced. dirs.size() == out.size(). `starts`, when not
-  // empty (one per ray, each at or above limits.t_near), replaces limits.t_near
-  // as ray k's start (ray_start.h: only past a stretch proven empty).
-  // Thread-safe.
-  FanTraversal IntersectFan(
-      const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
-      absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
-      absl::Span<const float> starts = {},
-      FanTraversal traversal = FanTraversal::kPackets) const;
+  // returns the way it traced. `axis` (unit, or null) is the walk's frame
+  // (ConeWalk::Intersect): give the sample's cone axis, so that a ray's
+  // candidates do not depend on the fan it came in. dirs.size() == out.size().
+  // `starts`, when not empty (one per ray, each at or above limits.t_near),
+  // replaces limits.t_near as ray k's start (ray_start.h: only past a stretch
+  // proven empty). Thread-safe.
+  FanTraversal IntersectFan(const Vec3& origin, absl::Span<const Vec3> dirs,
+                            const FanLimits& limits,
+                            absl::Span<const int32_t> excluded,
+                            absl::Span<HitCandidates> out,
+                            absl::Span<const float> starts = {},
+                            FanTraversal traversal = FanTraversal::kPackets,
+                            const Vec3* axis = nullptr) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)

@@ -484,8 +484,11 @@ absl::StatusOr<PassSetup> SetUpPass(const MeshGeometry& g,
   limits.t_min = static_cast<float>(setup.t_min);
   limits.t_near = PowerOfTwoBelow(limits.t_min);
   limits.near_below = 2 * limits.t_near;
-  // Slightly beyond t_max so the double-precision check decides.
-  limits.t_far = std::nextafter(static_cast<float>(setup.t_max),
+  // Beyond t_max by far more than a single-precision test errs (2^-16, as
+  // HitCandidates' window), so that the double-precision check decides: the
+  // cone walk's distance to a hit at exactly t_max (a cube's corner seen
+  // from the opposite one) was 3 units in the last place above it.
+  limits.t_far = std::nextafter(static_cast<float>(setup.t_max * (1 + 0x1p-16)),
                                 std::numeric_limits<float>::max());
   setup.cone_half_angle = params.method == SdfMethod::kNormalRay
                               ? 0
@@ -735,7 +738,7 @@ class SdfEvaluator::SampleTracer {
       }
     }
     const FanTraversal used = ev_.scene_->IntersectFan(
-        x, fan_dirs, setup_.limits, s.excluded, fan, starts, traversal_);
+        x, fan_dirs, setup_.limits, s.excluded, fan, starts, traversal_, &axis);
     s.streamed += used == FanTraversal::kStream;
     s.walked += used == FanTraversal::kCone;
     s.fell_back +=
