@@ -18,8 +18,10 @@
 //    lib/embree/ray_start.h): best rate, the share of samples that fell
 //    back to it in the default pass, and whether both gave the same bits;
 //  * the same pass with each traversal forced (FanTraversal: packets of 16,
-//    one coherent stream per sample): best rates against the SPEC ceiling,
-//    which one the default pass chose, and whether all gave the same bits;
+//    one coherent stream per sample, the cone walk from the surface): best
+//    rates against the SPEC ceiling, how the default pass traced (samples
+//    walked, fallen back, streamed), the forced walk's fall-back share, and
+//    whether all gave the same values, hit and kept counts;
 //  * a values-only pass vs a values pass keeping the hit table (best time
 //    also shown alone) followed by the VJP (all-ones g): best times and
 //    their ratio;
@@ -265,8 +267,14 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   auto stream_evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .fan_traversal = FanTraversal::kStream});
-  double best_packets = 0, best_stream = 0;
-  int64_t streamed = 0;
+  // The cone walk forced, from the surface (kAuto's choice on small scenes
+  // at narrow cones; elsewhere measured only).
+  auto cone_evaluator =
+      SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
+                                  .ray_start = RayStartMode::kSurface,
+                                  .fan_traversal = FanTraversal::kCone});
+  double best_packets = 0, best_stream = 0, best_cone = 0;
+  int64_t streamed = 0, walked = 0, fell_back = 0, forced_fell_back = 0;
   bool same_traversal_bits = true;
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
@@ -324,9 +332,9 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
              pass.kept == sdf->kept;
     };
     same_bits &= same_as_default(*surface);
-    for (const auto& [ev, best] :
-         {std::pair{&packet_evaluator, &best_packets},
-          std::pair{&stream_evaluator, &best_stream}}) {
+    for (const auto& [ev, best] : {std::pair{&packet_evaluator, &best_packets},
+                                   std::pair{&stream_evaluator, &best_stream},
+                                   std::pair{&cone_evaluator, &best_cone}}) {
       auto pass = (**ev)->Compute(params, control);
       if (!pass.ok()) {
         std::fprintf(stderr, "traversal pass failed\n");
@@ -334,8 +342,13 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       }
       *best = std::max(*best, pass->rays_traced / pass->trace_seconds);
       same_traversal_bits &= same_as_default(*pass);
+      if (ev == &cone_evaluator) {
+        forced_fell_back = pass->samples_cone_fell_back;
+      }
     }
     streamed = sdf->samples_streamed;
+    walked = sdf->samples_cone_walked;
+    fell_back = sdf->samples_cone_fell_back;
     past_ball = sdf->samples_past_ball;
     traced_samples = std::ssize(sdf->values) -
                      sdf->CountStatus(VertexStatus::kNoFaces) -
@@ -386,12 +399,18 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       static_cast<long long>(traced_samples),
       same_bits ? "bit-identical" : "DIFFER");
   std::printf(
-      "%-28s traversal: the pass streamed %lld of %lld samples; packets "
-      "%.3e rays/s = %.3f of the ceiling, streams %.3e rays/s = %.3f of it; "
-      "values, hits and kept %s\n",
-      "", static_cast<long long>(streamed),
-      static_cast<long long>(traced_samples), best_packets,
-      best_packets / ceiling, best_stream, best_stream / ceiling,
+      "%-28s traversal: the pass walked %lld of %lld samples' cones (fell "
+      "back %lld) and streamed %lld; packets %.3e rays/s = %.3f of the "
+      "ceiling, streams %.3e rays/s = %.3f of it, cone walk from the surface "
+      "%.3e rays/s = %.3f of it (fall-back share %.4f); values, hits and "
+      "kept %s\n",
+      "", static_cast<long long>(walked),
+      static_cast<long long>(traced_samples), static_cast<long long>(fell_back),
+      static_cast<long long>(streamed), best_packets, best_packets / ceiling,
+      best_stream, best_stream / ceiling, best_cone, best_cone / ceiling,
+      traced_samples > 0
+          ? static_cast<double>(forced_fell_back) / traced_samples
+          : 0.0,
       same_traversal_bits ? "bit-identical" : "DIFFER");
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);
