@@ -23,6 +23,7 @@
 #include "lib/embree/ray_scene.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
+#include "tests/ray_test_util.h"
 #include "tests/test_util.h"
 
 namespace meshgauge {
@@ -32,33 +33,21 @@ namespace {
 // in packets and by the cone walk, into `check(p, walked, packets, cone)`.
 template <typename Check>
 void ForEachFan(const Mesh& mesh, double aperture_degrees, Check check) {
-  const MeshTopology topo = MeshTopology::Build(mesh);
-  auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(scene.ok()) << scene.status();
   SdfParams params;
   params.cone_angle_degrees = aperture_degrees;
-  const ResolvedParams resolved = ResolveParams(params, 3);
-  const std::vector<ConeRay> cone = *MakeCone(
-      3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
-  const auto h = static_cast<float>(MeanEdgeLength(mesh));
-  const RayScene::FanLimits limits = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
-  std::vector<HitCandidates> packets(cone.size()), walked(cone.size());
-  std::vector<Vec3> dirs(cone.size());
+  const testing::VertexFans fans(mesh, params);
+  std::vector<HitCandidates> packets(fans.rays()), walked(fans.rays());
+  std::vector<Vec3> dirs;
   std::vector<int32_t> ring;
+  Vec3 axis;
   for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
-    const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
-    if (!vc.valid) continue;
-    for (size_t k = 0; k < cone.size(); ++k) {
-      dirs[k] = RayDirection(vc.frame, cone[k]);
-    }
-    OneRingPrimitives(topo, p, &ring);
-    (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
-                           absl::MakeSpan(packets), {}, FanTraversal::kPackets);
-    const FanTraversal used = (*scene)->IntersectFan(
-        mesh.positions[p], dirs, limits, ring, absl::MakeSpan(walked), {},
-        FanTraversal::kCone, &vc.frame.axis);
+    if (!fans.Fan(p, &dirs, &axis, &ring)) continue;
+    fans.scene().IntersectFan(mesh.positions[p], dirs, fans.limits(), ring,
+                              absl::MakeSpan(packets), {},
+                              FanTraversal::kPackets);
+    const FanTraversal used = fans.scene().IntersectFan(
+        mesh.positions[p], dirs, fans.limits(), ring, absl::MakeSpan(walked),
+        {}, FanTraversal::kCone, &axis);
     check(p, used == FanTraversal::kCone, packets, walked);
   }
 }
@@ -118,34 +107,24 @@ TEST(ConeWalkTest, FindsTheCandidatesEmbreeFindsOnEveryFanOfSpot) {
 // the distances rounded differently).
 TEST(ConeWalkTest, ARaysCandidatesDoNotDependOnTheRaysWalkedWithIt) {
   const Mesh mesh = *ReadMesh(testing::SharedMesh("teapot.obj"));
-  const MeshTopology topo = MeshTopology::Build(mesh);
-  auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  const ResolvedParams resolved = ResolveParams(SdfParams{}, 3);
-  const std::vector<ConeRay> cone = *MakeCone(
-      3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
-  const auto h = static_cast<float>(MeanEdgeLength(mesh));
-  const RayScene::FanLimits limits = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
+  const testing::VertexFans fans(mesh);
+  std::vector<Vec3> all, some;
   std::vector<int32_t> ring;
+  Vec3 axis;
   int64_t compared = 0;
   for (int64_t p = 0; p < mesh.num_vertices(); p += 7) {
-    const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
-    if (!vc.valid) continue;
-    std::vector<Vec3> all, some;
-    for (size_t k = 0; k < cone.size(); ++k) {
-      all.push_back(RayDirection(vc.frame, cone[k]));
-      if (k % 3 == 1) some.push_back(all.back());
-    }
-    OneRingPrimitives(topo, p, &ring);
+    if (!fans.Fan(p, &all, &axis, &ring)) continue;
+    some.clear();
+    for (size_t k = 1; k < all.size(); k += 3) some.push_back(all[k]);
     std::vector<HitCandidates> whole(all.size()), part(some.size());
-    if ((*scene)->IntersectFan(mesh.positions[p], all, limits, ring,
-                               absl::MakeSpan(whole), {}, FanTraversal::kCone,
-                               &vc.frame.axis) != FanTraversal::kCone ||
-        (*scene)->IntersectFan(mesh.positions[p], some, limits, ring,
-                               absl::MakeSpan(part), {}, FanTraversal::kCone,
-                               &vc.frame.axis) != FanTraversal::kCone) {
+    auto walked = [&](absl::Span<const Vec3> dirs,
+                      absl::Span<HitCandidates> out) {
+      return fans.scene().IntersectFan(mesh.positions[p], dirs, fans.limits(),
+                                       ring, out, {}, FanTraversal::kCone,
+                                       &axis) == FanTraversal::kCone;
+    };
+    if (!walked(all, absl::MakeSpan(whole)) ||
+        !walked(some, absl::MakeSpan(part))) {
       continue;
     }
     for (size_t j = 0; j < some.size(); ++j) {

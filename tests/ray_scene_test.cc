@@ -182,41 +182,32 @@ TEST(RaySceneTest, RaysThroughSharedEdgesAndVerticesAreNotLost) {
 // (JustBelowZero), which Embree's streams mishandle (EmbreeStreamTest).
 TEST(RaySceneTest, AStreamFindsThePacketsCandidatesAndLeavesLeaningFans) {
   const Mesh mesh = *ReadMesh(testing::SharedMesh("spot_triangulated.obj"));
-  const MeshTopology topo = MeshTopology::Build(mesh);
-  auto scene = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  const ResolvedParams resolved = ResolveParams(SdfParams{}, 3);
-  const std::vector<ConeRay> cone = *MakeCone(
-      3, resolved.aperture_radians, resolved.rays, resolved.min_weight_angle);
-  const std::vector<Vec3> normals =
-      UnnormalizedNormals(mesh, topo, NormalWeighting::kArea);
-  const auto h = static_cast<float>(MeanEdgeLength(mesh));
-  const RayScene::FanLimits limits = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
-  std::vector<HitCandidates> packets(cone.size()), stream(cone.size());
-  std::vector<Vec3> dirs(cone.size());
+  const testing::VertexFans fans(mesh);
+  const RayScene& scene = fans.scene();
+  const RayScene::FanLimits& limits = fans.limits();
+  std::vector<HitCandidates> packets(fans.rays()), stream(fans.rays());
+  std::vector<Vec3> dirs;
   std::vector<int32_t> ring;
+  Vec3 axis;
   int leaning = 0;
   int64_t hits = 0;
   for (int64_t p = 0; p < mesh.num_vertices(); ++p) {
-    const VertexCone vc = MakeVertexCone(mesh, topo, p, normals[p]);
-    ASSERT_TRUE(vc.valid) << p;
+    ASSERT_TRUE(fans.Fan(p, &dirs, &axis, &ring)) << p;
     bool leans = false;
-    for (size_t k = 0; k < cone.size(); ++k) {
-      dirs[k] = RayDirection(vc.frame, cone[k]);
-      for (double c : {dirs[k].x, dirs[k].y, dirs[k].z}) {
+    for (const Vec3& d : dirs) {
+      for (double c : {d.x, d.y, d.z}) {
         leans |= JustBelowZero(static_cast<float>(c));
       }
     }
     leaning += leans;
-    OneRingPrimitives(topo, p, &ring);
-    (*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
-                           absl::MakeSpan(packets), {}, FanTraversal::kPackets);
-    EXPECT_EQ((*scene)->IntersectFan(mesh.positions[p], dirs, limits, ring,
-                                     absl::MakeSpan(stream), {},
-                                     FanTraversal::kStream),
-              leans ? FanTraversal::kPackets : FanTraversal::kStream)
+    scene.IntersectFan(mesh.positions[p], dirs, limits, ring,
+                       absl::MakeSpan(packets), {}, FanTraversal::kPackets);
+    EXPECT_EQ(
+        scene.IntersectFan(mesh.positions[p], dirs, limits, ring,
+                           absl::MakeSpan(stream), {}, FanTraversal::kStream),
+        leans ? FanTraversal::kPackets : FanTraversal::kStream)
         << p;
-    for (size_t k = 0; k < cone.size(); ++k) {
+    for (size_t k = 0; k < dirs.size(); ++k) {
       SCOPED_TRACE(::testing::Message() << "vertex " << p << " ray " << k);
       ASSERT_EQ(stream[k].count(), packets[k].count());
       hits += packets[k].count() > 0;
@@ -229,7 +220,7 @@ TEST(RaySceneTest, AStreamFindsThePacketsCandidatesAndLeavesLeaningFans) {
     }
   }
   EXPECT_EQ(leaning, 7);
-  EXPECT_EQ(hits, mesh.num_vertices() * std::ssize(cone));  // closed
+  EXPECT_EQ(hits, mesh.num_vertices() * std::ssize(dirs));  // closed
 }
 
 }  // namespace

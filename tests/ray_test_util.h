@@ -1,12 +1,19 @@
 // Test helpers over RayScene.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <cmath>
+#include <memory>
 #include <random>
 #include <vector>
 
 #include "absl/functional/function_ref.h"
+#include "lib/core/cone.h"
+#include "lib/core/normals.h"
+#include "lib/core/sdf_types.h"
 #include "lib/core/topology.h"
+#include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_scene.h"
 
 namespace meshgauge::testing {
@@ -60,5 +67,54 @@ inline void CompareFans(
     check(v, ring, dirs, ca, cb);
   }
 }
+
+// The fans of a 3D mesh's vertices as a pass of `params` traces them: the
+// mesh's scene (kRebuild), each vertex's cone about its area-weighted
+// normal and its one-ring, over limits of 1e-4 mean edge lengths to 1e30.
+// Keeps a reference to `mesh`; not copied or moved (the scene keeps one to
+// the topology).
+class VertexFans {
+ public:
+  explicit VertexFans(const Mesh& mesh, const SdfParams& params = {})
+      : mesh_(mesh), topo_(MeshTopology::Build(mesh)) {
+    auto scene = RayScene::Create(mesh, topo_, BvhUpdatePolicy::kRebuild);
+    EXPECT_TRUE(scene.ok()) << scene.status();
+    if (scene.ok()) scene_ = std::move(*scene);
+    const ResolvedParams resolved = ResolveParams(params, 3);
+    cone_ = *MakeCone(3, resolved.aperture_radians, resolved.rays,
+                      resolved.min_weight_angle);
+    normals_ = UnnormalizedNormals(mesh, topo_, NormalWeighting::kArea);
+    const auto h = static_cast<float>(MeanEdgeLength(mesh));
+    limits_ = {1e-4f * h, 1e-4f * h, 2e-4f * h, 1e30f};
+  }
+  VertexFans(const VertexFans&) = delete;
+  VertexFans& operator=(const VertexFans&) = delete;
+
+  const RayScene& scene() const { return *scene_; }
+  const RayScene::FanLimits& limits() const { return limits_; }
+  size_t rays() const { return cone_.size(); }
+  // Vertex p's rays into `dirs` (resized), its cone's axis into `axis` and
+  // its one-ring into `ring`; false where p has no valid cone.
+  bool Fan(int64_t p, std::vector<Vec3>* dirs, Vec3* axis,
+           std::vector<int32_t>* ring) const {
+    const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals_[p]);
+    if (!vc.valid) return false;
+    dirs->resize(cone_.size());
+    for (size_t k = 0; k < cone_.size(); ++k) {
+      (*dirs)[k] = RayDirection(vc.frame, cone_[k]);
+    }
+    *axis = vc.frame.axis;
+    OneRingPrimitives(topo_, p, ring);
+    return true;
+  }
+
+ private:
+  const Mesh& mesh_;
+  MeshTopology topo_;
+  std::unique_ptr<RayScene> scene_;
+  std::vector<ConeRay> cone_;
+  std::vector<Vec3> normals_;
+  RayScene::FanLimits limits_;
+};
 
 }  // namespace meshgauge::testing
