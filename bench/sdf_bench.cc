@@ -20,8 +20,9 @@
 //  * the same pass with each traversal forced (FanTraversal: packets of 16,
 //    one coherent stream per sample, the cone walk from the surface): best
 //    rates against the SPEC ceiling, how the default pass traced (samples
-//    walked, fallen back, streamed), the forced walk's fall-back share, and
-//    whether all gave the same values, hit and kept counts;
+//    walked, fallen back, streamed), how many samples the forced walk took
+//    (none where it takes no fan of the pass: over 2^18 primitives, say),
+//    and whether all gave the same values, hit and kept counts;
 //  * a values-only pass vs a values pass keeping the hit table (best time
 //    also shown alone) followed by the VJP (all-ones g): best times and
 //    their ratio;
@@ -274,7 +275,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
                                   .ray_start = RayStartMode::kSurface,
                                   .fan_traversal = FanTraversal::kCone});
   double best_packets = 0, best_stream = 0, best_cone = 0;
-  int64_t streamed = 0, walked = 0, fell_back = 0, forced_fell_back = 0;
+  int64_t streamed = 0, walked = 0, fell_back = 0, forced_walked = 0;
   bool same_traversal_bits = true;
   double best_refit = 0, best_render = 1e300;
   std::vector<double> values;
@@ -342,9 +343,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       }
       *best = std::max(*best, pass->rays_traced / pass->trace_seconds);
       same_traversal_bits &= same_as_default(*pass);
-      if (ev == &cone_evaluator) {
-        forced_fell_back = pass->samples_cone_fell_back;
-      }
+      if (ev == &cone_evaluator) forced_walked = pass->samples_cone_walked;
     }
     streamed = sdf->samples_streamed;
     walked = sdf->samples_cone_walked;
@@ -402,15 +401,13 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       "%-28s traversal: the pass walked %lld of %lld samples' cones (fell "
       "back %lld) and streamed %lld; packets %.3e rays/s = %.3f of the "
       "ceiling, streams %.3e rays/s = %.3f of it, cone walk from the surface "
-      "%.3e rays/s = %.3f of it (fall-back share %.4f); values, hits and "
-      "kept %s\n",
+      "%.3e rays/s = %.3f of it (walked %lld samples; the others streamed); "
+      "values, hits and kept %s\n",
       "", static_cast<long long>(walked),
       static_cast<long long>(traced_samples), static_cast<long long>(fell_back),
       static_cast<long long>(streamed), best_packets, best_packets / ceiling,
       best_stream, best_stream / ceiling, best_cone, best_cone / ceiling,
-      traced_samples > 0
-          ? static_cast<double>(forced_fell_back) / traced_samples
-          : 0.0,
+      static_cast<long long>(forced_walked),
       same_traversal_bits ? "bit-identical" : "DIFFER");
   std::printf("%-28s refit-policy BVH (sessions) %.3e rays/s, %.3f of raw\n",
               "", best_refit, best_refit / best_raw);

@@ -9,11 +9,8 @@
 #include <cmath>
 #include <random>
 
-#include "lib/core/cone.h"
-#include "lib/core/normals.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/shapes.h"
-#include "lib/core/vertex_cone.h"
 #include "lib/embree/ray_hit.h"
 #include "lib/io/mesh_io.h"
 #include "tests/ray_test_util.h"

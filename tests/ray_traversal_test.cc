@@ -13,6 +13,7 @@
 
 #include "lib/core/mesh.h"
 #include "lib/core/shapes.h"
+#include "lib/embree/cone_walk.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
 #include "tests/pass_test_util.h"
@@ -46,23 +47,21 @@ void ExpectTraversalsAgree(const Mesh& mesh, const SdfParams& params,
   const int64_t mishandled = what.starts_with("spot") ? 7 : 0;
   EXPECT_EQ(stream.result.samples_streamed, Traced(stream.result) - mishandled)
       << what;
-  // The walk traces every sample or gives it to Embree; in 3D it walks some.
-  EXPECT_EQ(
-      cone.result.samples_cone_walked + cone.result.samples_cone_fell_back,
-      Traced(cone.result))
+  // The walk takes every sample of a 3D pass (on a CPU with AVX2 and FMA)
+  // and gives none up; a 2D pass streams.
+  EXPECT_EQ(cone.result.samples_cone_fell_back, 0) << what;
+  const bool walks = mesh.dimension == 3 && ConeWalk::Supported();
+  EXPECT_EQ(cone.result.samples_cone_walked, walks ? Traced(cone.result) : 0)
       << what;
-  if (mesh.dimension == 3) {
-    EXPECT_GT(cone.result.samples_cone_walked, 0) << what;
-  }
 }
 
 TEST(RayTraversalTest, AllTraversalsGiveTheSameValuesOnTheTestMeshes) {
-  // igea is left out for time; kAuto never streams a scene that large, nor
-  // walks its cones.
+  // igea and bunny are left out for time (the walk, forced, takes every
+  // fan of horse and bunny: over a thousand triangles a fan); kAuto never
+  // streams a scene that large, nor walks its cones.
   testing::ForEachTestMeshAndAngle(
-      {"horse.ply", "stanford-bunny.obj", "rocker-arm.obj", "fandisk.obj",
-       "spot_triangulated.obj", "teapot.obj", "decimated-knight.off",
-       "1002_tray_bottom.STL"},
+      {"horse.ply", "rocker-arm.obj", "fandisk.obj", "spot_triangulated.obj",
+       "teapot.obj", "decimated-knight.off", "1002_tray_bottom.STL"},
       [](const Mesh& mesh, const SdfParams& params, const std::string& what) {
         ExpectTraversalsAgree(mesh, params, RayStartMode::kSurface, what);
         ExpectTraversalsAgree(mesh, params, RayStartMode::kPastEmptyBall,
@@ -121,10 +120,12 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
                  cone, "incremental walk against a full one");
   EXPECT_EQ(packets.result.samples_streamed, 0);
   EXPECT_GT(stream.result.samples_streamed, std::ssize(patch));
-  EXPECT_GT(cone.result.samples_cone_walked, std::ssize(patch));
-  // Left to choose, a pass this small walks its retraced rays' cones.
-  EXPECT_EQ(incremental({}).result.samples_cone_walked,
-            cone.result.samples_cone_walked);
+  if (ConeWalk::Supported()) {
+    EXPECT_GT(cone.result.samples_cone_walked, std::ssize(patch));
+    // Left to choose, a pass this small walks its retraced rays' cones.
+    EXPECT_EQ(incremental({}).result.samples_cone_walked,
+              cone.result.samples_cone_walked);
+  }
 }
 
 // kAuto's rule (sdf_evaluator.cc): on 3D scenes of fewer than 2^13
@@ -132,6 +133,7 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
 // cones up to 45 degrees, else streams where the rays start at the surface;
 // packets elsewhere.
 TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
+  if (!ConeWalk::Supported()) GTEST_SKIP() << "this CPU has no AVX2 and FMA";
   struct Used {
     bool walked = false, streamed = false, past_balls = false;
   };
@@ -180,6 +182,14 @@ TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
   // Too many primitives: neither.
   const Used fandisk_few = traced(fandisk, few);
   EXPECT_FALSE(fandisk_few.walked || fandisk_few.streamed);
+  // Normal rays (one ray, no cone) walk at any cone angle; more rays than
+  // the walk takes stream.
+  SdfParams normal_ray = wide;
+  normal_ray.method = SdfMethod::kNormalRay;
+  EXPECT_TRUE(traced(knight, normal_ray).walked);
+  SdfParams many = all;
+  many.rays = ConeWalk::kMaxRays + 1;
+  EXPECT_TRUE(traced(knight, many).streamed);
   // Embree's fast test, and 2D: packets.
   const Used fast = traced(knight, all, RayStartMode::kAuto, RayTest::kFast);
   EXPECT_FALSE(fast.walked || fast.streamed);

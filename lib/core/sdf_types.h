@@ -133,8 +133,8 @@ struct SdfResult {
   // (FanTraversal::kStream); the others' in packets or the cone walk.
   int64_t samples_streamed = 0;
   // Samples whose rays the cone walk traced (FanTraversal::kCone), and
-  // those it gave up on, which Embree traced (its fall-back share:
-  // fell_back / (walked + fell_back)).
+  // those it gave up on, which Embree traced: 0 in a pass, which walks all
+  // of its samples or streams them all.
   int64_t samples_cone_walked = 0;
   int64_t samples_cone_fell_back = 0;
   // Samples without a value and the share of the surface they cover

@@ -3,7 +3,9 @@
 // shared edge, which a contracted a * b - c * d would break.
 #include "lib/embree/cone_walk.h"
 
+#if defined(__x86_64__)
 #include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <bit>
@@ -24,6 +26,7 @@ constexpr float kMinCos = 0.1736f;
 // single-precision rounding (relative to the sizes compared).
 constexpr float kMargin = 1e-4f;
 
+#if defined(__x86_64__)
 // A fan's rays, regrouped kLanes at a time by where they point
 // (structure of arrays; slot s = group * kLanes + lane).
 struct FanSlots {
@@ -35,7 +38,6 @@ struct FanSlots {
   // projections onto the plane at distance 1 along the axis.
   std::vector<float> lo_x, hi_x, lo_y, hi_y;
   std::vector<float> fx, fy, fz, px, py, inv;  // per ray.
-  std::vector<uint8_t> axis;              // per group: 0, 1, 2 for x, y, z.
   std::vector<uint8_t> key;               // per ray.
   std::vector<int32_t> order;
   int groups = 0;
@@ -57,13 +59,18 @@ struct Cone {
                       _mm256_mul_ps(x, _mm256_set1_ps(w[0]))));
 }
 
-// The largest (or smallest) of v's lanes.
-[[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) float Reduce(
-    __m256 v, bool max) {
+// The smallest and the largest of v's lanes.
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) float
+ReduceMin(__m256 v) {
   alignas(32) float lanes[kLanes];
   _mm256_store_ps(lanes, v);
-  return max ? *std::max_element(lanes, lanes + kLanes)
-             : *std::min_element(lanes, lanes + kLanes);
+  return *std::min_element(lanes, lanes + kLanes);
+}
+[[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) float
+ReduceMax(__m256 v) {
+  alignas(32) float lanes[kLanes];
+  _mm256_store_ps(lanes, v);
+  return *std::max_element(lanes, lanes + kLanes);
 }
 
 // The fan's cone and its rays' slots; false for rays outside a cone of
@@ -134,9 +141,9 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
     lo_y = _mm256_min_ps(lo_y, py);
     hi_y = _mm256_max_ps(hi_y, py);
   }
-  const float cos_min = Reduce(min_cos, false);
-  const float box_lo_x = Reduce(lo_x, false), box_hi_x = Reduce(hi_x, true);
-  const float box_lo_y = Reduce(lo_y, false), box_hi_y = Reduce(hi_y, true);
+  const float cos_min = ReduceMin(min_cos);
+  const float box_lo_x = ReduceMin(lo_x), box_hi_x = ReduceMax(hi_x);
+  const float box_lo_y = ReduceMin(lo_y), box_hi_y = ReduceMax(hi_y);
   if (!(cos_min > kMinCos)) return false;
   cone.cos_half = std::max(0.0f, cos_min - kMargin);
   cone.sin_half = std::sqrt(1 - cone.cos_half * cone.cos_half);
@@ -363,15 +370,21 @@ TestBatch(const Cone& cone, const FanContext& fan, FanSlots& s, Batch& b,
   for (int g = 1; g < s.groups; ++g) {
     m = _mm256_max_ps(m, _mm256_loadu_ps(&s.limit[g * kLanes]));
   }
-  return Reduce(m, true);
+  return ReduceMax(m);
 }
+
+#endif  // __x86_64__
 
 }  // namespace
 
 bool ConeWalk::Supported() {
+#if defined(__x86_64__)
   static const bool supported =
       __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
   return supported;
+#else
+  return false;
+#endif
 }
 
 namespace {
@@ -492,6 +505,16 @@ void ConeWalk::Build(const float* vertices,
     }
   }
   if (triangles_.empty()) return;
+  // A node's centre and radius, and the origin's offset from it, round by
+  // a few units of 2^-24 of the coordinates.
+  float largest = 0;
+  for (const Triangle& t : triangles_) {
+    for (const float* c : {t.a, t.b, t.c}) {
+      largest =
+          std::max({largest, std::abs(c[0]), std::abs(c[1]), std::abs(c[2])});
+    }
+  }
+  slack_ = 8 * std::numeric_limits<float>::epsilon() * largest;
   std::vector<int32_t> ids(triangles_.size());
   std::iota(ids.begin(), ids.end(), 0);
   std::vector<BinaryNode> binary;
@@ -519,20 +542,20 @@ void ConeWalk::Build(const float* vertices,
   Collapse(binary, 0, nodes_);
 }
 
+#if defined(__x86_64__)
 namespace {
 
 // The descent: children nearer than the rays' largest limit that the cone
 // meets, nearest along the axis first; candidate triangles gathered kLanes
 // at a time and tested against the groups of rays that can meet them.
-// False past kMaxCandidates candidates.
-__attribute__((target("avx2,fma"))) bool Walk(
+// `slack`: the absolute rounding of a node's sphere in single precision.
+__attribute__((target("avx2,fma"))) void Walk(
     absl::Span<const ConeWalk::Node> nodes,
-    absl::Span<const ConeWalk::Triangle> triangles, const Cone& cone,
-    const FanContext& fan, FanSlots& s, HitCandidates* out) {
+    absl::Span<const ConeWalk::Triangle> triangles, float slack,
+    const Cone& cone, const FanContext& fan, FanSlots& s, HitCandidates* out) {
   static_assert(ConeWalk::kWidth == kLanes);
   float reach = fan.t_far * cone.length;
-  int candidates = 0;
-  Batch batch;
+  Batch batch{};
   // A node (count < 0) or a leaf's triangles [index, index + count); at
   // most kWidth - 1 entries per level below the one popped (the tree of
   // at most kMaxPrimitives is far shallower than 32 levels).
@@ -557,7 +580,6 @@ __attribute__((target("avx2,fma"))) bool Walk(
                                tri.prim)) {
           continue;
         }
-        if (++candidates > ConeWalk::kMaxCandidates) return false;
         const float* corners[3] = {tri.a, tri.b, tri.c};
         for (int c = 0; c < 3; ++c) {
           for (int k = 0; k < 3; ++k) {
@@ -575,7 +597,8 @@ __attribute__((target("avx2,fma"))) bool Walk(
     const __m256 tx = _mm256_sub_ps(_mm256_load_ps(node.x), ox);
     const __m256 ty = _mm256_sub_ps(_mm256_load_ps(node.y), oy);
     const __m256 tz = _mm256_sub_ps(_mm256_load_ps(node.z), oz);
-    const __m256 radius = _mm256_load_ps(node.radius);
+    const __m256 radius =
+        _mm256_add_ps(_mm256_load_ps(node.radius), _mm256_set1_ps(slack));
     // Within reach: |to| (1 - m) - radius <= reach, without a square root.
     const __m256 dist2 =
         _mm256_fmadd_ps(tz, tz, _mm256_fmadd_ps(ty, ty, _mm256_mul_ps(tx, tx)));
@@ -616,7 +639,6 @@ __attribute__((target("avx2,fma"))) bool Walk(
     }
   }
   if (batch.count > 0) TestBatch(cone, fan, s, batch, out);
-  return true;
 }
 
 }  // namespace
@@ -629,8 +651,18 @@ bool ConeWalk::Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
   if (empty() || !Supported() || n == 0 || n > kMaxRays) return false;
   thread_local FanSlots s;
   Cone cone;
-  return SetUpFan(origin, dirs, axis, starts, t_near, fan.t_far, cone, s) &&
-         Walk(nodes_, triangles_, cone, fan, s, out.data());
+  if (!SetUpFan(origin, dirs, axis, starts, t_near, fan.t_far, cone, s)) {
+    return false;
+  }
+  Walk(nodes_, triangles_, slack_, cone, fan, s, out.data());
+  return true;
 }
+#else
+bool ConeWalk::Intersect(const Vec3&, absl::Span<const Vec3>, const Vec3*,
+                         absl::Span<const float>, float, const FanContext&,
+                         absl::Span<HitCandidates>) const {
+  return false;
+}
+#endif  // __x86_64__
 
 }  // namespace meshgauge

@@ -1,19 +1,20 @@
 // A traversal built for cones (issue 52): one descent of a BVH per fan for
 // all of its rays, which share their origin and lie in a narrow cone, with
-// every candidate triangle tested against the rays that can meet it, eight
-// at a time. RayScene::IntersectFan uses it for FanTraversal::kCone and
-// falls back to Embree where it gives up.
+// every candidate triangle tested against the groups of rays that can meet
+// it, eight at a time. RayScene::IntersectFan uses it for
+// FanTraversal::kCone and falls back to Embree where it gives up.
 //
 // What it finds is what FanFilter finds through Embree: for each ray, every
 // primitive within HitCandidates' window of its closest hit, so the pick in
 // double precision (PickClosest) sees the same primitive. Its
-// single-precision test is watertight as SPEC §4 needs (a ray through an
-// edge or a vertex shared by triangles meets at least one of them): a
-// triangle's edge functions are scalar triple products of the ray with its
-// corners, and the two triangles of an edge compute them from the same
-// corners, exactly negated. Its distances t_f may differ from Embree's by a
-// rounding, which moves no candidate into or out of the window but one
-// within a rounding of its end (docs/numerics.md "The cone walk").
+// single-precision test is a sheared watertight test (Woop et al.) in the
+// frame of the fan's axis: each corner is sheared along the ray and the
+// edge functions are 2D cross products of two corners, which the two
+// triangles of a shared edge compute as exact negations, so a ray through
+// an edge or a corner meets at least one of them. Embree's robust test
+// (Plücker coordinates with a tolerance) rounds differently: near an edge
+// the two may report different primitives (docs/numerics.md "The cone
+// walk").
 #pragma once
 
 #include <cstdint>
@@ -34,9 +35,6 @@ class ConeWalk {
   // megabytes); passes left to choose walk cones on far smaller ones
   // (EvaluatorOptions::fan_traversal).
   static constexpr int64_t kMaxPrimitives = int64_t{1} << 18;
-  // A fan whose walk meets more candidate triangles gives up (the share is
-  // reported: SdfResult::samples_cone_fell_back).
-  static constexpr int kMaxCandidates = 2048;
   // Fans of more rays go to Embree.
   static constexpr int kMaxRays = 512;
 
@@ -60,8 +58,10 @@ class ConeWalk {
   // the axis alone, not on which other rays share the fan (an incremental
   // pass retraces some of a sample's rays: give the sample's cone axis).
   // Returns false, leaving `out` to be reset, when it gives up: no walk, a
-  // CPU without AVX2, no ray or more than kMaxRays rays, rays not within 80
-  // degrees of the axis, or more than kMaxCandidates candidate triangles.
+  // CPU without AVX2 and FMA (or not x86-64), no ray or more than kMaxRays
+  // rays, or a ray more than 80 degrees from the axis (a half-angle). It
+  // never gives up for the number of triangles it meets, so that whether a
+  // sample walks does not depend on which of its rays a pass traces.
   // Thread-safe.
   bool Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
                  const Vec3* axis, absl::Span<const float> starts, float t_near,
@@ -85,6 +85,7 @@ class ConeWalk {
  private:
   std::vector<Node> nodes_;
   std::vector<Triangle> triangles_;  // in leaf order.
+  float slack_ = 0;                  // added to every node's radius (Build).
 };
 
 }  // namespace meshgauge

@@ -292,7 +292,7 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
   return DeviceStatus(device_, "rtcCommitScene (update)");
 }
 
-const ConeWalk& RayScene::Walk() const {
+const ConeWalk& RayScene::cone_walk() const {
   std::call_once(*cone_walk_built_, [this] {
     if (dimension_ == 3 &&
         std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
@@ -450,7 +450,7 @@ FanTraversal RayScene::IntersectFan(
       rtcGetDeviceProperty(SharedDevice(),
                            RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
   if (traversal == FanTraversal::kCone) {
-    if (Walk().Intersect(o, dirs, axis, starts, limits.t_near, fan, out)) {
+    if (cone_walk().Intersect(o, dirs, axis, starts, limits.t_near, fan, out)) {
       return FanTraversal::kCone;
     }
     for (HitCandidates& c : out) c.Reset(reach);

@@ -68,8 +68,8 @@ enum class FanTraversal {
   // meshgauge's own walk (cone_walk.h): one descent per fan for all its
   // rays, each candidate triangle tested against the rays that can meet it.
   // On 3D scenes of at most ConeWalk::kMaxPrimitives primitives; a fan it
-  // gives up on (too many candidates, too wide a cone, too few rays) goes
-  // to Embree as kStream would.
+  // gives up on (a ray over 80 degrees from the axis, over 512 rays, a CPU
+  // without AVX2) goes to Embree as kStream would.
   kCone,
 };
 
@@ -111,9 +111,10 @@ class RayScene {
   RayScene& operator=(const RayScene&) = delete;
 
   // Copies mesh.positions (same vertex count) into the Embree buffers and
-  // refits or rebuilds per the policy. The coordinates Embree sees are a
-  // function of the current positions alone (SceneOrigin), as after Create.
-  // Errors: InvalidArgument as Create's (the scene is unchanged).
+  // refits or rebuilds per the policy. Not while a fan is traced. The
+  // coordinates Embree sees are a function of the current positions alone
+  // (SceneOrigin), as after Create. Errors: InvalidArgument as Create's (the
+  // scene is unchanged).
   absl::Status UpdatePositions(const Mesh& mesh);
 
   // The origin of the coordinates Embree sees (SceneOrigin) and, in 2D, the
@@ -185,6 +186,10 @@ class RayScene {
   // positions into the vertex buffer.
   absl::Status FillVertices(const Mesh& mesh);
   absl::Status Commit();
+  // The cone walk over the coordinates Embree sees, built on a fan's first
+  // use after each FillVertices (a pass that does not walk cones does not
+  // pay for it); empty in 2D and on scenes of over ConeWalk::kMaxPrimitives.
+  const ConeWalk& cone_walk() const;
 
   const MeshTopology& topo_;
   BvhUpdatePolicy policy_;
@@ -200,10 +205,7 @@ class RayScene {
   // fan_geometry_ (null without fans).
   HubFans fans_;
   RTCGeometryTy* fan_geometry_ = nullptr;
-  // Over the coordinates Embree sees, built on a fan's first use after
-  // each FillVertices (a pass that does not walk cones does not pay for
-  // it); empty in 2D and on scenes of over ConeWalk::kMaxPrimitives.
-  const ConeWalk& Walk() const;
+  // Over the coordinates Embree sees (cone_walk()).
   mutable ConeWalk cone_walk_;
   mutable std::unique_ptr<std::once_flag> cone_walk_built_;
 };

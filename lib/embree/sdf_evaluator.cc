@@ -61,20 +61,34 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
-// On the same scenes, with cones no wider than this, the cone walk
-// (FanTraversal::kCone) from the surface beat Embree's streams and the
-// pass past empty balls alike; at 60 degrees it lost on spot and the
-// teapot, where a cone meets over a thousand candidate triangles
-// (docs/benchmarks.md, "The cone walk").
+// On the same scenes, with cones no wider than this (the full aperture),
+// the cone walk (FanTraversal::kCone) from the surface beat Embree's
+// streams and the pass past empty balls alike; at 60 degrees it lost on
+// spot and the teapot, where a cone meets over a thousand candidate
+// triangles (docs/benchmarks.md, "The cone walk").
 constexpr double kConeMaxAperture = 45 * std::numbers::pi / 180;
+// Whether the cone walk takes every fan of a pass (ConeWalk::Intersect
+// gives up on none): an x86-64 CPU with AVX2 and FMA, a 3D scene it
+// builds a walk for, at most kMaxRays rays, rays within 75 degrees of the
+// axis (it gives up past 80). A pass walks all of its samples or none, so
+// that whether a sample walks does not depend on which of its rays a pass
+// traces.
+bool WalksEveryFan(int64_t primitives, int dimension, int rays,
+                   double half_angle) {
+  return ConeWalk::Supported() && dimension == 3 &&
+         primitives <= ConeWalk::kMaxPrimitives && rays <= ConeWalk::kMaxRays &&
+         half_angle <= 75 * std::numbers::pi / 180;
+}
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
-// kAuto or kSurface starts) walks cones: 3D scenes of fewer than
-// kStreamMaxPrimitives under the watertight test, cones no wider than
-// kConeMaxAperture. Such a pass starts its rays at the surface.
-bool WalksCones(RayTest test, int64_t primitives, int dimension,
-                double aperture_radians) {
+// kAuto or kSurface starts) walks cones: WalksEveryFan, a scene of fewer
+// than kStreamMaxPrimitives under the watertight test, a cone no wider
+// than kConeMaxAperture (a normal ray's is 0). Such a pass starts its rays
+// at the surface.
+bool WalksCones(RayTest test, int64_t primitives, int dimension, int rays,
+                double half_angle) {
   return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
-         dimension == 3 && aperture_radians <= kConeMaxAperture;
+         2 * half_angle <= kConeMaxAperture &&
+         WalksEveryFan(primitives, dimension, rays, half_angle);
 }
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
 // open: the cone walk where WalksCones; else streams where the rays start
@@ -83,9 +97,9 @@ bool WalksCones(RayTest test, int64_t primitives, int dimension,
 // raw plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
 // long streamed (a throwaway program; docs/benchmarks.md).
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension, double aperture_radians) {
+                             int dimension, int rays, double half_angle) {
   if (past_balls) return FanTraversal::kPackets;
-  if (WalksCones(test, primitives, dimension, aperture_radians)) {
+  if (WalksCones(test, primitives, dimension, rays, half_angle)) {
     return FanTraversal::kCone;
   }
   return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
@@ -484,12 +498,17 @@ absl::StatusOr<PassSetup> SetUpPass(const MeshGeometry& g,
   limits.t_min = static_cast<float>(setup.t_min);
   limits.t_near = PowerOfTwoBelow(limits.t_min);
   limits.near_below = 2 * limits.t_near;
-  // Beyond t_max by far more than a single-precision test errs (2^-16, as
-  // HitCandidates' window), so that the double-precision check decides: the
-  // cone walk's distance to a hit at exactly t_max (a cube's corner seen
-  // from the opposite one) was 3 units in the last place above it.
-  limits.t_far = std::nextafter(static_cast<float>(setup.t_max * (1 + 0x1p-16)),
-                                std::numeric_limits<float>::max());
+  // Beyond t_max by far more than a single-precision test errs (2^-16 of
+  // the coordinates' magnitude, about twice the diagonal in the tracer's
+  // coordinates, and of t_max, as HitCandidates' window), so that the
+  // double-precision check decides: the cone walk's distance to a hit at
+  // exactly t_max (a cube's corner seen from the opposite one) was 3 units
+  // in the last place above it.
+  limits.t_far = std::nextafter(
+      static_cast<float>(setup.t_max +
+                         (setup.t_max + 2 * g.bounding_box_diagonal()) *
+                             0x1p-16),
+      std::numeric_limits<float>::max());
   setup.cone_half_angle = params.method == SdfMethod::kNormalRay
                               ? 0
                               : resolved.aperture_radians / 2;
@@ -841,7 +860,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   if (use_starts && ray_start_ == RayStartMode::kAuto &&
       !fan_traversal_.has_value() &&
       WalksCones(ray_test_, std::ssize(topo_.primitives), mesh_.dimension,
-                 setup->resolved.aperture_radians)) {
+                 setup->num_rays, setup->cone_half_angle)) {
     use_starts = false;
   }
   if (use_starts && ray_start_ == RayStartMode::kAuto) {
@@ -885,9 +904,14 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0}, samples_streamed{0}, samples_walked{0},
       samples_fell_back{0};
-  const FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
+  FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
       starts.has_value(), ray_test_, std::ssize(topo_.primitives),
-      mesh_.dimension, setup->resolved.aperture_radians));
+      mesh_.dimension, setup->num_rays, setup->cone_half_angle));
+  if (traversal == FanTraversal::kCone &&
+      !WalksEveryFan(std::ssize(topo_.primitives), mesh_.dimension,
+                     setup->num_rays, setup->cone_half_angle)) {
+    traversal = FanTraversal::kStream;
+  }
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
                             starts ? &*starts : nullptr, traversal, &out);
   auto process = [&](const tbb::blocked_range<int64_t>& range) {
