@@ -11,6 +11,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <numeric>
 
 #include "lib/embree/fan_filter.h"
@@ -34,8 +35,8 @@ struct FanSlots {
   // sx = d.u / d.axis, sy = d.v / d.axis, iz = 1 / d.axis.
   std::vector<float> sx, sy, iz, start, limit;
   std::vector<int32_t> ray;  // -1: padding.
-  // Per group (padded to a multiple of kLanes groups): the box of its rays'
-  // projections onto the plane at distance 1 along the axis.
+  // Per group: the box of its rays' projections onto the plane at distance
+  // 1 along the axis.
   std::vector<float> lo_x, hi_x, lo_y, hi_y;
   std::vector<float> fx, fy, fz, px, py, inv;  // per ray.
   std::vector<uint8_t> key;               // per ray.
@@ -174,9 +175,8 @@ __attribute__((target("avx2,fma"))) bool SetUpFan(
   const size_t slots = static_cast<size_t>(s.groups) * kLanes;
   for (auto* f : {&s.sx, &s.sy, &s.iz, &s.start, &s.limit}) f->resize(slots);
   s.ray.resize(slots);
-  const size_t padded_groups = (s.groups + kLanes - 1) / kLanes * kLanes;
-  for (auto* f : {&s.lo_x, &s.lo_y}) f->assign(padded_groups, kInf);
-  for (auto* f : {&s.hi_x, &s.hi_y}) f->assign(padded_groups, -kInf);
+  for (auto* f : {&s.lo_x, &s.lo_y}) f->assign(s.groups, kInf);
+  for (auto* f : {&s.hi_x, &s.hi_y}) f->assign(s.groups, -kInf);
   const float pad =
       kMargin * (1 + std::max({std::abs(box_lo_x), std::abs(box_hi_x),
                                std::abs(box_lo_y), std::abs(box_hi_y)}));
@@ -280,9 +280,9 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
   }
 }
 
-// Tests group g's rays against lane `lane` of the batch, as Embree's
-// watertight test does: each corner sheared along the ray to (X - sx Z,
-// Y - sy Z) in the cone's frame, the edge functions w[i] the 2D cross
+// Tests group g's rays against lane `lane` of the batch with a sheared
+// watertight test (Woop et al.): each corner sheared along the ray to (X - sx
+// Z, Y - sy Z) in the cone's frame, the edge functions w[i] the 2D cross
 // products of the other two corners (each a product minus a product, no
 // fused multiply-add, so that a shared edge's are exact negations in its
 // two triangles), t the corners' Z interpolated, times iz. Records the
@@ -377,6 +377,13 @@ TestBatch(const Cone& cone, const FanContext& fan, FanSlots& s, Batch& b,
 
 }  // namespace
 
+bool ConeWalk::TakesEveryFan(int64_t primitives, int dimension, int rays,
+                             double half_angle) {
+  // 5 degrees short of the 80 that SetUpFan checks in single precision.
+  return Supported() && dimension == 3 && primitives <= kMaxPrimitives &&
+         rays <= kMaxRays && half_angle <= 75 * std::numbers::pi / 180;
+}
+
 bool ConeWalk::Supported() {
 #if defined(__x86_64__)
   static const bool supported =
@@ -448,10 +455,10 @@ int32_t BuildBinary(absl::Span<const ConeWalk::Triangle> triangles,
 }
 
 // The wide node standing for binary node `b`: its descendants down to
-// kWidth of them, opening the largest first.
+// kWidth of them, opening the largest first (a leaf stands for itself).
 int32_t Collapse(const std::vector<BinaryNode>& binary, int32_t b,
                  std::vector<ConeWalk::Node>& wide) {
-  std::vector<int32_t> kids = {binary[b].left, binary[b].right};
+  std::vector<int32_t> kids = {b};
   while (std::ssize(kids) < ConeWalk::kWidth) {
     int32_t open = -1;
     for (int32_t i = 0; i < std::ssize(kids); ++i) {
@@ -491,6 +498,9 @@ void ConeWalk::Build(const float* vertices,
   nodes_.clear();
   triangles_.clear();
   std::vector<float> centroids;
+  // A node's centre and radius, and the origin's offset from it, round by
+  // a few units of 2^-24 of the coordinates.
+  float largest = 0;
   for (size_t i = 0; i < primitives.size(); ++i) {
     Triangle t;
     t.prim = static_cast<int32_t>(i);
@@ -498,6 +508,8 @@ void ConeWalk::Build(const float* vertices,
     for (int j = 0; j < 3; ++j) {
       const float* p = vertices + 4 * static_cast<size_t>(primitives[i].v[j]);
       std::copy(p, p + 3, corners[j]);
+      largest =
+          std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
     }
     triangles_.push_back(t);
     for (int k = 0; k < 3; ++k) {
@@ -505,15 +517,6 @@ void ConeWalk::Build(const float* vertices,
     }
   }
   if (triangles_.empty()) return;
-  // A node's centre and radius, and the origin's offset from it, round by
-  // a few units of 2^-24 of the coordinates.
-  float largest = 0;
-  for (const Triangle& t : triangles_) {
-    for (const float* c : {t.a, t.b, t.c}) {
-      largest =
-          std::max({largest, std::abs(c[0]), std::abs(c[1]), std::abs(c[2])});
-    }
-  }
   slack_ = 8 * std::numeric_limits<float>::epsilon() * largest;
   std::vector<int32_t> ids(triangles_.size());
   std::iota(ids.begin(), ids.end(), 0);
@@ -525,20 +528,6 @@ void ConeWalk::Build(const float* vertices,
   ordered.reserve(ids.size());
   for (int32_t id : ids) ordered.push_back(triangles_[id]);
   triangles_ = std::move(ordered);
-  if (binary[0].left < 0) {
-    // A single leaf: a root holding it.
-    Node root;
-    root.x[0] = binary[0].centre[0];
-    root.y[0] = binary[0].centre[1];
-    root.z[0] = binary[0].centre[2];
-    root.radius[0] = binary[0].radius;
-    root.child[0] = -1;
-    root.first[0] = binary[0].first;
-    root.count[0] = binary[0].count;
-    root.children = 1;
-    nodes_.push_back(root);
-    return;
-  }
   Collapse(binary, 0, nodes_);
 }
 

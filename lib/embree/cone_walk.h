@@ -41,6 +41,12 @@ class ConeWalk {
   // Whether this CPU runs the walk (AVX2 and FMA); without, every fan
   // gives up.
   static bool Supported();
+  // Whether Intersect takes every fan of at most `rays` rays within
+  // `half_angle` radians of their axis on a scene of `primitives`
+  // primitives in `dimension` (a walk is built for it and it gives up on
+  // none of them).
+  static bool TakesEveryFan(int64_t primitives, int dimension, int rays,
+                            double half_angle);
 
   // Builds the BVH over the triangles `primitives` (3D; every v[2] >= 0)
   // at `vertices`, 4 floats (x, y, z, unused) per mesh vertex in the

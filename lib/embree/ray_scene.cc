@@ -294,7 +294,7 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
 
 const ConeWalk& RayScene::cone_walk() const {
   std::call_once(*cone_walk_built_, [this] {
-    if (dimension_ == 3 &&
+    if (ConeWalk::Supported() && dimension_ == 3 &&
         std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
       cone_walk_.Build(vertex_buffer_, topo_.primitives);
     }

@@ -67,43 +67,27 @@ constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 // spot and the teapot, where a cone meets over a thousand candidate
 // triangles (docs/benchmarks.md, "The cone walk").
 constexpr double kConeMaxAperture = 45 * std::numbers::pi / 180;
-// Whether the cone walk takes every fan of a pass (ConeWalk::Intersect
-// gives up on none): an x86-64 CPU with AVX2 and FMA, a 3D scene it
-// builds a walk for, at most kMaxRays rays, rays within 75 degrees of the
-// axis (it gives up past 80). A pass walks all of its samples or none, so
-// that whether a sample walks does not depend on which of its rays a pass
-// traces.
-bool WalksEveryFan(int64_t primitives, int dimension, int rays,
-                   double half_angle) {
-  return ConeWalk::Supported() && dimension == 3 &&
-         primitives <= ConeWalk::kMaxPrimitives && rays <= ConeWalk::kMaxRays &&
-         half_angle <= 75 * std::numbers::pi / 180;
-}
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
-// kAuto or kSurface starts) walks cones: WalksEveryFan, a scene of fewer
-// than kStreamMaxPrimitives under the watertight test, a cone no wider
-// than kConeMaxAperture (a normal ray's is 0). Such a pass starts its rays
-// at the surface.
+// kAuto or kSurface starts) walks cones: a scene of fewer than
+// kStreamMaxPrimitives under the watertight test, a cone no wider than
+// kConeMaxAperture (a normal ray's is 0), every fan of which the walk takes
+// (ConeWalk::TakesEveryFan). Such a pass starts its rays at the surface.
 bool WalksCones(RayTest test, int64_t primitives, int dimension, int rays,
                 double half_angle) {
   return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
          2 * half_angle <= kConeMaxAperture &&
-         WalksEveryFan(primitives, dimension, rays, half_angle);
+         ConeWalk::TakesEveryFan(primitives, dimension, rays, half_angle);
 }
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
-// open: the cone walk where WalksCones; else streams where the rays start
-// at the surface on a small 3D scene under the watertight test. Embree's
-// fast test met other primitives in streams than in packets (the tray's
-// raw plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
+// open and that does not walk cones: streams where the rays start at the
+// surface on a small 3D scene under the watertight test. Embree's fast
+// test met other primitives in streams than in packets (the tray's raw
+// plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
 // long streamed (a throwaway program; docs/benchmarks.md).
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension, int rays, double half_angle) {
-  if (past_balls) return FanTraversal::kPackets;
-  if (WalksCones(test, primitives, dimension, rays, half_angle)) {
-    return FanTraversal::kCone;
-  }
-  return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
-                 dimension == 3
+                             int dimension) {
+  return !past_balls && test == RayTest::kWatertight &&
+                 primitives < kStreamMaxPrimitives && dimension == 3
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
 }
@@ -855,14 +839,13 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   // the pass traces enough rays (all of a full pass's, an estimate from an
   // incremental pass's moved samples) that the tree's build is a small
   // share of it.
+  const int64_t primitives = std::ssize(topo_.primitives);
+  const bool walks_cones = !fan_traversal_.has_value() &&
+                           WalksCones(ray_test_, primitives, mesh_.dimension,
+                                      setup->num_rays, setup->cone_half_angle);
   bool use_starts = ray_start_ != RayStartMode::kSurface && !setup->sphere &&
-                    mesh_.dimension == 3;
-  if (use_starts && ray_start_ == RayStartMode::kAuto &&
-      !fan_traversal_.has_value() &&
-      WalksCones(ray_test_, std::ssize(topo_.primitives), mesh_.dimension,
-                 setup->num_rays, setup->cone_half_angle)) {
-    use_starts = false;
-  }
+                    mesh_.dimension == 3 &&
+                    !(walks_cones && ray_start_ == RayStartMode::kAuto);
   if (use_starts && ray_start_ == RayStartMode::kAuto) {
     const int64_t rays =
         plan ? kIncrementalRaysPerMovedRay * setup->num_rays *
@@ -904,12 +887,15 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0}, samples_streamed{0}, samples_walked{0},
       samples_fell_back{0};
-  FanTraversal traversal = fan_traversal_.value_or(ChooseTraversal(
-      starts.has_value(), ray_test_, std::ssize(topo_.primitives),
-      mesh_.dimension, setup->num_rays, setup->cone_half_angle));
+  FanTraversal traversal = fan_traversal_.value_or(
+      walks_cones && !starts ? FanTraversal::kCone
+                             : ChooseTraversal(starts.has_value(), ray_test_,
+                                               primitives, mesh_.dimension));
+  // A pass walks all of its samples or none, so that whether a sample walks
+  // does not depend on which of its rays a pass traces.
   if (traversal == FanTraversal::kCone &&
-      !WalksEveryFan(std::ssize(topo_.primitives), mesh_.dimension,
-                     setup->num_rays, setup->cone_half_angle)) {
+      !ConeWalk::TakesEveryFan(primitives, mesh_.dimension, setup->num_rays,
+                               setup->cone_half_angle)) {
     traversal = FanTraversal::kStream;
   }
   const SampleTracer tracer(*this, *setup, plan.get(), ball_tree.get(),
