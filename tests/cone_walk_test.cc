@@ -1,6 +1,7 @@
 // The cone walk (lib/embree/cone_walk.h): the candidates Embree's filter
 // finds, rays through shared edges and corners never slipping through,
-// and the fans it gives up on.
+// the fans it gives up on, its count of tests (a pass's pilot) and its
+// tree refitted after a move.
 #include "lib/embree/cone_walk.h"
 
 #include <gtest/gtest.h>
@@ -235,6 +236,80 @@ TEST(ConeWalkTest, GivesUpOnOver512RaysButNotOnManyTriangles) {
 }
 
 // Gives up on a ray more than 80 degrees from the fan's axis.
+// The walk's count of its (triangle, group of 8 rays) tests, a pass's pilot
+// (RayScene::ConeWalkTests): none for rays that meet nothing, more for a
+// wider cone, which meets more triangles, and -1 where it gives up.
+TEST(ConeWalkTest, CountsMoreTestsForAWiderConeAndNoneWhereNothingIsMet) {
+  SKIP_WITHOUT_THE_WALK();
+  const Mesh sphere = MakeIcosphere(1, 24);  // 11,520 triangles
+  const MeshTopology topo = MeshTopology::Build(sphere);
+  auto scene = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRebuild);
+  ASSERT_TRUE(scene.ok()) << scene.status();
+  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
+  const Vec3 axis(0, 0, 1);
+  auto tests = [&](const Vec3& origin, int rays, double half_angle) {
+    std::vector<Vec3> dirs;
+    for (int k = 0; k < rays; ++k) {
+      const double theta = half_angle * (k + 0.5) / rays;
+      const double phi = 2.399963 * k;
+      dirs.emplace_back(std::sin(theta) * std::cos(phi),
+                        std::sin(theta) * std::sin(phi), std::cos(theta));
+    }
+    return (*scene)->ConeWalkTests(origin, dirs, limits, {}, axis);
+  };
+  const int64_t narrow = tests(Vec3(), 100, 0.1);
+  const int64_t wide = tests(Vec3(), 100, 0.5);
+  EXPECT_GE(narrow, 13);  // each of the 13 groups meets a triangle
+  EXPECT_GT(wide, 2 * narrow);
+  EXPECT_EQ(tests(Vec3(0, 0, 2), 100, 0.5), 0);  // outside, looking away
+  EXPECT_EQ(tests(Vec3(), ConeWalk::kMaxRays + 1, 0.1), -1);
+}
+
+// After a position update the walk's tree is refitted (ConeWalk::Refit),
+// not rebuilt: on a sphere stretched to twice its width and twisted about
+// its axis, where every sphere of the old tree is wrong, every fan finds
+// what the walk of a scene built at the new positions finds.
+TEST(ConeWalkTest, ARefittedWalkFindsWhatARebuiltOneFinds) {
+  SKIP_WITHOUT_THE_WALK();
+  const Mesh sphere = MakeIcosphere(1, 8);
+  Mesh bent = sphere;
+  for (Vec3& p : bent.positions) {
+    const double a = 1.5 * p.z;
+    p = Vec3(2 * p.x * std::cos(a) - p.y * std::sin(a),
+             2 * p.x * std::sin(a) + p.y * std::cos(a), p.z);
+  }
+  const testing::VertexFans fans(bent);  // its scene built when bent
+  const MeshTopology topo = MeshTopology::Build(sphere);
+  auto refitted = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRefit);
+  ASSERT_TRUE(refitted.ok()) << refitted.status();
+  std::vector<HitCandidates> built(fans.rays()), refit(fans.rays());
+  std::vector<Vec3> dirs;
+  std::vector<int32_t> ring;
+  Vec3 axis;
+  ASSERT_TRUE(fans.Fan(0, &dirs, &axis, &ring));
+  // The walk's tree is built on its first fan, at the sphere's positions.
+  ASSERT_EQ((*refitted)->IntersectFan(sphere.positions[0], dirs, fans.limits(),
+                                      ring, absl::MakeSpan(refit), {},
+                                      FanTraversal::kCone, &axis),
+            FanTraversal::kCone);
+  ASSERT_TRUE((*refitted)->UpdatePositions(bent).ok());
+  int64_t compared = 0;
+  for (int64_t p = 0; p < bent.num_vertices(); ++p) {
+    if (!fans.Fan(p, &dirs, &axis, &ring)) continue;
+    fans.scene().IntersectFan(bent.positions[p], dirs, fans.limits(), ring,
+                              absl::MakeSpan(built), {}, FanTraversal::kCone,
+                              &axis);
+    (*refitted)->IntersectFan(bent.positions[p], dirs, fans.limits(), ring,
+                              absl::MakeSpan(refit), {}, FanTraversal::kCone,
+                              &axis);
+    for (size_t k = 0; k < dirs.size(); ++k) {
+      ASSERT_EQ(Listed(refit[k]), Listed(built[k])) << p << " ray " << k;
+      compared += built[k].count() > 0;
+    }
+  }
+  EXPECT_GT(compared, bent.num_vertices() * 90);
+}
+
 TEST(ConeWalkTest, GivesUpOnRaysOver80DegreesFromTheAxis) {
   SKIP_WITHOUT_THE_WALK();
   const Mesh sphere = MakeIcosphere(1, 2);  // 80 triangles

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "lib/core/shapes.h"
+#include "lib/embree/cone_walk.h"
 #include "lib/embree/gradcheck.h"
 #include "lib/embree/sdf_evaluator.h"
 #include "lib/io/mesh_io.h"
@@ -185,6 +186,90 @@ TEST(IncrementalPassTest, APreviousPassThatDoesNotFitGivesAFullPass) {
   ASSERT_TRUE(same.ok());
   EXPECT_EQ(same->rays_traced, 0);
   EXPECT_TRUE(SameBits(same->values, narrow.result.values));
+}
+
+// Whether a pass walks cones depends on the positions (a pilot counts the
+// walk's work on a few fans), and the walk and Embree may record different
+// primitives at a tie: a pass reuses only a pass whose rule chose alike. A
+// dense sphere and four small squares whose vertices are the pilot's
+// samples (every n/16th vertex): facing away, their rays meet nothing and
+// the pass walks cones; turned towards the sphere (two corners swapped),
+// their cones meet hundreds of its triangles and the pass streams. The
+// sphere's own rays never see the squares, so a pass that chose alike would
+// reuse them.
+TEST(IncrementalPassTest, APassWhoseRuleChoseAnotherTracerIsNotReused) {
+  if (!ConeWalk::Supported()) GTEST_SKIP() << "this CPU has no AVX2 and FMA";
+  const Mesh sphere = MakeIcosphere(1.0, 16);  // 5,120 triangles
+  Mesh mesh;
+  const int64_t n = sphere.num_vertices() + 16;
+  mesh.positions.resize(n);
+  std::vector<int32_t> index(sphere.num_vertices()), corners;
+  for (int64_t v = 0, next = 0; v < n; ++v) {
+    if (v == std::ssize(corners) * n / 16 && corners.size() < 16) {
+      corners.push_back(static_cast<int32_t>(v));
+    } else {
+      index[next++] = static_cast<int32_t>(v);
+    }
+  }
+  for (int64_t v = 0; v < sphere.num_vertices(); ++v) {
+    mesh.positions[index[v]] = sphere.positions[v];
+  }
+  for (const Face& f : sphere.faces) {
+    mesh.faces.push_back(
+        Face::Triangle(index[f.v[0]], index[f.v[1]], index[f.v[2]]));
+  }
+  // Square k at distance 2 along +-x or +-y, normal (and rays) along the
+  // axis: away from the sphere at first.
+  const Vec3 axes[4] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}};
+  for (int k = 0; k < 4; ++k) {
+    const Vec3 a = axes[k];
+    const Vec3 u = Vec3(a.y, -a.x, 0) * 0.25, w = Vec3(0, 0, 0.25);
+    const Vec3 c = a * 2.0;
+    const int32_t* q = &corners[4 * k];
+    mesh.positions[q[0]] = c - u - w;
+    mesh.positions[q[1]] = c + u - w;
+    mesh.positions[q[2]] = c + u + w;
+    mesh.positions[q[3]] = c - u + w;
+    mesh.faces.push_back(Face::Triangle(q[0], q[1], q[2]));
+    mesh.faces.push_back(Face::Triangle(q[0], q[2], q[3]));
+  }
+  SdfParams params;
+  params.cone_angle_degrees = 60;
+  auto ev = SdfEvaluator::Create(mesh);
+  ASSERT_TRUE(ev.ok()) << ev.status();
+  Pass away;
+  away.result = *(*ev)->Compute(params, {}, &away.hits);
+  EXPECT_LE(away.result.cone_walk_pilot, 8);
+  EXPECT_EQ(away.result.samples_cone_walked, n);
+  // Each square's rays turned towards the sphere.
+  std::vector<Vec3> turned = mesh.positions;
+  for (int k = 0; k < 4; ++k) {
+    std::swap(turned[corners[4 * k + 1]], turned[corners[4 * k + 3]]);
+  }
+  ASSERT_TRUE((*ev)->UpdatePositions(turned).ok());
+  const PreviousPass previous{&away.result, &away.hits};
+  Pass towards;
+  auto r = (*ev)->Compute(params, {}, &towards.hits, &previous);
+  ASSERT_TRUE(r.ok()) << r.status();
+  towards.result = *std::move(r);
+  EXPECT_GT(towards.result.cone_walk_pilot, 8);
+  EXPECT_EQ(towards.result.samples_cone_walked, 0);
+  EXPECT_EQ(towards.result.rays_traced, n * 100);  // nothing reused
+  const Pass full = Full(mesh, turned, params);
+  EXPECT_TRUE(SameBits(towards.result.values, full.result.values));
+  EXPECT_EQ(towards.hits.primitives, full.hits.primitives);
+  EXPECT_EQ(towards.hits.kept, full.hits.kept);
+  // A pass that chose alike is reused: the squares moved a little further
+  // out, the sphere's rays are not traced again.
+  for (int32_t v : corners) turned[v] *= 1.01;
+  ASSERT_TRUE((*ev)->UpdatePositions(turned).ok());
+  const PreviousPass before{&towards.result, &towards.hits};
+  auto again = (*ev)->Compute(params, {}, nullptr, &before);
+  ASSERT_TRUE(again.ok()) << again.status();
+  EXPECT_EQ(again->samples_cone_walked, 0);
+  EXPECT_LT(again->rays_traced, n * 100 / 10);
+  EXPECT_TRUE(
+      SameBits(again->values, Full(mesh, turned, params).result.values));
 }
 
 // The thread count is how a pass runs, not a parameter (ComputeControl): a

@@ -3,9 +3,9 @@
 // test meshes (packets and streams the same hit tables too; the walk's
 // differ only at ties, ExpectSameResultsUpToTies), at both cone angles, with
 // and without ray starts, for vertex ranges, face samples, 2D curves, quads and
-// hub fans; and a pass left to choose walks cones on small scenes at narrow
-// angles (from the surface) and streams the other small scenes whose rays start
-// at the surface.
+// hub fans; and a pass left to choose walks cones (from the surface) on small
+// scenes where a pilot finds the walk's work small, and streams the other
+// small scenes whose rays start at the surface.
 #include <gtest/gtest.h>
 
 #include <string>
@@ -130,12 +130,13 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
 
 // kAuto's rule (sdf_evaluator.cc): on 3D scenes of fewer than 2^13
 // primitives with the watertight test, the cone walk from the surface for
-// cones up to 45 degrees, else streams where the rays start at the surface;
-// packets elsewhere.
-TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
+// normal rays and where a pilot counts at most 8 of its tests a ray, else
+// streams where the rays start at the surface; packets elsewhere.
+TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
   if (!ConeWalk::Supported()) GTEST_SKIP() << "this CPU has no AVX2 and FMA";
   struct Used {
     bool walked = false, streamed = false, past_balls = false;
+    double pilot = 0;
   };
   auto traced = [](const Mesh& mesh, const SdfParams& params,
                    RayStartMode start = RayStartMode::kAuto,
@@ -155,7 +156,7 @@ TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
       EXPECT_EQ(r->samples_streamed, all);
     }
     return Used{r->samples_cone_walked > 0, r->samples_streamed == all,
-                r->samples_past_ball > 0};
+                r->samples_past_ball > 0, r->cone_walk_pilot};
   };
   const Mesh knight = testing::Knight();  // 1,000 primitives
   const Mesh teapot = *ReadMesh(testing::SharedMesh("teapot.obj"));    // 6,320
@@ -165,28 +166,41 @@ TEST(RayTraversalTest, APassWalksConesOnSmallScenesAtNarrowAnglesElseStreams) {
   wide.cone_angle_degrees = 60;
   SdfParams few;
   few.range = {0, 500};
-  EXPECT_TRUE(traced(knight, all).walked);
+  const Used knight_all = traced(knight, all);
+  EXPECT_TRUE(knight_all.walked);
+  EXPECT_GT(knight_all.pilot, 0);
+  EXPECT_LE(knight_all.pilot, 8);
   // The teapot's whole pass would start past balls; it walks from the
-  // surface instead, at 30 degrees (45 too), not at 60.
+  // surface instead at 30 degrees, where a ray makes about 6 of the walk's
+  // tests; at 60 about 18: past balls.
   const Used teapot_all = traced(teapot, all);
   EXPECT_TRUE(teapot_all.walked);
   EXPECT_FALSE(teapot_all.past_balls);
-  SdfParams at45 = all;
-  at45.cone_angle_degrees = 45;
-  EXPECT_TRUE(traced(teapot, at45).walked);
+  EXPECT_LE(teapot_all.pilot, 8);
   const Used teapot_wide = traced(teapot, wide);
   EXPECT_FALSE(teapot_wide.walked);
   EXPECT_TRUE(teapot_wide.past_balls);
+  EXPECT_GT(teapot_wide.pilot, 8);
   EXPECT_TRUE(traced(teapot, wide, RayStartMode::kSurface).streamed);
-  EXPECT_TRUE(traced(knight, wide).streamed);  // too few rays for starts
-  // Too many primitives: neither.
+  // A range's pilot is the whole pass's: the same samples decide.
+  const Used teapot_few = traced(teapot, few);
+  EXPECT_TRUE(teapot_few.walked);
+  EXPECT_EQ(teapot_few.pilot, teapot_all.pilot);
+  // The knight's cones meet few triangles at 60 degrees too.
+  const Used knight_wide = traced(knight, wide);
+  EXPECT_TRUE(knight_wide.walked);
+  EXPECT_LE(knight_wide.pilot, 8);
+  // Too many primitives: neither, and no pilot.
   const Used fandisk_few = traced(fandisk, few);
   EXPECT_FALSE(fandisk_few.walked || fandisk_few.streamed);
-  // Normal rays (one ray, no cone) walk at any cone angle; more rays than
-  // the walk takes stream.
+  EXPECT_EQ(fandisk_few.pilot, 0);
+  // Normal rays (one ray a fan) walk without a pilot; more rays than the
+  // walk takes stream.
   SdfParams normal_ray = wide;
   normal_ray.method = SdfMethod::kNormalRay;
-  EXPECT_TRUE(traced(knight, normal_ray).walked);
+  const Used teapot_normal = traced(teapot, normal_ray);
+  EXPECT_TRUE(teapot_normal.walked);
+  EXPECT_EQ(teapot_normal.pilot, 0);
   SdfParams many = all;
   many.rays = ConeWalk::kMaxRays + 1;
   EXPECT_TRUE(traced(knight, many).streamed);

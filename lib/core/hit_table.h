@@ -41,6 +41,10 @@ struct HitTable {
   // A sample range's pass holds the rows of its samples only, the first
   // being this sample's (resolved.params.range.begin).
   int64_t first_sample = 0;
+  // Whether the pass's rule chose the cone walk (SdfEvaluator: it depends
+  // on the positions, and the walk and Embree may record different
+  // primitives at a tie, so a pass reuses only one that chose alike).
+  bool walks_cones = false;
   // Bytes held: 5 per ray (a primitive index and a kept flag) and 25 per
   // vertex.
   int64_t Bytes() const {

@@ -137,6 +137,10 @@ struct SdfResult {
   // of its samples or streams them all.
   int64_t samples_cone_walked = 0;
   int64_t samples_cone_fell_back = 0;
+  // The pilot of a pass left to choose its traversal: the cone walk's
+  // (triangle, group of 8 rays) tests per ray on a few fans (the pass walks
+  // cones at 8 or fewer); 0 where no pilot ran, -1 where the walk gave up.
+  double cone_walk_pilot = 0;
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;

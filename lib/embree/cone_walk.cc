@@ -340,16 +340,18 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
 }
 
 // Tests the batch's triangles against the rays that can meet them and
-// empties it. Returns whether a ray's limit changed.
+// empties it; adds the (triangle, group) tests made to `tests` (unless
+// null). Returns whether a ray's limit changed.
 [[gnu::always_inline]] inline __attribute__((target("avx2,fma"))) bool
 TestBatch(const Cone& cone, const FanContext& fan, FanSlots& s, Batch& b,
-          HitCandidates* out) {
+          HitCandidates* out, int64_t* tests) {
   uint8_t lanes_of_group[ConeWalk::kMaxRays / kLanes];
   PrepareBatch(cone, s, b, lanes_of_group);
   bool changed = false;
   for (int g = 0; g < s.groups; ++g) {
     unsigned lanes = lanes_of_group[g];
     if (lanes == 0) continue;
+    if (tests != nullptr) *tests += std::popcount(lanes);
     const int at = g * kLanes;
     const __m256 sx = _mm256_loadu_ps(&s.sx[at]);
     const __m256 sy = _mm256_loadu_ps(&s.sy[at]);
@@ -401,8 +403,42 @@ struct BinaryNode {
   float centre[3];
   float radius;  // of the bounding sphere of its triangles' box.
   int32_t left = -1, right = -1;  // -1: a leaf.
-  int32_t first = 0, count = 0;
+  int32_t first = 0, count = 0;   // its triangles (leaf order).
 };
+
+// Triangle t's corners from `vertices` (4 floats a vertex), and the largest
+// coordinate met so far into *largest.
+void CopyCorners(const float* vertices, const Primitive& prim,
+                 ConeWalk::Triangle& t, float* largest) {
+  float* corners[3] = {t.a, t.b, t.c};
+  for (int j = 0; j < 3; ++j) {
+    const float* p = vertices + 4 * static_cast<size_t>(prim.v[j]);
+    std::copy(p, p + 3, corners[j]);
+    *largest =
+        std::max({*largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+  }
+}
+
+// Grows the box [lo, hi] by triangle t.
+void AddToBox(const ConeWalk::Triangle& t, float lo[3], float hi[3]) {
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = std::min({lo[k], t.a[k], t.b[k], t.c[k]});
+    hi[k] = std::max({hi[k], t.a[k], t.b[k], t.c[k]});
+  }
+}
+
+// The sphere about the box [lo, hi]: its centre, and half its diagonal
+// with a margin.
+void SphereOfBox(const float lo[3], const float hi[3], float centre[3],
+                 float* radius) {
+  double r2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    centre[k] = 0.5f * (lo[k] + hi[k]);
+    const double half = 0.5 * (static_cast<double>(hi[k]) - lo[k]);
+    r2 += half * half;
+  }
+  *radius = static_cast<float>(std::sqrt(r2)) * (1 + kMargin);
+}
 
 // Median splits along the centroids' longest extent, leaves of up to 4.
 int32_t BuildBinary(absl::Span<const ConeWalk::Triangle> triangles,
@@ -412,30 +448,20 @@ int32_t BuildBinary(absl::Span<const ConeWalk::Triangle> triangles,
   float box_lo[3] = {kInf, kInf, kInf}, box_hi[3] = {-kInf, -kInf, -kInf};
   float c_lo[3] = {kInf, kInf, kInf}, c_hi[3] = {-kInf, -kInf, -kInf};
   for (int32_t i = lo; i < hi; ++i) {
-    const ConeWalk::Triangle& t = triangles[ids[i]];
+    AddToBox(triangles[ids[i]], box_lo, box_hi);
     for (int k = 0; k < 3; ++k) {
-      box_lo[k] = std::min({box_lo[k], t.a[k], t.b[k], t.c[k]});
-      box_hi[k] = std::max({box_hi[k], t.a[k], t.b[k], t.c[k]});
       c_lo[k] = std::min(c_lo[k], centroids[3 * ids[i] + k]);
       c_hi[k] = std::max(c_hi[k], centroids[3 * ids[i] + k]);
     }
   }
   BinaryNode node;
-  double r2 = 0;
-  for (int k = 0; k < 3; ++k) {
-    node.centre[k] = 0.5f * (box_lo[k] + box_hi[k]);
-    const double half = 0.5 * (static_cast<double>(box_hi[k]) - box_lo[k]);
-    r2 += half * half;
-  }
-  node.radius = static_cast<float>(std::sqrt(r2)) * (1 + kMargin);
+  SphereOfBox(box_lo, box_hi, node.centre, &node.radius);
+  node.first = lo;
+  node.count = hi - lo;
   const auto me = static_cast<int32_t>(nodes.size());
   nodes.push_back(node);
   constexpr int32_t kLeafSize = 4;
-  if (hi - lo <= kLeafSize) {
-    nodes[me].first = lo;
-    nodes[me].count = hi - lo;
-    return me;
-  }
+  if (hi - lo <= kLeafSize) return me;
   int axis = 0;
   for (int k = 1; k < 3; ++k) {
     if (c_hi[k] - c_lo[k] > c_hi[axis] - c_lo[axis]) axis = k;
@@ -504,13 +530,7 @@ void ConeWalk::Build(const float* vertices,
   for (size_t i = 0; i < primitives.size(); ++i) {
     Triangle t;
     t.prim = static_cast<int32_t>(i);
-    float* corners[3] = {t.a, t.b, t.c};
-    for (int j = 0; j < 3; ++j) {
-      const float* p = vertices + 4 * static_cast<size_t>(primitives[i].v[j]);
-      std::copy(p, p + 3, corners[j]);
-      largest =
-          std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
-    }
+    CopyCorners(vertices, primitives[i], t, &largest);
     triangles_.push_back(t);
     for (int k = 0; k < 3; ++k) {
       centroids.push_back((t.a[k] + t.b[k] + t.c[k]) / 3);
@@ -531,17 +551,41 @@ void ConeWalk::Build(const float* vertices,
   Collapse(binary, 0, nodes_);
 }
 
+void ConeWalk::Refit(const float* vertices,
+                     absl::Span<const Primitive> primitives) {
+  float largest = 0;
+  for (Triangle& t : triangles_) {
+    CopyCorners(vertices, primitives[t.prim], t, &largest);
+  }
+  slack_ = 8 * std::numeric_limits<float>::epsilon() * largest;
+  for (Node& node : nodes_) {
+    for (int i = 0; i < node.children; ++i) {
+      float lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
+      for (int32_t j = node.first[i]; j < node.first[i] + node.count[i]; ++j) {
+        AddToBox(triangles_[j], lo, hi);
+      }
+      float centre[3];
+      SphereOfBox(lo, hi, centre, &node.radius[i]);
+      node.x[i] = centre[0];
+      node.y[i] = centre[1];
+      node.z[i] = centre[2];
+    }
+  }
+}
+
 #if defined(__x86_64__)
 namespace {
 
 // The descent: children nearer than the rays' largest limit that the cone
 // meets, nearest along the axis first; candidate triangles gathered kLanes
 // at a time and tested against the groups of rays that can meet them.
-// `slack`: the absolute rounding of a node's sphere in single precision.
+// `slack`: the absolute rounding of a node's sphere in single precision;
+// `tests` (unless null) counts the (triangle, group) tests.
 __attribute__((target("avx2,fma"))) void Walk(
     absl::Span<const ConeWalk::Node> nodes,
     absl::Span<const ConeWalk::Triangle> triangles, float slack,
-    const Cone& cone, const FanContext& fan, FanSlots& s, HitCandidates* out) {
+    const Cone& cone, const FanContext& fan, FanSlots& s, HitCandidates* out,
+    int64_t* tests) {
   static_assert(ConeWalk::kWidth == kLanes);
   float reach = fan.t_far * cone.length;
   Batch batch{};
@@ -576,7 +620,8 @@ __attribute__((target("avx2,fma"))) void Walk(
           }
         }
         batch.prim[batch.count++] = tri.prim;
-        if (batch.count == kLanes && TestBatch(cone, fan, s, batch, out)) {
+        if (batch.count == kLanes &&
+            TestBatch(cone, fan, s, batch, out, tests)) {
           reach = Reach(s) * cone.length;
         }
       }
@@ -627,7 +672,7 @@ __attribute__((target("avx2,fma"))) void Walk(
                                           : Entry{node.first[i], node.count[i]};
     }
   }
-  if (batch.count > 0) TestBatch(cone, fan, s, batch, out);
+  if (batch.count > 0) TestBatch(cone, fan, s, batch, out, tests);
 }
 
 }  // namespace
@@ -635,7 +680,8 @@ __attribute__((target("avx2,fma"))) void Walk(
 bool ConeWalk::Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
                          const Vec3* axis, absl::Span<const float> starts,
                          float t_near, const FanContext& fan,
-                         absl::Span<HitCandidates> out) const {
+                         absl::Span<HitCandidates> out,
+                         int64_t* group_tests) const {
   const auto n = std::ssize(dirs);
   if (empty() || !Supported() || n == 0 || n > kMaxRays) return false;
   thread_local FanSlots s;
@@ -643,13 +689,13 @@ bool ConeWalk::Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
   if (!SetUpFan(origin, dirs, axis, starts, t_near, fan.t_far, cone, s)) {
     return false;
   }
-  Walk(nodes_, triangles_, slack_, cone, fan, s, out.data());
+  Walk(nodes_, triangles_, slack_, cone, fan, s, out.data(), group_tests);
   return true;
 }
 #else
 bool ConeWalk::Intersect(const Vec3&, absl::Span<const Vec3>, const Vec3*,
                          absl::Span<const float>, float, const FanContext&,
-                         absl::Span<HitCandidates>) const {
+                         absl::Span<HitCandidates>, int64_t*) const {
   return false;
 }
 #endif  // __x86_64__

@@ -53,6 +53,12 @@ class ConeWalk {
   // tracer's coordinates (RayScene's vertex buffer). Hub fans' triangles
   // (hub_fans.h) are ordinary triangles here. O(n log n).
   void Build(const float* vertices, absl::Span<const Primitive> primitives);
+  // The same BVH's spheres at new `vertices`, its tree kept (after Build
+  // over the same `primitives`): O(n log n) over small ranges, no sort. What
+  // the walk finds does not depend on the tree (its tests are
+  // conservative), only how fast; at unchanged vertices the nodes are
+  // Build's, bit for bit.
+  void Refit(const float* vertices, absl::Span<const Primitive> primitives);
   bool empty() const { return nodes_.empty(); }
 
   // As RayScene::IntersectFan with `fan` set up as for FanFilter (excluded,
@@ -68,10 +74,14 @@ class ConeWalk {
   // rays, or a ray more than 80 degrees from the axis (a half-angle). It
   // never gives up for the number of triangles it meets, so that whether a
   // sample walks does not depend on which of its rays a pass traces.
+  // `group_tests` (unless null) is increased by the number of (triangle,
+  // group of 8 rays) tests the walk made: its work, which grows with the
+  // triangles a cone meets (a pass's pilot, sdf_evaluator.cc).
   // Thread-safe.
   bool Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
                  const Vec3* axis, absl::Span<const float> starts, float t_near,
-                 const FanContext& fan, absl::Span<HitCandidates> out) const;
+                 const FanContext& fan, absl::Span<HitCandidates> out,
+                 int64_t* group_tests = nullptr) const;
 
   // The walk's BVH (cone_walk.cc): nodes of up to kWidth children, each a
   // node or a leaf of triangles, with their bounding spheres (structure of
@@ -79,7 +89,9 @@ class ConeWalk {
   static constexpr int kWidth = 8;
   struct Node {
     alignas(32) float x[kWidth], y[kWidth], z[kWidth], radius[kWidth];
-    int32_t child[kWidth];  // >= 0: a node; -1: triangles [first, + count).
+    int32_t child[kWidth];  // >= 0: a node; -1: a leaf.
+    // The child's triangles [first, first + count) (a node's too, for
+    // Refit).
     int32_t first[kWidth], count[kWidth];
     int32_t children = 0;
   };

@@ -294,8 +294,10 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
 
 const ConeWalk& RayScene::cone_walk() const {
   std::call_once(*cone_walk_built_, [this] {
-    if (ConeWalk::Supported() && dimension_ == 3 &&
-        std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
+    if (!cone_walk_.empty()) {
+      cone_walk_.Refit(vertex_buffer_, topo_.primitives);
+    } else if (ConeWalk::Supported() && dimension_ == 3 &&
+               std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
       cone_walk_.Build(vertex_buffer_, topo_.primitives);
     }
   });
@@ -422,6 +424,18 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
 
+void RayScene::SetUpFanContext(const FanLimits& limits, float reach,
+                               absl::Span<const int32_t> excluded,
+                               FanContext* fan) const {
+  rtcInitIntersectContext(&fan->rtc);
+  fan->rtc.filter = FanFilter;
+  fan->excluded = excluded;
+  fan->t_min = limits.t_min;
+  fan->near_below = NearBelow(limits, reach);
+  fan->t_far = limits.t_far;
+  fan->segments = dimension_ == 2;
+}
+
 FanTraversal RayScene::IntersectFan(
     const Vec3& origin, absl::Span<const Vec3> dirs, const FanLimits& limits,
     absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
@@ -431,13 +445,7 @@ FanTraversal RayScene::IntersectFan(
   const float reach = static_cast<float>(MaxAbs(o));
   for (HitCandidates& c : out) c.Reset(reach);
   FanContext fan;
-  rtcInitIntersectContext(&fan.rtc);
-  fan.rtc.filter = FanFilter;
-  fan.excluded = excluded;
-  fan.t_min = limits.t_min;
-  fan.near_below = NearBelow(limits, reach);
-  fan.t_far = limits.t_far;
-  fan.segments = dimension_ == 2;
+  SetUpFanContext(limits, reach, excluded, &fan);
   const FanRays rays{o, dirs, starts, limits.t_near, limits.t_far};
   // Every scene is on the process's SharedDevice. Where Embree has no
   // streams (built without packets) a fan asked to stream goes in packets;
@@ -461,6 +469,24 @@ FanTraversal RayScene::IntersectFan(
   }
   IntersectPackets(scene_, rays, packets, fan, out);
   return FanTraversal::kPackets;
+}
+
+int64_t RayScene::ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
+                                const FanLimits& limits,
+                                absl::Span<const int32_t> excluded,
+                                const Vec3& axis) const {
+  const Vec3 o = origin - origin_;
+  const float reach = static_cast<float>(MaxAbs(o));
+  std::vector<HitCandidates> out(dirs.size());
+  for (HitCandidates& c : out) c.Reset(reach);
+  FanContext fan;
+  SetUpFanContext(limits, reach, excluded, &fan);
+  int64_t tests = 0;
+  if (!cone_walk().Intersect(o, dirs, &axis, {}, limits.t_near, fan,
+                             absl::MakeSpan(out), &tests)) {
+    return -1;
+  }
+  return tests;
 }
 
 }  // namespace meshgauge

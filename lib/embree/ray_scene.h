@@ -176,6 +176,14 @@ class RayScene {
                             absl::Span<const float> starts = {},
                             FanTraversal traversal = FanTraversal::kPackets,
                             const Vec3* axis = nullptr) const;
+  // The work of the cone walk on a fan (IntersectFan's arguments, from the
+  // surface): its (triangle, group of 8 rays) tests (ConeWalk::Intersect),
+  // or -1 where it would give up. Builds the walk if it is not built.
+  // Thread-safe.
+  int64_t ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
+                        const FanLimits& limits,
+                        absl::Span<const int32_t> excluded,
+                        const Vec3& axis) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)
@@ -186,9 +194,16 @@ class RayScene {
   // positions into the vertex buffer.
   absl::Status FillVertices(const Mesh& mesh);
   absl::Status Commit();
+  // A fan's context for FanFilter and the cone walk: limits, the fan's
+  // `reach` (IntersectFan) and the primitives it ignores.
+  void SetUpFanContext(const FanLimits& limits, float reach,
+                       absl::Span<const int32_t> excluded,
+                       FanContext* fan) const;
   // The cone walk over the coordinates Embree sees, built on a fan's first
-  // use after each FillVertices (a pass that does not walk cones does not
-  // pay for it); empty in 2D and on scenes of over ConeWalk::kMaxPrimitives.
+  // use (a pass that does not walk cones does not pay for it) and refitted
+  // (ConeWalk::Refit) on the first use after each position update (a
+  // kRebuild update makes a new scene, whose walk is built anew); empty in
+  // 2D and on scenes of over ConeWalk::kMaxPrimitives.
   const ConeWalk& cone_walk() const;
 
   const MeshTopology& topo_;

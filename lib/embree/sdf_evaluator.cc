@@ -61,23 +61,18 @@ constexpr int64_t kIncrementalRaysPerMovedRay = 2;
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
-// On the same scenes, with cones no wider than this (the full aperture),
-// the cone walk (FanTraversal::kCone) from the surface beat Embree's
-// streams and the pass past empty balls alike; at 60 degrees it lost on
-// spot and the teapot, where a cone meets over a thousand candidate
-// triangles (docs/benchmarks.md, "The cone walk").
-constexpr double kConeMaxAperture = 45 * std::numbers::pi / 180;
-// Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
-// kAuto or kSurface starts) walks cones: a scene of fewer than
-// kStreamMaxPrimitives under the watertight test, a cone no wider than
-// kConeMaxAperture (a normal ray's is 0), every fan of which the walk takes
-// (ConeWalk::TakesEveryFan). Such a pass starts its rays at the surface.
-bool WalksCones(RayTest test, int64_t primitives, int dimension, int rays,
-                double half_angle) {
-  return test == RayTest::kWatertight && primitives < kStreamMaxPrimitives &&
-         2 * half_angle <= kConeMaxAperture &&
-         ConeWalk::TakesEveryFan(primitives, dimension, rays, half_angle);
-}
+// A pass walks cones where a pilot finds the walk's work small: at most
+// this many (triangle, group of 8 rays) tests per ray over kPilotSamples
+// fans (ConeWalk::Intersect's count). Measured (meshgauge_bench, pass /
+// SPEC ceiling; docs/benchmarks.md, "The cone walk's pilot"): the walk won
+// at 1.9-6.2 tests a ray (the knight, the tray, spot and the teapot at 30
+// degrees; the knight and the tray at 60, the knight at 90), broke even at
+// 7.4 (the tray at 90) and lost at 10.9-18.4 (spot and the teapot at 45
+// and 60 degrees: 0.59-0.61 of the ceiling against 0.76-0.92).
+constexpr double kWalkMaxGroupTestsPerRay = 8;
+// The pilot's fans: this many samples spread evenly over all of the pass's
+// kind (every one of fewer), whatever its range.
+constexpr int64_t kPilotSamples = 16;
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
 // open and that does not walk cones: streams where the rays start at the
 // surface on a small 3D scene under the watertight test. Embree's fast
@@ -313,8 +308,8 @@ struct SdfEvaluator::ReusePlan {
 absl::StatusOr<std::unique_ptr<SdfEvaluator::ReusePlan>>
 SdfEvaluator::PlanReuse(const PreviousPass& previous,
                         const std::vector<ConeRay>& cone,
-                        const ResolvedParams& resolved, float t_near,
-                        double t_min, double t_max) const {
+                        const ResolvedParams& resolved, bool walks_cones,
+                        float t_near, double t_min, double t_max) const {
   const HitTable& h = *previous.hits;
   const SdfResult& r = *previous.result;
   const int64_t nv = mesh_.num_vertices();
@@ -326,7 +321,7 @@ SdfEvaluator::PlanReuse(const PreviousPass& previous,
       h.num_primitives == std::ssize(topo_.primitives) &&
       h.scene_origin == scene_->origin() &&
       h.extrude_half_height == scene_->extrude_half_height() &&
-      h.t_near == t_near;
+      h.t_near == t_near && h.walks_cones == walks_cones;
   if (!same_rays) return nullptr;
   auto plan = std::make_unique<ReusePlan>();
   plan->result = &r;
@@ -569,6 +564,80 @@ using pass_state::PassSetup;
 using pass_state::SampleRows;
 using pass_state::SampleScratch;
 using pass_state::SetUpPass;
+
+namespace {
+
+// The cone walk's (triangle, group of 8 rays) tests per ray from the
+// surface on the fans of kPilotSamples samples spread evenly over all of
+// the pass's kind at the current positions, whatever its range (so that
+// every range of a pass decides alike); -1 where the walk gives up on one.
+// In the caller's arena.
+double PilotGroupTestsPerRay(const SdfEvaluator& ev, const PassSetup& setup) {
+  const Mesh& mesh = ev.mesh();
+  const MeshTopology& topo = ev.topology();
+  const SdfParams& params = setup.resolved.params;
+  const int64_t n = NumSamples(mesh, params.samples);
+  const int64_t pilots = std::min(n, kPilotSamples);
+  // Per fan: its tests (-1: the walk gave up) and rays, summed in order.
+  std::vector<std::array<int64_t, 2>> walked(pilots, {0, 0});
+  tbb::parallel_for(int64_t{0}, pilots, [&](int64_t i) {
+    const int64_t p = i * n / pilots;
+    if (params.samples == SampleSet::kVertices &&
+        topo.vertex_faces.Of(p).empty()) {
+      return;
+    }
+    const SampleCone sample = MakeSampleCone(
+        mesh, topo, params.samples, p,
+        [&] {
+          return UnnormalizedNormal(mesh, topo, p, params.normal_weighting);
+        },
+        /*frame=*/true);
+    if (!sample.cone.valid) return;
+    std::vector<Vec3> dirs(setup.num_rays);
+    for (int k = 0; k < setup.num_rays; ++k) {
+      dirs[k] = RayDirection(sample.cone.frame, setup.cone[k]);
+    }
+    std::vector<int32_t> excluded;
+    SampleExclusions(mesh, topo, params.samples, /*ball=*/false, p, &excluded);
+    walked[i] = {ev.scene().ConeWalkTests(sample.x, dirs, setup.limits,
+                                          excluded, sample.cone.frame.axis),
+                 setup.num_rays};
+  });
+  int64_t tests = 0, rays = 0;
+  for (const auto& [fan_tests, fan_rays] : walked) {
+    if (fan_tests < 0) return -1;
+    tests += fan_tests;
+    rays += fan_rays;
+  }
+  return rays > 0 ? static_cast<double>(tests) / static_cast<double>(rays) : 0;
+}
+
+// Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
+// kAuto or kSurface starts) walks cones: a cone pass (or normal rays) on a
+// scene of fewer than kStreamMaxPrimitives under the watertight test,
+// every fan of which the walk takes (ConeWalk::TakesEveryFan): normal rays
+// always (one ray a fan, for which the pilot's count, made for groups of 8,
+// says little; the walk meets the far face along seams where Embree's box
+// test misses it, ConeWalkTest.MeetsTheFarFaceAlongASeam...), cones where
+// the pilot (PilotGroupTestsPerRay, into *pilot) finds at most
+// kWalkMaxGroupTestsPerRay tests a ray. A cone's choice depends on the
+// positions: a pass reuses only a pass that chose alike (PlanReuse). Such
+// a pass starts its rays at the surface.
+bool WalksCones(const SdfEvaluator& ev, const PassSetup& setup, RayTest test,
+                double* pilot) {
+  const int64_t primitives = std::ssize(ev.topology().primitives);
+  if (setup.sphere || test != RayTest::kWatertight ||
+      primitives >= kStreamMaxPrimitives ||
+      !ConeWalk::TakesEveryFan(primitives, ev.mesh().dimension, setup.num_rays,
+                               setup.cone_half_angle)) {
+    return false;
+  }
+  if (setup.num_rays == 1) return true;
+  *pilot = PilotGroupTestsPerRay(ev, setup);
+  return *pilot >= 0 && *pilot <= kWalkMaxGroupTestsPerRay;
+}
+
+}  // namespace
 
 // The work of one pass on one sample (SPEC §3-5): its cone, its rays (or
 // ball) and its value, written to the pass's output. Workers call Sample
@@ -818,31 +887,61 @@ class SdfEvaluator::SampleTracer {
   PassOutput& out_;
 };
 
+bool SdfEvaluator::ChooseWalk(const SdfParams& params,
+                              absl::FunctionRef<bool(double*)> walks_cones,
+                              double* pilot) const {
+  SdfParams key = params;
+  key.range = {};
+  {
+    std::lock_guard lock(walk_choice_mu_);
+    if (walk_choice_.generation == generation_ && walk_choice_.params == key) {
+      *pilot = walk_choice_.pilot;
+      return walk_choice_.walks;
+    }
+  }
+  const bool walks = walks_cones(pilot);
+  std::lock_guard lock(walk_choice_mu_);
+  walk_choice_ = {generation_, key, walks, *pilot};
+  return walks;
+}
+
 absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     const SdfParams& params, const ComputeControl& control, HitTable* hits,
     const PreviousPass* previous) const {
   auto setup = SetUpPass(*this, params);
   if (!setup.ok()) return setup.status();
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
+  const Stopwatch watch;
+  tbb::task_arena arena(ThreadCount(control.threads));
+  double pilot = 0;
+  bool walks_cones = false;
+  if (!fan_traversal_.has_value()) {
+    walks_cones = ChooseWalk(
+        params,
+        [&](double* measured) {
+          bool walks = false;
+          arena.execute(
+              [&] { walks = WalksCones(*this, *setup, ray_test_, measured); });
+          return walks;
+        },
+        &pilot);
+  }
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
       previous->result != nullptr && !setup->sphere && !setup->faces &&
       params.range.all()) {
-    auto planned = PlanReuse(*previous, setup->cone, setup->resolved,
-                             setup->limits.t_near, setup->t_min, setup->t_max);
+    auto planned =
+        PlanReuse(*previous, setup->cone, setup->resolved, walks_cones,
+                  setup->limits.t_near, setup->t_min, setup->t_max);
     if (!planned.ok()) return planned.status();
     plan = std::move(*planned);
   }
   PassOutput out = NewOutput(*setup, hits != nullptr);
-  const Stopwatch watch;
   // Rays start past empty balls in 3D cone passes; with kAuto only where
   // the pass traces enough rays (all of a full pass's, an estimate from an
   // incremental pass's moved samples) that the tree's build is a small
   // share of it.
   const int64_t primitives = std::ssize(topo_.primitives);
-  const bool walks_cones = !fan_traversal_.has_value() &&
-                           WalksCones(ray_test_, primitives, mesh_.dimension,
-                                      setup->num_rays, setup->cone_half_angle);
   bool use_starts = ray_start_ != RayStartMode::kSurface && !setup->sphere &&
                     mesh_.dimension == 3 &&
                     !(walks_cones && ray_start_ == RayStartMode::kAuto);
@@ -914,7 +1013,6 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     samples_fell_back += s.fell_back;
     gate.Done(range.size());
   };
-  tbb::task_arena arena(ThreadCount(control.threads));
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int64_t>(0, ns, kVertexBlock), process,
                       tbb::simple_partitioner());
@@ -928,6 +1026,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   result.samples_streamed = samples_streamed;
   result.samples_cone_walked = samples_walked;
   result.samples_cone_fell_back = samples_fell_back;
+  result.cone_walk_pilot = pilot;
   result.normalized = NormalizedSdf(result.values);
   if (params.range.all()) {
     result.missing = setup->faces ? CountMissingFaces(mesh_, result.values)
@@ -948,6 +1047,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
     hits->t_near = setup->limits.t_near;
     hits->num_primitives = std::ssize(topo_.primitives);
     hits->first_sample = setup->range.begin;
+    hits->walks_cones = walks_cones;
   }
   return std::move(result);
 }

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <vector>
 
@@ -141,10 +142,12 @@ class SdfEvaluator : public MeshGeometry {
   absl::Status CommitPositions(std::vector<Vec3> old_positions);
   struct ReusePlan;
   // What of `previous` a pass can reuse; null when nothing.
+  // (Among others, nothing when the two passes' rules chose different
+  // tracers: `walks_cones`, HitTable::walks_cones.)
   absl::StatusOr<std::unique_ptr<ReusePlan>> PlanReuse(
       const PreviousPass& previous, const std::vector<ConeRay>& cone,
-      const ResolvedParams& resolved, float t_near, double t_min,
-      double t_max) const;
+      const ResolvedParams& resolved, bool walks_cones, float t_near,
+      double t_min, double t_max) const;
   // The rays of vertex p (at x, cone axis `axis`) that a pass reusing
   // `plan` traces again (docs/numerics.md, "Incremental passes"), into
   // `retrace`; prims gets the previous pass's hits and t the distances of
@@ -154,6 +157,11 @@ class SdfEvaluator : public MeshGeometry {
                      float t_far, absl::FunctionRef<void()> directions,
                      absl::Span<const Vec3> dirs, absl::Span<int32_t> prims,
                      absl::Span<double> t, std::vector<int32_t>* retrace) const;
+  // Whether a pass of `params` left to choose walks cones (WalksCones),
+  // with its pilot into *pilot; from walk_choice_ when it holds them.
+  bool ChooseWalk(const SdfParams& params,
+                  absl::FunctionRef<bool(double*)> walks_cones,
+                  double* pilot) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
   // One pass's work on one sample (sdf_evaluator.cc).
@@ -166,6 +174,19 @@ class SdfEvaluator : public MeshGeometry {
   int rebuild_every_updates_ = 0;
   std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;
+  // The last choice of a pass left to choose whether to walk cones, and
+  // its pilot (sdf_evaluator.cc, WalksCones): a function of the positions
+  // (the generation) and of the parameters but for the range, kept for
+  // the next pass at the same ones (another range, the values then the
+  // hit table).
+  struct WalkChoice {
+    int64_t generation = -1;
+    SdfParams params;
+    bool walks = false;
+    double pilot = 0;
+  };
+  mutable std::mutex walk_choice_mu_;
+  mutable WalkChoice walk_choice_;
   // The ray pass visits vertices in this Morton order of the positions at
   // creation (kept across updates; results stay in vertex order and do not
   // depend on it).
