@@ -588,6 +588,11 @@ __attribute__((target("avx2,fma"))) void Walk(
     int64_t* tests) {
   static_assert(ConeWalk::kWidth == kLanes);
   float reach = fan.t_far * cone.length;
+  // Bit (prim mod 64) of every excluded primitive: most candidates need no
+  // search of the list.
+  uint64_t excluded_bits = 0;
+  for (const int32_t prim : fan.excluded)
+    excluded_bits |= uint64_t{1} << (prim & 63);
   Batch batch{};
   // A node (count < 0) or a leaf's triangles [index, index + count); at
   // most kWidth - 1 entries per level below the one popped (the tree of
@@ -609,7 +614,8 @@ __attribute__((target("avx2,fma"))) void Walk(
     if (entry.count >= 0) {
       for (int32_t i = entry.index; i < entry.index + entry.count; ++i) {
         const ConeWalk::Triangle& tri = triangles[i];
-        if (std::binary_search(fan.excluded.begin(), fan.excluded.end(),
+        if ((excluded_bits >> (tri.prim & 63) & 1) != 0 &&
+            std::binary_search(fan.excluded.begin(), fan.excluded.end(),
                                tri.prim)) {
           continue;
         }
