@@ -591,8 +591,9 @@ __attribute__((target("avx2,fma"))) void Walk(
   // Bit (prim mod 64) of every excluded primitive: most candidates need no
   // search of the list.
   uint64_t excluded_bits = 0;
-  for (const int32_t prim : fan.excluded)
+  for (const int32_t prim : fan.excluded) {
     excluded_bits |= uint64_t{1} << (prim & 63);
+  }
   Batch batch{};
   // A node (count < 0) or a leaf's triangles [index, index + count); at
   // most kWidth - 1 entries per level below the one popped (the tree of
