@@ -1,7 +1,6 @@
 // The cone walk (lib/embree/cone_walk.h): the candidates Embree's filter
 // finds, rays through shared edges and corners never slipping through,
-// the fans it gives up on, its count of tests (a pass's pilot) and its
-// tree refitted after a move.
+// the fans it gives up on and its count of tests (a pass's pilot).
 #include "lib/embree/cone_walk.h"
 
 #include <gtest/gtest.h>
@@ -235,7 +234,6 @@ TEST(ConeWalkTest, GivesUpOnOver512RaysButNotOnManyTriangles) {
   EXPECT_EQ(traced(fan(100, 0.5)), FanTraversal::kCone);
 }
 
-// Gives up on a ray more than 80 degrees from the fan's axis.
 // The walk's count of its (triangle, group of 8 rays) tests, a pass's pilot
 // (RayScene::ConeWalkTests): none for rays that meet nothing, more for a
 // wider cone, which meets more triangles, and -1 where it gives up.
@@ -265,51 +263,7 @@ TEST(ConeWalkTest, CountsMoreTestsForAWiderConeAndNoneWhereNothingIsMet) {
   EXPECT_EQ(tests(Vec3(), ConeWalk::kMaxRays + 1, 0.1), -1);
 }
 
-// After a position update the walk's tree is refitted (ConeWalk::Refit),
-// not rebuilt: on a sphere stretched to twice its width and twisted about
-// its axis, where every sphere of the old tree is wrong, every fan finds
-// what the walk of a scene built at the new positions finds.
-TEST(ConeWalkTest, ARefittedWalkFindsWhatARebuiltOneFinds) {
-  SKIP_WITHOUT_THE_WALK();
-  const Mesh sphere = MakeIcosphere(1, 8);
-  Mesh bent = sphere;
-  for (Vec3& p : bent.positions) {
-    const double a = 1.5 * p.z;
-    p = Vec3(2 * p.x * std::cos(a) - p.y * std::sin(a),
-             2 * p.x * std::sin(a) + p.y * std::cos(a), p.z);
-  }
-  const testing::VertexFans fans(bent);  // its scene built when bent
-  const MeshTopology topo = MeshTopology::Build(sphere);
-  auto refitted = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRefit);
-  ASSERT_TRUE(refitted.ok()) << refitted.status();
-  std::vector<HitCandidates> built(fans.rays()), refit(fans.rays());
-  std::vector<Vec3> dirs;
-  std::vector<int32_t> ring;
-  Vec3 axis;
-  ASSERT_TRUE(fans.Fan(0, &dirs, &axis, &ring));
-  // The walk's tree is built on its first fan, at the sphere's positions.
-  ASSERT_EQ((*refitted)->IntersectFan(sphere.positions[0], dirs, fans.limits(),
-                                      ring, absl::MakeSpan(refit), {},
-                                      FanTraversal::kCone, &axis),
-            FanTraversal::kCone);
-  ASSERT_TRUE((*refitted)->UpdatePositions(bent).ok());
-  int64_t compared = 0;
-  for (int64_t p = 0; p < bent.num_vertices(); ++p) {
-    if (!fans.Fan(p, &dirs, &axis, &ring)) continue;
-    fans.scene().IntersectFan(bent.positions[p], dirs, fans.limits(), ring,
-                              absl::MakeSpan(built), {}, FanTraversal::kCone,
-                              &axis);
-    (*refitted)->IntersectFan(bent.positions[p], dirs, fans.limits(), ring,
-                              absl::MakeSpan(refit), {}, FanTraversal::kCone,
-                              &axis);
-    for (size_t k = 0; k < dirs.size(); ++k) {
-      ASSERT_EQ(Listed(refit[k]), Listed(built[k])) << p << " ray " << k;
-      compared += built[k].count() > 0;
-    }
-  }
-  EXPECT_GT(compared, bent.num_vertices() * 90);
-}
-
+// Gives up on a ray more than 80 degrees from the fan's axis.
 TEST(ConeWalkTest, GivesUpOnRaysOver80DegreesFromTheAxis) {
   SKIP_WITHOUT_THE_WALK();
   const Mesh sphere = MakeIcosphere(1, 2);  // 80 triangles

@@ -211,5 +211,40 @@ TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
   EXPECT_FALSE(curve.walked || curve.streamed);
 }
 
+// The pilot counts the walk's work, which depends on its tree: the tree is
+// built from the current positions after every update, so a pass's pilot
+// (and its choice) is the same for an evaluator moved there as for one
+// made there. A teapot stretched threefold along x, then moved back.
+TEST(RayTraversalTest, APassesPilotDependsOnThePositionsAlone) {
+  if (!ConeWalk::Supported()) GTEST_SKIP() << "this CPU has no AVX2 and FMA";
+  const Mesh teapot = *ReadMesh(testing::SharedMesh("teapot.obj"));
+  Mesh stretched = teapot;
+  for (Vec3& p : stretched.positions) p.x *= 3;
+  SdfParams params;
+  auto moved = SdfEvaluator::Create(stretched);
+  ASSERT_TRUE(moved.ok()) << moved.status();
+  auto before = (*moved)->Compute(params);
+  ASSERT_TRUE(before.ok()) << before.status();
+  ASSERT_TRUE((*moved)->UpdatePositions(teapot.positions).ok());
+  auto after = (*moved)->Compute(params);
+  ASSERT_TRUE(after.ok()) << after.status();
+  auto made = SdfEvaluator::Create(teapot);
+  ASSERT_TRUE(made.ok()) << made.status();
+  auto fresh = (*made)->Compute(params);
+  ASSERT_TRUE(fresh.ok()) << fresh.status();
+  EXPECT_NE(before->cone_walk_pilot, fresh->cone_walk_pilot);
+  EXPECT_EQ(after->cone_walk_pilot, fresh->cone_walk_pilot);
+  EXPECT_EQ(after->samples_cone_walked, fresh->samples_cone_walked);
+  // At the same positions, another cone: the evaluator's kept choice is
+  // for the parameters it was made for.
+  SdfParams wide;
+  wide.cone_angle_degrees = 60;
+  auto wider = (*made)->Compute(wide);
+  ASSERT_TRUE(wider.ok()) << wider.status();
+  EXPECT_GT(fresh->samples_cone_walked, 0);
+  EXPECT_EQ(wider->samples_cone_walked, 0);
+  EXPECT_GT(wider->cone_walk_pilot, 8);
+}
+
 }  // namespace
 }  // namespace meshgauge

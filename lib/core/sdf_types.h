@@ -144,7 +144,8 @@ struct SdfResult {
   // Samples without a value and the share of the surface they cover
   // (kFaces: MissingValues::vertices stays 0).
   MissingValues missing;
-  double trace_seconds = 0;  // wall time of the ray pass.
+  // Wall time of the ray pass, its pilot (cone_walk_pilot) included.
+  double trace_seconds = 0;
   ResolvedParams resolved;
 
   int64_t CountStatus(VertexStatus s) const;

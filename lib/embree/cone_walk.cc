@@ -403,42 +403,8 @@ struct BinaryNode {
   float centre[3];
   float radius;  // of the bounding sphere of its triangles' box.
   int32_t left = -1, right = -1;  // -1: a leaf.
-  int32_t first = 0, count = 0;   // its triangles (leaf order).
+  int32_t first = 0, count = 0;
 };
-
-// Triangle t's corners from `vertices` (4 floats a vertex), and the largest
-// coordinate met so far into *largest.
-void CopyCorners(const float* vertices, const Primitive& prim,
-                 ConeWalk::Triangle& t, float* largest) {
-  float* corners[3] = {t.a, t.b, t.c};
-  for (int j = 0; j < 3; ++j) {
-    const float* p = vertices + 4 * static_cast<size_t>(prim.v[j]);
-    std::copy(p, p + 3, corners[j]);
-    *largest =
-        std::max({*largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
-  }
-}
-
-// Grows the box [lo, hi] by triangle t.
-void AddToBox(const ConeWalk::Triangle& t, float lo[3], float hi[3]) {
-  for (int k = 0; k < 3; ++k) {
-    lo[k] = std::min({lo[k], t.a[k], t.b[k], t.c[k]});
-    hi[k] = std::max({hi[k], t.a[k], t.b[k], t.c[k]});
-  }
-}
-
-// The sphere about the box [lo, hi]: its centre, and half its diagonal
-// with a margin.
-void SphereOfBox(const float lo[3], const float hi[3], float centre[3],
-                 float* radius) {
-  double r2 = 0;
-  for (int k = 0; k < 3; ++k) {
-    centre[k] = 0.5f * (lo[k] + hi[k]);
-    const double half = 0.5 * (static_cast<double>(hi[k]) - lo[k]);
-    r2 += half * half;
-  }
-  *radius = static_cast<float>(std::sqrt(r2)) * (1 + kMargin);
-}
 
 // Median splits along the centroids' longest extent, leaves of up to 4.
 int32_t BuildBinary(absl::Span<const ConeWalk::Triangle> triangles,
@@ -448,20 +414,30 @@ int32_t BuildBinary(absl::Span<const ConeWalk::Triangle> triangles,
   float box_lo[3] = {kInf, kInf, kInf}, box_hi[3] = {-kInf, -kInf, -kInf};
   float c_lo[3] = {kInf, kInf, kInf}, c_hi[3] = {-kInf, -kInf, -kInf};
   for (int32_t i = lo; i < hi; ++i) {
-    AddToBox(triangles[ids[i]], box_lo, box_hi);
+    const ConeWalk::Triangle& t = triangles[ids[i]];
     for (int k = 0; k < 3; ++k) {
+      box_lo[k] = std::min({box_lo[k], t.a[k], t.b[k], t.c[k]});
+      box_hi[k] = std::max({box_hi[k], t.a[k], t.b[k], t.c[k]});
       c_lo[k] = std::min(c_lo[k], centroids[3 * ids[i] + k]);
       c_hi[k] = std::max(c_hi[k], centroids[3 * ids[i] + k]);
     }
   }
   BinaryNode node;
-  SphereOfBox(box_lo, box_hi, node.centre, &node.radius);
-  node.first = lo;
-  node.count = hi - lo;
+  double r2 = 0;
+  for (int k = 0; k < 3; ++k) {
+    node.centre[k] = 0.5f * (box_lo[k] + box_hi[k]);
+    const double half = 0.5 * (static_cast<double>(box_hi[k]) - box_lo[k]);
+    r2 += half * half;
+  }
+  node.radius = static_cast<float>(std::sqrt(r2)) * (1 + kMargin);
   const auto me = static_cast<int32_t>(nodes.size());
   nodes.push_back(node);
   constexpr int32_t kLeafSize = 4;
-  if (hi - lo <= kLeafSize) return me;
+  if (hi - lo <= kLeafSize) {
+    nodes[me].first = lo;
+    nodes[me].count = hi - lo;
+    return me;
+  }
   int axis = 0;
   for (int k = 1; k < 3; ++k) {
     if (c_hi[k] - c_lo[k] > c_hi[axis] - c_lo[axis]) axis = k;
@@ -530,7 +506,13 @@ void ConeWalk::Build(const float* vertices,
   for (size_t i = 0; i < primitives.size(); ++i) {
     Triangle t;
     t.prim = static_cast<int32_t>(i);
-    CopyCorners(vertices, primitives[i], t, &largest);
+    float* corners[3] = {t.a, t.b, t.c};
+    for (int j = 0; j < 3; ++j) {
+      const float* p = vertices + 4 * static_cast<size_t>(primitives[i].v[j]);
+      std::copy(p, p + 3, corners[j]);
+      largest =
+          std::max({largest, std::abs(p[0]), std::abs(p[1]), std::abs(p[2])});
+    }
     triangles_.push_back(t);
     for (int k = 0; k < 3; ++k) {
       centroids.push_back((t.a[k] + t.b[k] + t.c[k]) / 3);
@@ -549,28 +531,6 @@ void ConeWalk::Build(const float* vertices,
   for (int32_t id : ids) ordered.push_back(triangles_[id]);
   triangles_ = std::move(ordered);
   Collapse(binary, 0, nodes_);
-}
-
-void ConeWalk::Refit(const float* vertices,
-                     absl::Span<const Primitive> primitives) {
-  float largest = 0;
-  for (Triangle& t : triangles_) {
-    CopyCorners(vertices, primitives[t.prim], t, &largest);
-  }
-  slack_ = 8 * std::numeric_limits<float>::epsilon() * largest;
-  for (Node& node : nodes_) {
-    for (int i = 0; i < node.children; ++i) {
-      float lo[3] = {kInf, kInf, kInf}, hi[3] = {-kInf, -kInf, -kInf};
-      for (int32_t j = node.first[i]; j < node.first[i] + node.count[i]; ++j) {
-        AddToBox(triangles_[j], lo, hi);
-      }
-      float centre[3];
-      SphereOfBox(lo, hi, centre, &node.radius[i]);
-      node.x[i] = centre[0];
-      node.y[i] = centre[1];
-      node.z[i] = centre[2];
-    }
-  }
 }
 
 #if defined(__x86_64__)

@@ -53,12 +53,6 @@ class ConeWalk {
   // tracer's coordinates (RayScene's vertex buffer). Hub fans' triangles
   // (hub_fans.h) are ordinary triangles here. O(n log n).
   void Build(const float* vertices, absl::Span<const Primitive> primitives);
-  // The same BVH's spheres at new `vertices`, its tree kept (after Build
-  // over the same `primitives`): O(n log n) over small ranges, no sort. What
-  // the walk finds does not depend on the tree (its tests are
-  // conservative), only how fast; at unchanged vertices the nodes are
-  // Build's, bit for bit.
-  void Refit(const float* vertices, absl::Span<const Primitive> primitives);
   bool empty() const { return nodes_.empty(); }
 
   // As RayScene::IntersectFan with `fan` set up as for FanFilter (excluded,
@@ -89,9 +83,7 @@ class ConeWalk {
   static constexpr int kWidth = 8;
   struct Node {
     alignas(32) float x[kWidth], y[kWidth], z[kWidth], radius[kWidth];
-    int32_t child[kWidth];  // >= 0: a node; -1: a leaf.
-    // The child's triangles [first, first + count) (a node's too, for
-    // Refit).
+    int32_t child[kWidth];  // >= 0: a node; -1: triangles [first, + count).
     int32_t first[kWidth], count[kWidth];
     int32_t children = 0;
   };

@@ -294,10 +294,8 @@ absl::Status RayScene::UpdatePositions(const Mesh& mesh) {
 
 const ConeWalk& RayScene::cone_walk() const {
   std::call_once(*cone_walk_built_, [this] {
-    if (!cone_walk_.empty()) {
-      cone_walk_.Refit(vertex_buffer_, topo_.primitives);
-    } else if (ConeWalk::Supported() && dimension_ == 3 &&
-               std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
+    if (ConeWalk::Supported() && dimension_ == 3 &&
+        std::ssize(topo_.primitives) <= ConeWalk::kMaxPrimitives) {
       cone_walk_.Build(vertex_buffer_, topo_.primitives);
     }
   });

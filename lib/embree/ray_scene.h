@@ -178,8 +178,8 @@ class RayScene {
                             const Vec3* axis = nullptr) const;
   // The work of the cone walk on a fan (IntersectFan's arguments, from the
   // surface): its (triangle, group of 8 rays) tests (ConeWalk::Intersect),
-  // or -1 where it would give up. Builds the walk if it is not built.
-  // Thread-safe.
+  // or -1 where it would give up. Builds the walk if it is not built
+  // since the last position update. Thread-safe.
   int64_t ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                         const FanLimits& limits,
                         absl::Span<const int32_t> excluded,
@@ -200,10 +200,11 @@ class RayScene {
                        absl::Span<const int32_t> excluded,
                        FanContext* fan) const;
   // The cone walk over the coordinates Embree sees, built on a fan's first
-  // use (a pass that does not walk cones does not pay for it) and refitted
-  // (ConeWalk::Refit) on the first use after each position update (a
-  // kRebuild update makes a new scene, whose walk is built anew); empty in
-  // 2D and on scenes of over ConeWalk::kMaxPrimitives.
+  // use after each FillVertices (a pass that does not walk cones does not
+  // pay for it). Built anew, not refitted: its tree then depends on the
+  // positions alone, and so does a pass's pilot, which counts the walk's
+  // work (sdf_evaluator.cc). Empty in 2D and on scenes of over
+  // ConeWalk::kMaxPrimitives.
   const ConeWalk& cone_walk() const;
 
   const MeshTopology& topo_;

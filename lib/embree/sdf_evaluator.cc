@@ -68,7 +68,7 @@ constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
 // at 1.9-6.2 tests a ray (the knight, the tray, spot and the teapot at 30
 // degrees; the knight and the tray at 60, the knight at 90), broke even at
 // 7.4 (the tray at 90) and lost at 10.9-18.4 (spot and the teapot at 45
-// and 60 degrees: 0.59-0.61 of the ceiling against 0.76-0.92).
+// and 60 degrees: 0.45-0.59 of the ceiling walked, 0.77-0.96 by Embree).
 constexpr double kWalkMaxGroupTestsPerRay = 8;
 // The pilot's fans: this many samples spread evenly over all of the pass's
 // kind (every one of fewer), whatever its range.
@@ -615,14 +615,15 @@ double PilotGroupTestsPerRay(const SdfEvaluator& ev, const PassSetup& setup) {
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
 // kAuto or kSurface starts) walks cones: a cone pass (or normal rays) on a
 // scene of fewer than kStreamMaxPrimitives under the watertight test,
-// every fan of which the walk takes (ConeWalk::TakesEveryFan): normal rays
-// always (one ray a fan, for which the pilot's count, made for groups of 8,
-// says little; the walk meets the far face along seams where Embree's box
-// test misses it, ConeWalkTest.MeetsTheFarFaceAlongASeam...), cones where
-// the pilot (PilotGroupTestsPerRay, into *pilot) finds at most
-// kWalkMaxGroupTestsPerRay tests a ray. A cone's choice depends on the
-// positions: a pass reuses only a pass that chose alike (PlanReuse). Such
-// a pass starts its rays at the surface.
+// every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
+// one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
+// for groups of 8, says little there; the walk meets the far face along
+// seams where Embree's box test misses it, ConeWalkTest.MeetsTheFarFace...),
+// else where the pilot (PilotGroupTestsPerRay, into *pilot) finds at most
+// kWalkMaxGroupTestsPerRay tests a ray. The pilot depends on the positions
+// (the walk's tree is built from them after every update, not refitted,
+// so on nothing else): a pass reuses only a pass that chose alike
+// (PlanReuse). Such a pass starts its rays at the surface.
 bool WalksCones(const SdfEvaluator& ev, const PassSetup& setup, RayTest test,
                 double* pilot) {
   const int64_t primitives = std::ssize(ev.topology().primitives);
@@ -915,7 +916,10 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   tbb::task_arena arena(ThreadCount(control.threads));
   double pilot = 0;
   bool walks_cones = false;
-  if (!fan_traversal_.has_value()) {
+  // Rays always started past balls never walk (the walk starts at the
+  // surface): no pilot.
+  if (!fan_traversal_.has_value() &&
+      ray_start_ != RayStartMode::kPastEmptyBall) {
     walks_cones = ChooseWalk(
         params,
         [&](double* measured) {

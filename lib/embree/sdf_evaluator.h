@@ -55,14 +55,15 @@ struct EvaluatorOptions {
   // measure what the empty ball saves and that it changes no bit.
   RayStartMode ray_start = RayStartMode::kAuto;
   // How a pass traces each sample's rays; nullopt: kCone on a 3D scene of
-  // fewer than 2^13 primitives with the watertight test, a cone no wider
-  // than 45 degrees (a normal ray's is 0), at most ConeWalk::kMaxRays rays
-  // and a CPU with AVX2 and FMA (the pass then starts its rays at the
-  // surface, whatever kAuto would have chosen); else kStream where the pass
-  // starts its rays at the surface on such a scene, and kPackets otherwise
-  // (sdf_evaluator.cc). A pass asked for kCone streams where the walk would
-  // give up on its fans (ConeWalk::Intersect): it walks all samples or none.
-  // The others only to measure them; none changed a value on the fans
+  // fewer than 2^13 primitives with the watertight test, at most
+  // ConeWalk::kMaxRays rays and a CPU with AVX2 and FMA, for one ray a fan
+  // (normal rays) or where a pilot finds the walk's work small (kAuto or
+  // kSurface starts; the pass then starts its rays at the surface,
+  // whatever kAuto would have chosen); else kStream where the pass starts
+  // its rays at the surface on such a scene, and kPackets otherwise
+  // (sdf_evaluator.cc, WalksCones). A pass asked for kCone streams where the
+  // walk would give up on its fans (ConeWalk::Intersect): it walks all samples
+  // or none. The others only to measure them; none changed a value on the fans
   // tried (RayTraversalTest).
   std::optional<FanTraversal> fan_traversal = std::nullopt;
 };
