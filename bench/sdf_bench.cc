@@ -269,7 +269,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .fan_traversal = FanTraversal::kStream});
   // The cone walk forced, from the surface (kAuto's choice on small scenes
-  // at narrow cones; elsewhere measured only).
+  // where its pilot finds little work; elsewhere measured only).
   auto cone_evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .ray_start = RayStartMode::kSurface,

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <memory>
 #include <numbers>
 #include <string>
 #include <tuple>
@@ -189,6 +190,34 @@ TEST(ConeWalkTest, RaysThroughSharedEdgesAndCornersDoNotSlipThrough) {
   }
 }
 
+// A unit icosphere of geodesic frequency `frequency` in a RayScene, and
+// limits that reach past it from its centre.
+struct SphereScene {
+  explicit SphereScene(int frequency)
+      : mesh(MakeIcosphere(1, frequency)), topo(MeshTopology::Build(mesh)) {
+    auto made = RayScene::Create(mesh, topo, BvhUpdatePolicy::kRebuild);
+    EXPECT_TRUE(made.ok()) << made.status();
+    if (made.ok()) scene = std::move(*made);
+  }
+  Mesh mesh;
+  MeshTopology topo;
+  std::unique_ptr<RayScene> scene;
+  RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
+};
+
+// `rays` directions about +z within `half_angle` radians of it, spread by
+// the golden angle.
+std::vector<Vec3> SpiralFan(int rays, double half_angle) {
+  std::vector<Vec3> dirs;
+  for (int k = 0; k < rays; ++k) {
+    const double theta = half_angle * (k + 0.5) / rays;
+    const double phi = 2.399963 * k;
+    dirs.emplace_back(std::sin(theta) * std::cos(phi),
+                      std::sin(theta) * std::sin(phi), std::cos(theta));
+  }
+  return dirs;
+}
+
 // Gives up on over kMaxRays rays (IntersectFan streams the fan instead,
 // with the same candidates), but not on a fan that meets thousands of
 // triangles (from the centre of a fine sphere, whose every triangle in the
@@ -196,28 +225,16 @@ TEST(ConeWalkTest, RaysThroughSharedEdgesAndCornersDoNotSlipThrough) {
 // on which of its rays a pass traces.
 TEST(ConeWalkTest, GivesUpOnOver512RaysButNotOnManyTriangles) {
   SKIP_WITHOUT_THE_WALK();
-  const Mesh sphere = MakeIcosphere(1, 48);  // 46,080 triangles
-  const MeshTopology topo = MeshTopology::Build(sphere);
-  auto scene = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
-  auto fan = [](int rays, double half_angle) {
-    std::vector<Vec3> dirs;
-    for (int k = 0; k < rays; ++k) {
-      const double theta = half_angle * (k + 0.5) / rays;
-      const double phi = 2.399963 * k;
-      dirs.emplace_back(std::sin(theta) * std::cos(phi),
-                        std::sin(theta) * std::sin(phi), std::cos(theta));
-    }
-    return dirs;
-  };
+  const SphereScene sphere(48);  // 46,080 triangles
+  ASSERT_NE(sphere.scene, nullptr);
   auto traced = [&](const std::vector<Vec3>& dirs) {
     std::vector<HitCandidates> packets(dirs.size()), cone(dirs.size());
-    (*scene)->IntersectFan(Vec3(), dirs, limits, {}, absl::MakeSpan(packets),
-                           {}, FanTraversal::kPackets);
-    const FanTraversal used =
-        (*scene)->IntersectFan(Vec3(), dirs, limits, {}, absl::MakeSpan(cone),
-                               {}, FanTraversal::kCone);
+    sphere.scene->IntersectFan(Vec3(), dirs, sphere.limits, {},
+                               absl::MakeSpan(packets), {},
+                               FanTraversal::kPackets);
+    const FanTraversal used = sphere.scene->IntersectFan(
+        Vec3(), dirs, sphere.limits, {}, absl::MakeSpan(cone), {},
+        FanTraversal::kCone);
     for (size_t k = 0; k < dirs.size(); ++k) {
       EXPECT_EQ(cone[k].count(), packets[k].count()) << k;
       if (cone[k].count() > 0 && packets[k].count() > 0) {
@@ -227,11 +244,12 @@ TEST(ConeWalkTest, GivesUpOnOver512RaysButNotOnManyTriangles) {
     return used;
   };
   // A narrow cone of 100 rays meets a few hundred triangles.
-  EXPECT_EQ(traced(fan(100, 0.1)), FanTraversal::kCone);
-  EXPECT_EQ(traced(fan(ConeWalk::kMaxRays, 0.1)), FanTraversal::kCone);
-  EXPECT_EQ(traced(fan(ConeWalk::kMaxRays + 1, 0.1)), FanTraversal::kStream);
+  EXPECT_EQ(traced(SpiralFan(100, 0.1)), FanTraversal::kCone);
+  EXPECT_EQ(traced(SpiralFan(ConeWalk::kMaxRays, 0.1)), FanTraversal::kCone);
+  EXPECT_EQ(traced(SpiralFan(ConeWalk::kMaxRays + 1, 0.1)),
+            FanTraversal::kStream);
   // 30 degrees about the axis: about 3,000 triangles.
-  EXPECT_EQ(traced(fan(100, 0.5)), FanTraversal::kCone);
+  EXPECT_EQ(traced(SpiralFan(100, 0.5)), FanTraversal::kCone);
 }
 
 // The walk's count of its (triangle, group of 8 rays) tests, a pass's pilot
@@ -239,21 +257,11 @@ TEST(ConeWalkTest, GivesUpOnOver512RaysButNotOnManyTriangles) {
 // wider cone, which meets more triangles, and -1 where it gives up.
 TEST(ConeWalkTest, CountsMoreTestsForAWiderConeAndNoneWhereNothingIsMet) {
   SKIP_WITHOUT_THE_WALK();
-  const Mesh sphere = MakeIcosphere(1, 24);  // 11,520 triangles
-  const MeshTopology topo = MeshTopology::Build(sphere);
-  auto scene = RayScene::Create(sphere, topo, BvhUpdatePolicy::kRebuild);
-  ASSERT_TRUE(scene.ok()) << scene.status();
-  const RayScene::FanLimits limits = {1e-6f, 1e-6f, 2e-6f, 10};
-  const Vec3 axis(0, 0, 1);
+  const SphereScene sphere(24);  // 11,520 triangles
+  ASSERT_NE(sphere.scene, nullptr);
   auto tests = [&](const Vec3& origin, int rays, double half_angle) {
-    std::vector<Vec3> dirs;
-    for (int k = 0; k < rays; ++k) {
-      const double theta = half_angle * (k + 0.5) / rays;
-      const double phi = 2.399963 * k;
-      dirs.emplace_back(std::sin(theta) * std::cos(phi),
-                        std::sin(theta) * std::sin(phi), std::cos(theta));
-    }
-    return (*scene)->ConeWalkTests(origin, dirs, limits, {}, axis);
+    return sphere.scene->ConeWalkTests(origin, SpiralFan(rays, half_angle),
+                                       sphere.limits, {}, Vec3(0, 0, 1));
   };
   const int64_t narrow = tests(Vec3(), 100, 0.1);
   const int64_t wide = tests(Vec3(), 100, 0.5);
