@@ -4,13 +4,13 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
-#include <initializer_list>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "absl/functional/function_ref.h"
 #include "absl/strings/str_cat.h"
+#include "absl/types/span.h"
 #include "lib/core/components.h"
 #include "lib/core/hit_table.h"
 #include "lib/core/mesh.h"
@@ -140,7 +140,7 @@ inline Pass IncrementalPass(SdfEvaluator& ev, const Mesh& mesh,
 // and its rays would leave the part) at 30° and 60°: `check` with the mesh,
 // 24-ray parameters with opposite points, and "NAME at ANGLE degrees".
 inline void ForEachTestMeshAndAngle(
-    std::initializer_list<const char*> names,
+    absl::Span<const char* const> names,
     absl::FunctionRef<void(const Mesh&, const SdfParams&, const std::string&)>
         check) {
   for (const char* name : names) {
