@@ -103,26 +103,32 @@ await_progress() {
     fail "the load made no progress $1"
   kill -0 "$load_pid" 2>/dev/null || fail "the load ended $1"
 }
-# Waits for the load to end; fails with $1 unless it saw no error.
+# Stops the load (its clients end their iteration) and waits for it; fails
+# with $1 unless it saw no error.
 finish_load() {
   local rc=0
+  kill -TERM "$load_pid" 2>/dev/null || true
   wait "$load_pid" || rc=$?
   sed -n '/^errors:/,$p' "$tmp/load.txt"
   [ "$rc" -eq 0 ] && grep -q "^errors: 0" "$tmp/load.txt" || fail "$1"
 }
 
-start_load() {  # ITERATIONS PREFIX [FLAG...]: meshgauge-load through the balancer
+# ITERATIONS PREFIX [FLAG...]: meshgauge-load through the balancer, its
+# clients cycling through ITERATIONS positions until finish_load stops them
+# (a fixed count ran out before the second stop once the passes got faster).
+start_load() {
   local iterations=$1 prefix=$2
   shift 2
   : >"$tmp/load.txt"  # no line of the previous load is counted.
   "$load" --target "127.0.0.1:$hp" --clients 4 --iterations "$iterations" \
+    --until_signal \
     --frequency 4 --session_prefix "$prefix" --time_limit_seconds 120 \
     --token_file "$tmp/token" --progress_every 4 "$@" >"$tmp/load.txt" 2>&1 &
   load_pid=$!
 }
 since() { awk -v t0="$1" -v t1="$(date +%s.%N)" 'BEGIN { printf "%.2f", t1 - t0 }'; }
 
-start_load $((cycles * 150)) drain
+start_load 150 drain
 for c in $(seq 1 "$cycles"); do
   r=$((c % 2))
   await_progress "before stop $c"  # through both replicas.
