@@ -318,8 +318,9 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       return 1;
     }
     best_sphere = std::min(best_sphere, sphere_watch.Seconds());
-    // An optimiser's step on a session: every vertex moved a little (the
-    // BVHs refitted, the pass's choice made again), then the pass.
+    // An optimiser's step on a session: every vertex moved a little
+    // (Embree's BVH refitted, the walk's tree rebuilt if the pass walks, the
+    // pass's choice made again), then the pass.
     std::vector<Vec3> moved = mesh.positions;
     for (Vec3& p : moved) p = p * (1 + 1e-6 * (i % 2 + 1));
     const Stopwatch step_watch;
