@@ -206,9 +206,7 @@ bool RawRays::Directions(int64_t p, std::vector<Vec3>& dirs) const {
   const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals_[p]);
   if (!vc.valid) return false;
   dirs.resize(cone_.size());
-  for (size_t k = 0; k < dirs.size(); ++k) {
-    dirs[k] = RayDirection(vc.frame, cone_[k]);
-  }
+  RayDirections(vc.frame, cone_, absl::MakeSpan(dirs));
   return true;
 }
 

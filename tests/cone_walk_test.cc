@@ -259,9 +259,11 @@ TEST(ConeWalkTest, CountsMoreTestsForAWiderConeAndNoneWhereNothingIsMet) {
   SKIP_WITHOUT_THE_WALK();
   const SphereScene sphere(24);  // 11,520 triangles
   ASSERT_NE(sphere.scene, nullptr);
+  std::vector<HitCandidates> scratch(ConeWalk::kMaxRays + 1);
   auto tests = [&](const Vec3& origin, int rays, double half_angle) {
     return sphere.scene->ConeWalkTests(origin, SpiralFan(rays, half_angle),
-                                       sphere.limits, {}, Vec3(0, 0, 1));
+                                       sphere.limits, {}, Vec3(0, 0, 1),
+                                       absl::MakeSpan(scratch));
   };
   const int64_t narrow = tests(Vec3(), 100, 0.1);
   const int64_t wide = tests(Vec3(), 100, 0.5);

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "absl/types/span.h"
 #include "lib/core/cone.h"
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
@@ -57,6 +58,13 @@ inline VertexCone MakeVertexCone(const Mesh& mesh, const MeshTopology& topo,
 
 inline Vec3 RayDirection(const ConeFrame& f, const ConeRay& ray) {
   return f.u * ray.local.x + f.v * ray.local.y + f.axis * ray.local.z;
+}
+
+// The direction of every ray of `cone` in frame f: dirs[k] for cone[k]
+// (dirs.size() >= cone.size()).
+inline void RayDirections(const ConeFrame& f, absl::Span<const ConeRay> cone,
+                          absl::Span<Vec3> dirs) {
+  for (size_t k = 0; k < cone.size(); ++k) dirs[k] = RayDirection(f, cone[k]);
 }
 
 }  // namespace meshgauge

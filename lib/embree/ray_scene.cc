@@ -472,16 +472,17 @@ FanTraversal RayScene::IntersectFan(
 int64_t RayScene::ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                                 const FanLimits& limits,
                                 absl::Span<const int32_t> excluded,
-                                const Vec3& axis) const {
+                                const Vec3& axis,
+                                absl::Span<HitCandidates> out) const {
   const Vec3 o = origin - origin_;
   const float reach = static_cast<float>(MaxAbs(o));
-  std::vector<HitCandidates> out(dirs.size());
+  out = out.first(dirs.size());
   for (HitCandidates& c : out) c.Reset(reach);
   FanContext fan;
   SetUpFanContext(limits, reach, excluded, &fan);
   int64_t tests = 0;
-  if (!cone_walk().Intersect(o, dirs, &axis, {}, limits.t_near, fan,
-                             absl::MakeSpan(out), &tests)) {
+  if (!cone_walk().Intersect(o, dirs, &axis, {}, limits.t_near, fan, out,
+                             &tests)) {
     return -1;
   }
   return tests;

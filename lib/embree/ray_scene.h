@@ -178,12 +178,13 @@ class RayScene {
                             const Vec3* axis = nullptr) const;
   // The work of the cone walk on a fan (IntersectFan's arguments, from the
   // surface): its (triangle, group of 8 rays) tests (ConeWalk::Intersect),
-  // or -1 where it would give up. Builds the walk if it is not built
+  // or -1 where it would give up. `out`: the caller's scratch, one entry
+  // per ray (its hits are left there). Builds the walk if it is not built
   // since the last position update. Thread-safe.
   int64_t ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                         const FanLimits& limits,
-                        absl::Span<const int32_t> excluded,
-                        const Vec3& axis) const;
+                        absl::Span<const int32_t> excluded, const Vec3& axis,
+                        absl::Span<HitCandidates> out) const;
 
  private:
   RayScene(const MeshTopology& topo, BvhUpdatePolicy policy, RayTest test)

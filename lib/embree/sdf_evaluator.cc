@@ -27,7 +27,9 @@
 #include "lib/core/vertex_cone.h"
 #include "lib/embree/inscribed_ball_query.h"
 #include "lib/embree/moved_boxes.h"
+#include "lib/embree/pass_state.h"
 #include "lib/embree/ray_start.h"
+#include "lib/embree/traversal_choice.h"
 
 namespace meshgauge {
 namespace {
@@ -53,39 +55,6 @@ constexpr size_t kStartsMinRetraced = 16;
 // the moved patch too, 0.5 to 2.0 times as many
 // (meshgauge_incremental_bench on igea, rocker-arm and horse).
 constexpr int64_t kIncrementalRaysPerMovedRay = 2;
-// A pass whose rays start at the surface streams them (FanTraversal::
-// kStream) on scenes of fewer primitives than this; on larger ones Embree's
-// frustum walks cost more than they share. Measured (docs/benchmarks.md,
-// "coherent streams"): streams took 0.64-0.72 of the packets' time on the
-// knight (1,000 primitives) and the tray (4,520), 0.87-0.93 on the teapot
-// (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
-// 1.16-1.24 on ranges of bunny, horse and igea.
-constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
-// A pass walks cones where a pilot finds the walk's work small: at most
-// this many (triangle, group of 8 rays) tests per ray over kPilotSamples
-// fans (ConeWalk::Intersect's count). Measured (meshgauge_bench, pass /
-// SPEC ceiling; docs/benchmarks.md, "The cone walk's pilot"): the walk won
-// at 1.9-6.2 tests a ray (the knight, the tray, spot and the teapot at 30
-// degrees; the knight and the tray at 60, the knight at 90), broke even at
-// 7.4 (the tray at 90) and lost at 10.9-18.4 (spot and the teapot at 45
-// and 60 degrees: 0.45-0.59 of the ceiling walked, 0.77-0.96 by Embree).
-constexpr double kWalkMaxGroupTestsPerRay = 8;
-// The pilot's fans: this many samples spread evenly over all of the pass's
-// kind (every one of fewer), whatever its range.
-constexpr int64_t kPilotSamples = 16;
-// The traversal of a pass that EvaluatorOptions::fan_traversal leaves
-// open and that does not walk cones: streams where the rays start at the
-// surface on a small 3D scene under the watertight test. Embree's fast
-// test met other primitives in streams than in packets (the tray's raw
-// plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
-// long streamed (a throwaway program; docs/benchmarks.md).
-FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension) {
-  return !past_balls && test == RayTest::kWatertight &&
-                 primitives < kStreamMaxPrimitives && dimension == 3
-             ? FanTraversal::kStream
-             : FanTraversal::kPackets;
-}
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // Where a ray meets a primitive's plane: the distance t and how far the
@@ -275,18 +244,6 @@ absl::Status SdfEvaluator::RebuildBvh() {
   return absl::OkStatus();
 }
 
-namespace {
-
-// The largest power of two at or below x (> 0); 0 for x <= 0.
-float PowerOfTwoBelow(float x) {
-  if (!(x > 0)) return 0;
-  int e;
-  std::frexp(x, &e);
-  return std::ldexp(1.0f, e - 1);
-}
-
-}  // namespace
-
 // What an incremental pass reuses and what it must retrace (SPEC 2.1 §3:
 // the result is the full pass's, bit for bit; docs/numerics.md,
 // "Incremental passes").
@@ -427,218 +384,13 @@ void SdfEvaluator::RaysToRetrace(
   }
 }
 
-// Named, not anonymous: SdfEvaluator::SampleTracer (external linkage) holds
-// these by reference.
-namespace pass_state {
-
-// What a pass computes with, resolved from its parameters and the mesh
-// (SPEC §3-5).
-struct PassSetup {
-  ResolvedParams resolved;    // resolved.params: the pass's parameters.
-  std::vector<ConeRay> cone;  // one ray (the axis) but for kCone.
-  bool sphere = false;        // kSphere: the inscribed ball, no rays.
-  bool faces = false;         // face samples (SPEC v2 §5c), else vertices.
-  SampleRange range;          // the pass's samples, resolved.
-  int64_t samples = 0;        // in the range.
-  int num_rays = 0;
-  double t_min = 0, t_max = 0;  // hits count within [t_min, t_max].
-  RayScene::FanLimits limits;   // the same in the tracer's precision.
-  double cone_half_angle = 0;
-  BallLimits ball;
-};
-
-// Errors: InvalidArgument for bad params.
-absl::StatusOr<PassSetup> SetUpPass(const MeshGeometry& g,
-                                    const SdfParams& params) {
-  if (absl::Status s = ValidateParams(params); !s.ok()) return s;
-  const int dimension = g.mesh().dimension;
-  PassSetup setup;
-  setup.resolved = ResolveParams(params, dimension);
-  const ResolvedParams& resolved = setup.resolved;
-  setup.sphere = params.method == SdfMethod::kSphere;
-  setup.faces = params.samples == SampleSet::kFaces;
-  if (params.method != SdfMethod::kCone) {
-    setup.cone.push_back({Vec3(0, 0, 1), 0.0, 1.0});
-  } else {
-    auto made = MakeCone(dimension, resolved.aperture_radians, resolved.rays,
-                         resolved.min_weight_angle);
-    if (!made.ok()) return made.status();
-    setup.cone = std::move(*made);
-  }
-  auto range = ResolveRange(g.mesh(), params);
-  if (!range.ok()) return range.status();
-  setup.range = *range;
-  setup.samples = range->end - range->begin;
-  setup.num_rays = static_cast<int>(setup.cone.size());
-  setup.t_min = params.self_hit_epsilon * g.mean_edge_length();
-  setup.t_max =
-      params.max_distance > 0 ? params.max_distance : g.bounding_box_diagonal();
-  RayScene::FanLimits& limits = setup.limits;
-  limits.t_min = static_cast<float>(setup.t_min);
-  limits.t_near = PowerOfTwoBelow(limits.t_min);
-  limits.near_below = 2 * limits.t_near;
-  // Beyond t_max by far more than a single-precision test errs (2^-16 of
-  // the coordinates' magnitude, about twice the diagonal in the tracer's
-  // coordinates, and of t_max, as HitCandidates' window), so that the
-  // double-precision check decides: the cone walk's distance to a hit at
-  // exactly t_max (a cube's corner seen from the opposite one) was 3 units
-  // in the last place above it.
-  limits.t_far = std::nextafter(
-      static_cast<float>(setup.t_max +
-                         (setup.t_max + 2 * g.bounding_box_diagonal()) *
-                             0x1p-16),
-      std::numeric_limits<float>::max());
-  setup.cone_half_angle = params.method == SdfMethod::kNormalRay
-                              ? 0
-                              : resolved.aperture_radians / 2;
-  setup.ball.cap = setup.t_max / 2;
-  setup.ball.min_radius = setup.t_min / 2;
-  setup.ball.cos_beta = resolved.contact_cosine;
-  setup.ball.fan = limits;
-  return setup;
-}
-
-// What the workers write, an entry per sample (a row of K in the tables);
-// the tables and `near` stay empty when no hit table is kept. The tables'
-// rows are first written by the workers.
-struct PassOutput {
-  SdfResult result;
-  TableVector<int32_t> table;  // the hit primitive per ray, -1 for none.
-  TableVector<uint8_t> kept_table;
-  std::vector<uint8_t> near;
-};
-
-PassOutput NewOutput(const PassSetup& setup, bool keep_hits) {
-  const int64_t ns = setup.samples;
-  PassOutput out;
-  SdfResult& result = out.result;
-  result.resolved = setup.resolved;
-  result.values.assign(ns, kNaN);
-  result.status.assign(ns, VertexStatus::kOk);
-  result.hits.assign(ns, 0);
-  result.kept.assign(ns, 0);
-  if (setup.resolved.params.opposite_points) {
-    result.opposite.assign(ns, Vec3(kNaN, kNaN, kNaN));
-  }
-  if (keep_hits) {
-    out.table.resize(ns * setup.num_rays);
-    out.kept_table.resize(ns * setup.num_rays);
-    out.near.assign(ns, 0);
-  }
-  return out;
-}
-
-// One worker's buffers, reused from sample to sample, and its counts.
-struct SampleScratch {
-  explicit SampleScratch(int num_rays)
-      : t(num_rays),
-        prims(num_rays),
-        candidates(num_rays),
-        dirs(num_rays),
-        kept(num_rays) {
-    estimator.reserve(num_rays);
-  }
-  std::vector<double> t;       // per ray: the hit's distance, NaN for none.
-  std::vector<int32_t> prims;  // per ray: the hit primitive, -1 for none.
-  std::vector<HitCandidates> candidates;
-  std::vector<int32_t> excluded, retrace, around, dropped, merged;
-  std::vector<Vec3> dirs, retrace_dirs;
-  std::vector<uint8_t> kept;
-  std::vector<double> estimator;
-  std::vector<float> starts;
-  int64_t traced = 0, world_frames = 0, past_ball = 0, streamed = 0;
-  int64_t walked = 0, fell_back = 0;
-};
-
-// A sample's rows of the hit tables; null when none are kept.
-struct SampleRows {
-  int32_t* prims = nullptr;
-  uint8_t* kept = nullptr;
-};
-
-}  // namespace pass_state
-
+using pass_state::MakePassSample;
 using pass_state::NewOutput;
 using pass_state::PassOutput;
 using pass_state::PassSetup;
 using pass_state::SampleRows;
 using pass_state::SampleScratch;
 using pass_state::SetUpPass;
-
-namespace {
-
-// The cone walk's (triangle, group of 8 rays) tests per ray from the
-// surface on the fans of kPilotSamples samples spread evenly over all of
-// the pass's kind at the current positions, whatever its range (so that
-// every range of a pass decides alike); -1 where the walk gives up on one.
-// In the caller's arena.
-double PilotGroupTestsPerRay(const SdfEvaluator& ev, const PassSetup& setup) {
-  const Mesh& mesh = ev.mesh();
-  const MeshTopology& topo = ev.topology();
-  const SdfParams& params = setup.resolved.params;
-  const int64_t n = NumSamples(mesh, params.samples);
-  const int64_t pilots = std::min(n, kPilotSamples);
-  // Per fan: its tests (-1: the walk gave up) and rays, summed in order.
-  std::vector<std::array<int64_t, 2>> walked(pilots, {0, 0});
-  tbb::parallel_for(int64_t{0}, pilots, [&](int64_t i) {
-    const int64_t p = i * n / pilots;
-    if (params.samples == SampleSet::kVertices &&
-        topo.vertex_faces.Of(p).empty()) {
-      return;
-    }
-    const SampleCone sample = MakeSampleCone(
-        mesh, topo, params.samples, p,
-        [&] {
-          return UnnormalizedNormal(mesh, topo, p, params.normal_weighting);
-        },
-        /*frame=*/true);
-    if (!sample.cone.valid) return;
-    std::vector<Vec3> dirs(setup.num_rays);
-    for (int k = 0; k < setup.num_rays; ++k) {
-      dirs[k] = RayDirection(sample.cone.frame, setup.cone[k]);
-    }
-    std::vector<int32_t> excluded;
-    SampleExclusions(mesh, topo, params.samples, /*ball=*/false, p, &excluded);
-    walked[i] = {ev.scene().ConeWalkTests(sample.x, dirs, setup.limits,
-                                          excluded, sample.cone.frame.axis),
-                 setup.num_rays};
-  });
-  int64_t tests = 0, rays = 0;
-  for (const auto& [fan_tests, fan_rays] : walked) {
-    if (fan_tests < 0) return -1;
-    tests += fan_tests;
-    rays += fan_rays;
-  }
-  return rays > 0 ? static_cast<double>(tests) / static_cast<double>(rays) : 0;
-}
-
-// Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
-// kAuto or kSurface starts) walks cones: a cone pass (or normal rays) on a
-// scene of fewer than kStreamMaxPrimitives under the watertight test,
-// every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
-// one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
-// for groups of 8, says little there; the walk meets the far face along
-// seams where Embree's box test misses it, ConeWalkTest.MeetsTheFarFace...),
-// else where the pilot (PilotGroupTestsPerRay, into *pilot) finds at most
-// kWalkMaxGroupTestsPerRay tests a ray. The pilot depends on the positions
-// (the walk's tree is built from them after every update, not refitted,
-// so on nothing else): a pass reuses only a pass that chose alike
-// (PlanReuse). Such a pass starts its rays at the surface.
-bool WalksCones(const SdfEvaluator& ev, const PassSetup& setup, RayTest test,
-                double* pilot) {
-  const int64_t primitives = std::ssize(ev.topology().primitives);
-  if (setup.sphere || test != RayTest::kWatertight ||
-      primitives >= kStreamMaxPrimitives ||
-      !ConeWalk::TakesEveryFan(primitives, ev.mesh().dimension, setup.num_rays,
-                               setup.cone_half_angle)) {
-    return false;
-  }
-  if (setup.num_rays == 1) return true;
-  *pilot = PilotGroupTestsPerRay(ev, setup);
-  return *pilot >= 0 && *pilot <= kWalkMaxGroupTestsPerRay;
-}
-
-}  // namespace
 
 // The work of one pass on one sample (SPEC §3-5): its cone, its rays (or
 // ball) and its value, written to the pass's output. Workers call Sample
@@ -671,21 +423,10 @@ class SdfEvaluator::SampleTracer {
       std::fill_n(rows.prims, setup_.num_rays, -1);
       std::fill_n(rows.kept, setup_.num_rays, 0);
     }
-    SdfResult& result = out_.result;
-    if (!setup_.faces && ev_.topo_.vertex_faces.Of(p).empty()) {
-      result.status[Slot(p)] = VertexStatus::kNoFaces;
-      return;
-    }
-    // The ball needs the axis only, not the rays' frame.
-    const SampleCone sample = MakeSampleCone(
-        ev_.mesh_, ev_.topo_, params_.samples, p,
-        [&] {
-          return UnnormalizedNormal(ev_.mesh_, ev_.topo_, p,
-                                    params_.normal_weighting);
-        },
-        /*frame=*/!setup_.sphere);
-    if (!sample.cone.valid) {
-      result.status[Slot(p)] = VertexStatus::kDegenerateNormal;
+    SampleCone sample;
+    if (const VertexStatus status = MakePassSample(ev_, setup_, p, &sample);
+        status != VertexStatus::kOk) {
+      out_.result.status[Slot(p)] = status;
       return;
     }
     s.world_frames += sample.cone.world_frame;
@@ -741,9 +482,7 @@ class SdfEvaluator::SampleTracer {
     bool have_dirs = false;
     auto directions = [&] {
       if (have_dirs) return;
-      for (int k = 0; k < num_rays; ++k) {
-        s.dirs[k] = RayDirection(vc.frame, setup_.cone[k]);
-      }
+      RayDirections(vc.frame, setup_.cone, absl::MakeSpan(s.dirs));
       have_dirs = true;
     };
     std::fill(s.t.begin(), s.t.end(), kNaN);
@@ -888,10 +627,9 @@ class SdfEvaluator::SampleTracer {
   PassOutput& out_;
 };
 
-bool SdfEvaluator::ChooseWalk(const SdfParams& params,
-                              absl::FunctionRef<bool(double*)> walks_cones,
+bool SdfEvaluator::ChooseWalk(const PassSetup& setup, int threads,
                               double* pilot) const {
-  SdfParams key = params;
+  SdfParams key = setup.resolved.params;
   key.range = {};
   {
     std::lock_guard lock(walk_choice_mu_);
@@ -900,7 +638,10 @@ bool SdfEvaluator::ChooseWalk(const SdfParams& params,
       return walk_choice_.walks;
     }
   }
-  const bool walks = walks_cones(pilot);
+  bool walks = false;
+  tbb::task_arena(ThreadCount(threads)).execute([&] {
+    walks = WalksCones(*this, *scene_, setup, ray_test_, pilot);
+  });
   std::lock_guard lock(walk_choice_mu_);
   walk_choice_ = {generation_, key, walks, *pilot};
   return walks;
@@ -920,15 +661,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   // surface): no pilot.
   if (!fan_traversal_.has_value() &&
       ray_start_ != RayStartMode::kPastEmptyBall) {
-    walks_cones = ChooseWalk(
-        params,
-        [&](double* measured) {
-          bool walks = false;
-          arena.execute(
-              [&] { walks = WalksCones(*this, *setup, ray_test_, measured); });
-          return walks;
-        },
-        &pilot);
+    walks_cones = ChooseWalk(*setup, control.threads, &pilot);
   }
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&

@@ -24,6 +24,10 @@
 
 namespace meshgauge {
 
+namespace pass_state {
+struct PassSetup;  // pass_state.h
+}  // namespace pass_state
+
 // Where a pass's rays start.
 enum class RayStartMode {
   // At the sample (Embree walks the surface's boxes around it).
@@ -61,7 +65,7 @@ struct EvaluatorOptions {
   // kSurface starts; the pass then starts its rays at the surface,
   // whatever kAuto would have chosen); else kStream where the pass starts
   // its rays at the surface on such a scene, and kPackets otherwise
-  // (sdf_evaluator.cc, WalksCones). A pass asked for kCone streams where the
+  // (traversal_choice.h, WalksCones). A pass asked for kCone streams where the
   // walk would give up on its fans (ConeWalk::Intersect): it walks all samples
   // or none. The others only to measure them; none changed a value on the fans
   // tried (RayTraversalTest).
@@ -158,10 +162,10 @@ class SdfEvaluator : public MeshGeometry {
                      float t_far, absl::FunctionRef<void()> directions,
                      absl::Span<const Vec3> dirs, absl::Span<int32_t> prims,
                      absl::Span<double> t, std::vector<int32_t>* retrace) const;
-  // Whether a pass of `params` left to choose walks cones (WalksCones),
-  // with its pilot into *pilot; from walk_choice_ when it holds them.
-  bool ChooseWalk(const SdfParams& params,
-                  absl::FunctionRef<bool(double*)> walks_cones,
+  // Whether a pass of `setup` left to choose walks cones (WalksCones,
+  // traversal_choice.h, on `threads` threads), with its pilot into *pilot;
+  // from walk_choice_ when it holds them.
+  bool ChooseWalk(const pass_state::PassSetup& setup, int threads,
                   double* pilot) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
@@ -176,7 +180,7 @@ class SdfEvaluator : public MeshGeometry {
   std::atomic<int64_t> builds_{0}, refits_{0};
   std::unique_ptr<RayScene> scene_;
   // The last choice of a pass left to choose whether to walk cones, and
-  // its pilot (sdf_evaluator.cc, WalksCones): a function of the positions
+  // its pilot (traversal_choice.h, WalksCones): a function of the positions
   // (the generation) and of the parameters but for the range, kept for
   // the next pass at the same ones (another range, the values then the
   // hit table).

@@ -1,0 +1,61 @@
+// Which traversal a ray pass uses for its fans (SdfEvaluator::Compute,
+// when EvaluatorOptions::fan_traversal leaves it open): Embree's packets or
+// streams, or the cone walk where a pilot finds its work small
+// (docs/numerics.md, "The cone walk").
+#pragma once
+
+#include <cstdint>
+
+#include "lib/core/mesh_geometry.h"
+#include "lib/embree/pass_state.h"
+#include "lib/embree/ray_scene.h"
+
+namespace meshgauge {
+
+// A pass whose rays start at the surface streams them (FanTraversal::
+// kStream) on scenes of fewer primitives than this; on larger ones Embree's
+// frustum walks cost more than they share. Measured (docs/benchmarks.md,
+// "coherent streams"): streams took 0.64-0.72 of the packets' time on the
+// knight (1,000 primitives) and the tray (4,520), 0.87-0.93 on the teapot
+// (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
+// 1.16-1.24 on ranges of bunny, horse and igea.
+inline constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
+// A pass walks cones where a pilot finds the walk's work small: at most
+// this many (triangle, group of 8 rays) tests per ray over kPilotSamples
+// fans (ConeWalk::Intersect's count). Measured (meshgauge_bench, pass /
+// SPEC ceiling; docs/benchmarks.md, "The cone walk's pilot"): the walk won
+// at 1.9-6.2 tests a ray (the knight, the tray, spot and the teapot at 30
+// degrees; the knight and the tray at 60, the knight at 90), broke even at
+// 7.4 (the tray at 90) and lost at 10.9-18.4 (spot and the teapot at 45
+// and 60 degrees: 0.45-0.59 of the ceiling walked, 0.77-0.96 by Embree).
+inline constexpr double kWalkMaxGroupTestsPerRay = 8;
+// The pilot's fans: this many samples spread evenly over all of the pass's
+// kind (every one of fewer), whatever its range.
+inline constexpr int64_t kPilotSamples = 16;
+// The traversal of a pass that EvaluatorOptions::fan_traversal leaves
+// open and that does not walk cones: streams where the rays start at the
+// surface on a small 3D scene under the watertight test. Embree's fast
+// test met other primitives in streams than in packets (the tray's raw
+// plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
+// long streamed (a throwaway program; docs/benchmarks.md).
+FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
+                             int dimension);
+
+// Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
+// kAuto or kSurface starts) walks cones: a cone pass (or normal rays) on a
+// scene of fewer than kStreamMaxPrimitives under the watertight test,
+// every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
+// one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
+// for groups of 8, says little there; the walk meets the far face along
+// seams where Embree's box test misses it, ConeWalkTest.MeetsTheFarFace...),
+// else where the pilot (into *pilot) finds at most
+// kWalkMaxGroupTestsPerRay tests a ray. The pilot depends on the positions
+// (the walk's tree is built from them after every update, not refitted,
+// so on nothing else): a pass reuses only a pass that chose alike
+// (PlanReuse). Such a pass starts its rays at the surface.
+// `g` is the scene's geometry. In the caller's arena.
+bool WalksCones(const MeshGeometry& g, const RayScene& scene,
+                const pass_state::PassSetup& setup, RayTest test,
+                double* pilot);
+
+}  // namespace meshgauge
