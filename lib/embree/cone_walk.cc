@@ -1,6 +1,9 @@
 // Compiled with -ffp-contract=off (lib/CMakeLists.txt): a triangle's edge
 // functions must be exactly the negation of its neighbour's across their
-// shared edge, which a contracted a * b - c * d would break.
+// shared edge, which a contracted a * b - c * d would break. The loops over
+// a triangle's three corners are unrolled by pragma: at -O2 GCC leaves them
+// rolled, its vectors in memory (the walk took 1.07-1.19 times as long on
+// the teapot, the tray, spot and the knight; docs/benchmarks.md).
 #include "lib/embree/cone_walk.h"
 
 #if defined(__x86_64__)
@@ -229,7 +232,9 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
   __m256 c[3][3];
   __m256 size = _mm256_setzero_ps();
   const __m256 sign = _mm256_set1_ps(-0.0f);
+#pragma GCC unroll 3
   for (int i = 0; i < 3; ++i) {
+#pragma GCC unroll 3
     for (int j = 0; j < 3; ++j) {
       c[i][j] = _mm256_sub_ps(_mm256_load_ps(b.corner[i][j]),
                               _mm256_set1_ps(cone.o[j]));
@@ -237,6 +242,7 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
     }
   }
   __m256 z[3], px[3], py[3];
+#pragma GCC unroll 3
   for (int i = 0; i < 3; ++i) {
     z[i] = Dot8(c[i][0], c[i][1], c[i][2], cone.axis);
     px[i] = Dot8(c[i][0], c[i][1], c[i][2], cone.u);
@@ -255,6 +261,7 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
       _mm256_and_ps(ahead, _mm256_cmp_ps(z_lo, tiny, _CMP_LT_OQ));
   __m256 lo_x = _mm256_set1_ps(kInf), hi_x = _mm256_set1_ps(-kInf);
   __m256 lo_y = lo_x, hi_y = hi_x;
+#pragma GCC unroll 3
   for (int i = 0; i < 3; ++i) {
     const __m256 inv = _mm256_div_ps(_mm256_set1_ps(1), z[i]);
     const __m256 x = _mm256_mul_ps(px[i], inv);
@@ -291,6 +298,7 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
     const Batch& b, int lane, __m256 sx, __m256 sy, __m256 iz, int g,
     const FanContext& fan, FanSlots& s, HitCandidates* out) {
   __m256 x[3], y[3], z[3];
+#pragma GCC unroll 3
   for (int i = 0; i < 3; ++i) {
     z[i] = _mm256_broadcast_ss(&b.frame[i][2][lane]);
     x[i] =
@@ -299,6 +307,7 @@ __attribute__((target("avx2,fma"))) void PrepareBatch(const Cone& cone,
         _mm256_fnmadd_ps(sy, z[i], _mm256_broadcast_ss(&b.frame[i][1][lane]));
   }
   __m256 w[3];
+#pragma GCC unroll 3
   for (int i = 0; i < 3; ++i) {
     const int p = (i + 1) % 3, q = (i + 2) % 3;
     w[i] = _mm256_sub_ps(_mm256_mul_ps(x[p], y[q]), _mm256_mul_ps(y[p], x[q]));
