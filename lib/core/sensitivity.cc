@@ -120,7 +120,9 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
 // Adds the terms dSDF_p/dx_j of sample p (a vertex, or a face's centroid)
 // to `terms` (cleared first). Leaves it empty when p has no value.
 void SampleTerms(const Context& ctx, int64_t p, Row& terms,
-                 std::vector<uint8_t>& kept, std::vector<HitGeometry>& geo) {
+                 std::vector<uint8_t>& kept,
+                 std::vector<PrimitiveCorners>& corners,
+                 std::vector<HitGeometry>& geo) {
   terms.Clear();
   const MeshGeometry& ev = ctx.ev;
   const Mesh& mesh = ev.mesh();
@@ -144,12 +146,17 @@ void SampleTerms(const Context& ctx, int64_t p, Row& terms,
   // The kept set is frozen in the hit table (SPEC §6): only kept rays are
   // evaluated, in double precision, at the current positions.
   const auto kept_row = ctx.hits.KeptRow(p);
-  double weight_sum = 0;
+  // The kept rays' primitives' corners first, in a loop of loads alone:
+  // their cache misses overlap, which they hardly do in the long loop
+  // below.
   for (int k = 0; k < num_rays; ++k) {
     kept[k] = kept_row[k];
+    if (kept[k]) corners[k] = ev.Corners(row[k]);
+  }
+  double weight_sum = 0;
+  for (int k = 0; k < num_rays; ++k) {
     if (!kept[k]) continue;
-    if (!EvaluateHit(ev.Corners(row[k]), x, RayDirection(vc.frame, cone[k]),
-                     &geo[k])) {
+    if (!EvaluateHit(corners[k], x, RayDirection(vc.frame, cone[k]), &geo[k])) {
       // Cannot happen at the positions of the ray pass; after a move the
       // table's generation no longer matches (MakeContext rejects it).
       kept[k] = 0;
@@ -345,6 +352,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
         tbb::blocked_range<int64_t>(b.begin, b.end, 64),
         [&](const tbb::blocked_range<int64_t>& r) {
           std::vector<uint8_t> kept(num_rays);
+          std::vector<PrimitiveCorners> corners(num_rays);
           std::vector<HitGeometry> geo(num_rays);
           std::optional<Row>& row =
               thread_rows[tbb::this_task_arena::current_thread_index()].row;
@@ -355,7 +363,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
           for (int64_t p = r.begin(); p < r.end(); ++p) {
             if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
             if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-            SampleTerms(ctx, p, *row, kept, geo);
+            SampleTerms(ctx, p, *row, kept, corners, geo);
             b.rows[p - b.begin].assign(row->terms().begin(),
                                        row->terms().end());
           }
