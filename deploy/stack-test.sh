@@ -182,19 +182,28 @@ served() {  # the fingerprint of the certificate the balancer serves
     openssl x509 -noout -fingerprint -sha256 2>/dev/null
 }
 old_token=$(cat "$SECRETS/token")
-stack_tool meshgauge-load --target "$FRONT" --tls_ca_file /secrets/ca.crt \
-  --token_file /secrets/token --clients 6 --iterations 16 --frequency 16 \
-  --time_limit_seconds 300 --progress_every 6 >"$TEST_HOME/load.txt" 2>&1 &
+# The load runs until it is stopped below (a fixed count of iterations could
+# end before the rotation does once passes get faster).
+rotation_load=meshgauge-stack-test-rotation-load-$$
+STACK_TOOL_NAME=$rotation_load stack_tool meshgauge-load --target "$FRONT" \
+  --tls_ca_file /secrets/ca.crt --token_file /secrets/token --clients 6 \
+  --iterations 16 --frequency 16 --until_signal --time_limit_seconds 300 \
+  --progress_every 6 >"$TEST_HOME/load.txt" 2>&1 &
 load=$!
 await_lines "$TEST_HOME/load.txt" '^iterations:' 0 1200 ||
   { cat "$TEST_HOME/load.txt"; echo "FAIL: the load made no progress"; exit 1; }
 ./stack.sh rotate-secrets
 kill -0 "$load" 2>/dev/null ||
-  { echo "FAIL: the load ended before the rotation did (too short to test it)"; exit 1; }
+  { cat "$TEST_HOME/load.txt"; echo "FAIL: the load ended before the rotation did"; exit 1; }
 new_fp=$(openssl x509 -noout -fingerprint -sha256 -in "$SECRETS/server.crt")
 for _ in $(seq 1 100); do [ "$(served)" = "$new_fp" ] && break; sleep 0.1; done
 [ "$(served)" = "$new_fp" ] || { echo "FAIL: the balancer serves the old certificate"; exit 1; }
 stack_accepts_token "$(cat "$SECRETS/token")" || { echo "FAIL: the new token is refused"; exit 1; }
+# At least the 6 clients' 16 iterations each (16 progress lines of 6), as
+# the Prometheus checks below count, then the load is stopped.
+await_lines "$TEST_HOME/load.txt" '^iterations:' 15 3000 ||
+  { cat "$TEST_HOME/load.txt"; echo "FAIL: the load stalled after the rotation"; exit 1; }
+docker kill --signal TERM "$rotation_load" >/dev/null 2>&1 || true
 rc=0
 wait "$load" || rc=$?
 grep -v '^iterations:' "$TEST_HOME/load.txt"
@@ -211,7 +220,8 @@ phase_time
 
 echo "== Prometheus"
 q() { prom_query "$PROM" "$1"; }
-# Both replicas found by DNS, and a scrape after the load's 112 ComputeSdf.
+# Both replicas found by DNS, and a scrape after the load's 112 ComputeSdf
+# (the reference's 16, then at least 96).
 await_prom "$PROM" 'count(up{job="meshgauge"} == 1) == 2' 300 || true
 await_prom "$PROM" 'sum(meshgauge_rpc_requests_total{method="ComputeSdf"}) >= 112' 300 || true
 up=$(q 'count(up{job="meshgauge"} == 1)')
