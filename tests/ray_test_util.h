@@ -100,9 +100,7 @@ class VertexFans {
     const VertexCone vc = MakeVertexCone(mesh_, topo_, p, normals_[p]);
     if (!vc.valid) return false;
     dirs->resize(cone_.size());
-    for (size_t k = 0; k < cone_.size(); ++k) {
-      (*dirs)[k] = RayDirection(vc.frame, cone_[k]);
-    }
+    RayDirections(vc.frame, cone_, absl::MakeSpan(*dirs));
     *axis = vc.frame.axis;
     OneRingPrimitives(topo_, p, ring);
     return true;

@@ -137,7 +137,7 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
   }
 }
 
-// kAuto's rule (sdf_evaluator.cc): on 3D scenes of fewer than 2^13
+// kAuto's rule (traversal_choice.h): on 3D scenes of fewer than 2^13
 // primitives with the watertight test, the cone walk from the surface for
 // normal rays and where a pilot counts at most 8 of its tests a ray, else
 // streams where the rays start at the surface; packets elsewhere.

@@ -25,13 +25,21 @@ struct PrimitiveCorners {
   bool segment = false;
 };
 
+// Writes `prim`'s corners into *out in place (c = 0 for a segment), as
+// CornersOf returns them; a copy of a returned PrimitiveCorners into an
+// array went through the stack.
+inline void LoadCorners(const Mesh& mesh, const Primitive& prim,
+                        PrimitiveCorners* out) {
+  out->a = mesh.positions[prim.v[0]];
+  out->b = mesh.positions[prim.v[1]];
+  out->face = prim.face;
+  out->segment = prim.v[2] < 0;
+  out->c = out->segment ? Vec3() : mesh.positions[prim.v[2]];
+}
+
 inline PrimitiveCorners CornersOf(const Mesh& mesh, const Primitive& prim) {
   PrimitiveCorners pc;
-  pc.a = mesh.positions[prim.v[0]];
-  pc.b = mesh.positions[prim.v[1]];
-  pc.face = prim.face;
-  pc.segment = prim.v[2] < 0;
-  if (!pc.segment) pc.c = mesh.positions[prim.v[2]];
+  LoadCorners(mesh, prim, &pc);
   return pc;
 }
 

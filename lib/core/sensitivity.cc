@@ -151,7 +151,7 @@ void SampleTerms(const Context& ctx, int64_t p, Row& terms,
   // below.
   for (int k = 0; k < num_rays; ++k) {
     kept[k] = kept_row[k];
-    if (kept[k]) corners[k] = ev.Corners(row[k]);
+    if (kept[k]) LoadCorners(mesh, topo.primitives[row[k]], &corners[k]);
   }
   double weight_sum = 0;
   for (int k = 0; k < num_rays; ++k) {

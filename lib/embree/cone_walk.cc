@@ -2,8 +2,8 @@
 // functions must be exactly the negation of its neighbour's across their
 // shared edge, which a contracted a * b - c * d would break. The loops over
 // a triangle's three corners are unrolled by pragma: at -O2 GCC leaves them
-// rolled, its vectors in memory (the walk took 1.07-1.19 times as long on
-// the teapot, the tray, spot and the knight; docs/benchmarks.md).
+// rolled, its vectors in memory (a pass that walks took 1.07-1.18 times as
+// long on the teapot, the tray, spot and the knight; docs/benchmarks.md).
 #include "lib/embree/cone_walk.h"
 
 #if defined(__x86_64__)

@@ -70,7 +70,7 @@ class ConeWalk {
   // sample walks does not depend on which of its rays a pass traces.
   // `group_tests` (unless null) is increased by the number of (triangle,
   // group of 8 rays) tests the walk made: its work, which grows with the
-  // triangles a cone meets (a pass's pilot, sdf_evaluator.cc).
+  // triangles a cone meets (a pass's pilot, traversal_choice.cc).
   // Thread-safe.
   bool Intersect(const Vec3& origin, absl::Span<const Vec3> dirs,
                  const Vec3* axis, absl::Span<const float> starts, float t_near,

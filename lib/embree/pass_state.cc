@@ -8,6 +8,8 @@
 namespace meshgauge::pass_state {
 namespace {
 
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
 // The largest power of two at or below x (> 0); 0 for x <= 0.
 float PowerOfTwoBelow(float x) {
   if (!(x > 0)) return 0;
@@ -73,14 +75,12 @@ PassOutput NewOutput(const PassSetup& setup, bool keep_hits) {
   PassOutput out;
   SdfResult& result = out.result;
   result.resolved = setup.resolved;
-  result.values.assign(ns, std::numeric_limits<double>::quiet_NaN());
+  result.values.assign(ns, kNaN);
   result.status.assign(ns, VertexStatus::kOk);
   result.hits.assign(ns, 0);
   result.kept.assign(ns, 0);
   if (setup.resolved.params.opposite_points) {
-    result.opposite.assign(ns, Vec3(std::numeric_limits<double>::quiet_NaN(),
-                                    std::numeric_limits<double>::quiet_NaN(),
-                                    std::numeric_limits<double>::quiet_NaN()));
+    result.opposite.assign(ns, Vec3(kNaN, kNaN, kNaN));
   }
   if (keep_hits) {
     out.table.resize(ns * setup.num_rays);

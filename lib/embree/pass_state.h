@@ -1,20 +1,18 @@
-// What one ray pass (SdfEvaluator::Compute) computes with and writes: its
-// parameters resolved against the mesh, its output arrays, a worker's
-// buffers, and a sample's point, cone and rays. Shared by the pass and by
-// its pilot (traversal_choice.h); not part of the library's interface.
+// What one ray pass (SdfEvaluator::Compute, sdf_evaluator.h) computes with
+// and writes: its parameters resolved against the mesh, its output arrays,
+// a worker's buffers, and a sample's point and cone. Shared by the pass and
+// by its pilot (traversal_choice.h); not part of the library's interface.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "absl/status/statusor.h"
-#include "absl/types/span.h"
 #include "lib/core/cone.h"
 #include "lib/core/face_sample.h"
 #include "lib/core/mesh_geometry.h"
 #include "lib/core/sdf_types.h"
 #include "lib/core/table_allocator.h"
-#include "lib/core/vertex_cone.h"
 #include "lib/embree/hit_candidates.h"
 #include "lib/embree/inscribed_ball_query.h"
 #include "lib/embree/ray_scene.h"
@@ -77,7 +75,8 @@ struct SampleRows {
 // Sample p's point and cone in a pass of `setup` (SPEC §2, v2 §3, §5c),
 // with the rays' frame unless the pass is the inscribed ball's (which needs
 // the axis only): kOk and *sample, else the sample's status, kNoFaces (a
-// vertex on no face) or kDegenerateNormal (no axis; *sample unset).
+// vertex on no face; *sample unset) or kDegenerateNormal (no axis;
+// sample->cone not valid).
 VertexStatus MakePassSample(const MeshGeometry& g, const PassSetup& setup,
                             int64_t p, SampleCone* sample);
 

@@ -178,8 +178,9 @@ class RayScene {
                             const Vec3* axis = nullptr) const;
   // The work of the cone walk on a fan (IntersectFan's arguments, from the
   // surface): its (triangle, group of 8 rays) tests (ConeWalk::Intersect),
-  // or -1 where it would give up. `out`: the caller's scratch, one entry
-  // per ray (its hits are left there). Builds the walk if it is not built
+  // or -1 where it would give up. `out`: the caller's scratch, at least
+  // dirs.size() entries (the first receive the rays' hits). Builds the
+  // walk if it is not built
   // since the last position update. Thread-safe.
   int64_t ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                         const FanLimits& limits,
@@ -204,7 +205,7 @@ class RayScene {
   // use after each FillVertices (a pass that does not walk cones does not
   // pay for it). Built anew, not refitted: its tree then depends on the
   // positions alone, and so does a pass's pilot, which counts the walk's
-  // work (sdf_evaluator.cc). Empty in 2D and on scenes of over
+  // work (traversal_choice.cc). Empty in 2D and on scenes of over
   // ConeWalk::kMaxPrimitives.
   const ConeWalk& cone_walk() const;
 

@@ -10,7 +10,6 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-#include <numbers>
 #include <optional>
 
 #include "absl/base/attributes.h"
@@ -20,7 +19,6 @@
 #include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
 #include "lib/core/normalized_sdf.h"
-#include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
 #include "lib/core/stopwatch.h"
 #include "lib/core/thread_count.h"

@@ -3,7 +3,6 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/partitioner.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <array>
@@ -33,11 +32,9 @@ double PilotGroupTestsPerRay(const MeshGeometry& g, const RayScene& scene,
   const int64_t pilots = std::min(n, kPilotSamples);
   // Per fan: its tests (-1: the walk gave up) and rays, summed in order.
   std::vector<std::array<int64_t, 2>> walked(pilots, {0, 0});
-  // One scratch per thread's share of the fans.
-  const int64_t share =
-      std::max<int64_t>(1, pilots / tbb::this_task_arena::max_concurrency());
+  // A scratch per chunk: one chunk per thread (static_partitioner).
   tbb::parallel_for(
-      tbb::blocked_range<int64_t>(0, pilots, share),
+      tbb::blocked_range<int64_t>(0, pilots),
       [&](const tbb::blocked_range<int64_t>& r) {
         SampleScratch s(setup.num_rays);
         for (int64_t i = r.begin(); i < r.end(); ++i) {
@@ -55,7 +52,7 @@ double PilotGroupTestsPerRay(const MeshGeometry& g, const RayScene& scene,
                        setup.num_rays};
         }
       },
-      tbb::simple_partitioner());
+      tbb::static_partitioner());
   int64_t tests = 0, rays = 0;
   for (const auto& [fan_tests, fan_rays] : walked) {
     if (fan_tests < 0) return -1;

@@ -1,7 +1,7 @@
-// Which traversal a ray pass uses for its fans (SdfEvaluator::Compute,
-// when EvaluatorOptions::fan_traversal leaves it open): Embree's packets or
-// streams, or the cone walk where a pilot finds its work small
-// (docs/numerics.md, "The cone walk").
+// Which traversal a ray pass uses for its fans (SdfEvaluator::Compute, when
+// EvaluatorOptions::fan_traversal leaves it open; sdf_evaluator.h):
+// Embree's packets or streams, or the cone walk where a pilot finds its
+// work small (docs/numerics.md, "The cone walk").
 #pragma once
 
 #include <cstdint>
@@ -42,9 +42,9 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
                              int dimension);
 
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
-// kAuto or kSurface starts) walks cones: a cone pass (or normal rays) on a
-// scene of fewer than kStreamMaxPrimitives under the watertight test,
-// every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
+// RayStartMode::kAuto or kSurface starts) walks cones: a cone pass (or normal
+// rays) on a scene of fewer than kStreamMaxPrimitives under the watertight
+// test, every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
 // one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
 // for groups of 8, says little there; the walk meets the far face along
 // seams where Embree's box test misses it, ConeWalkTest.MeetsTheFarFace...),
@@ -52,7 +52,7 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
 // kWalkMaxGroupTestsPerRay tests a ray. The pilot depends on the positions
 // (the walk's tree is built from them after every update, not refitted,
 // so on nothing else): a pass reuses only a pass that chose alike
-// (PlanReuse). Such a pass starts its rays at the surface.
+// (SdfEvaluator::PlanReuse). Such a pass starts its rays at the surface.
 // `g` is the scene's geometry. In the caller's arena.
 bool WalksCones(const MeshGeometry& g, const RayScene& scene,
                 const pass_state::PassSetup& setup, RayTest test,
