@@ -42,6 +42,8 @@ class HitCandidates {
     near_ = false;
     count_ = 0;
   }
+  // As Reset with the reach it has.
+  void Clear() { Reset(reach_); }
 
   // Largest t_f still in the window of `best`.
   static float Window(float best, float reach) {

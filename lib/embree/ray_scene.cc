@@ -422,9 +422,12 @@ RayScene::Hit RayScene::Intersect(const Vec3& origin, const Vec3& dir,
   return {static_cast<int32_t>(rh.hit.primID), rh.ray.tfar};
 }
 
-void RayScene::SetUpFanContext(const FanLimits& limits, float reach,
-                               absl::Span<const int32_t> excluded,
-                               FanContext* fan) const {
+Vec3 RayScene::StartFan(const Vec3& origin, const FanLimits& limits,
+                        absl::Span<const int32_t> excluded,
+                        absl::Span<HitCandidates> out, FanContext* fan) const {
+  const Vec3 o = origin - origin_;
+  const float reach = static_cast<float>(MaxAbs(o));
+  for (HitCandidates& c : out) c.Reset(reach);
   rtcInitIntersectContext(&fan->rtc);
   fan->rtc.filter = FanFilter;
   fan->excluded = excluded;
@@ -432,6 +435,7 @@ void RayScene::SetUpFanContext(const FanLimits& limits, float reach,
   fan->near_below = NearBelow(limits, reach);
   fan->t_far = limits.t_far;
   fan->segments = dimension_ == 2;
+  return o;
 }
 
 FanTraversal RayScene::IntersectFan(
@@ -439,11 +443,8 @@ FanTraversal RayScene::IntersectFan(
     absl::Span<const int32_t> excluded, absl::Span<HitCandidates> out,
     absl::Span<const float> starts, FanTraversal traversal,
     const Vec3* axis) const {
-  const Vec3 o = origin - origin_;
-  const float reach = static_cast<float>(MaxAbs(o));
-  for (HitCandidates& c : out) c.Reset(reach);
   FanContext fan;
-  SetUpFanContext(limits, reach, excluded, &fan);
+  const Vec3 o = StartFan(origin, limits, excluded, out, &fan);
   const FanRays rays{o, dirs, starts, limits.t_near, limits.t_far};
   // Every scene is on the process's SharedDevice. Where Embree has no
   // streams (built without packets) a fan asked to stream goes in packets;
@@ -459,7 +460,7 @@ FanTraversal RayScene::IntersectFan(
     if (cone_walk().Intersect(o, dirs, axis, starts, limits.t_near, fan, out)) {
       return FanTraversal::kCone;
     }
-    for (HitCandidates& c : out) c.Reset(reach);
+    for (HitCandidates& c : out) c.Clear();
   }
   if (traversal != FanTraversal::kPackets && streams &&
       IntersectStream(scene_, rays, fan, out)) {
@@ -474,12 +475,9 @@ int64_t RayScene::ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                                 absl::Span<const int32_t> excluded,
                                 const Vec3& axis,
                                 absl::Span<HitCandidates> out) const {
-  const Vec3 o = origin - origin_;
-  const float reach = static_cast<float>(MaxAbs(o));
   out = out.first(dirs.size());
-  for (HitCandidates& c : out) c.Reset(reach);
   FanContext fan;
-  SetUpFanContext(limits, reach, excluded, &fan);
+  const Vec3 o = StartFan(origin, limits, excluded, out, &fan);
   int64_t tests = 0;
   if (!cone_walk().Intersect(o, dirs, &axis, {}, limits.t_near, fan, out,
                              &tests)) {

@@ -180,8 +180,7 @@ class RayScene {
   // surface): its (triangle, group of 8 rays) tests (ConeWalk::Intersect),
   // or -1 where it would give up. `out`: the caller's scratch, at least
   // dirs.size() entries (the first receive the rays' hits). Builds the
-  // walk if it is not built
-  // since the last position update. Thread-safe.
+  // walk if it is not built since the last position update. Thread-safe.
   int64_t ConeWalkTests(const Vec3& origin, absl::Span<const Vec3> dirs,
                         const FanLimits& limits,
                         absl::Span<const int32_t> excluded, const Vec3& axis,
@@ -196,11 +195,13 @@ class RayScene {
   // positions into the vertex buffer.
   absl::Status FillVertices(const Mesh& mesh);
   absl::Status Commit();
-  // A fan's context for FanFilter and the cone walk: limits, the fan's
-  // `reach` (IntersectFan) and the primitives it ignores.
-  void SetUpFanContext(const FanLimits& limits, float reach,
-                       absl::Span<const int32_t> excluded,
-                       FanContext* fan) const;
+  // The start of a fan's trace (IntersectFan, ConeWalkTests): its
+  // candidates `out` emptied and its context for FanFilter and the cone
+  // walk (limits, the origin's reach, the primitives it ignores) in *fan;
+  // returns the origin in the scene's coordinates.
+  Vec3 StartFan(const Vec3& origin, const FanLimits& limits,
+                absl::Span<const int32_t> excluded,
+                absl::Span<HitCandidates> out, FanContext* fan) const;
   // The cone walk over the coordinates Embree sees, built on a fan's first
   // use after each FillVertices (a pass that does not walk cones does not
   // pay for it). Built anew, not refitted: its tree then depends on the

@@ -625,7 +625,7 @@ class SdfEvaluator::SampleTracer {
   PassOutput& out_;
 };
 
-bool SdfEvaluator::ChooseWalk(const PassSetup& setup, int threads,
+bool SdfEvaluator::ChooseWalk(const PassSetup& setup, tbb::task_arena& arena,
                               double* pilot) const {
   SdfParams key = setup.resolved.params;
   key.range = {};
@@ -637,9 +637,8 @@ bool SdfEvaluator::ChooseWalk(const PassSetup& setup, int threads,
     }
   }
   bool walks = false;
-  tbb::task_arena(ThreadCount(threads)).execute([&] {
-    walks = WalksCones(*this, *scene_, setup, ray_test_, pilot);
-  });
+  arena.execute(
+      [&] { walks = WalksCones(*this, *scene_, setup, ray_test_, pilot); });
   std::lock_guard lock(walk_choice_mu_);
   walk_choice_ = {generation_, key, walks, *pilot};
   return walks;
@@ -659,7 +658,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   // surface): no pilot.
   if (!fan_traversal_.has_value() &&
       ray_start_ != RayStartMode::kPastEmptyBall) {
-    walks_cones = ChooseWalk(*setup, control.threads, &pilot);
+    walks_cones = ChooseWalk(*setup, arena, &pilot);
   }
   std::unique_ptr<ReusePlan> plan;
   if (previous != nullptr && previous->hits != nullptr &&
@@ -686,8 +685,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
                    std::count(plan->dirty.begin(), plan->dirty.end(), 1)
              : setup->num_rays * setup->samples;
     use_starts =
-        rays >= std::max(kStartsMinRays,
-                         kStartsPerPrimitive * std::ssize(topo_.primitives));
+        rays >= std::max(kStartsMinRays, kStartsPerPrimitive * primitives);
   }
   std::optional<RayStarts> starts;
   if (use_starts) {

@@ -3,6 +3,8 @@
 // again without rebuilding. The one-shot entry point is ComputeSdf (sdf.h).
 #pragma once
 
+#include <tbb/task_arena.h>
+
 #include <atomic>
 #include <cstdint>
 #include <memory>
@@ -163,9 +165,9 @@ class SdfEvaluator : public MeshGeometry {
                      absl::Span<const Vec3> dirs, absl::Span<int32_t> prims,
                      absl::Span<double> t, std::vector<int32_t>* retrace) const;
   // Whether a pass of `setup` left to choose walks cones (WalksCones,
-  // traversal_choice.h, on `threads` threads), with its pilot into *pilot;
-  // from walk_choice_ when it holds them.
-  bool ChooseWalk(const pass_state::PassSetup& setup, int threads,
+  // traversal_choice.h, run in the pass's `arena`), with its pilot into
+  // *pilot; from walk_choice_ when it holds them.
+  bool ChooseWalk(const pass_state::PassSetup& setup, tbb::task_arena& arena,
                   double* pilot) const;
   // Builds the BVH from scratch at the current positions.
   absl::Status RebuildBvh();
