@@ -4,10 +4,12 @@
 
 namespace meshgauge::bench {
 
-absl::StatusOr<Mesh> ReadOutwardMesh(const std::string& path) {
+absl::StatusOr<Mesh> ReadOutwardMesh(const std::string& path, bool* turned) {
   auto mesh = ReadMesh(path);
   if (!mesh.ok()) return mesh.status();
-  if (IsClosed(*mesh) && SignedVolume(*mesh) < 0) ReverseFaces(*mesh);
+  const bool inward = IsClosed(*mesh) && SignedVolume(*mesh) < 0;
+  if (inward) ReverseFaces(*mesh);
+  if (turned != nullptr) *turned = inward;
   return mesh;
 }
 

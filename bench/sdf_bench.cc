@@ -184,15 +184,16 @@ struct RawBest {
   }
 };
 
-// `CLI sdf FILE --json` (with --reorient, as the benchmark's mesh), best
-// wall time of --repeat runs, against the fastest raw pass over its rays
-// and against the library's values pass of this run (`values_seconds`).
-void BenchCli(const std::string& name, const std::string& file,
+// `CLI sdf FILE --json` (with --reorient when the benchmark turned the
+// file's mesh outward, so that both measure the same mesh), best wall time
+// of --repeat runs, against the fastest raw pass over its rays and against
+// the library's values pass of this run (`values_seconds`).
+void BenchCli(const std::string& name, const std::string& file, bool reorient,
               const SdfParams& params, double raw_rate, double values_seconds) {
   const std::string command = absl::StrCat(
-      absl::GetFlag(FLAGS_cli), " sdf '", file, "' --json --reorient",
-      " --threads ", absl::GetFlag(FLAGS_threads), " --cone-angle ",
-      params.cone_angle_degrees,
+      absl::GetFlag(FLAGS_cli), " sdf '", file, "' --json",
+      reorient ? " --reorient" : "", " --threads ",
+      absl::GetFlag(FLAGS_threads), " --cone-angle ", params.cone_angle_degrees,
       params.rays > 0 ? absl::StrCat(" --rays ", params.rays) : "");
   double best = 1e300;
   nlohmann::json summary;
@@ -235,8 +236,9 @@ void BenchCli(const std::string& name, const std::string& file,
       mb("peak_rss") / counted);
 }
 
+// `file` holds `mesh`, turned outward by the benchmark when `turned`.
 int BenchMesh(const std::string& name, const Mesh& mesh,
-              const std::string& file) {
+              const std::string& file, bool turned) {
   SdfParams params;
   params.rays = absl::GetFlag(FLAGS_rays);
   params.cone_angle_degrees = absl::GetFlag(FLAGS_cone_angle);
@@ -445,7 +447,7 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
       "pass\n",
       "", best_sphere, best_sphere / best_values);
   if (!absl::GetFlag(FLAGS_cli).empty()) {
-    BenchCli(name, file, params, best_raw, best_values);
+    BenchCli(name, file, turned, params, best_raw, best_values);
   }
   std::fflush(stdout);
   return 0;
@@ -546,7 +548,8 @@ int main(int argc, char** argv) {
       rc |= BenchRead(path);
       continue;
     }
-    auto mesh = ReadOutwardMesh(path);
+    bool turned = false;
+    auto mesh = ReadOutwardMesh(path, &turned);
     if (!mesh.ok()) {
       std::fprintf(stderr, "%s\n",
                    std::string(mesh.status().message()).c_str());
@@ -558,17 +561,17 @@ int main(int argc, char** argv) {
       rc |= BenchRayTests(name, *mesh);
       continue;
     }
-    rc |= BenchMesh(name, *mesh, path);
+    rc |= BenchMesh(name, *mesh, path, turned);
     if (const uint64_t seed = absl::GetFlag(FLAGS_permute_seed); seed != 0) {
       const Mesh permuted = Permuted(*mesh, seed);
       rc |= BenchMesh(name + " (permuted)", permuted,
-                      Written(permuted, "permuted"));
+                      Written(permuted, "permuted"), /*turned=*/false);
     }
   }
   if (const int64_t n = absl::GetFlag(FLAGS_generated_vertices); n > 0) {
     const Mesh torus = BumpyTorus(n);
     rc |= BenchMesh(absl::StrCat("bumpy torus ", torus.num_vertices(), " V"),
-                    torus, Written(torus, "torus"));
+                    torus, Written(torus, "torus"), /*turned=*/false);
   }
   return rc;
 }

@@ -17,7 +17,8 @@ FLAGS=(-std=c++20 -O1 -g -I. -fsanitize=fuzzer-no-link,address,undefined
 read -r -a LIBS <<<"$(pkg-config --libs absl_strings absl_status absl_statusor \
   absl_str_format absl_hash absl_raw_hash_set tbb)"
 SOURCES=(lib/io/mesh_builder.cc lib/io/mesh_io.cc lib/io/obj_reader.cc
-         lib/io/off_reader.cc lib/io/ply_reader.cc lib/io/scan.cc
+         lib/io/off_reader.cc lib/io/ply_header.cc lib/io/ply_reader.cc
+         lib/io/ply_triangles.cc lib/io/scan.cc
          lib/io/stl_reader.cc lib/core/polygon.cc lib/core/mesh.cc
          lib/core/components.cc lib/core/mesh_repair.cc
          lib/core/nesting.cc lib/core/weld.cc lib/core/missing_values.cc

@@ -5,6 +5,7 @@
 #include "lib/embree/ray_scene.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <random>
@@ -49,6 +50,26 @@ void ExpectFansHitAsSingleRays(const Mesh& mesh, int n) {
   // The test sees hits (from a cylinder's vertices about half the rays leave
   // outwards; the count shifts with the compiler's rounding of directions).
   EXPECT_GT(hits, mesh.num_vertices() * n / 5);
+}
+
+// CheckTraceable measures the faces in parallel ranges of 65,536: a stray
+// vertex among the last faces is refused whatever the threads, and the
+// mesh without it is accepted.
+TEST(RaySceneTest, AStrayVertexIsRefusedWhateverRangeOfFacesHoldsIt) {
+  const Mesh sphere = MakeIcosphere(1, 64);  // 81,920 faces: two ranges.
+  ASSERT_GT(sphere.num_faces(), 65'536);
+  Mesh stray = sphere;
+  stray.positions[stray.faces.back().v[0]] += Vec3(1e6, 0, 0);
+  for (int threads : {1, 2, 3}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      EXPECT_TRUE(CheckTraceable(sphere).ok()) << threads;
+      const absl::Status refused = CheckTraceable(stray);
+      EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument) << threads;
+      EXPECT_NE(refused.message().find("median"), absl::string_view::npos)
+          << refused;
+    });
+  }
 }
 
 TEST(RaySceneTest, AFanTracedInPacketsHitsAsSingleRays3d) {

@@ -17,33 +17,6 @@ const std::vector<QuadraturePoint>& QuadratureRule(int n) {
   return n == 2 ? kSegment : kTriangle;
 }
 
-void ForEachElement(
-    const Mesh& mesh,
-    const std::function<void(int64_t face, const Element&)>& fn) {
-  const auto& p = mesh.positions;
-  for (int64_t f = 0; f < mesh.num_faces(); ++f) {
-    const Face& face = mesh.faces[f];
-    if (face.size == 2) {
-      Element e;
-      e.n = 2;
-      e.v[0] = face.v[0];
-      e.v[1] = face.v[1];
-      e.measure = Norm(p[face.v[1]] - p[face.v[0]]);
-      fn(f, e);
-      continue;
-    }
-    for (int t = 0; t + 2 < face.size; ++t) {
-      Element e;
-      e.n = 3;
-      e.v[0] = face.v[0];
-      e.v[1] = face.v[t + 1];
-      e.v[2] = face.v[t + 2];
-      e.measure = Norm(Cross(p[e.v[1]] - p[e.v[0]], p[e.v[2]] - p[e.v[0]])) / 2;
-      fn(f, e);
-    }
-  }
-}
-
 void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]) {
   const auto& p = mesh.positions;
   if (e.n == 2) {
@@ -60,28 +33,6 @@ void ElementMeasureGradient(const Mesh& mesh, const Element& e, Vec3 grad[3]) {
   grad[1] = Cross(c - a, g);
   grad[2] = Cross(g, b - a);
   grad[0] = -(grad[1] + grad[2]);
-}
-
-int64_t ForEachValuedElement(
-    const Mesh& mesh, const std::vector<double>& values,
-    const std::function<void(const Element&, const double* t)>& fn) {
-  int64_t skipped = 0, last_skipped = -1;
-  ForEachElement(mesh, [&](int64_t face, const Element& e) {
-    bool finite = true;
-    for (int i = 0; i < e.n; ++i) finite &= std::isfinite(values[e.v[i]]);
-    if (!finite) {
-      if (face != last_skipped) ++skipped;
-      last_skipped = face;
-      return;
-    }
-    double t[3] = {0, 0, 0};
-    const auto& rule = QuadratureRule(e.n);
-    for (size_t q = 0; q < rule.size(); ++q) {
-      for (int i = 0; i < e.n; ++i) t[q] += rule[q].shape[i] * values[e.v[i]];
-    }
-    fn(e, t);
-  });
-  return skipped;
 }
 
 IntegralResult IntegrateNodal(const Mesh& mesh,

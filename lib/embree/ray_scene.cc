@@ -1,6 +1,8 @@
 #include "lib/embree/ray_scene.h"
 
 #include <embree3/rtcore.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <atomic>
@@ -77,24 +79,58 @@ int MedianExponent(const std::vector<int64_t>& histogram, int64_t count) {
   return 0;
 }
 
-// `span` is the mesh's bounding-box diagonal.
-absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
-  double edge2 = 0, reach = 0;
-  std::vector<int64_t> exponents(2 * kExponentBias, 0);
-  int64_t edges = 0;
-  for (const Face& f : mesh.faces) {
-    for (int k = 0; k < f.size; ++k) {
-      const Vec3& p = mesh.positions[f.v[k]];
-      const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
-      const double e2 = Dot(e, e);
-      edge2 = std::max(edge2, e2);
-      reach = std::max(reach, MaxAbs(p - origin));
-      if (e2 > 0 && std::isfinite(e2)) {
-        ++exponents[std::ilogb(e2) + kExponentBias];
-        ++edges;
+// What CheckSpan measures of a range of faces; merged exactly (maxima and
+// counts), so the faces may be split among threads in any way.
+struct SpanStats {
+  double edge2 = 0;  // the longest squared edge
+  double reach = 0;  // the farthest vertex from the origin (max norm)
+  std::vector<int64_t> exponents = std::vector<int64_t>(2 * kExponentBias, 0);
+  int64_t edges = 0;  // finite nonzero edges counted in exponents
+
+  void Add(const Mesh& mesh, const Vec3& origin, int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      const Face& f = mesh.faces[i];
+      for (int k = 0; k < f.size; ++k) {
+        const Vec3& p = mesh.positions[f.v[k]];
+        const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
+        const double e2 = Dot(e, e);
+        edge2 = std::max(edge2, e2);
+        reach = std::max(reach, MaxAbs(p - origin));
+        if (e2 > 0 && std::isfinite(e2)) {
+          ++exponents[std::ilogb(e2) + kExponentBias];
+          ++edges;
+        }
       }
     }
   }
+  void Merge(const SpanStats& other) {
+    edge2 = std::max(edge2, other.edge2);
+    reach = std::max(reach, other.reach);
+    for (size_t i = 0; i < exponents.size(); ++i) {
+      exponents[i] += other.exponents[i];
+    }
+    edges += other.edges;
+  }
+};
+
+// `span` is the mesh's bounding-box diagonal. The faces are measured in
+// parallel (serial, 6 % of a million-vertex mesh's set-up).
+absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
+  const SpanStats stats = tbb::parallel_reduce(
+      tbb::blocked_range<int64_t>(0, mesh.num_faces(), int64_t{1} << 16),
+      SpanStats(),
+      [&](const tbb::blocked_range<int64_t>& r, SpanStats s) {
+        s.Add(mesh, origin, r.begin(), r.end());
+        return s;
+      },
+      [](SpanStats a, const SpanStats& b) {
+        a.Merge(b);
+        return a;
+      });
+  double edge2 = stats.edge2;
+  const double reach = stats.reach;
+  const std::vector<int64_t>& exponents = stats.exponents;
+  const int64_t edges = stats.edges;
   if (edges > 0 && std::ilogb(edge2) - MedianExponent(exponents, edges) >
                        2 * kMaxEdgeSpreadExponent) {
     return absl::InvalidArgumentError(absl::StrCat(

@@ -22,27 +22,37 @@ int64_t MeshBuilder::BytesHeld() const {
       file_.mesh.face_regions.capacity() * sizeof(int32_t));
 }
 
-absl::Status MeshBuilder::CheckCancelled() const {
-  if (limits_ == nullptr || !limits_->cancelled || !limits_->cancelled()) {
+absl::Status CheckReadCancelled(const ReadLimits* limits,
+                                const std::string& path) {
+  if (limits == nullptr || !limits->cancelled || !limits->cancelled()) {
     return absl::OkStatus();
   }
-  return absl::CancelledError(absl::StrCat(path_, ": reading cancelled"));
+  return absl::CancelledError(absl::StrCat(path, ": reading cancelled"));
+}
+
+absl::Status CheckReadCounts(const ReadLimits* limits, const std::string& path,
+                             int64_t vertices, int64_t faces) {
+  if (limits == nullptr) return absl::OkStatus();
+  if (vertices > limits->max_vertices) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path, ": more than the limit of ", limits->max_vertices,
+                     " vertices (max_vertices)"));
+  }
+  if (faces > limits->max_faces) {
+    return absl::ResourceExhaustedError(
+        absl::StrCat(path, ": more than the limit of ", limits->max_faces,
+                     " faces (max_faces; polygons count their triangles)"));
+  }
+  return CheckReadCancelled(limits, path);
 }
 
 absl::Status MeshBuilder::CheckLimits(int64_t vertices, int64_t faces,
                                       int64_t extra) {
   if (limits_ == nullptr) return absl::OkStatus();
-  if (vertices > limits_->max_vertices) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat(path_, ": more than the limit of ", limits_->max_vertices,
-                     " vertices (max_vertices)"));
+  if (absl::Status s = CheckReadCounts(limits_, path_, vertices, faces);
+      !s.ok()) {
+    return s;
   }
-  if (faces > limits_->max_faces) {
-    return absl::ResourceExhaustedError(
-        absl::StrCat(path_, ": more than the limit of ", limits_->max_faces,
-                     " faces (max_faces; polygons count their triangles)"));
-  }
-  if (absl::Status s = CheckCancelled(); !s.ok()) return s;
   // Room for the arrays to double before the next report.
   const int64_t bytes = 2 * BytesHeld() + extra_bytes_ + extra;
   if (limits_->reserve && bytes > reported_bytes_) {
@@ -160,7 +170,9 @@ absl::StatusOr<MeshFile> MeshBuilder::Finish(std::string format) {
     } else if (n == 4) {
       mesh.faces.push_back(Face::Quad(c[0], c[1], c[2], c[3]));
     } else {
-      if (absl::Status s = CheckCancelled(); !s.ok()) return s;
+      if (absl::Status s = CheckReadCancelled(limits_, path_); !s.ok()) {
+        return s;
+      }
       ring.clear();
       for (int32_t k = 0; k < n; ++k) ring.push_back(mesh.positions[c[k]]);
       bool fallback = false;

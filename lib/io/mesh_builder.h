@@ -15,6 +15,15 @@
 
 namespace meshgauge::io {
 
+// The limits' (may be null: none) bounds on `vertices` and `faces` (after
+// triangulation), then their cancellation, polled. Errors:
+// ResourceExhausted naming the limit; Cancelled.
+absl::Status CheckReadCounts(const ReadLimits* limits, const std::string& path,
+                             int64_t vertices, int64_t faces);
+// Cancelled when the limits' cancelled() says so.
+absl::Status CheckReadCancelled(const ReadLimits* limits,
+                                const std::string& path);
+
 class MeshBuilder {
  public:
   // `limits` (not owned, may be null) must outlive the builder.
@@ -68,8 +77,6 @@ class MeshBuilder {
   // of the bytes held and about to be (`extra`); polls cancellation.
   absl::Status CheckLimits(int64_t vertices, int64_t faces, int64_t extra);
   int64_t BytesHeld() const;
-  // Cancelled when the limits' cancelled() says so.
-  absl::Status CheckCancelled() const;
 
   std::string path_;
   const ReadLimits* limits_;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 
 #include "absl/strings/ascii.h"
@@ -297,12 +298,14 @@ absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path) {
                      kMaxMeshFileBytes, " bytes"));
   }
   std::ifstream in(path, std::ios::binary);
-  std::string contents(size, '\0');
-  if (!in || !in.read(contents.data(), static_cast<std::streamsize>(size))) {
+  // Not zeroed first: the read writes every byte (a memset of the whole
+  // file cost a tenth of reading a 42 MB binary PLY).
+  const std::unique_ptr<char[]> contents(new char[size]);
+  if (!in || !in.read(contents.get(), static_cast<std::streamsize>(size))) {
     return absl::NotFoundError(
         absl::StrCat("cannot read mesh file '", path, "'"));
   }
-  return ParseMeshContents(contents, ext, path);
+  return ParseMeshContents(absl::string_view(contents.get(), size), ext, path);
 }
 
 absl::StatusOr<Mesh> ReadMesh(const std::string& path) {
