@@ -149,27 +149,30 @@ bool DecodeFacesCounted(const char* records, const Layout& l, int64_t begin,
   return false;
 }
 
-// Decodes `n` records in blocks of kPollEvery with `decode(begin, end)`,
-// polling cancellation between blocks. nullopt when decode fails.
-template <typename Decode>
-std::optional<absl::Status> DecodeBlocks(int64_t n, const ReadLimits& limits,
-                                         const std::string& path,
-                                         Decode decode) {
-  for (int64_t begin = 0; begin < n; begin += kPollEvery) {
-    if (absl::Status s = CheckReadCancelled(&limits, path); !s.ok()) return s;
-    if (!decode(begin, std::min(n, begin + kPollEvery))) return {};
-  }
-  return absl::OkStatus();
-}
-
-// The limits' counts, then their reservation of `bytes`.
-absl::Status Reserve(const ReadLimits& limits, const std::string& path,
-                     int64_t vertices, int64_t faces, int64_t bytes) {
+// One element's `records`: the limits' checks of `vertices` and `faces`
+// and their reservation of `bytes`, then room() (the mesh's array
+// reserved), then decode(begin, end) over blocks of kPollEvery records,
+// cancellation polled between blocks. nullopt when decode fails, else the
+// limits' status.
+template <typename Room, typename Decode>
+std::optional<absl::Status> ReadElement(const ReadLimits& limits,
+                                        const std::string& path,
+                                        int64_t vertices, int64_t faces,
+                                        int64_t bytes, int64_t records,
+                                        Room room, Decode decode) {
   if (absl::Status s = CheckReadCounts(&limits, path, vertices, faces);
       !s.ok()) {
     return s;
   }
-  return limits.reserve ? limits.reserve(bytes) : absl::OkStatus();
+  if (limits.reserve) {
+    if (absl::Status s = limits.reserve(bytes); !s.ok()) return s;
+  }
+  room();
+  for (int64_t begin = 0; begin < records; begin += kPollEvery) {
+    if (absl::Status s = CheckReadCancelled(&limits, path); !s.ok()) return s;
+    if (!decode(begin, std::min(records, begin + kPollEvery))) return {};
+  }
+  return absl::OkStatus();
 }
 
 }  // namespace
@@ -185,13 +188,10 @@ std::optional<absl::StatusOr<MeshFile>> ReadTriangleBody(
   MeshFile file;
   Mesh& mesh = file.mesh;
   const auto vertex_bytes = l.vertices * static_cast<int64_t>(sizeof(Vec3));
-  if (absl::Status s = Reserve(limits, path, l.vertices, 0, vertex_bytes);
-      !s.ok()) {
-    return s;
-  }
-  mesh.positions.reserve(l.vertices);
-  auto vertices =
-      DecodeBlocks(l.vertices, limits, path, [&](int64_t begin, int64_t end) {
+  const auto vertices = ReadElement(
+      limits, path, l.vertices, 0, vertex_bytes, l.vertices,
+      [&] { mesh.positions.reserve(l.vertices); },
+      [&](int64_t begin, int64_t end) {
         return l.coordinate == Type::kFloat32
                    ? DecodeVertices<float>(vertex_records, l, begin, end,
                                            mesh.positions)
@@ -200,15 +200,11 @@ std::optional<absl::StatusOr<MeshFile>> ReadTriangleBody(
       });
   if (!vertices) return {};
   if (!vertices->ok()) return *vertices;
-  if (absl::Status s =
-          Reserve(limits, path, l.vertices, l.faces,
-                  vertex_bytes + l.faces * static_cast<int64_t>(sizeof(Face)));
-      !s.ok()) {
-    return s;
-  }
-  mesh.faces.reserve(l.faces);
-  auto faces =
-      DecodeBlocks(l.faces, limits, path, [&](int64_t begin, int64_t end) {
+  const auto faces = ReadElement(
+      limits, path, l.vertices, l.faces,
+      vertex_bytes + l.faces * static_cast<int64_t>(sizeof(Face)), l.faces,
+      [&] { mesh.faces.reserve(l.faces); },
+      [&](int64_t begin, int64_t end) {
         return l.index == Type::kInt32
                    ? DecodeFacesCounted<int32_t>(face_records, l, begin, end,
                                                  mesh.faces)
