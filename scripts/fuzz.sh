@@ -43,7 +43,10 @@ throttle() {  # waits for the oldest job once JOBS of them run
 OBJECTS=()
 for src in "${SOURCES[@]}"; do
   obj="$OUT/obj/$(echo "$src" | tr / _).o"
-  if [ ! -f "$obj" ] || [ "$src" -nt "$obj" ]; then
+  # Rebuilt when its source or any header of lib/ is newer (a header that
+  # changes what it declares would otherwise leave a stale object).
+  if [ ! -f "$obj" ] || [ "$src" -nt "$obj" ] ||
+     [ -n "$(find lib -name '*.h' -newer "$obj" -print -quit)" ]; then
     throttle
     "$CXX" "${FLAGS[@]}" -c "$src" -o "$obj" &
     pids+=($!)

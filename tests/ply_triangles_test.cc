@@ -11,8 +11,11 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <tuple>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
 #include "lib/io/mesh_io.h"
 #include "lib/io/ply_body.h"
 #include "lib/io/readers.h"
@@ -30,69 +33,85 @@ void Put(std::string& out, T v) {
   out.append(bytes, sizeof(T));
 }
 
-// A binary little-endian PLY of a tetrahedron with the given declarations:
-// `vertex_properties` (each "TYPE NAME"; x, y, z among them, written as
-// `Coordinate`, every other property as zero bytes of its type's size),
-// faces of `list` ("COUNT_TYPE ITEM_TYPE NAME").
-struct Spec {
-  std::vector<std::pair<std::string, int>> vertex_properties;  // name, bytes
-  std::string list = "uchar int vertex_indices";
-  int count_bytes = 1;
-  bool uint_items = false;
-  bool double_coordinates = false;
-};
-
-std::string TypeName(const std::pair<std::string, int>& p, bool dbl) {
-  if (p.first == "x" || p.first == "y" || p.first == "z") {
-    return dbl ? "double" : "float";
+// Appends `v` as a little-endian value of the PLY type named `type`.
+void PutAs(std::string& out, const std::string& type, double v) {
+  if (type == "float" || type == "float32") {
+    Put<float>(out, static_cast<float>(v));
+  } else if (type == "double" || type == "float64") {
+    Put<double>(out, v);
+  } else if (type == "uchar" || type == "uint8") {
+    Put<uint8_t>(out, static_cast<uint8_t>(v));
+  } else if (type == "char" || type == "int8") {
+    Put<int8_t>(out, static_cast<int8_t>(v));
+  } else if (type == "short" || type == "int16") {
+    Put<int16_t>(out, static_cast<int16_t>(v));
+  } else if (type == "ushort" || type == "uint16") {
+    Put<uint16_t>(out, static_cast<uint16_t>(v));
+  } else if (type == "int" || type == "int32") {
+    Put<int32_t>(out, static_cast<int32_t>(v));
+  } else {
+    Put<uint32_t>(out, static_cast<uint32_t>(v));  // uint, uint32
   }
-  return p.second == 1 ? "uchar" : p.second == 2 ? "short" : "int";
 }
+
+// A binary little-endian PLY of a tetrahedron. `vertex`: the vertex's
+// properties in order, each "TYPE NAME" or "list COUNT ITEM NAME" (written
+// empty); x, y and z hold the corners, an x that a later x repeats holds 7,
+// every other scalar holds `fill`. `list`: the face's "COUNT ITEM NAME".
+struct Spec {
+  std::vector<std::string> vertex = {"float x", "float y", "float z"};
+  std::string list = "uchar int vertex_indices";
+  double fill = 0.5;
+};
 
 const double kCorners[4][3] = {
     {0.1, 0.2, 0.3}, {1.0 / 3, 0, 0}, {0, 1e-7, 0}, {0, 0, 12345.678}};
 const int kFaces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
 
+std::vector<std::string> Words(const std::string& s) {
+  return absl::StrSplit(s, ' ', absl::SkipEmpty());
+}
+
 std::string Tetrahedron(const Spec& s) {
   std::string out =
       "ply\nformat binary_little_endian 1.0\ncomment a test\nelement vertex "
       "4\n";
-  for (const auto& p : s.vertex_properties) {
-    absl::StrAppend(&out, "property ", TypeName(p, s.double_coordinates), " ",
-                    p.first, "\n");
+  for (const std::string& p : s.vertex) {
+    absl::StrAppend(&out, "property ", p, "\n");
   }
   absl::StrAppend(&out, "element face 4\nproperty list ", s.list,
                   "\nend_header\n");
   for (const auto& c : kCorners) {
-    for (const auto& p : s.vertex_properties) {
-      const int axis = p.first == "x"   ? 0
-                       : p.first == "y" ? 1
-                       : p.first == "z" ? 2
-                                        : -1;
-      if (axis < 0) {
-        out.append(p.second, '\0');
-      } else if (s.double_coordinates) {
-        Put<double>(out, c[axis]);
-      } else {
-        Put<float>(out, static_cast<float>(c[axis]));
+    for (size_t i = 0; i < s.vertex.size(); ++i) {
+      const std::vector<std::string> w = Words(s.vertex[i]);
+      if (w[0] == "list") {
+        PutAs(out, w[1], 0);
+        continue;
       }
+      const std::string& name = w[1];
+      const int axis = name == "x" ? 0 : name == "y" ? 1 : name == "z" ? 2 : -1;
+      bool repeated = false;
+      for (size_t j = i + 1; j < s.vertex.size(); ++j) {
+        repeated |= axis >= 0 && Words(s.vertex[j]).back() == name;
+      }
+      PutAs(out, w[0], axis < 0 ? s.fill : repeated ? 7 : c[axis]);
     }
   }
+  const std::vector<std::string> list = Words(s.list);
   for (const auto& f : kFaces) {
-    out.append(s.count_bytes, '\0');
-    out[out.size() - s.count_bytes] = 3;
-    for (int v : f) {
-      if (s.uint_items) {
-        Put<uint32_t>(out, static_cast<uint32_t>(v));
-      } else {
-        Put<int32_t>(out, v);
-      }
-    }
+    PutAs(out, list[0], 3);
+    for (int v : f) PutAs(out, list[1], v);
   }
   return out;
 }
 
-Spec Plain() { return {.vertex_properties = {{"x", 4}, {"y", 4}, {"z", 4}}}; }
+// Replaces the first occurrence of `from` in `s`.
+std::string Replace(std::string s, const std::string& from,
+                    const std::string& to) {
+  const size_t at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  return at == std::string::npos ? s : s.replace(at, from.size(), to);
+}
 
 struct BothReaders {
   std::optional<absl::StatusOr<io::MeshFile>> fast;
@@ -102,8 +121,11 @@ struct BothReaders {
 BothReaders ReadBoth(const std::string& data,
                      const io::ReadLimits& limits = {}) {
   auto header = io::ply::ParseHeader(data, "t.ply");
-  EXPECT_TRUE(header.ok()) << header.status();
-  EXPECT_TRUE(io::ply::CheckCounts(*header, data.size(), "t.ply").ok());
+  if (!header.ok()) return {std::nullopt, header.status()};
+  if (absl::Status s = io::ply::CheckCounts(*header, data.size(), "t.ply");
+      !s.ok()) {
+    return {std::nullopt, s};
+  }
   return {io::ply::ReadTriangleBody(data, *header, "t.ply", limits),
           io::ply::ReadBody(data, *header, "t.ply", limits)};
 }
@@ -144,102 +166,107 @@ TEST(PlyTrianglesTest,
 }
 
 TEST(PlyTrianglesTest, ExportersLayoutsAreReadByItAndMatchTheGeneralReader) {
-  std::vector<Spec> specs;
-  specs.push_back(Plain());
-  Spec doubles = Plain();
-  doubles.double_coordinates = true;
-  specs.push_back(doubles);
-  // Normals, a colour and a confidence around and between x, y and z.
-  specs.push_back({.vertex_properties = {{"confidence", 4},
-                                         {"z", 4},
-                                         {"red", 1},
-                                         {"x", 4},
-                                         {"nx", 2},
-                                         {"y", 4}}});
-  for (const auto& [list, count_bytes, uint_items] :
-       {std::tuple{"uint8 uint32 vertex_indices", 1, true},
-        {"int int vertex_index", 4, false},
-        {"ushort uint vertex_indices", 2, true},
-        {"char int vertex_indices", 1, false}}) {
-    Spec s = Plain();
-    s.list = list;
-    s.count_bytes = count_bytes;
-    s.uint_items = uint_items;
-    specs.push_back(s);
-  }
+  const std::vector<Spec> specs = {
+      {},
+      {.vertex = {"double x", "double y", "double z"}},
+      // Normals, a colour, flags, a confidence and a quality around and
+      // between x, y and z.
+      {.vertex = {"float confidence", "float z", "uchar red", "float x",
+                  "float nx", "short flags", "double quality", "float y"}},
+      // x twice: the last one counts.
+      {.vertex = {"float x", "float y", "float z", "float x"}},
+      {.list = "uint8 uint32 vertex_indices"},
+      {.list = "int int vertex_index"},
+      {.list = "ushort uint vertex_indices"},
+      {.list = "char int vertex_indices"},
+  };
   for (const Spec& s : specs) {
+    SCOPED_TRACE(absl::StrJoin(s.vertex, ", ") + "; " + s.list);
     const BothReaders r = ReadBoth(Tetrahedron(s));
-    ASSERT_TRUE(r.fast.has_value()) << s.list;
+    ASSERT_TRUE(r.fast.has_value());
     ASSERT_TRUE(r.fast->ok()) << r.fast->status();
     ASSERT_TRUE(r.general.ok()) << r.general.status();
     ExpectSameFile(**r.fast, *r.general);
+    const bool dbl = s.vertex[0] == "double x";
     EXPECT_EQ((*r.fast)->mesh.positions[1].x,
-              s.double_coordinates
-                  ? 1.0 / 3
-                  : static_cast<double>(static_cast<float>(1.0 / 3)));
+              dbl ? 1.0 / 3 : static_cast<double>(static_cast<float>(1.0 / 3)));
   }
   // Through ParsePly too.
-  auto parsed = io::ParsePly(Tetrahedron(doubles), "t.ply");
+  auto parsed = io::ParsePly(Tetrahedron(specs[1]), "t.ply");
   ASSERT_TRUE(parsed.ok()) << parsed.status();
   EXPECT_EQ(parsed->mesh.positions[1].x, 1.0 / 3);
 }
 
-// Replaces the first occurrence of `from` in `s`.
-std::string Replace(std::string s, const std::string& from,
-                    const std::string& to) {
-  const size_t at = s.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  return s.replace(at, from.size(), to);
-}
-
+// Well-formed files (each body matches its header) that the fast reader
+// leaves to the general one, which reads those that hold a mesh.
 TEST(PlyTrianglesTest, OtherLayoutsAreLeftToTheGeneralReader) {
-  const std::string plain = Tetrahedron(Plain());
-  const std::string body = plain.substr(plain.find("end_header\n") + 11);
-  const std::vector<std::pair<const char*, std::string>> others = {
-      {"trailing bytes", plain + std::string(3, '\0')},
+  const std::string plain = Tetrahedron({});
+  const std::string no_faces = Replace(plain.substr(0, plain.size() - 4 * 13),
+                                       "element face 4", "element face 0");
+  struct Other {
+    const char* what;
+    std::string data;
+    bool mesh;  // whether the general reader reads a mesh from it.
+  };
+  const std::vector<Other> others = {
+      {"trailing bytes", plain + std::string(3, '\0'), false},
       {"an element after the faces",
        Replace(plain, "end_header",
-               "element edge 0\nproperty int vertex1\nend_header")},
-      {"a face property beside the list",
-       Replace(plain, "vertex_indices\n",
-               "vertex_indices\nproperty uchar flags\n")},
-      {"short items", Replace(plain, "uchar int vertex", "uchar short vertex")},
-      {"integer coordinates", Replace(plain, "float x", "int x")},
-      {"a list among the vertex's properties",
-       Replace(plain, "property float x",
-               "property list uchar int stuff\nproperty float x")},
+               "element edge 0\nproperty int vertex1\nend_header"),
+       true},
       {"big endian",
-       Replace(plain, "binary_little_endian", "binary_big_endian")},
-      {"tristrips", Replace(plain, "element face", "element tristrips")},
+       Replace(plain, "binary_little_endian", "binary_big_endian"), false},
+      {"no faces", no_faces, false},
+      {"short items", Tetrahedron({.list = "uchar short vertex_indices"}),
+       true},
+      {"integer coordinates",
+       Tetrahedron({.vertex = {"int x", "int y", "int z"}}), true},
+      {"coordinates of two types",
+       Tetrahedron({.vertex = {"float x", "double y", "float z"}}), true},
+      {"a list among the vertex's properties",
+       Tetrahedron({.vertex = {"list uchar int stuff", "float x", "float y",
+                               "float z"}}),
+       true},
+      {"tristrips", Replace(plain, "element face", "element tristrips"), true},
   };
-  for (const auto& [what, data] : others) {
-    auto header = io::ply::ParseHeader(data, "t.ply");
-    ASSERT_TRUE(header.ok()) << what << ": " << header.status();
-    EXPECT_FALSE(io::ply::ReadTriangleBody(data, *header, "t.ply", {})) << what;
+  for (const Other& o : others) {
+    auto header = io::ply::ParseHeader(o.data, "t.ply");
+    ASSERT_TRUE(header.ok()) << o.what << ": " << header.status();
+    EXPECT_FALSE(io::ply::ReadTriangleBody(o.data, *header, "t.ply", {}))
+        << o.what;
+    EXPECT_EQ(io::ParsePly(o.data, "t.ply").ok(), o.mesh) << o.what;
   }
 }
 
 // Each value ReadBody rejects makes ReadTriangleBody step aside, so that
 // ParsePly's error is ReadBody's, with its place.
 TEST(PlyTrianglesTest, AValueTheGeneralReaderRejectsGivesItsErrorAndPlace) {
-  const std::string plain = Tetrahedron(Plain());
+  const std::string plain = Tetrahedron({});
   const size_t body = plain.find("end_header\n") + 11;
-  auto at = [&](size_t offset, auto value) {
-    std::string data = plain;
-    std::memcpy(data.data() + body + offset, &value, sizeof(value));
+  auto at = [](std::string data, size_t offset, auto value) {
+    std::memcpy(data.data() + offset, &value, sizeof(value));
     return data;
   };
-  const size_t faces = 4 * 12;
+  const size_t faces = body + 4 * 12;
+  // A vertex's normal (VCG writes NaN ones) is checked like a coordinate.
+  const std::string normals =
+      Tetrahedron({.vertex = {"float x", "float y", "float z", "float nx"}});
+  const size_t normals_body = normals.find("end_header\n") + 11;
   const std::vector<std::tuple<const char*, std::string, const char*>> bad = {
-      {"NaN", at(4, std::numeric_limits<float>::quiet_NaN()),
+      {"NaN", at(plain, body + 4, std::numeric_limits<float>::quiet_NaN()),
        "vertex 0 of 4: property y is missing or not a finite number"},
-      {"infinity", at(3 * 12 + 8, std::numeric_limits<float>::infinity()),
+      {"infinity",
+       at(plain, body + 3 * 12 + 8, std::numeric_limits<float>::infinity()),
        "vertex 3 of 4: property z is missing or not a finite number"},
-      {"index out of range", at(faces + 13 + 1 + 4, int32_t{4}),
+      {"a NaN normal",
+       at(normals, normals_body + 16 + 12,
+          std::numeric_limits<float>::quiet_NaN()),
+       "vertex 1 of 4: property nx is missing or not a finite number"},
+      {"index out of range", at(plain, faces + 13 + 1 + 4, int32_t{4}),
        "face 1 refers to vertex 4 but 4 vertices are defined"},
-      {"negative index", at(faces + 1, int32_t{-1}),
+      {"negative index", at(plain, faces + 1, int32_t{-1}),
        "face 0 refers to vertex -1"},
-      {"a quad's count", at(faces + 2 * 13, uint8_t{2}),
+      {"a count of 2", at(plain, faces + 2 * 13, uint8_t{2}),
        "face 2 has 2 corners"},
   };
   for (const auto& [what, data, message] : bad) {
@@ -254,10 +281,19 @@ TEST(PlyTrianglesTest, AValueTheGeneralReaderRejectsGivesItsErrorAndPlace) {
     EXPECT_THAT(std::string(parsed.status().message()), HasSubstr("byte "))
         << what;
   }
+  // An unsigned index of 2^32 - 1.
+  const std::string uints = Tetrahedron({.list = "uchar uint vertex_indices"});
+  const std::string huge =
+      at(uints, uints.find("end_header\n") + 11 + 4 * 12 + 1, ~uint32_t{0});
+  auto header = io::ply::ParseHeader(huge, "t.ply");
+  ASSERT_TRUE(header.ok());
+  EXPECT_FALSE(io::ply::ReadTriangleBody(huge, *header, "t.ply", {}));
+  EXPECT_THAT(std::string(io::ParsePly(huge, "t.ply").status().message()),
+              HasSubstr("refers to vertex 4294967295"));
 }
 
 TEST(PlyTrianglesTest, TheReadLimitsStopItWithTheirCause) {
-  const std::string plain = Tetrahedron(Plain());
+  const std::string plain = Tetrahedron({});
   auto fast = [&](const io::ReadLimits& limits) {
     auto header = io::ply::ParseHeader(plain, "t.ply");
     auto read = io::ply::ReadTriangleBody(plain, *header, "t.ply", limits);
@@ -270,8 +306,8 @@ TEST(PlyTrianglesTest, TheReadLimitsStopItWithTheirCause) {
               HasSubstr("3 faces (max_faces"));
   EXPECT_EQ(fast({.cancelled = [] { return true; }}).code(),
             absl::StatusCode::kCancelled);
-  // What it will hold is reported before it holds it: the positions, then
-  // the positions and the faces.
+  // What it will store is reported before it stores it: the positions,
+  // then the positions and the faces.
   std::vector<int64_t> reported;
   EXPECT_TRUE(fast({.reserve = [&](int64_t bytes) {
                 reported.push_back(bytes);

@@ -52,22 +52,41 @@ void ExpectFansHitAsSingleRays(const Mesh& mesh, int n) {
   EXPECT_GT(hits, mesh.num_vertices() * n / 5);
 }
 
-// CheckTraceable measures the faces in parallel ranges of 65,536: a stray
-// vertex among the last faces is refused whatever the threads, and the
-// mesh without it is accepted.
-TEST(RaySceneTest, AStrayVertexIsRefusedWhateverRangeOfFacesHoldsIt) {
-  const Mesh sphere = MakeIcosphere(1, 64);  // 81,920 faces: two ranges.
-  ASSERT_GT(sphere.num_faces(), 65'536);
-  Mesh stray = sphere;
+// CheckTraceable measures the faces in parallel ranges of 65,536 merged
+// exactly: a sphere and a copy 2^20 times smaller, each 40,500 faces (a
+// range each), are refused because half the edges are tiny (the median
+// edge is then 2^20 times shorter than the longest), whatever the threads,
+// with the same message; a merge that lost a range's edges would accept it.
+// A stray vertex among the last faces is refused too; each sphere alone
+// is accepted.
+TEST(RaySceneTest, TheSpanCheckSeesEveryRangeOfFacesWhateverTheThreads) {
+  const Mesh big = MakeIcosphere(1, 45);
+  ASSERT_EQ(big.num_faces(), 40'500);
+  Mesh two = big;
+  const int32_t offset = static_cast<int32_t>(big.positions.size());
+  for (const Vec3& p : big.positions) {
+    two.positions.push_back(p * std::ldexp(1.0, -20) + Vec3(3, 0, 0));
+  }
+  for (Face f : big.faces) {
+    for (int k = 0; k < 3; ++k) f.v[k] += offset;
+    two.faces.push_back(f);
+  }
+  Mesh stray = two;
   stray.positions[stray.faces.back().v[0]] += Vec3(1e6, 0, 0);
+  std::string message;
   for (int threads : {1, 2, 3}) {
     tbb::task_arena arena(threads);
     arena.execute([&] {
-      EXPECT_TRUE(CheckTraceable(sphere).ok()) << threads;
-      const absl::Status refused = CheckTraceable(stray);
+      EXPECT_TRUE(CheckTraceable(big).ok()) << threads;
+      const absl::Status refused = CheckTraceable(two);
       EXPECT_EQ(refused.code(), absl::StatusCode::kInvalidArgument) << threads;
       EXPECT_NE(refused.message().find("median"), absl::string_view::npos)
           << refused;
+      if (message.empty()) message = std::string(refused.message());
+      EXPECT_EQ(refused.message(), message) << threads;
+      EXPECT_EQ(CheckTraceable(stray).code(),
+                absl::StatusCode::kInvalidArgument)
+          << threads;
     });
   }
 }

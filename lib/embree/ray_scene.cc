@@ -81,12 +81,8 @@ int MedianExponent(const std::vector<int64_t>& histogram, int64_t count) {
 
 // What CheckSpan measures of a range of faces; merged exactly (maxima and
 // counts), so the faces may be split among threads in any way.
-struct SpanStats {
-  double edge2 = 0;  // the longest squared edge
-  double reach = 0;  // the farthest vertex from the origin (max norm)
-  std::vector<int64_t> exponents = std::vector<int64_t>(2 * kExponentBias, 0);
-  int64_t edges = 0;  // finite nonzero edges counted in exponents
-
+class SpanStats {
+ public:
   void Add(const Mesh& mesh, const Vec3& origin, int64_t begin, int64_t end) {
     for (int64_t i = begin; i < end; ++i) {
       const Face& f = mesh.faces[i];
@@ -94,27 +90,37 @@ struct SpanStats {
         const Vec3& p = mesh.positions[f.v[k]];
         const Vec3 e = mesh.positions[f.v[(k + 1) % f.size]] - p;
         const double e2 = Dot(e, e);
-        edge2 = std::max(edge2, e2);
-        reach = std::max(reach, MaxAbs(p - origin));
+        edge2_ = std::max(edge2_, e2);
+        reach_ = std::max(reach_, MaxAbs(p - origin));
         if (e2 > 0 && std::isfinite(e2)) {
-          ++exponents[std::ilogb(e2) + kExponentBias];
-          ++edges;
+          ++exponents_[std::ilogb(e2) + kExponentBias];
+          ++edges_;
         }
       }
     }
   }
   void Merge(const SpanStats& other) {
-    edge2 = std::max(edge2, other.edge2);
-    reach = std::max(reach, other.reach);
-    for (size_t i = 0; i < exponents.size(); ++i) {
-      exponents[i] += other.exponents[i];
+    edge2_ = std::max(edge2_, other.edge2_);
+    reach_ = std::max(reach_, other.reach_);
+    for (size_t i = 0; i < exponents_.size(); ++i) {
+      exponents_[i] += other.exponents_[i];
     }
-    edges += other.edges;
+    edges_ += other.edges_;
   }
+  double edge2() const { return edge2_; }  // the longest squared edge
+  double reach() const { return reach_; }  // the farthest corner (max norm)
+  // Finite nonzero squared edges by binary exponent (MedianExponent's).
+  const std::vector<int64_t>& exponents() const { return exponents_; }
+  int64_t edges() const { return edges_; }
+
+ private:
+  double edge2_ = 0, reach_ = 0;
+  std::vector<int64_t> exponents_ = std::vector<int64_t>(2 * kExponentBias, 0);
+  int64_t edges_ = 0;
 };
 
 // `span` is the mesh's bounding-box diagonal. The faces are measured in
-// parallel (serial, 6 % of a million-vertex mesh's set-up).
+// parallel ranges (serial, this was 6 % of a million-vertex mesh's set-up).
 absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
   const SpanStats stats = tbb::parallel_reduce(
       tbb::blocked_range<int64_t>(0, mesh.num_faces(), int64_t{1} << 16),
@@ -127,10 +133,10 @@ absl::Status CheckSpan(const Mesh& mesh, const Vec3& origin, double span) {
         a.Merge(b);
         return a;
       });
-  double edge2 = stats.edge2;
-  const double reach = stats.reach;
-  const std::vector<int64_t>& exponents = stats.exponents;
-  const int64_t edges = stats.edges;
+  double edge2 = stats.edge2();
+  const double reach = stats.reach();
+  const std::vector<int64_t>& exponents = stats.exponents();
+  const int64_t edges = stats.edges();
   if (edges > 0 && std::ilogb(edge2) - MedianExponent(exponents, edges) >
                        2 * kMaxEdgeSpreadExponent) {
     return absl::InvalidArgumentError(absl::StrCat(

@@ -34,8 +34,9 @@ struct ReadLimits {
   // (O(n³) each: about 1 ns per unit).
   int64_t max_fallback_work = kNone;
   // Called, before the reader's arrays grow past what it reported last,
-  // with the bytes they will hold (in steps of about 1 MiB); an error
-  // stops the reader with it.
+  // with the bytes they will hold (in steps of about 1 MiB with room for
+  // the arrays to double; a binary triangle PLY, read at fixed strides,
+  // reports exactly what it stores); an error stops the reader with it.
   std::function<absl::Status(int64_t bytes)> reserve = nullptr;
   // Polled between polygons; true stops the reader with Cancelled.
   std::function<bool()> cancelled = nullptr;

@@ -300,7 +300,7 @@ absl::StatusOr<io::MeshFile> ReadMeshFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   // Not zeroed first: the read writes every byte (a memset of the whole
   // file cost a tenth of reading a 42 MB binary PLY).
-  const std::unique_ptr<char[]> contents(new char[size]);
+  const auto contents = std::make_unique_for_overwrite<char[]>(size);
   if (!in || !in.read(contents.get(), static_cast<std::streamsize>(size))) {
     return absl::NotFoundError(
         absl::StrCat("cannot read mesh file '", path, "'"));

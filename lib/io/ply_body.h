@@ -28,7 +28,10 @@ absl::StatusOr<MeshFile> ReadBody(absl::string_view data, const Header& h,
 // ReadBody rejects (a coordinate that is not finite, an index out of range,
 // a face that is not a triangle): ReadBody then reads it and names the
 // place. Errors: the limits' (checked, as ReadBody does, before the
-// vertices and before the faces are stored).
+// vertices and before the faces are stored). Its reservations are the bytes
+// it stores (the positions, then the positions and the faces), less than
+// ReadBody's, which leave its arrays room to double: under a tight budget
+// a file it takes may pass where the same mesh in another layout does not.
 std::optional<absl::StatusOr<MeshFile>> ReadTriangleBody(
     absl::string_view data, const Header& h, const std::string& path,
     const ReadLimits& limits);

@@ -49,6 +49,9 @@ size_t SizeOf(Type t) {
 
 bool IsInteger(Type t) { return t != Type::kFloat32 && t != Type::kFloat64; }
 
+namespace {
+
+// The least bytes one instance of `e` takes (lists empty).
 int64_t MinBytes(const Element& e, Format format) {
   int64_t bytes = 0;
   for (const Property& p : e.properties) {
@@ -58,8 +61,6 @@ int64_t MinBytes(const Element& e, Format format) {
   }
   return std::max<int64_t>(bytes, 1);
 }
-
-namespace {
 
 // The header's lines, one at a time (CR LF or LF ended), counted from 1.
 class HeaderLines {

@@ -52,9 +52,6 @@ struct Header {
   int64_t lines = 0;  // the header's lines, end_header's included.
 };
 
-// The least bytes one instance of `e` takes (lists empty).
-int64_t MinBytes(const Element& e, Format format);
-
 // The header: lines up to end_header. Errors: InvalidArgument naming the
 // line of `path`.
 absl::StatusOr<Header> ParseHeader(absl::string_view data,

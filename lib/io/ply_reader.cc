@@ -6,7 +6,6 @@
 // properties are parsed and skipped. The common binary triangle mesh is
 // read by ReadTriangleBody (ply_triangles.cc) instead, into the same mesh.
 #include <cmath>
-#include <cstring>
 #include <vector>
 
 #include "absl/strings/str_cat.h"

@@ -3,9 +3,15 @@
 // at compile time, instead of a call per value through the general
 // reader's type switch, row and builder (6-8 times the time on a million
 // vertices; docs/benchmarks.md).
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "lib/io/mesh_builder.h"
 #include "lib/io/ply_body.h"
@@ -13,7 +19,7 @@
 namespace meshgauge::io::ply {
 namespace {
 
-// Elements decoded between two polls of the limits' cancellation.
+// Records decoded between two polls of the limits' cancellation.
 constexpr int64_t kPollEvery = int64_t{1} << 18;
 
 // Where a vertex's coordinates and a face's list sit in their records.
@@ -22,6 +28,9 @@ struct Layout {
   size_t vertex_stride = 0;
   size_t xyz[3] = {0, 0, 0};  // byte offsets in a vertex record.
   Type coordinate = Type::kFloat32;
+  // The vertex's other float and double properties (normals, a repeated
+  // x): ReadBody refuses them too when they are not finite.
+  std::vector<size_t> other_floats, other_doubles;
   Type count = Type::kUint8;
   Type index = Type::kInt32;
   size_t face_stride = 0;
@@ -32,6 +41,8 @@ std::optional<Layout> TriangleLayout(const Header& h, size_t data_size) {
   if (h.format != Format::kLittle || h.elements.size() != 2) return {};
   const Element& v = h.elements[0];
   const Element& f = h.elements[1];
+  // (Indices are int32: CheckCounts already keeps the vertex count far
+  // below that on any file that can be read.)
   if (v.name != "vertex" || f.name != "face" || f.count == 0 ||
       v.count > std::numeric_limits<int32_t>::max()) {
     return {};
@@ -41,6 +52,7 @@ std::optional<Layout> TriangleLayout(const Header& h, size_t data_size) {
   l.faces = f.count;
   int found = 0;
   Type types[3] = {};
+  std::vector<std::pair<size_t, Type>> floating;  // offset, type
   for (const Property& p : v.properties) {
     if (p.list) return {};
     for (int c = 0; c < 3; ++c) {
@@ -51,12 +63,20 @@ std::optional<Layout> TriangleLayout(const Header& h, size_t data_size) {
         found |= 1 << c;
       }
     }
+    if (!IsInteger(p.type)) floating.push_back({l.vertex_stride, p.type});
     l.vertex_stride += SizeOf(p.type);
   }
   l.coordinate = types[0];
   if (found != 7 || types[1] != types[0] || types[2] != types[0] ||
       (types[0] != Type::kFloat32 && types[0] != Type::kFloat64)) {
     return {};
+  }
+  for (const auto& [offset, type] : floating) {
+    if (offset == l.xyz[0] || offset == l.xyz[1] || offset == l.xyz[2]) {
+      continue;
+    }
+    (type == Type::kFloat32 ? l.other_floats : l.other_doubles)
+        .push_back(offset);
   }
   if (f.properties.size() != 1) return {};
   const Property& list = f.properties[0];
@@ -68,10 +88,13 @@ std::optional<Layout> TriangleLayout(const Header& h, size_t data_size) {
   l.count = list.count_type;
   l.index = list.type;
   l.face_stride = SizeOf(list.count_type) + 3 * SizeOf(list.type);
-  const auto body = static_cast<int64_t>(data_size - h.body);
-  if (l.vertices * static_cast<int64_t>(l.vertex_stride) +
-          l.faces * static_cast<int64_t>(l.face_stride) !=
-      body) {
+  // The body holds exactly the records (by division: no product of a
+  // declared count can overflow).
+  const size_t body = data_size - h.body;
+  if (static_cast<uint64_t>(l.vertices) > body / l.vertex_stride) return {};
+  const size_t face_bytes = body - l.vertices * l.vertex_stride;
+  if (face_bytes % l.face_stride != 0 ||
+      face_bytes / l.face_stride != static_cast<uint64_t>(l.faces)) {
     return {};
   }
   return l;
@@ -84,8 +107,8 @@ T Load(const char* p) {
   return v;
 }
 
-// Vertices [begin, end) appended to `out`; false at a coordinate that is
-// not finite.
+// Vertices [begin, end) appended to `out`; false at a float or double
+// that is not finite.
 template <typename Coordinate>
 bool DecodeVertices(const char* records, const Layout& l, int64_t begin,
                     int64_t end, std::vector<Vec3>& out) {
@@ -97,6 +120,12 @@ bool DecodeVertices(const char* records, const Layout& l, int64_t begin,
     if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) {
       return false;
     }
+    for (size_t o : l.other_floats) {
+      if (!std::isfinite(Load<float>(r + o))) return false;
+    }
+    for (size_t o : l.other_doubles) {
+      if (!std::isfinite(Load<double>(r + o))) return false;
+    }
     out.push_back({x, y, z});
   }
   return true;
@@ -107,13 +136,14 @@ bool DecodeVertices(const char* records, const Layout& l, int64_t begin,
 template <typename Count, typename Index>
 bool DecodeFaces(const char* records, const Layout& l, int64_t begin,
                  int64_t end, std::vector<Face>& out) {
-  constexpr size_t kItems = sizeof(Count);
+  constexpr size_t kItemsOffset = sizeof(Count);
   for (int64_t i = begin; i < end; ++i) {
     const char* r = records + i * l.face_stride;
     if (Load<Count>(r) != 3) return false;
     int64_t c[3];
     for (int k = 0; k < 3; ++k) {
-      c[k] = static_cast<int64_t>(Load<Index>(r + kItems + k * sizeof(Index)));
+      c[k] = static_cast<int64_t>(
+          Load<Index>(r + kItemsOffset + k * sizeof(Index)));
     }
     if (c[0] < 0 || c[1] < 0 || c[2] < 0 || c[0] >= l.vertices ||
         c[1] >= l.vertices || c[2] >= l.vertices) {
@@ -169,7 +199,12 @@ std::optional<absl::Status> ReadElement(const ReadLimits& limits,
   }
   room();
   for (int64_t begin = 0; begin < records; begin += kPollEvery) {
-    if (absl::Status s = CheckReadCancelled(&limits, path); !s.ok()) return s;
+    // (CheckReadCounts polled before the first block.)
+    if (begin > 0) {
+      if (absl::Status s = CheckReadCancelled(&limits, path); !s.ok()) {
+        return s;
+      }
+    }
     if (!decode(begin, std::min(records, begin + kPollEvery))) return {};
   }
   return absl::OkStatus();
