@@ -377,8 +377,10 @@ firing() { await_prom "$PROM" "ALERTS{alertname=\"$1\",alertstate=\"firing\"}" 6
 firing MeshgaugeReplicaRestarting ||
   { echo "FAIL: MeshgaugeReplicaRestarting did not fire"; exit 1; }
 echo "MeshgaugeReplicaRestarting: firing"
-firing MeshgaugeReplicasBelowDesired ||
-  { echo "FAIL: MeshgaugeReplicasBelowDesired did not fire within 60 s"; exit 1; }
+firing MeshgaugeReplicasBelowDesired || {
+  # What Prometheus saw, for the next reader of a failed run.
+  echo "Prometheus: $(q 'count(up{job="meshgauge"} == 1)') meshgauge targets up of $(q 'count(up{job="meshgauge"})'), desired $(q 'meshgauge:replicas_desired'); running replicas: $(stack_containers meshgauge | wc -l)"
+  echo "FAIL: MeshgaugeReplicasBelowDesired did not fire within 60 s"; exit 1; }
 echo "MeshgaugeReplicasBelowDesired: firing ($(q 'count(up{job="meshgauge"} == 1)') of $(q 'meshgauge:replicas_desired') up)"
 # Alertmanager's notification at the webhook (group_wait 10 s).
 notified() {
