@@ -380,6 +380,8 @@ echo "MeshgaugeReplicaRestarting: firing"
 firing MeshgaugeReplicasBelowDesired || {
   # What Prometheus saw, for the next reader of a failed run.
   echo "Prometheus: $(q 'count(up{job="meshgauge"} == 1)') meshgauge targets up of $(q 'count(up{job="meshgauge"})'), desired $(q 'meshgauge:replicas_desired'); running replicas: $(stack_containers meshgauge | wc -l)"
+  echo "its meshgauge targets: $(curl -s "$PROM/api/v1/targets?state=active" | grep -o '"scrapeUrl":"[^"]*"' | grep -v -e balancer -e redis -e prometheus | tr '\n' ' ')"
+  echo "the project's replicas (all states): $(docker ps -a --filter "label=com.docker.compose.project=$MESHGAUGE_PROJECT" --filter label=com.docker.compose.service=meshgauge --format '{{.Names}} {{.Status}}' | tr '\n' ';') addresses: $(for c in $(docker ps -aq --filter "label=com.docker.compose.project=$MESHGAUGE_PROJECT" --filter label=com.docker.compose.service=meshgauge); do docker inspect -f '{{range .NetworkSettings.Networks}}{{.IPAddress}} {{end}}' "$c"; done | tr '\n' ' ')"
   echo "FAIL: MeshgaugeReplicasBelowDesired did not fire within 60 s"; exit 1; }
 echo "MeshgaugeReplicasBelowDesired: firing ($(q 'count(up{job="meshgauge"} == 1)') of $(q 'meshgauge:replicas_desired') up)"
 # Alertmanager's notification at the webhook (group_wait 10 s).
