@@ -16,6 +16,7 @@
 #include "lib/core/hit.h"
 #include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
+#include "lib/core/spatial_order.h"
 #include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
 
@@ -31,6 +32,9 @@ constexpr int64_t kBatch = 1024;
 // At most this many row entries per batch by their bounds (RowEntriesBound;
 // 2 MiB of terms): about 200 samples with 100 rays, 21 with 1024.
 constexpr int64_t kBatchEntries = int64_t{1} << 16;
+
+// Terms ahead whose sums the VJP's scatter prefetches.
+constexpr size_t kScatterAhead = 8;
 
 struct Term {
   int32_t vertex;
@@ -72,6 +76,9 @@ class Row {
     }
   }
   const std::vector<Term>& terms() const { return terms_; }
+  // Swaps the terms into `out`: the row keeps out's storage for the next
+  // sample (and must be cleared before it).
+  void TakeTerms(std::vector<Term>& out) { terms_.swap(out); }
 
  private:
   uint64_t Entry(size_t term) const {
@@ -109,6 +116,13 @@ struct Context {
   bool faces = false;   // face samples (SPEC v2 §5c), else vertices.
   int64_t first = 0;    // the pass's samples: [first, first + samples),
   int64_t samples = 0;  // every vertex or face but for a range's pass.
+  // The order the samples are visited in: slot first + i holds sample
+  // first + order[i]; empty for sample order.
+  std::vector<int32_t> order;
+
+  int64_t Sample(int64_t slot) const {
+    return order.empty() ? slot : first + order[slot - first];
+  }
 };
 
 void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms);
@@ -283,7 +297,7 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
         "sensitivities are only available with area-weighted normals; "
         "recompute with area weighting (--normals area, the default)");
   }
-  return Context{ev, *hits, faces, range->begin, samples};
+  return Context{ev, *hits, faces, range->begin, samples, {}};
 }
 
 // An upper bound on the entries of sample p's row: the corners of the
@@ -315,8 +329,30 @@ int64_t EntriesBound(const Context& ctx) {
   return entries;
 }
 
-// The rows of the samples [begin, end): rows[p - begin] is sample p's (the
-// vectors are reused from batch to batch and keep their capacity).
+// The samples along a Morton curve of their points (vertices, or faces'
+// centroids): neighbouring samples' rays hit neighbouring primitives, so
+// visited in this order their corners and their vertices' sums are mostly
+// in cache. For the VJP, whose exact sums do not depend on the order.
+std::vector<int32_t> VisitingOrder(const Context& ctx,
+                                   const ComputeControl& control) {
+  const Mesh& mesh = ctx.ev.mesh();
+  tbb::task_arena arena(ThreadCount(control.threads));
+  if (!ctx.faces) {
+    return arena.execute([&] {
+      return MortonOrder(
+          absl::MakeConstSpan(mesh.positions).subspan(ctx.first, ctx.samples));
+    });
+  }
+  std::vector<Vec3> centroids(ctx.samples);
+  for (int64_t i = 0; i < ctx.samples; ++i) {
+    centroids[i] = FaceCentroid(mesh, ctx.first + i);
+  }
+  return arena.execute([&] { return MortonOrder(centroids); });
+}
+
+// The rows of the slots [begin, end) (ctx.Sample(slot) is the slot's
+// sample): rows[slot - begin] is its sample's (the vectors are reused from
+// batch to batch and keep their capacity).
 struct Batch {
   int64_t begin = 0, end = 0;
   std::vector<std::vector<Term>> rows;
@@ -326,7 +362,7 @@ struct Batch {
 // most kBatch samples and, but for a single sample, kBatchEntries of their
 // rows' bounds, so that the rows' memory is bounded whatever the ray
 // count), and hands each batch to consume(batch), one batch after the
-// other in sample order, each while the next batch is computed.
+// other in the order of ctx's slots, each while the next batch is computed.
 // control.progress follows the consumed batches (ControlGate: at most once
 // a percent).
 template <typename Consume>
@@ -357,15 +393,16 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
           std::optional<Row>& row =
               thread_rows[tbb::this_task_arena::current_thread_index()].row;
           if (!row) row.emplace();
-          PrefetchPrimitives(ctx, r.begin());
-          if (r.size() > 1) PrefetchPrimitives(ctx, r.begin() + 1);
-          PrefetchCorners(ctx, r.begin());
-          for (int64_t p = r.begin(); p < r.end(); ++p) {
-            if (p + 2 < r.end()) PrefetchPrimitives(ctx, p + 2);
-            if (p + 1 < r.end()) PrefetchCorners(ctx, p + 1);
-            SampleTerms(ctx, p, *row, kept, corners, geo);
-            b.rows[p - b.begin].assign(row->terms().begin(),
-                                       row->terms().end());
+          PrefetchPrimitives(ctx, ctx.Sample(r.begin()));
+          if (r.size() > 1) PrefetchPrimitives(ctx, ctx.Sample(r.begin() + 1));
+          PrefetchCorners(ctx, ctx.Sample(r.begin()));
+          for (int64_t slot = r.begin(); slot < r.end(); ++slot) {
+            if (slot + 2 < r.end()) {
+              PrefetchPrimitives(ctx, ctx.Sample(slot + 2));
+            }
+            if (slot + 1 < r.end()) PrefetchCorners(ctx, ctx.Sample(slot + 1));
+            SampleTerms(ctx, ctx.Sample(slot), *row, kept, corners, geo);
+            row->TakeTerms(b.rows[slot - b.begin]);
           }
         });
   };
@@ -381,7 +418,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
     }
     int64_t entries = 0;
     for (end = begin; end < ns && end - begin < kBatch; ++end) {
-      entries += RowEntriesBound(ctx, end);
+      entries += RowEntriesBound(ctx, ctx.Sample(end));
       if (end > begin && entries > kBatchEntries) break;
     }
     Batch& b = batch[computing];
@@ -455,14 +492,21 @@ absl::StatusOr<ExactSums> ComputeVjpSums(
           "VJP weight of ", sample, " ", first + i, " is not finite"));
     }
   }
+  if (absl::Status s = ValidateControl(control); !s.ok()) return s;
+  ctx->order = VisitingOrder(*ctx, control);
   ExactSums out(3 * nv);
   // Each batch is scattered by one task while the next is computed; the
   // sums are exact, so neither the order nor the threads change them.
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
-    for (int64_t p = batch.begin; p < batch.end; ++p) {
-      const double gp = g[p - first];
+    for (int64_t slot = batch.begin; slot < batch.end; ++slot) {
+      const double gp = g[ctx->Sample(slot) - first];
       if (gp == 0) continue;
-      for (const Term& term : batch.rows[p - batch.begin]) {
+      const std::vector<Term>& row = batch.rows[slot - batch.begin];
+      for (size_t k = 0; k < row.size(); ++k) {
+        if (k + kScatterAhead < row.size()) {
+          out.Prefetch(3 * int64_t{row[k + kScatterAhead].vertex});
+        }
+        const Term& term = row[k];
         const Vec3 d = term.d * gp;
         const int64_t o = 3 * int64_t{term.vertex};
         out.Add(o, d.x);

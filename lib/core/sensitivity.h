@@ -62,7 +62,9 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // over samples is exact and rounded once (ExactSum), so the result does not
 // depend on the thread count or on how the samples are split (a sample
 // range's partial sums, ComputeVjpSums, merged exactly give these bits).
-// O(#V) memory (the exact sums, about 48 bytes a vertex), no dense matrix.
+// O(#V) memory (the exact sums, about 48 bytes a vertex, and the order the
+// samples are visited in, 4 bytes a sample: along a Morton curve, for the
+// cache), no dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
