@@ -222,9 +222,9 @@ echo "== Prometheus"
 q() { prom_query "$PROM" "$1"; }
 # Both replicas found by DNS, and a scrape after the load's 112 ComputeSdf
 # (the reference's 16, then at least 96).
-await_prom "$PROM" 'count(up{job="meshgauge"} == 1) == 2' 300 || true
+await_prom "$PROM" 'meshgauge:replicas_up == 2' 300 || true
 await_prom "$PROM" 'sum(meshgauge_rpc_requests_total{method="ComputeSdf"}) >= 112' 300 || true
-up=$(q 'count(up{job="meshgauge"} == 1)')
+up=$(q 'meshgauge:replicas_up')
 echo "replicas up: ${up:-0}"
 [ "${up:-0}" = "2" ] || { echo "FAIL: Prometheus does not see both replicas up"; exit 1; }
 serving=$(q 'count(sum by (instance) (meshgauge_rpc_requests_total{method="ComputeSdf"}) > 0)')
@@ -379,11 +379,11 @@ firing MeshgaugeReplicaRestarting ||
 echo "MeshgaugeReplicaRestarting: firing"
 firing MeshgaugeReplicasBelowDesired || {
   # What Prometheus saw, for the next reader of a failed run.
-  echo "Prometheus: $(q 'count(up{job="meshgauge"} == 1)') meshgauge targets up of $(q 'count(up{job="meshgauge"})'), desired $(q 'meshgauge:replicas_desired'); running replicas: $(stack_containers meshgauge | wc -l)"
+  echo "Prometheus: $(q 'meshgauge:replicas_up') meshgauge targets up (scraped within 30 s) of $(q 'count(up{job="meshgauge"})') series, $(q 'count(up{job="meshgauge"} == 1)') of them 1; desired $(q 'meshgauge:replicas_desired'); running replicas: $(stack_containers meshgauge | wc -l)"
   echo "its meshgauge targets: $(curl -s "$PROM/api/v1/targets?state=active" | grep -o '"scrapeUrl":"[^"]*"' | grep -v -e balancer -e redis -e prometheus | tr '\n' ' ')"
   echo "the project's replicas (all states): $(docker ps -a --filter "label=com.docker.compose.project=$MESHGAUGE_PROJECT" --filter label=com.docker.compose.service=meshgauge --format '{{.Names}} {{.Status}}' | tr '\n' ';') addresses: $(for c in $(docker ps -aq --filter "label=com.docker.compose.project=$MESHGAUGE_PROJECT" --filter label=com.docker.compose.service=meshgauge); do docker inspect -f '{{range .NetworkSettings.Networks}}{{.IPAddress}} {{end}}' "$c"; done | tr '\n' ' ')"
   echo "FAIL: MeshgaugeReplicasBelowDesired did not fire within 60 s"; exit 1; }
-echo "MeshgaugeReplicasBelowDesired: firing ($(q 'count(up{job="meshgauge"} == 1)') of $(q 'meshgauge:replicas_desired') up)"
+echo "MeshgaugeReplicasBelowDesired: firing ($(q 'meshgauge:replicas_up') of $(q 'meshgauge:replicas_desired') up)"
 # Alertmanager's notification at the webhook (group_wait 10 s).
 notified() {
   grep -h '"status": "firing"' "$TEST_HOME/notifications.jsonl" 2>/dev/null |
