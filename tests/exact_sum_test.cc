@@ -182,6 +182,40 @@ TEST(ExactSumsTest, EverySumIsTheReferencesWhicheverPathItTook) {
   }
 }
 
+// One sum whose two doubles overflow or meet a non-finite value: the
+// addition leaves the pair for the exact accumulator, whatever the order.
+TEST(ExactSumsTest, AnOverflowOrInfinityInOneSumIsTheReferences) {
+  const std::vector<std::vector<double>> inputs = {
+      {kMax, kMax, -kMax},
+      {kMax, kMax},
+      {-kMax, -kMax, 1.0},
+      {kMax, kMax, -kMax, -kMax},
+      {1.0, kInf, 2.0},
+      {kInf, -kInf},
+      {kMax, 0x1p-1074, kMax, -kMax},
+      {std::nan(""), kMax}};
+  for (size_t k = 0; k < inputs.size(); ++k) {
+    for (bool reversed : {false, true}) {
+      std::vector<double> xs = inputs[k];
+      if (reversed) std::reverse(xs.begin(), xs.end());
+      ExactSums fast(1);
+      ExactSum reference;
+      for (double x : xs) {
+        fast.Add(0, x);
+        reference.Add(x);
+      }
+      const double want = reference.Round();
+      if (std::isnan(want)) {
+        EXPECT_TRUE(std::isnan(fast.Round(0))) << "input " << k;
+      } else {
+        EXPECT_EQ(std::bit_cast<uint64_t>(fast.Round(0)),
+                  std::bit_cast<uint64_t>(want))
+            << "input " << k << (reversed ? " reversed" : "");
+      }
+    }
+  }
+}
+
 // Sums whose values stay within 2^40 of each other hold in two doubles and
 // still round exactly: checked against the reference on 3,000 additions.
 TEST(ExactSumsTest, NarrowValuesStayInTwoDoublesAndRoundExactly) {

@@ -13,7 +13,6 @@
 // addition would in any order.
 #pragma once
 
-#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -88,9 +87,10 @@ class ExactSums {
     const double t = p.lo + e1;
     const double t_e = t - p.lo;
     const double e2 = (p.lo - (t - t_e)) + (e1 - t_e);  // lo + e1 = t + e2
-    // e2 is NaN when anything overflowed or x is not finite (an overflow
-    // of s makes s - s_x inf - inf; t cannot overflow when e1 is finite:
-    // it sums rounding errors), so e2 == 0 says the pair holds the sum.
+    // Once a step is inf or NaN, every later one is (an overflow of s
+    // makes s - s_x inf - inf, one of t makes t - t_e so), so e2 is NaN
+    // when anything overflowed or x is not finite; e2 == 0 says both
+    // TwoSums were exact and the pair holds the sum.
     if (e2 == 0) [[likely]] {
       p.hi = s;
       p.lo = t;
@@ -100,7 +100,7 @@ class ExactSums {
   }
   // Asks for sums i, i + 1 and i + 2 to be brought into the cache for
   // writing (a hint: scatters over large arrays miss the cache on almost
-  // every addition otherwise).
+  // every addition otherwise). Precondition: i + 2 < size().
   void Prefetch(int64_t i) const {
     __builtin_prefetch(&pairs_[i], 1);
     __builtin_prefetch(&pairs_[i + 2], 1);

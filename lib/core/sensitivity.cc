@@ -75,7 +75,6 @@ class Row {
       }
     }
   }
-  const std::vector<Term>& terms() const { return terms_; }
   // Swaps the terms into `out`: the row keeps out's storage for the next
   // sample (and must be cleared before it).
   void TakeTerms(std::vector<Term>& out) { terms_.swap(out); }
@@ -445,6 +444,8 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   jac.values.reserve(bound);
   jac.row_offsets.reserve(ctx->samples + 1);
   jac.row_offsets.push_back(0);
+  // No visiting order: the slots are the samples, so the rows go in sample
+  // order.
   absl::Status s = ForEachBatch(*ctx, control, [&jac](Batch& batch) {
     for (int64_t p = batch.begin; p < batch.end; ++p) {
       std::vector<Term>& terms = batch.rows[p - batch.begin];

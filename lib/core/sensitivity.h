@@ -64,7 +64,8 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // range's partial sums, ComputeVjpSums, merged exactly give these bits).
 // O(#V) memory (the exact sums, about 48 bytes a vertex, and the order the
 // samples are visited in, 4 bytes a sample: along a Morton curve, for the
-// cache), no dense matrix.
+// cache; while that order is made, before the sums exist, 16 bytes a sample
+// more, and 24 a face for face samples' centroids), no dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
