@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "lib/core/disjoint_sets.h"
+#include "lib/core/face_sample.h"
 #include "lib/core/integrals.h"
 
 namespace meshgauge {
@@ -147,13 +148,6 @@ absl::Status CheckValues(const Mesh& mesh, const std::vector<double>& values,
                      faces ? " faces" : " vertices"));
   }
   return absl::OkStatus();
-}
-
-Vec3 FaceCentroid(const Mesh& mesh, int32_t f) {
-  const Face& face = mesh.faces[f];
-  Vec3 sum;
-  for (int k = 0; k < face.size; ++k) sum += mesh.positions[face.v[k]];
-  return sum / face.size;
 }
 
 }  // namespace
