@@ -287,6 +287,61 @@ TEST(SensitivityTest, AVjpBatchIsBoundedByItsRowsNotOnlyItsSamples) {
   }
 }
 
+// A sample of weight 0 adds nothing to a VJP, so the VJP computes the
+// rows of the others alone (a penalty's weights are 0 away from its thin
+// parts): its progress counts them, and its result is still exactly g^T J
+// (summed here by the reference ExactSum from the Jacobian's rows), for
+// vertex and face samples; weights all 0 give zero vectors and no work.
+TEST(SensitivityTest, AVjpComputesOnlyTheRowsOfSamplesWithAWeight) {
+  auto mesh = ReadMesh(SharedMesh("decimated-knight.off"));
+  ASSERT_TRUE(mesh.ok());
+  auto ev = SdfEvaluator::Create(*mesh);
+  ASSERT_TRUE(ev.ok());
+  for (SampleSet samples : {SampleSet::kVertices, SampleSet::kFaces}) {
+    SdfParams params;
+    params.samples = samples;
+    params.rays = 30;
+    HitTable hits;
+    ASSERT_TRUE((*ev)->Compute(params, {}, &hits).ok());
+    auto jac = ComputeJacobian(**ev, hits);
+    ASSERT_TRUE(jac.ok());
+    const int64_t n = std::ssize(jac->row_offsets) - 1;
+    std::vector<double> g(n, 0.0);
+    int64_t weighted = 0;
+    for (int64_t p = 0; p < n; p += 7, ++weighted) g[p] = std::cos(0.37 * p);
+    std::vector<ExactSum> sums(3 * mesh->num_vertices());
+    for (int64_t p = 0; p < n; ++p) {
+      for (int64_t k = jac->row_offsets[p]; k < jac->row_offsets[p + 1]; ++k) {
+        const Vec3 d = jac->values[k] * g[p];
+        for (int c = 0; c < 3; ++c) sums[3 * jac->columns[k] + c].Add(d[c]);
+      }
+    }
+    int64_t total = 0, last = 0;
+    ComputeControl control;
+    control.progress = [&](int64_t done, int64_t all) {
+      last = done;
+      total = all;
+    };
+    auto vjp = ComputeVjp(**ev, hits, g, control);
+    ASSERT_TRUE(vjp.ok());
+    EXPECT_EQ(total, weighted);
+    EXPECT_EQ(last, weighted);
+    for (int64_t j = 0; j < mesh->num_vertices(); ++j) {
+      for (int c = 0; c < 3; ++c) {
+        const double expected = sums[3 * j + c].Round();
+        ASSERT_EQ(std::memcmp(&(*vjp)[j][c], &expected, sizeof(double)), 0)
+            << "vertex " << j << " axis " << c;
+      }
+    }
+    int64_t calls = 0;
+    control.progress = [&](int64_t, int64_t) { ++calls; };
+    auto zero = ComputeVjp(**ev, hits, std::vector<double>(n, 0.0), control);
+    ASSERT_TRUE(zero.ok());
+    EXPECT_EQ(calls, 0);
+    for (const Vec3& v : *zero) EXPECT_EQ(v, Vec3());
+  }
+}
+
 TEST(SensitivityTest, RejectsHitTableOfAnotherGeneration) {
   const Mesh sphere = MakeIcosphere(1, 2);
   auto ev = SdfEvaluator::Create(sphere);

@@ -115,12 +115,19 @@ struct Context {
   bool faces = false;   // face samples (SPEC v2 §5c), else vertices.
   int64_t first = 0;    // the pass's samples: [first, first + samples),
   int64_t samples = 0;  // every vertex or face but for a range's pass.
-  // The order the samples are visited in: slot first + i holds sample
-  // first + order[i]; empty for sample order.
+  // The samples visited, in slots [first, first + slots): every sample in
+  // sample order while `order` is empty, else slot first + i holds sample
+  // first + order[i] (a VJP's: those with a nonzero weight).
+  int64_t slots = 0;
   std::vector<int32_t> order;
 
   int64_t Sample(int64_t slot) const {
     return order.empty() ? slot : first + order[slot - first];
+  }
+  // Visits the samples (offsets from first) in `visit` order alone.
+  void Visit(std::vector<int32_t> visit) {
+    order = std::move(visit);
+    slots = std::ssize(order);
   }
 };
 
@@ -296,7 +303,7 @@ absl::StatusOr<Context> MakeContext(const MeshGeometry& ev,
         "sensitivities are only available with area-weighted normals; "
         "recompute with area weighting (--normals area, the default)");
   }
-  return Context{ev, *hits, faces, range->begin, samples, {}};
+  return Context{ev, *hits, faces, range->begin, samples, samples, {}};
 }
 
 // An upper bound on the entries of sample p's row: the corners of the
@@ -328,25 +335,44 @@ int64_t EntriesBound(const Context& ctx) {
   return entries;
 }
 
-// The samples along a Morton curve of their points (vertices, or faces'
-// centroids): neighbouring samples' rays hit neighbouring primitives, so
-// visited in this order their corners and their vertices' sums are mostly
-// in cache. For the VJP, whose exact sums do not depend on the order.
+// The samples whose weight in g (one per sample, from first) is nonzero,
+// along a Morton curve of their points (vertices, or faces' centroids):
+// neighbouring samples' rays hit neighbouring primitives, so visited in this
+// order their corners and their vertices' sums are mostly in cache. For the
+// VJP, whose exact sums do not depend on the order, and to which a sample of
+// weight 0 adds nothing (a penalty's weights are 0 away from its thin
+// parts).
 std::vector<int32_t> VisitingOrder(const Context& ctx,
+                                   absl::Span<const double> g,
                                    const ComputeControl& control) {
   const Mesh& mesh = ctx.ev.mesh();
+  std::vector<int32_t> weighted;  // offsets from first, empty when all are.
+  const int64_t count = ctx.samples - std::count(g.begin(), g.end(), 0.0);
+  if (count < ctx.samples) {
+    weighted.reserve(count);
+    for (int64_t i = 0; i < ctx.samples; ++i) {
+      if (g[i] != 0) weighted.push_back(static_cast<int32_t>(i));
+    }
+  }
+  std::vector<Vec3> points;
+  absl::Span<const Vec3> sorted;
+  if (!ctx.faces && weighted.empty()) {
+    sorted = absl::MakeConstSpan(mesh.positions).subspan(ctx.first, count);
+  } else {
+    points.resize(count);
+    for (int64_t i = 0; i < count; ++i) {
+      const int64_t p = ctx.first + (weighted.empty() ? i : weighted[i]);
+      points[i] = ctx.faces ? FaceCentroid(mesh, p) : mesh.positions[p];
+    }
+    sorted = points;
+  }
   tbb::task_arena arena(ThreadCount(control.threads));
-  if (!ctx.faces) {
-    return arena.execute([&] {
-      return MortonOrder(
-          absl::MakeConstSpan(mesh.positions).subspan(ctx.first, ctx.samples));
-    });
+  std::vector<int32_t> order =
+      arena.execute([&] { return MortonOrder(sorted); });
+  if (!weighted.empty()) {
+    for (int32_t& i : order) i = weighted[i];
   }
-  std::vector<Vec3> centroids(ctx.samples);
-  for (int64_t i = 0; i < ctx.samples; ++i) {
-    centroids[i] = FaceCentroid(mesh, ctx.first + i);
-  }
-  return arena.execute([&] { return MortonOrder(centroids); });
+  return order;
 }
 
 // The rows of the slots [begin, end) (ctx.Sample(slot) is the slot's
@@ -368,9 +394,10 @@ template <typename Consume>
 absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
                           Consume consume) {
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
-  const int64_t ns = ctx.first + ctx.samples;  // the end of the samples.
+  const int64_t ns = ctx.first + ctx.slots;  // the end of the slots.
   const size_t num_rays = ctx.hits.cone.size();
-  ControlGate gate(control, ctx.samples);
+  if (ctx.slots == 0) return absl::OkStatus();
+  ControlGate gate(control, ctx.slots);
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];
   int computing = 0;
@@ -494,14 +521,13 @@ absl::StatusOr<ExactSums> ComputeVjpSums(
     }
   }
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
-  ctx->order = VisitingOrder(*ctx, control);
+  ctx->Visit(VisitingOrder(*ctx, g, control));
   ExactSums out(3 * nv);
   // Each batch is scattered by one task while the next is computed; the
   // sums are exact, so neither the order nor the threads change them.
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
     for (int64_t slot = batch.begin; slot < batch.end; ++slot) {
       const double gp = g[ctx->Sample(slot) - first];
-      if (gp == 0) continue;
       const std::vector<Term>& row = batch.rows[slot - batch.begin];
       for (size_t k = 0; k < row.size(); ++k) {
         if (k + kScatterAhead < row.size()) {

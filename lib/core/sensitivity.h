@@ -62,10 +62,15 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // over samples is exact and rounded once (ExactSum), so the result does not
 // depend on the thread count or on how the samples are split (a sample
 // range's partial sums, ComputeVjpSums, merged exactly give these bits).
+// Only the rows of samples with g_p != 0 are computed (a penalty's weights
+// are 0 away from its thin parts), so the time follows those samples;
+// control.progress counts them.
 // O(#V) memory (the exact sums, about 48 bytes a vertex, and the order the
-// samples are visited in, 4 bytes a sample: along a Morton curve, for the
-// cache; while that order is made, before the sums exist, 16 bytes a sample
-// more, and 24 a face for face samples' centroids), no dense matrix.
+// weighted samples are visited in, 4 bytes each: along a Morton curve, for
+// the cache; while that order is made, before the sums exist, 16 bytes a
+// weighted sample more, 24 for its point when some weights are 0 or the
+// samples are faces, and 4 for its index when some weights are 0), no
+// dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,
