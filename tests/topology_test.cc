@@ -104,10 +104,11 @@ TEST(TopologyTest, ATriangleMeshStoresEachListOnceWithoutSpareCapacity) {
   ASSERT_TRUE(ev.ok()) << ev.status();
   const int64_t nv = mesh.num_vertices(), nf = mesh.num_faces();
   // One primitive per face, each face's three corners listed once by
-  // vertex, one cone direction per vertex: nothing else.
+  // vertex, one cone direction per vertex and the vertices' Morton order:
+  // nothing else.
   const int64_t want = nf * sizeof(Primitive) +
                        (nv + 1 + 3 * nf) * sizeof(int32_t) +
-                       nv * sizeof(ConeDirection);
+                       nv * sizeof(ConeDirection) + nv * sizeof(int32_t);
   EXPECT_EQ((*ev)->DerivedBytes(), want);
 }
 

@@ -1,11 +1,14 @@
 #include "lib/core/mesh_geometry.h"
 
+#include "lib/core/spatial_order.h"
+
 namespace meshgauge {
 
 absl::Status MeshGeometry::Init(Mesh mesh) {
   if (absl::Status s = ValidateMesh(mesh); !s.ok()) return s;
   mesh_ = std::move(mesh);
   topo_ = MeshTopology::Build(mesh_);
+  vertex_order_ = MortonOrder(mesh_.positions);
   RefreshDerivedGeometry();
   return absl::OkStatus();
 }
@@ -31,7 +34,7 @@ int64_t MeshGeometry::MeshBytes() const {
 int64_t MeshGeometry::DerivedBytes() const {
   return Bytes(topo_.primitives) + Bytes(topo_.vertex_faces) +
          Bytes(topo_.vertex_primitives) + Bytes(topo_.vertex_direction) +
-         Bytes(topo_.face_first_primitive);
+         Bytes(topo_.face_first_primitive) + Bytes(vertex_order_);
 }
 
 void MeshGeometry::RefreshDerivedGeometry() {

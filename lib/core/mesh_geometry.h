@@ -1,15 +1,16 @@
 // A validated mesh with the derived state that the SDF's values and
-// derivatives read: topology, the mean edge length, the bounding-box
-// diagonal and a generation counter; ray primitives' corners are read from
-// the positions in double precision.
-// SdfEvaluator (lib/embree) adds the BVH and the ray pass; the sensitivities
-// and penalties (lib/core) need only this.
+// derivatives read: topology, a Morton order of the vertices, the mean edge
+// length, the bounding-box diagonal and a generation counter; ray primitives'
+// corners are read from the positions in double precision. SdfEvaluator
+// (lib/embree) adds the BVH and the ray pass; the sensitivities and penalties
+// (lib/core) need only this.
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
 #include "absl/status/status.h"
+#include "absl/types/span.h"
 #include "lib/core/hit.h"
 #include "lib/core/mesh.h"
 #include "lib/core/topology.h"
@@ -41,6 +42,10 @@ class MeshGeometry {
       if (v >= 0) __builtin_prefetch(&mesh_.positions[v]);
     }
   }
+  // The vertices along a Morton curve of their positions at creation (kept
+  // across updates): the order the ray pass and the VJP visit them in, for
+  // the cache (results do not depend on it).
+  absl::Span<const int32_t> vertex_order() const { return vertex_order_; }
   double mean_edge_length() const { return mean_edge_length_; }
   double bounding_box_diagonal() const { return bbox_diagonal_; }
   // Bytes of the mesh's arrays (positions, faces, regions) and of what is
@@ -58,6 +63,7 @@ class MeshGeometry {
 
   Mesh mesh_;
   MeshTopology topo_;
+  std::vector<int32_t> vertex_order_;
   int64_t generation_ = 0;
   double mean_edge_length_ = 0;
   double bbox_diagonal_ = 0;

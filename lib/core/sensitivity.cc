@@ -336,7 +336,8 @@ int64_t EntriesBound(const Context& ctx) {
 }
 
 // The samples whose weight in g (one per sample, from first) is nonzero,
-// along a Morton curve of their points (vertices, or faces' centroids):
+// along a Morton curve of their points (vertices: the geometry's order;
+// faces' centroids: sorted here):
 // neighbouring samples' rays hit neighbouring primitives, so visited in this
 // order their corners and their vertices' sums are mostly in cache. For the
 // VJP, whose exact sums do not depend on the order, and to which a sample of
@@ -345,34 +346,32 @@ int64_t EntriesBound(const Context& ctx) {
 std::vector<int32_t> VisitingOrder(const Context& ctx,
                                    absl::Span<const double> g,
                                    const ComputeControl& control) {
-  const Mesh& mesh = ctx.ev.mesh();
-  std::vector<int32_t> weighted;  // offsets from first, empty when all are.
   const int64_t count = ctx.samples - std::count(g.begin(), g.end(), 0.0);
-  if (count < ctx.samples) {
-    weighted.reserve(count);
-    for (int64_t i = 0; i < ctx.samples; ++i) {
-      if (g[i] != 0) weighted.push_back(static_cast<int32_t>(i));
+  std::vector<int32_t> order;
+  order.reserve(count);
+  if (!ctx.faces) {
+    // The geometry's own Morton order of the vertices, filtered.
+    for (int32_t v : ctx.ev.vertex_order()) {
+      const int64_t i = v - ctx.first;
+      if (i >= 0 && i < ctx.samples && g[i] != 0) {
+        order.push_back(static_cast<int32_t>(i));
+      }
     }
+    return order;
   }
-  std::vector<Vec3> points;
-  absl::Span<const Vec3> sorted;
-  if (!ctx.faces && weighted.empty()) {
-    sorted = absl::MakeConstSpan(mesh.positions).subspan(ctx.first, count);
-  } else {
-    points.resize(count);
-    for (int64_t i = 0; i < count; ++i) {
-      const int64_t p = ctx.first + (weighted.empty() ? i : weighted[i]);
-      points[i] = ctx.faces ? FaceCentroid(mesh, p) : mesh.positions[p];
-    }
-    sorted = points;
+  for (int64_t i = 0; i < ctx.samples; ++i) {
+    if (g[i] != 0) order.push_back(static_cast<int32_t>(i));
+  }
+  std::vector<Vec3> centroids(count);
+  for (int64_t k = 0; k < count; ++k) {
+    centroids[k] = FaceCentroid(ctx.ev.mesh(), ctx.first + order[k]);
   }
   tbb::task_arena arena(ThreadCount(control.threads));
-  std::vector<int32_t> order =
-      arena.execute([&] { return MortonOrder(sorted); });
-  if (!weighted.empty()) {
-    for (int32_t& i : order) i = weighted[i];
-  }
-  return order;
+  const std::vector<int32_t> morton =
+      arena.execute([&] { return MortonOrder(centroids); });
+  std::vector<int32_t> sorted(count);
+  for (int64_t k = 0; k < count; ++k) sorted[k] = order[morton[k]];
+  return sorted;
 }
 
 // The rows of the slots [begin, end) (ctx.Sample(slot) is the slot's

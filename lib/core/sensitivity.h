@@ -67,10 +67,9 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // control.progress counts them.
 // O(#V) memory (the exact sums, about 48 bytes a vertex, and the order the
 // weighted samples are visited in, 4 bytes each: along a Morton curve, for
-// the cache; while that order is made, before the sums exist, 16 bytes a
-// weighted sample more, 24 for its point when some weights are 0 or the
-// samples are faces, and 4 for its index when some weights are 0), no
-// dense matrix.
+// the cache, the geometry's vertex_order() filtered, or for face samples
+// their centroids sorted, about 48 bytes a weighted face more while that
+// order is made, before the sums exist), no dense matrix.
 // Errors: as ComputeJacobian, InvalidArgument for a wrong-size or non-finite
 // g.
 absl::StatusOr<std::vector<Vec3>> ComputeVjp(const MeshGeometry& geometry,

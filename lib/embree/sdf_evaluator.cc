@@ -225,7 +225,6 @@ absl::StatusOr<std::unique_ptr<SdfEvaluator>> SdfEvaluator::Create(
   ev->fan_traversal_ = options.fan_traversal;
   ev->rebuild_every_updates_ = options.rebuild_every_updates;
   ev->generation_ = options.generation;
-  ev->order_ = MortonOrder(ev->mesh_.positions);
   if (absl::Status s = ev->RebuildBvh(); !s.ok()) return s;
   return ev;
 }
@@ -707,14 +706,14 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::vector<int32_t> range_order;
   if (!setup->faces && !params.range.all()) {
     range_order.reserve(ns);
-    for (int32_t v : order_) {
+    for (int32_t v : vertex_order_) {
       if (v >= setup->range.begin && v < setup->range.end) {
         range_order.push_back(v);
       }
     }
   }
   const absl::Span<const int32_t> visit =
-      params.range.all() ? absl::MakeConstSpan(order_) : range_order;
+      params.range.all() ? vertex_order() : range_order;
   ControlGate gate(control, ns);
   std::atomic<int64_t> rays_traced{0}, world_frame_vertices{0},
       samples_past_ball{0}, samples_streamed{0}, samples_walked{0},

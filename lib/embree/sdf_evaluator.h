@@ -194,10 +194,6 @@ class SdfEvaluator : public MeshGeometry {
   };
   mutable std::mutex walk_choice_mu_;
   mutable WalkChoice walk_choice_;
-  // The ray pass visits vertices in this Morton order of the positions at
-  // creation (kept across updates; results stay in vertex order and do not
-  // depend on it).
-  std::vector<int32_t> order_;
 };
 
 }  // namespace meshgauge
