@@ -32,9 +32,10 @@ std::string NewIncarnation() {
 int64_t Session::EstimateBytes(int64_t vertices, int64_t faces,
                                int64_t primitives) {
   // Mesh (positions, faces, regions), topology (primitives, incidences,
-  // directions), Embree vertex/index buffers and BVH nodes (Embree's memory
-  // monitor: 41.0 MB for igea's 268,686 triangles, buffers included).
-  return vertices * (24 + 8 + 1 + 32) + faces * (20 + 4 + 12) +
+  // directions), the vertices' Morton order, Embree vertex/index buffers and
+  // BVH nodes (Embree's memory monitor: 41.0 MB for igea's 268,686
+  // triangles, buffers included).
+  return vertices * (24 + 8 + 1 + 4 + 32) + faces * (20 + 4 + 12) +
          primitives * (16 + 12 + 16 + 136);
 }
 

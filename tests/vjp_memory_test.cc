@@ -15,6 +15,7 @@
 
 #include "lib/core/sensitivity.h"
 #include "lib/core/shapes.h"
+#include "lib/core/table_allocator.h"
 #include "lib/embree/sdf_evaluator.h"
 
 namespace {
@@ -85,10 +86,14 @@ TEST(VjpMemoryTest, ManyThreadsHoldNoSlotPerVertex) {
   // samples' visiting order, 4; the two batches' rows, at 2 rays a sample,
   // and the rest: under 2 MiB. A slot per vertex per thread added 4 bytes a
   // vertex (2 MB here) for every thread that took a chunk (measured: 57 MB
-  // against 25 MB).
+  // against 25 MB). The sums' array is mapped by TableAllocator, past
+  // operator new, but under a sanitizer: counted here as the 48 bytes a
+  // vertex it holds.
+  const int64_t sums_bytes = kTableMapsLargeArrays ? 48 * nv : 0;
   const int64_t bound = 52 * nv + (int64_t{2} << 20);
-  EXPECT_LE(peak.load(), bound)
-      << "peak " << peak.load() << " bytes for " << nv << " vertices";
+  EXPECT_LE(peak.load() + sums_bytes, bound)
+      << "peak " << peak.load() << " bytes through operator new, and "
+      << sums_bytes << " mapped, for " << nv << " vertices";
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "absl/container/flat_hash_map.h"
@@ -126,6 +127,8 @@ class ExactSums {
   // huge pages, as a fresh one is made for every VJP and 4 KiB pages cost
   // about 12 us each to fault in on this project's machines.
   TableVector<Pair> pairs_;
+  // TableAllocator default-initializes: Pair's initializers zero new sums.
+  static_assert(!std::is_trivially_default_constructible_v<Pair>);
   absl::flat_hash_map<int64_t, ExactSum> spill_;
 };
 

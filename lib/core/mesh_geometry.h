@@ -49,7 +49,7 @@ class MeshGeometry {
   double mean_edge_length() const { return mean_edge_length_; }
   double bounding_box_diagonal() const { return bbox_diagonal_; }
   // Bytes of the mesh's arrays (positions, faces, regions) and of what is
-  // derived from it (topology).
+  // derived from it (topology, the vertex order).
   int64_t MeshBytes() const;
   int64_t DerivedBytes() const;
 

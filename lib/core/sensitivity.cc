@@ -341,7 +341,7 @@ int64_t EntriesBound(const Context& ctx) {
 // neighbouring samples' rays hit neighbouring primitives, so visited in this
 // order their corners and their vertices' sums are mostly in cache. For the
 // VJP, whose exact sums do not depend on the order, and to which a sample of
-// weight 0 adds nothing (a penalty's weights are 0 away from its thin
+// weight 0 adds nothing (a one-sided penalty's weights are 0 away from its thin
 // parts).
 std::vector<int32_t> VisitingOrder(const Context& ctx,
                                    absl::Span<const double> g,
@@ -382,7 +382,7 @@ struct Batch {
   std::vector<std::vector<Term>> rows;
 };
 
-// Computes the terms of every sample, a batch at a time in parallel (at
+// Computes the terms of each slot's sample, a batch at a time in parallel (at
 // most kBatch samples and, but for a single sample, kBatchEntries of their
 // rows' bounds, so that the rows' memory is bounded whatever the ray
 // count), and hands each batch to consume(batch), one batch after the
@@ -395,7 +395,11 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   if (absl::Status s = ValidateControl(control); !s.ok()) return s;
   const int64_t ns = ctx.first + ctx.slots;  // the end of the slots.
   const size_t num_rays = ctx.hits.cone.size();
-  if (ctx.slots == 0) return absl::OkStatus();
+  if (ctx.slots == 0) {  // nothing to compute (a VJP's weights all 0).
+    return control.cancelled && control.cancelled()
+               ? absl::CancelledError("sensitivity computation cancelled")
+               : absl::OkStatus();
+  }
   ControlGate gate(control, ctx.slots);
   // Double-buffered: batch[computing] is filled while the other is consumed.
   Batch batch[2];

@@ -62,8 +62,8 @@ absl::StatusOr<int64_t> JacobianBytesBound(const MeshGeometry& geometry,
 // over samples is exact and rounded once (ExactSum), so the result does not
 // depend on the thread count or on how the samples are split (a sample
 // range's partial sums, ComputeVjpSums, merged exactly give these bits).
-// Only the rows of samples with g_p != 0 are computed (a penalty's weights
-// are 0 away from its thin parts), so the time follows those samples;
+// Only the rows of samples with g_p != 0 are computed (a one-sided penalty's
+// weights are 0 away from its thin parts), so the time follows those samples;
 // control.progress counts them.
 // O(#V) memory (the exact sums, about 48 bytes a vertex, and the order the
 // weighted samples are visited in, 4 bytes each: along a Morton curve, for

@@ -1,6 +1,7 @@
 // The allocator of the hit table's large per-ray arrays (HitTable): filled
 // by the ray pass's workers, read by the sensitivities, and made anew by
-// every pass of a session, incremental ones included.
+// every pass of a session, incremental ones included; also of ExactSums'
+// sums (a VJP's: 48 bytes a vertex, made anew by every VJP).
 //  * resize() leaves new entries of trivial types uninitialized, so the
 //    workers that write the rows are the first to touch their pages, in
 //    parallel, instead of one thread zeroing the table before the pass.

@@ -19,7 +19,6 @@
 #include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
 #include "lib/core/normalized_sdf.h"
-#include "lib/core/spatial_order.h"
 #include "lib/core/stopwatch.h"
 #include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
@@ -706,7 +705,7 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   std::vector<int32_t> range_order;
   if (!setup->faces && !params.range.all()) {
     range_order.reserve(ns);
-    for (int32_t v : vertex_order_) {
+    for (int32_t v : vertex_order()) {
       if (v >= setup->range.begin && v < setup->range.end) {
         range_order.push_back(v);
       }
