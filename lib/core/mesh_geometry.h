@@ -46,6 +46,17 @@ class MeshGeometry {
   // across updates): the order the ray pass and the VJP visit them in, for
   // the cache (results do not depend on it).
   absl::Span<const int32_t> vertex_order() const { return vertex_order_; }
+  // The vertices v of [begin, end) with keep(v), in vertex_order(): a range
+  // pass's vertices, or a VJP's weighted ones.
+  template <typename Keep>
+  std::vector<int32_t> VerticesInOrder(int64_t begin, int64_t end,
+                                       Keep keep) const {
+    std::vector<int32_t> out;
+    for (int32_t v : vertex_order_) {
+      if (v >= begin && v < end && keep(v)) out.push_back(v);
+    }
+    return out;
+  }
   double mean_edge_length() const { return mean_edge_length_; }
   double bounding_box_diagonal() const { return bbox_diagonal_; }
   // Bytes of the mesh's arrays (positions, faces, regions) and of what is

@@ -117,14 +117,14 @@ struct Context {
   int64_t samples = 0;  // every vertex or face but for a range's pass.
   // The samples visited, in slots [first, first + slots): every sample in
   // sample order while `order` is empty, else slot first + i holds sample
-  // first + order[i] (a VJP's: those with a nonzero weight).
+  // order[i] (a VJP's: those with a nonzero weight).
   int64_t slots = 0;
   std::vector<int32_t> order;
 
   int64_t Sample(int64_t slot) const {
-    return order.empty() ? slot : first + order[slot - first];
+    return order.empty() ? slot : order[slot - first];
   }
-  // Visits the samples (offsets from first) in `visit` order alone.
+  // Visits the samples in `visit`, in its order, alone.
   void Visit(std::vector<int32_t> visit) {
     order = std::move(visit);
     slots = std::ssize(order);
@@ -337,41 +337,33 @@ int64_t EntriesBound(const Context& ctx) {
 
 // The samples whose weight in g (one per sample, from first) is nonzero,
 // along a Morton curve of their points (vertices: the geometry's order;
-// faces' centroids: sorted here):
-// neighbouring samples' rays hit neighbouring primitives, so visited in this
-// order their corners and their vertices' sums are mostly in cache. For the
-// VJP, whose exact sums do not depend on the order, and to which a sample of
-// weight 0 adds nothing (a one-sided penalty's weights are 0 away from its thin
-// parts).
+// faces' centroids: sorted here): neighbouring samples' rays hit
+// neighbouring primitives, so visited in this order their corners and their
+// vertices' sums are mostly in cache. For the VJP, whose exact sums do not
+// depend on the order, and to which a sample of weight 0 adds nothing (a
+// one-sided penalty's weights are 0 away from its thin parts).
 std::vector<int32_t> VisitingOrder(const Context& ctx,
                                    absl::Span<const double> g,
                                    const ComputeControl& control) {
-  const int64_t count = ctx.samples - std::count(g.begin(), g.end(), 0.0);
-  std::vector<int32_t> order;
-  order.reserve(count);
+  const int64_t first = ctx.first;
+  auto weighted = [&](int64_t p) { return g[p - first] != 0; };
   if (!ctx.faces) {
-    // The geometry's own Morton order of the vertices, filtered.
-    for (int32_t v : ctx.ev.vertex_order()) {
-      const int64_t i = v - ctx.first;
-      if (i >= 0 && i < ctx.samples && g[i] != 0) {
-        order.push_back(static_cast<int32_t>(i));
-      }
-    }
-    return order;
+    return ctx.ev.VerticesInOrder(first, first + ctx.samples, weighted);
   }
-  for (int64_t i = 0; i < ctx.samples; ++i) {
-    if (g[i] != 0) order.push_back(static_cast<int32_t>(i));
+  std::vector<int32_t> faces;
+  for (int64_t f = first; f < first + ctx.samples; ++f) {
+    if (weighted(f)) faces.push_back(static_cast<int32_t>(f));
   }
-  std::vector<Vec3> centroids(count);
-  for (int64_t k = 0; k < count; ++k) {
-    centroids[k] = FaceCentroid(ctx.ev.mesh(), ctx.first + order[k]);
+  std::vector<Vec3> centroids(faces.size());
+  for (size_t k = 0; k < faces.size(); ++k) {
+    centroids[k] = FaceCentroid(ctx.ev.mesh(), faces[k]);
   }
   tbb::task_arena arena(ThreadCount(control.threads));
   const std::vector<int32_t> morton =
       arena.execute([&] { return MortonOrder(centroids); });
-  std::vector<int32_t> sorted(count);
-  for (int64_t k = 0; k < count; ++k) sorted[k] = order[morton[k]];
-  return sorted;
+  std::vector<int32_t> order(faces.size());
+  for (size_t k = 0; k < faces.size(); ++k) order[k] = faces[morton[k]];
+  return order;
 }
 
 // The rows of the slots [begin, end) (ctx.Sample(slot) is the slot's

@@ -704,12 +704,8 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
   // A vertex range's vertices in the pass's Morton order.
   std::vector<int32_t> range_order;
   if (!setup->faces && !params.range.all()) {
-    range_order.reserve(ns);
-    for (int32_t v : vertex_order()) {
-      if (v >= setup->range.begin && v < setup->range.end) {
-        range_order.push_back(v);
-      }
-    }
+    range_order = VerticesInOrder(setup->range.begin, setup->range.end,
+                                  [](int32_t) { return true; });
   }
   const absl::Span<const int32_t> visit =
       params.range.all() ? vertex_order() : range_order;
