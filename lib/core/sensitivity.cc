@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <optional>
@@ -14,6 +15,7 @@
 #include "lib/core/control_gate.h"
 #include "lib/core/face_sample.h"
 #include "lib/core/hit.h"
+#include "lib/core/hit_batch.h"
 #include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
 #include "lib/core/spatial_order.h"
@@ -56,23 +58,26 @@ class Row {
     // Entries of earlier rows hold older stamps: nothing to erase.
     if (++stamp_ == 0) {
       std::fill(index_.begin(), index_.end(), 0);
+      for (Memo& m : memo_) m.stamp = 0;
       stamp_ = 1;
     }
   }
-  void Add(int32_t vertex, const Vec3& d) {
-    if (2 * (terms_.size() + 1) > index_.size()) Grow();
-    for (size_t h = Hash(vertex);; h = (h + 1) & mask_) {
-      const uint64_t entry = index_[h];
-      if (entry >> 32 != stamp_) {
-        index_[h] = Entry(terms_.size());
-        terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
-        return;
-      }
-      Term& t = terms_[static_cast<uint32_t>(entry)];
-      if (t.vertex == vertex) {
-        t.d += d;
-        return;
-      }
+  void Add(int32_t vertex, const Vec3& d) { (void)AddAt(vertex, d); }
+  // As Add(prim.v[j], corner(j)) for each corner j of primitive `id` in
+  // turn: a primitive met before in this row finds its entries without a
+  // search (the rays of a sample often hit the same primitive).
+  template <typename Corner>
+  void AddCorners(int32_t id, const Primitive& prim, Corner corner) {
+    Memo& m = memo_[static_cast<uint32_t>(id) & (kMemo - 1)];
+    if (m.stamp == stamp_ && m.id == id) {
+      for (int j = 0; j < 3 && prim.v[j] >= 0; ++j)
+        terms_[m.at[j]].d += corner(j);
+      return;
+    }
+    m.stamp = stamp_;
+    m.id = id;
+    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
+      m.at[j] = AddAt(prim.v[j], corner(j));
     }
   }
   // Swaps the terms into `out`: the row keeps out's storage for the next
@@ -80,6 +85,24 @@ class Row {
   void TakeTerms(std::vector<Term>& out) { terms_.swap(out); }
 
  private:
+  uint32_t AddAt(int32_t vertex, const Vec3& d) {
+    if (2 * (terms_.size() + 1) > index_.size()) Grow();
+    for (size_t h = Hash(vertex);; h = (h + 1) & mask_) {
+      const uint64_t entry = index_[h];
+      if (entry >> 32 != stamp_) {
+        const auto at = static_cast<uint32_t>(terms_.size());
+        index_[h] = Entry(at);
+        terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
+        return at;
+      }
+      const auto at = static_cast<uint32_t>(entry);
+      Term& t = terms_[at];
+      if (t.vertex == vertex) {
+        t.d += d;
+        return at;
+      }
+    }
+  }
   uint64_t Entry(size_t term) const {
     return uint64_t{stamp_} << 32 | static_cast<uint32_t>(term);
   }
@@ -99,6 +122,15 @@ class Row {
     }
   }
 
+  // Where the entries of a primitive's corners are, by its index modulo
+  // kMemo (AddCorners).
+  static constexpr size_t kMemo = 64;
+  struct Memo {
+    uint32_t stamp = 0;
+    int32_t id = -1;
+    uint32_t at[3];
+  };
+  std::array<Memo, kMemo> memo_{};
   std::vector<Term> terms_;
   // Open addressing by vertex: the row's stamp (high 32 bits) and the
   // term's position in terms_; an entry with another stamp is free.
@@ -139,10 +171,8 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
 
 // Adds the terms dSDF_p/dx_j of sample p (a vertex, or a face's centroid)
 // to `terms` (cleared first). Leaves it empty when p has no value.
-void SampleTerms(const Context& ctx, int64_t p, Row& terms,
-                 std::vector<uint8_t>& kept,
-                 std::vector<PrimitiveCorners>& corners,
-                 std::vector<HitGeometry>& geo) {
+void SampleTerms(const Context& ctx, int64_t p, Row& terms, HitBatch& batch,
+                 std::vector<int>& rays) {
   terms.Clear();
   const MeshGeometry& ev = ctx.ev;
   const Mesh& mesh = ev.mesh();
@@ -166,40 +196,44 @@ void SampleTerms(const Context& ctx, int64_t p, Row& terms,
   // The kept set is frozen in the hit table (SPEC §6): only kept rays are
   // evaluated, in double precision, at the current positions.
   const auto kept_row = ctx.hits.KeptRow(p);
-  // The kept rays' primitives' corners first, in a loop of loads alone:
-  // their cache misses overlap, which they hardly do in the long loop
-  // below.
+  // The kept rays' primitives' corners and directions first, in a loop of
+  // loads alone: their cache misses overlap, which they hardly do in the
+  // long loop below. The hits are then evaluated four at a time
+  // (hit_batch.h: EvaluateHit's bits).
+  batch.Reset(num_rays);
+  rays.clear();
+  PrimitiveCorners corners;
   for (int k = 0; k < num_rays; ++k) {
-    kept[k] = kept_row[k];
-    if (kept[k]) LoadCorners(mesh, topo.primitives[row[k]], &corners[k]);
+    if (!kept_row[k]) continue;
+    LoadCorners(mesh, topo.primitives[row[k]], &corners);
+    batch.Add(corners, RayDirection(vc.frame, cone[k]), cone[k].weight);
+    rays.push_back(k);
   }
+  batch.Evaluate(x);
+  // A kept ray without a hit cannot happen at the positions of the ray
+  // pass; after a move the table's generation no longer matches
+  // (MakeContext rejects it).
   double weight_sum = 0;
-  for (int k = 0; k < num_rays; ++k) {
-    if (!kept[k]) continue;
-    if (!EvaluateHit(corners[k], x, RayDirection(vc.frame, cone[k]), &geo[k])) {
-      // Cannot happen at the positions of the ray pass; after a move the
-      // table's generation no longer matches (MakeContext rejects it).
-      kept[k] = 0;
-      continue;
-    }
-    weight_sum += cone[k].weight;
+  for (int i = 0; i < batch.size(); ++i) {
+    if (batch.ok(i)) weight_sum += cone[rays[i]].weight;
   }
   if (weight_sum == 0) return;
+  batch.Weigh(weight_sum);
   Vec3 d_origin, g_u, g_v, g_a;
-  for (int k = 0; k < num_rays; ++k) {
-    if (!kept[k]) continue;
-    const HitGeometry& h = geo[k];
-    const double c = cone[k].weight / weight_sum;
-    const Vec3 dt_dx = h.m * (c / h.d_dot_m);  // c * m / (d.m)
+  for (int i = 0; i < batch.size(); ++i) {
+    if (!batch.ok(i)) continue;
+    const ConeRay& ray = cone[rays[i]];
+    const HitGeometry h = batch.hit(i);
+    // c * m / (d.m), c = weight / weight_sum.
+    const Vec3 dt_dx = h.m * batch.scale(i);
     d_origin -= dt_dx;
-    const Primitive& prim = topo.primitives[row[k]];
-    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
-      terms.Add(prim.v[j], dt_dx * h.lambda[j]);
-    }
+    const int32_t id = row[rays[i]];
+    terms.AddCorners(id, topo.primitives[id],
+                     [&](int j) { return dt_dx * h.lambda[j]; });
     const Vec3 g_d = dt_dx * (-h.t);  // c * dt/dd
-    g_u += g_d * cone[k].local.x;
-    g_v += g_d * cone[k].local.y;
-    g_a += g_d * cone[k].local.z;
+    g_u += g_d * ray.local.x;
+    g_v += g_d * ray.local.y;
+    g_a += g_d * ray.local.z;
   }
   // Direction -> frame -> (axis, reference edge e = x_q - x_p); the axis
   // -> n -> N.
@@ -408,9 +442,9 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
     tbb::parallel_for(
         tbb::blocked_range<int64_t>(b.begin, b.end, 64),
         [&](const tbb::blocked_range<int64_t>& r) {
-          std::vector<uint8_t> kept(num_rays);
-          std::vector<PrimitiveCorners> corners(num_rays);
-          std::vector<HitGeometry> geo(num_rays);
+          HitBatch batch;
+          std::vector<int> rays;
+          rays.reserve(num_rays);
           std::optional<Row>& row =
               thread_rows[tbb::this_task_arena::current_thread_index()].row;
           if (!row) row.emplace();
@@ -422,7 +456,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
               PrefetchPrimitives(ctx, ctx.Sample(slot + 2));
             }
             if (slot + 1 < r.end()) PrefetchCorners(ctx, ctx.Sample(slot + 1));
-            SampleTerms(ctx, ctx.Sample(slot), *row, kept, corners, geo);
+            SampleTerms(ctx, ctx.Sample(slot), *row, batch, rays);
             row->TakeTerms(b.rows[slot - b.begin]);
           }
         });
