@@ -1,5 +1,7 @@
 #include "lib/core/mesh_geometry.h"
 
+#include <tbb/parallel_invoke.h>
+
 #include "lib/core/spatial_order.h"
 
 namespace meshgauge {
@@ -7,9 +9,12 @@ namespace meshgauge {
 absl::Status MeshGeometry::Init(Mesh mesh) {
   if (absl::Status s = ValidateMesh(mesh); !s.ok()) return s;
   mesh_ = std::move(mesh);
-  topo_ = MeshTopology::Build(mesh_);
-  vertex_order_ = MortonOrder(mesh_.positions);
-  RefreshDerivedGeometry();
+  // Three reads of the mesh into separate members, side by side (the
+  // topology's build is serial: a tenth of a second beside the Morton
+  // order's sort and the edge lengths on a million vertices).
+  tbb::parallel_invoke([&] { topo_ = MeshTopology::Build(mesh_); },
+                       [&] { vertex_order_ = MortonOrder(mesh_.positions); },
+                       [&] { RefreshDerivedGeometry(); });
   return absl::OkStatus();
 }
 
