@@ -45,12 +45,13 @@ struct Term {
 
 // A sample's row of the Jacobian, summed per vertex as its terms arrive
 // (entries in the order of each vertex's first term, each the sum of its
-// terms in arrival order). A sample's rays hit few primitives, so the row
-// holds far fewer entries than its rays have corners. One per thread slot
-// of the computation's arena, kept across samples. A vertex's entry is
-// found through a small open-addressing index sized to the row (at least
-// 256 entries, twice the row's), not a slot per vertex of the mesh, which
-// held 4 bytes a vertex per thread (VjpMemoryTest).
+// terms in arrival order). On coarse meshes a sample's rays hit few
+// primitives, many times each; on fine ones nearly every ray hits its own
+// (docs/sensitivities.md). One per thread slot of the computation's arena,
+// kept across samples. A vertex's entry is found through a small
+// open-addressing index sized to the row (at least 256 entries, twice the
+// row's), not a slot per vertex of the mesh, which held 4 bytes a vertex
+// per thread (VjpMemoryTest).
 class Row {
  public:
   void Clear() {
@@ -65,13 +66,15 @@ class Row {
   void Add(int32_t vertex, const Vec3& d) { (void)AddAt(vertex, d); }
   // As Add(prim.v[j], corner(j)) for each corner j of primitive `id` in
   // turn: a primitive met before in this row finds its entries without a
-  // search (the rays of a sample often hit the same primitive).
+  // search (on coarse meshes most of a sample's rays hit a primitive an
+  // earlier one hit).
   template <typename Corner>
   void AddCorners(int32_t id, const Primitive& prim, Corner corner) {
     Memo& m = memo_[static_cast<uint32_t>(id) & (kMemo - 1)];
     if (m.stamp == stamp_ && m.id == id) {
-      for (int j = 0; j < 3 && prim.v[j] >= 0; ++j)
+      for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
         terms_[m.at[j]].d += corner(j);
+      }
       return;
     }
     m.stamp = stamp_;
@@ -85,6 +88,7 @@ class Row {
   void TakeTerms(std::vector<Term>& out) { terms_.swap(out); }
 
  private:
+  // Add, returning the entry's place in terms_ (fixed until Clear).
   uint32_t AddAt(int32_t vertex, const Vec3& d) {
     if (2 * (terms_.size() + 1) > index_.size()) Grow();
     for (size_t h = Hash(vertex);; h = (h + 1) & mask_) {
