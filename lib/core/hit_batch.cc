@@ -15,6 +15,11 @@ namespace {
 typedef double V __attribute__((vector_size(32)));
 typedef int64_t Mask __attribute__((vector_size(32)));
 
+// Three of them: a vector of each lane's ray.
+struct V3 {
+  V x, y, z;
+};
+
 // Lanes [i, i + 4) of the batch's array `array` (A(array) + i). By
 // reference, not by value: a V passed or returned by value in the baseline
 // build would change the calling convention (GCC's -Wpsabi).
@@ -28,59 +33,76 @@ struct Lanes {
   [[gnu::always_inline]] void Store(int array, const V& v) const {
     std::memcpy(base + array * stride + i, &v, sizeof v);
   }
+  // A Vec3's three arrays, from `first`.
+  [[gnu::always_inline]] void Load(V3& v, int first) const {
+    Load(v.x, first);
+    Load(v.y, first + 1);
+    Load(v.z, first + 2);
+  }
+  [[gnu::always_inline]] void Store(int first, const V3& v) const {
+    Store(first, v.x);
+    Store(first + 1, v.y);
+    Store(first + 2, v.z);
+  }
 };
+
+// Vec3's operator-, Cross and Dot (vec3.h) lane by lane, in their order.
+[[gnu::always_inline]] inline void Sub(const V3& a, const V3& b, V3& out) {
+  out = {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+[[gnu::always_inline]] inline void Cross(const V3& a, const V3& b, V3& out) {
+  out = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+[[gnu::always_inline]] inline void Dot(const V3& a, const V3& b, V& out) {
+  out = a.x * b.x + a.y * b.y + a.z * b.z;
+}
 
 using B = HitBatch;
 
 // EvaluateHit (hit.h) on four lanes, operation for operation.
 [[gnu::always_inline]] inline void EvaluateFour(const Lanes& l, const Vec3& x,
                                                 uint8_t* ok) {
-  V ax, ay, az, bx, by, bz, cx, cy, cz, dx, dy, dz;
-  l.Load(ax, B::kAX);
-  l.Load(ay, B::kAY);
-  l.Load(az, B::kAZ);
-  l.Load(bx, B::kBX);
-  l.Load(by, B::kBY);
-  l.Load(bz, B::kBZ);
-  l.Load(cx, B::kCX);
-  l.Load(cy, B::kCY);
-  l.Load(cz, B::kCZ);
-  l.Load(dx, B::kDX);
-  l.Load(dy, B::kDY);
-  l.Load(dz, B::kDZ);
-  // m = Cross(b - a, c - a).
-  const V abx = bx - ax, aby = by - ay, abz = bz - az;
-  const V acx = cx - ax, acy = cy - ay, acz = cz - az;
-  const V mx = aby * acz - abz * acy;
-  const V my = abz * acx - abx * acz;
-  const V mz = abx * acy - aby * acx;
-  // d . m, t = ((a - x) . m) / (d . m).
-  const V dm = dx * mx + dy * my + dz * mz;
-  const V t = ((ax - x.x) * mx + (ay - x.y) * my + (az - x.z) * mz) / dm;
-  // ah = (x + d t) - a; lambda from Cross(ah, ac) . m and Cross(ab, ah) . m
-  // over m . m.
-  const V ahx = (x.x + dx * t) - ax;
-  const V ahy = (x.y + dy * t) - ay;
-  const V ahz = (x.z + dz * t) - az;
-  const V mm = mx * mx + my * my + mz * mz;
-  const V beta = ((ahy * acz - ahz * acy) * mx + (ahz * acx - ahx * acz) * my +
-                  (ahx * acy - ahy * acx) * mz) /
-                 mm;
-  const V gamma = ((aby * ahz - abz * ahy) * mx + (abz * ahx - abx * ahz) * my +
-                   (abx * ahy - aby * ahx) * mz) /
-                  mm;
+  V3 a, b, c, d;
+  l.Load(a, B::kAX);
+  l.Load(b, B::kBX);
+  l.Load(c, B::kCX);
+  l.Load(d, B::kDX);
+  // x in every lane (not 0 + x, which would turn -0 into +0).
+  const V3 xs = {
+      {x.x, x.x, x.x, x.x}, {x.y, x.y, x.y, x.y}, {x.z, x.z, x.z, x.z}};
+  // m = Cross(b - a, c - a), d . m, t = ((a - x) . m) / (d . m).
+  V3 ab, ac, m, ax;
+  Sub(b, a, ab);
+  Sub(c, a, ac);
+  Cross(ab, ac, m);
+  V dm, am;
+  Dot(d, m, dm);
+  Sub(a, xs, ax);
+  Dot(ax, m, am);
+  const V t = am / dm;
+  // ah = (x + d t) - a; beta = (Cross(ah, ac) . m) / (m . m), gamma =
+  // (Cross(ab, ah) . m) / (m . m).
+  const V3 hit = {xs.x + d.x * t, xs.y + d.y * t, xs.z + d.z * t};
+  V3 ah, n_beta, n_gamma;
+  Sub(hit, a, ah);
+  Cross(ah, ac, n_beta);
+  Cross(ab, ah, n_gamma);
+  V mm, beta, gamma;
+  Dot(m, m, mm);
+  Dot(n_beta, m, beta);
+  Dot(n_gamma, m, gamma);
+  beta /= mm;
+  gamma /= mm;
   l.Store(B::kT, t);
-  l.Store(B::kMX, mx);
-  l.Store(B::kMY, my);
-  l.Store(B::kMZ, mz);
+  l.Store(B::kMX, m);
   l.Store(B::kDotM, dm);
   l.Store(B::kL0, (1 - beta) - gamma);
   l.Store(B::kL1, beta);
   l.Store(B::kL2, gamma);
   // t > 0 and finite (NaN compares false).
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  const Mask hit = (t > 0) & (t < kInf);
-  for (int k = 0; k < 4; ++k) ok[l.i + k] = hit[k] != 0;
+  const Mask positive = (t > 0) & (t < kInf);
+  for (int k = 0; k < 4; ++k) ok[l.i + k] = positive[k] != 0;
 }
 
 // The scale of HitBatch::Weigh on four lanes.
