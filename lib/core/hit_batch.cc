@@ -114,26 +114,43 @@ using B = HitBatch;
   l.Store(B::kScale, (weight / weight_sum) / dm);
 }
 
-__attribute__((target("avx"))) void EvaluateAvx(double* base, size_t stride,
-                                                int n, const Vec3& x,
-                                                uint8_t* ok) {
-  for (int i = 0; i < n; i += 4) EvaluateFour({base, stride, i}, x, ok);
-}
-void EvaluateBaseline(double* base, size_t stride, int n, const Vec3& x,
-                      uint8_t* ok) {
-  for (int i = 0; i < n; i += 4) EvaluateFour({base, stride, i}, x, ok);
-}
-__attribute__((target("avx"))) void WeighAvx(double* base, size_t stride, int n,
-                                             double weight_sum) {
-  for (int i = 0; i < n; i += 4) WeighFour({base, stride, i}, weight_sum);
-}
-void WeighBaseline(double* base, size_t stride, int n, double weight_sum) {
-  for (int i = 0; i < n; i += 4) WeighFour({base, stride, i}, weight_sum);
+// One pass over the lanes [0, n): Evaluate's or Weigh's.
+struct Job {
+  double* base;
+  size_t stride;
+  int n;
+  bool weigh;
+  Vec3 x;
+  double weight_sum;
+  uint8_t* ok;
+};
+
+[[gnu::always_inline]] inline void RunLanes(const Job& job) {
+  for (int i = 0; i < job.n; i += 4) {
+    const Lanes l{job.base, job.stride, i};
+    if (job.weigh) {
+      WeighFour(l, job.weight_sum);
+    } else {
+      EvaluateFour(l, job.x, job.ok);
+    }
+  }
 }
 
-bool HasAvx() {
-  static const bool avx = __builtin_cpu_supports("avx");
-  return avx;
+#if defined(__x86_64__)
+__attribute__((target("avx"))) void RunAvx(const Job& job) { RunLanes(job); }
+#endif
+void RunBaseline(const Job& job) { RunLanes(job); }
+
+// In AVX registers when `avx` and the CPU has them, else in the baseline's.
+void Run(bool avx, const Job& job) {
+#if defined(__x86_64__)
+  static const bool has_avx = __builtin_cpu_supports("avx");
+  if (avx && has_avx) {
+    RunAvx(job);
+    return;
+  }
+#endif
+  RunBaseline(job);
 }
 
 }  // namespace
@@ -168,19 +185,12 @@ void HitBatch::Evaluate(const Vec3& x) {
   }
   // Every lane in vectors, the padding's included (its results are not
   // read), so that a ray's bits do not depend on its place in the batch.
-  if (avx_ && HasAvx()) {
-    EvaluateAvx(buf_.data(), stride_, n_, x, ok_.data());
-  } else {
-    EvaluateBaseline(buf_.data(), stride_, n_, x, ok_.data());
-  }
+  Run(avx_, {buf_.data(), stride_, n_, /*weigh=*/false, x, 0, ok_.data()});
 }
 
 void HitBatch::Weigh(double weight_sum) {
-  if (avx_ && HasAvx()) {
-    WeighAvx(buf_.data(), stride_, n_, weight_sum);
-  } else {
-    WeighBaseline(buf_.data(), stride_, n_, weight_sum);
-  }
+  Run(avx_,
+      {buf_.data(), stride_, n_, /*weigh=*/true, {}, weight_sum, ok_.data()});
 }
 
 }  // namespace meshgauge

@@ -21,8 +21,8 @@ namespace meshgauge {
 
 class HitBatch {
  public:
-  // `avx`: evaluate in AVX registers where the CPU has them (false: in
-  // SSE2 pairs, the path of CPUs without; for tests).
+  // `avx`: compute in AVX registers where the CPU has them (x86-64; false:
+  // in the baseline's, SSE2 pairs, as on CPUs without; for tests).
   explicit HitBatch(bool avx = true) : avx_(avx) {}
 
   // Empties the batch, with room for `capacity` rays (kept across samples).
