@@ -2,16 +2,18 @@
 
 #include <gtest/gtest.h>
 
-#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <random>
 #include <vector>
 
 #include "lib/core/hit.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
+
+using testing::Bits;
 
 struct Ray {
   PrimitiveCorners pc;
@@ -58,8 +60,6 @@ std::vector<Ray> RandomRays(const Vec3& x, int n, uint32_t seed) {
   return rays;
 }
 
-uint64_t Bits(double v) { return std::bit_cast<uint64_t>(v); }
-
 // Every field EvaluateHit writes, bit for bit (lambda only with a hit:
 // EvaluateHit stops before it otherwise), and with a hit SampleTerms'
 // scale (weight / weight_sum) / (d . m) once the batch is weighed.
@@ -83,37 +83,61 @@ void ExpectEvaluateHitsBits(const HitBatch& batch, int i, const Ray& r,
   EXPECT_EQ(Bits(batch.scale(i)), Bits(c / want.d_dot_m)) << "ray " << i;
 }
 
+// Rays whose distance is exactly a boundary case: d . m == 0 with the
+// origin off the plane (t infinite) and on it (t NaN), the origin on the
+// triangle (t = 0), and coordinates of -0 (kept by the lanes, whose x is
+// not 0 + x).
+std::vector<Ray> EdgeCaseRays(const Vec3& x) {
+  const Vec3 a = x + Vec3{-1, -1, 2}, b = x + Vec3{3, -1, 2},
+             c = x + Vec3{-1, 3, 2};
+  std::vector<Ray> rays;
+  rays.push_back({{a, b, c}, {1, 0, 0}});  // along the plane z = x.z + 2
+  rays.push_back({{x + Vec3{-1, -1, 0}, x + Vec3{3, -1, 0}, x + Vec3{-1, 3, 0}},
+                  {0, 1, 0}});  // along a plane through x: 0 / 0
+  rays.push_back({{x + Vec3{-1, -1, 0}, x + Vec3{3, -1, 0}, x + Vec3{-1, 3, 0}},
+                  {0, 0, 1}});  // from a point of the triangle: t = 0
+  rays.push_back({{{-0.0, -1, 1}, {-0.0, 1, 1}, {1, -0.0, 1}}, {0, 0, 1}});
+  rays.push_back({{a, b, c}, {0, 0, 1}});  // a plain hit
+  return rays;
+}
+
 void ExpectBatchesAreEvaluateHitsBits(bool avx) {
-  const Vec3 x{0.1, -0.25, 0.3};
-  const std::vector<Ray> rays = RandomRays(x, 4000, 7);
-  int hits = 0;
-  HitBatch batch(avx);
-  // Batches of every size up to 13 (padding lanes in every position), the
-  // same object reused from larger to smaller.
-  for (size_t first = 0, size = 13; first < rays.size(); first += size) {
-    size = 1 + (first * 7 + 5) % 13;
-    const int n = static_cast<int>(std::min(size, rays.size() - first));
-    batch.Reset(n);
-    double weight_sum = 0;
-    for (int i = 0; i < n; ++i) {
-      const Ray& r = rays[first + i];
-      batch.Add(r.pc, r.d, r.weight);
-      weight_sum += r.weight;
+  for (const Vec3 x : {Vec3{0.1, -0.25, 0.3}, Vec3{-0.0, 0.0, -0.0}}) {
+    std::vector<Ray> rays = RandomRays(x, 4000, 7);
+    const std::vector<Ray> edge = EdgeCaseRays(x);
+    for (size_t i = 0; i < edge.size(); ++i) rays[97 * i + 5] = edge[i];
+    int hits = 0;
+    HitBatch batch(avx);
+    // Batches of every size from 1 to 13 (padding lanes in every
+    // position), the same object reused from larger to smaller.
+    for (size_t first = 0, k = 0; first < rays.size(); ++k) {
+      const int n = static_cast<int>(std::min(1 + k % 13, rays.size() - first));
+      batch.Reset(n);
+      double weight_sum = 0;
+      for (int i = 0; i < n; ++i) {
+        const Ray& r = rays[first + i];
+        batch.Add(r.pc, r.d, r.weight);
+        weight_sum += r.weight;
+      }
+      batch.Evaluate(x);
+      batch.Weigh(weight_sum);
+      ASSERT_EQ(batch.size(), n);
+      for (int i = 0; i < n; ++i) {
+        ExpectEvaluateHitsBits(batch, i, rays[first + i], x, weight_sum);
+        hits += batch.ok(i);
+      }
+      first += n;
     }
-    batch.Evaluate(x);
-    batch.Weigh(weight_sum);
-    ASSERT_EQ(batch.size(), n);
-    for (int i = 0; i < n; ++i) {
-      ExpectEvaluateHitsBits(batch, i, rays[first + i], x, weight_sum);
-      hits += batch.ok(i);
-    }
+    // Both kinds were seen.
+    EXPECT_GT(hits, 1000);
+    EXPECT_LT(hits, 3900);
   }
-  // Both kinds were seen.
-  EXPECT_GT(hits, 1000);
-  EXPECT_LT(hits, 3900);
 }
 
 TEST(HitBatchTest, EveryRayGetsTheScalarBitsInAvxRegisters) {
+#if defined(__x86_64__)
+  if (!__builtin_cpu_supports("avx")) GTEST_SKIP() << "no AVX on this CPU";
+#endif
   ExpectBatchesAreEvaluateHitsBits(/*avx=*/true);
 }
 
@@ -128,6 +152,7 @@ TEST(HitBatchTest, SegmentsGetEvaluateHitsBits) {
   HitBatch batch;
   batch.Reset(50);
   std::vector<Ray> rays;
+  double weight_sum = 0;
   for (int i = 0; i < 50; ++i) {
     Ray r;
     r.pc.a = {u(rng), u(rng), 0};
@@ -135,11 +160,16 @@ TEST(HitBatchTest, SegmentsGetEvaluateHitsBits) {
     r.pc.segment = true;
     r.d = Unit((r.pc.a + r.pc.b) / 2 - x + Vec3{u(rng), u(rng), 0} * 0.1);
     if (i % 5 == 0) r.d = -r.d;
+    r.weight = 1 + i % 3;
     rays.push_back(r);
-    batch.Add(r.pc, r.d, 1);
+    batch.Add(r.pc, r.d, r.weight);
+    weight_sum += r.weight;
   }
   batch.Evaluate(x);
-  for (int i = 0; i < 50; ++i) ExpectEvaluateHitsBits(batch, i, rays[i], x);
+  batch.Weigh(weight_sum);
+  for (int i = 0; i < 50; ++i) {
+    ExpectEvaluateHitsBits(batch, i, rays[i], x, weight_sum);
+  }
 }
 
 }  // namespace

@@ -2,7 +2,9 @@
 #pragma once
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -34,6 +36,9 @@ inline bool SameBits(const std::vector<double>& a,
          (a.empty() ||
           std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
+
+// A double's bits (EXPECT_EQ on them tells NaNs and signed zeros apart).
+inline uint64_t Bits(double v) { return std::bit_cast<uint64_t>(v); }
 
 inline bool SameBits(const std::vector<Vec3>& a, const std::vector<Vec3>& b) {
   return a.size() == b.size() &&

@@ -1,6 +1,7 @@
-// Compiled with -ffp-contract=off (lib/CMakeLists.txt): a build for a CPU
-// with fused multiply-add must not fuse the lanes' products and sums, which
-// EvaluateHit's do not fuse under the project's baseline flags.
+// Compiled with -ffp-contract=off (lib/CMakeLists.txt): the lanes' products
+// and sums are never fused, as EvaluateHit's are not where the target has no
+// fused multiply-add (x86-64's baseline; on other targets, or with -mfma,
+// the lanes take EvaluateHit itself: kLanesAreEvaluateHit).
 #include "lib/core/hit_batch.h"
 
 #include <cstring>
@@ -9,37 +10,45 @@
 namespace meshgauge {
 namespace {
 
+// Whether the vector lanes give EvaluateHit's bits: only where the compiler
+// cannot fuse EvaluateHit's products and sums (GCC fuses by default where
+// the target has FMA).
+#if defined(__x86_64__) && !defined(__FMA__)
+constexpr bool kLanesAreEvaluateHit = true;
+#else
+constexpr bool kLanesAreEvaluateHit = false;
+#endif
+
 // Four doubles, one per ray (GCC's and clang's vector extension: AVX
 // registers where the function is built for AVX, pairs of SSE2 registers
 // otherwise).
-typedef double V __attribute__((vector_size(32)));
-typedef int64_t Mask __attribute__((vector_size(32)));
+using V4 = double __attribute__((vector_size(32)));
 
-// Three of them: a vector of each lane's ray.
-struct V3 {
-  V x, y, z;
+// A 3-vector of each lane's ray.
+struct V3x4 {
+  V4 x, y, z;
 };
 
 // Lanes [i, i + 4) of the batch's array `array` (A(array) + i). By
-// reference, not by value: a V passed or returned by value in the baseline
+// reference, not by value: a V4 passed or returned by value in the baseline
 // build would change the calling convention (GCC's -Wpsabi).
 struct Lanes {
   double* base;
   size_t stride;
   int i;
-  [[gnu::always_inline]] void Load(V& v, int array) const {
+  [[gnu::always_inline]] void Load(V4& v, int array) const {
     std::memcpy(&v, base + array * stride + i, sizeof v);
   }
-  [[gnu::always_inline]] void Store(int array, const V& v) const {
+  [[gnu::always_inline]] void Store(int array, const V4& v) const {
     std::memcpy(base + array * stride + i, &v, sizeof v);
   }
   // A Vec3's three arrays, from `first`.
-  [[gnu::always_inline]] void Load(V3& v, int first) const {
+  [[gnu::always_inline]] void Load(V3x4& v, int first) const {
     Load(v.x, first);
     Load(v.y, first + 1);
     Load(v.z, first + 2);
   }
-  [[gnu::always_inline]] void Store(int first, const V3& v) const {
+  [[gnu::always_inline]] void Store(int first, const V3x4& v) const {
     Store(first, v.x);
     Store(first + 1, v.y);
     Store(first + 2, v.z);
@@ -47,71 +56,71 @@ struct Lanes {
 };
 
 // Vec3's operator-, Cross and Dot (vec3.h) lane by lane, in their order.
-[[gnu::always_inline]] inline void Sub(const V3& a, const V3& b, V3& out) {
+[[gnu::always_inline]] inline void Sub(const V3x4& a, const V3x4& b,
+                                       V3x4& out) {
   out = {a.x - b.x, a.y - b.y, a.z - b.z};
 }
-[[gnu::always_inline]] inline void Cross(const V3& a, const V3& b, V3& out) {
+[[gnu::always_inline]] inline void Cross(const V3x4& a, const V3x4& b,
+                                         V3x4& out) {
   out = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-[[gnu::always_inline]] inline void Dot(const V3& a, const V3& b, V& out) {
+[[gnu::always_inline]] inline void Dot(const V3x4& a, const V3x4& b, V4& out) {
   out = a.x * b.x + a.y * b.y + a.z * b.z;
 }
-
-using B = HitBatch;
 
 // EvaluateHit (hit.h) on four lanes, operation for operation.
 [[gnu::always_inline]] inline void EvaluateFour(const Lanes& l, const Vec3& x,
                                                 uint8_t* ok) {
-  V3 a, b, c, d;
-  l.Load(a, B::kAX);
-  l.Load(b, B::kBX);
-  l.Load(c, B::kCX);
-  l.Load(d, B::kDX);
+  V3x4 a, b, c, d;
+  l.Load(a, HitBatch::kAX);
+  l.Load(b, HitBatch::kBX);
+  l.Load(c, HitBatch::kCX);
+  l.Load(d, HitBatch::kDX);
   // x in every lane (not 0 + x, which would turn -0 into +0).
-  const V3 xs = {
+  const V3x4 xs = {
       {x.x, x.x, x.x, x.x}, {x.y, x.y, x.y, x.y}, {x.z, x.z, x.z, x.z}};
   // m = Cross(b - a, c - a), d . m, t = ((a - x) . m) / (d . m).
-  V3 ab, ac, m, ax;
+  V3x4 ab, ac, m, ax;
   Sub(b, a, ab);
   Sub(c, a, ac);
   Cross(ab, ac, m);
-  V dm, am;
+  V4 dm, am;
   Dot(d, m, dm);
   Sub(a, xs, ax);
   Dot(ax, m, am);
-  const V t = am / dm;
+  const V4 t = am / dm;
   // ah = (x + d t) - a; beta = (Cross(ah, ac) . m) / (m . m), gamma =
   // (Cross(ab, ah) . m) / (m . m).
-  const V3 hit = {xs.x + d.x * t, xs.y + d.y * t, xs.z + d.z * t};
-  V3 ah, n_beta, n_gamma;
+  const V3x4 hit = {xs.x + d.x * t, xs.y + d.y * t, xs.z + d.z * t};
+  V3x4 ah, n_beta, n_gamma;
   Sub(hit, a, ah);
   Cross(ah, ac, n_beta);
   Cross(ab, ah, n_gamma);
-  V mm, beta, gamma;
+  V4 mm, beta, gamma;
   Dot(m, m, mm);
   Dot(n_beta, m, beta);
   Dot(n_gamma, m, gamma);
   beta /= mm;
   gamma /= mm;
-  l.Store(B::kT, t);
-  l.Store(B::kMX, m);
-  l.Store(B::kDotM, dm);
-  l.Store(B::kL0, (1 - beta) - gamma);
-  l.Store(B::kL1, beta);
-  l.Store(B::kL2, gamma);
+  l.Store(HitBatch::kT, t);
+  l.Store(HitBatch::kMX, m);
+  l.Store(HitBatch::kDotM, dm);
+  l.Store(HitBatch::kL0, (1 - beta) - gamma);
+  l.Store(HitBatch::kL1, beta);
+  l.Store(HitBatch::kL2, gamma);
   // t > 0 and finite (NaN compares false).
   constexpr double kInf = std::numeric_limits<double>::infinity();
-  const Mask positive = (t > 0) & (t < kInf);
+  const auto positive = (t > 0) & (t < kInf);
   for (int k = 0; k < 4; ++k) ok[l.i + k] = positive[k] != 0;
 }
 
 // The scale of HitBatch::Weigh on four lanes.
 [[gnu::always_inline]] inline void WeighFour(const Lanes& l,
                                              double weight_sum) {
-  V weight, dm;
-  l.Load(weight, B::kWeight);
-  l.Load(dm, B::kDotM);
-  l.Store(B::kScale, (weight / weight_sum) / dm);
+  V4 weight, dm;
+  l.Load(weight, HitBatch::kWeight);
+  l.Load(dm, HitBatch::kDotM);
+  l.Store(HitBatch::kScale, (weight / weight_sum) / dm);
 }
 
 // One pass over the lanes [0, n): Evaluate's or Weigh's.
@@ -166,14 +175,15 @@ void HitBatch::Reset(int capacity) {
 }
 
 void HitBatch::Evaluate(const Vec3& x) {
-  if (segments_) {
-    // 2D: EvaluateHit's own path for segments, one ray at a time.
+  if (segments_ || !kLanesAreEvaluateHit) {
+    // 2D segments, or a target where only EvaluateHit gives its own bits:
+    // one ray at a time.
     for (int i = 0; i < n_; ++i) {
       PrimitiveCorners pc;
       pc.a = Get(kAX, i);
       pc.b = Get(kBX, i);
       pc.c = Get(kCX, i);
-      pc.segment = true;
+      pc.segment = segments_;
       HitGeometry h;
       ok_[i] = EvaluateHit(pc, x, Get(kDX, i), &h);
       A(kT)[i] = h.t;

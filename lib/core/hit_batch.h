@@ -8,9 +8,11 @@
 // x86-64, and the vector path for AVX, which has none; hit_batch.cc with
 // -ffp-contract=off), so every output is the scalar code's bits (HitBatchTest
 // compares every field with EvaluateHit's): the Jacobian and the VJP do
-// not change.
+// not change. Where the compiler may fuse EvaluateHit's (a target with FMA
+// in its baseline, or -mfma), the rays take EvaluateHit one at a time.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -31,7 +33,8 @@ class HitBatch {
 
   // Appends a ray of weight `weight` from the sample point along unit
   // direction `d` to the primitive of corners `pc` (a triangle or, in 2D, a
-  // segment: a batch holds one kind).
+  // segment: a batch holds one kind). Precondition: fewer than Reset's
+  // capacity rays added since Reset.
   void Add(const PrimitiveCorners& pc, const Vec3& d, double weight) {
     const int i = n_++;
     Set(kAX, i, pc.a);

@@ -18,6 +18,7 @@
 #include "lib/core/hit_batch.h"
 #include "lib/core/inscribed_ball.h"
 #include "lib/core/normals.h"
+#include "lib/core/sensitivity_row.h"
 #include "lib/core/spatial_order.h"
 #include "lib/core/thread_count.h"
 #include "lib/core/vertex_cone.h"
@@ -37,112 +38,6 @@ constexpr int64_t kBatchEntries = int64_t{1} << 16;
 
 // Terms ahead whose sums the VJP's scatter prefetches.
 constexpr size_t kScatterAhead = 8;
-
-struct Term {
-  int32_t vertex;
-  Vec3 d;
-};
-
-// A sample's row of the Jacobian, summed per vertex as its terms arrive
-// (entries in the order of each vertex's first term, each the sum of its
-// terms in arrival order). On coarse meshes a sample's rays hit few
-// primitives, many times each; on fine ones nearly every ray hits its own
-// (docs/sensitivities.md). One per thread slot of the computation's arena,
-// kept across samples. A vertex's entry is found through a small
-// open-addressing index sized to the row (at least 256 entries, twice the
-// row's), not a slot per vertex of the mesh, which held 4 bytes a vertex
-// per thread (VjpMemoryTest).
-class Row {
- public:
-  void Clear() {
-    terms_.clear();
-    // Entries of earlier rows hold older stamps: nothing to erase.
-    if (++stamp_ == 0) {
-      std::fill(index_.begin(), index_.end(), 0);
-      for (Memo& m : memo_) m.stamp = 0;
-      stamp_ = 1;
-    }
-  }
-  void Add(int32_t vertex, const Vec3& d) { (void)AddAt(vertex, d); }
-  // As Add(prim.v[j], corner(j)) for each corner j of primitive `id` in
-  // turn: a primitive met before in this row finds its entries without a
-  // search (on coarse meshes most of a sample's rays hit a primitive an
-  // earlier one hit).
-  template <typename Corner>
-  void AddCorners(int32_t id, const Primitive& prim, Corner corner) {
-    Memo& m = memo_[static_cast<uint32_t>(id) & (kMemo - 1)];
-    if (m.stamp == stamp_ && m.id == id) {
-      for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
-        terms_[m.at[j]].d += corner(j);
-      }
-      return;
-    }
-    m.stamp = stamp_;
-    m.id = id;
-    for (int j = 0; j < 3 && prim.v[j] >= 0; ++j) {
-      m.at[j] = AddAt(prim.v[j], corner(j));
-    }
-  }
-  // Swaps the terms into `out`: the row keeps out's storage for the next
-  // sample (and must be cleared before it).
-  void TakeTerms(std::vector<Term>& out) { terms_.swap(out); }
-
- private:
-  // Add, returning the entry's place in terms_ (fixed until Clear).
-  uint32_t AddAt(int32_t vertex, const Vec3& d) {
-    if (2 * (terms_.size() + 1) > index_.size()) Grow();
-    for (size_t h = Hash(vertex);; h = (h + 1) & mask_) {
-      const uint64_t entry = index_[h];
-      if (entry >> 32 != stamp_) {
-        const auto at = static_cast<uint32_t>(terms_.size());
-        index_[h] = Entry(at);
-        terms_.push_back({vertex, Vec3() + d});  // -0 sums to +0, as before.
-        return at;
-      }
-      const auto at = static_cast<uint32_t>(entry);
-      Term& t = terms_[at];
-      if (t.vertex == vertex) {
-        t.d += d;
-        return at;
-      }
-    }
-  }
-  uint64_t Entry(size_t term) const {
-    return uint64_t{stamp_} << 32 | static_cast<uint32_t>(term);
-  }
-  size_t Hash(int32_t vertex) const {
-    return (static_cast<uint32_t>(vertex) * 0x9E3779B1u) >> shift_;
-  }
-  // Doubles the index (at least 256 entries) and re-enters every term.
-  void Grow() {
-    const size_t size = std::max<size_t>(256, 2 * index_.size());
-    index_.assign(size, 0);
-    mask_ = size - 1;
-    shift_ = 32 - std::countr_zero(size);
-    for (size_t i = 0; i < terms_.size(); ++i) {
-      size_t h = Hash(terms_[i].vertex);
-      while (index_[h] >> 32 == stamp_) h = (h + 1) & mask_;
-      index_[h] = Entry(i);
-    }
-  }
-
-  // Where the entries of a primitive's corners are, by its index modulo
-  // kMemo (AddCorners).
-  static constexpr size_t kMemo = 64;
-  struct Memo {
-    uint32_t stamp = 0;
-    int32_t id = -1;
-    uint32_t at[3];
-  };
-  std::array<Memo, kMemo> memo_{};
-  std::vector<Term> terms_;
-  // Open addressing by vertex: the row's stamp (high 32 bits) and the
-  // term's position in terms_; an entry with another stamp is free.
-  std::vector<uint64_t> index_;
-  uint32_t stamp_ = 1;
-  size_t mask_ = 0;
-  int shift_ = 32;
-};
 
 // Everything a sample's gradient needs, shared read-only by the workers.
 struct Context {
@@ -167,16 +62,17 @@ struct Context {
   }
 };
 
-void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms);
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
+                 SampleRow& terms);
 void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
-               const Vec3& g_axis, Row& terms);
+               const Vec3& g_axis, SampleRow& terms);
 void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
-                 const VertexCone& vc, Row& terms);
+                 const VertexCone& vc, SampleRow& terms);
 
 // Adds the terms dSDF_p/dx_j of sample p (a vertex, or a face's centroid)
 // to `terms` (cleared first). Leaves it empty when p has no value.
-void SampleTerms(const Context& ctx, int64_t p, Row& terms, HitBatch& batch,
-                 std::vector<int>& rays) {
+void SampleTerms(const Context& ctx, int64_t p, SampleRow& terms,
+                 HitBatch& batch, std::vector<int>& rays) {
   terms.Clear();
   const MeshGeometry& ev = ctx.ev;
   const Mesh& mesh = ev.mesh();
@@ -255,7 +151,7 @@ void SampleTerms(const Context& ctx, int64_t p, Row& terms, HitBatch& batch,
 // primitive, and the form + 1 as its kept flag), differentiated through
 // x_p, the axis and the primitive's corners.
 void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
-                 const VertexCone& vc, Row& terms) {
+                 const VertexCone& vc, SampleRow& terms) {
   const int32_t prim = ctx.hits.Row(p)[0];
   if (prim < 0) return;
   const MeshGeometry& ev = ctx.ev;
@@ -272,7 +168,8 @@ void SphereTerms(const Context& ctx, int64_t p, const Vec3& x,
 
 // Adds the terms of g_x . d x / dx_j for the sample's point: the vertex
 // itself, or the mean of the face's corners.
-void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms) {
+void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x,
+                 SampleRow& terms) {
   if (!ctx.faces) {
     terms.Add(static_cast<int32_t>(p), g_x);
     return;
@@ -286,7 +183,7 @@ void OriginTerms(const Context& ctx, int64_t p, const Vec3& g_x, Row& terms) {
 // Adds the terms of g_axis . d axis / dx: axis = sign n, n = N/|N|,
 // N the sum over the primitives of vertex p (SPEC §2) or of face p.
 void AxisTerms(const Context& ctx, int64_t p, const VertexCone& vc,
-               const Vec3& g_axis, Row& terms) {
+               const Vec3& g_axis, SampleRow& terms) {
   const Mesh& mesh = ctx.ev.mesh();
   const MeshTopology& topo = ctx.ev.topology();
   const Vec3 g_n = g_axis * vc.sign;
@@ -409,7 +306,7 @@ std::vector<int32_t> VisitingOrder(const Context& ctx,
 // batch to batch and keep their capacity).
 struct Batch {
   int64_t begin = 0, end = 0;
-  std::vector<std::vector<Term>> rows;
+  std::vector<std::vector<RowTerm>> rows;
 };
 
 // Computes the terms of each slot's sample, a batch at a time in parallel (at
@@ -435,10 +332,10 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   Batch batch[2];
   int computing = 0;
   tbb::task_arena arena(ThreadCount(control.threads));
-  // One Row per thread slot of the arena (at most its concurrency), each
+  // One SampleRow per thread slot of the arena (at most its concurrency), each
   // on its own cache lines (its vector's end moves with every new entry).
   struct alignas(64) ThreadRow {
-    std::optional<Row> row;
+    std::optional<SampleRow> row;
   };
   std::vector<ThreadRow> thread_rows(arena.max_concurrency());
   auto compute = [&] {
@@ -446,10 +343,10 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
     tbb::parallel_for(
         tbb::blocked_range<int64_t>(b.begin, b.end, 64),
         [&](const tbb::blocked_range<int64_t>& r) {
-          HitBatch batch;
+          HitBatch hit_batch;
           std::vector<int> rays;
           rays.reserve(num_rays);
-          std::optional<Row>& row =
+          std::optional<SampleRow>& row =
               thread_rows[tbb::this_task_arena::current_thread_index()].row;
           if (!row) row.emplace();
           PrefetchPrimitives(ctx, ctx.Sample(r.begin()));
@@ -460,7 +357,7 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
               PrefetchPrimitives(ctx, ctx.Sample(slot + 2));
             }
             if (slot + 1 < r.end()) PrefetchCorners(ctx, ctx.Sample(slot + 1));
-            SampleTerms(ctx, ctx.Sample(slot), *row, batch, rays);
+            SampleTerms(ctx, ctx.Sample(slot), *row, hit_batch, rays);
             row->TakeTerms(b.rows[slot - b.begin]);
           }
         });
@@ -508,11 +405,12 @@ absl::StatusOr<SparseJacobian> ComputeJacobian(const MeshGeometry& geometry,
   // order.
   absl::Status s = ForEachBatch(*ctx, control, [&jac](Batch& batch) {
     for (int64_t p = batch.begin; p < batch.end; ++p) {
-      std::vector<Term>& terms = batch.rows[p - batch.begin];
-      std::sort(terms.begin(), terms.end(), [](const Term& a, const Term& b) {
-        return a.vertex < b.vertex;
-      });
-      for (const Term& t : terms) {
+      std::vector<RowTerm>& terms = batch.rows[p - batch.begin];
+      std::sort(terms.begin(), terms.end(),
+                [](const RowTerm& a, const RowTerm& b) {
+                  return a.vertex < b.vertex;
+                });
+      for (const RowTerm& t : terms) {
         jac.columns.push_back(t.vertex);
         jac.values.push_back(t.d);
       }
@@ -561,12 +459,12 @@ absl::StatusOr<ExactSums> ComputeVjpSums(
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
     for (int64_t slot = batch.begin; slot < batch.end; ++slot) {
       const double gp = g[ctx->Sample(slot) - first];
-      const std::vector<Term>& row = batch.rows[slot - batch.begin];
+      const std::vector<RowTerm>& row = batch.rows[slot - batch.begin];
       for (size_t k = 0; k < row.size(); ++k) {
         if (k + kScatterAhead < row.size()) {
           out.Prefetch(3 * int64_t{row[k + kScatterAhead].vertex});
         }
-        const Term& term = row[k];
+        const RowTerm& term = row[k];
         const Vec3 d = term.d * gp;
         const int64_t o = 3 * int64_t{term.vertex};
         out.Add(o, d.x);
