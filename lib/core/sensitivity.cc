@@ -6,8 +6,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <array>
-#include <bit>
 #include <cmath>
 #include <optional>
 
@@ -27,10 +25,11 @@ namespace meshgauge {
 namespace {
 
 // Samples per batch: the rows of a batch are computed in parallel while
-// the batch before is scattered (into exact sums: deterministic). The two batches' rows are reused from batch to
-// batch; small batches keep them in cache (horse, 100 rays: VJP 0.23 s with
-// 4096 samples, 0.17 s with 1024; with the scatter overlapped, 2^16 row
-// entries by their bounds beat 2^20: docs/benchmarks.md).
+// the batch before is scattered (into exact sums: deterministic). The two
+// batches' rows are reused from batch to batch; small batches keep them in
+// cache (horse, 100 rays: VJP 0.23 s with 4096 samples, 0.17 s with 1024;
+// with the scatter overlapped, 2^16 row entries by their bounds beat 2^20:
+// docs/benchmarks.md).
 constexpr int64_t kBatch = 1024;
 // At most this many row entries per batch by their bounds (RowEntriesBound;
 // 2 MiB of terms): about 200 samples with 100 rays, 21 with 1024.
@@ -332,8 +331,9 @@ absl::Status ForEachBatch(const Context& ctx, const ComputeControl& control,
   Batch batch[2];
   int computing = 0;
   tbb::task_arena arena(ThreadCount(control.threads));
-  // One SampleRow per thread slot of the arena (at most its concurrency), each
-  // on its own cache lines (its vector's end moves with every new entry).
+  // One SampleRow per thread slot of the arena (at most its concurrency),
+  // each on its own cache lines (its vector's end moves with every new
+  // entry).
   struct alignas(64) ThreadRow {
     std::optional<SampleRow> row;
   };
