@@ -187,7 +187,7 @@ void HitBatch::Evaluate(const Vec3& x) {
       HitGeometry h;
       ok_[i] = EvaluateHit(pc, x, Get(kDX, i), &h);
       A(kT)[i] = h.t;
-      for (int a = 0; a < 3; ++a) A(kMX + a)[i] = h.m[a];
+      Set(kMX, i, h.m);
       A(kDotM)[i] = h.d_dot_m;
       for (int j = 0; j < 3; ++j) A(kL0 + j)[i] = h.lambda[j];
     }

@@ -66,31 +66,15 @@ class HitBatch {
 
   // The arrays of the batch, each of `stride_` doubles (structure of
   // arrays; a Vec3's three arrays are consecutive).
+  // clang-format off
   enum Array {
-    kAX,
-    kAY,
-    kAZ,
-    kBX,
-    kBY,
-    kBZ,
-    kCX,
-    kCY,
-    kCZ,  // corners
-    kDX,
-    kDY,
-    kDZ,  // direction
-    kWeight,
-    kT,
-    kMX,
-    kMY,
-    kMZ,
-    kDotM,
-    kL0,
-    kL1,
-    kL2,     // Evaluate
-    kScale,  // Weigh
+    kAX, kAY, kAZ, kBX, kBY, kBZ, kCX, kCY, kCZ,  // the corners (Add)
+    kDX, kDY, kDZ, kWeight,                       // the ray (Add)
+    kT, kMX, kMY, kMZ, kDotM, kL0, kL1, kL2,      // Evaluate
+    kScale,                                       // Weigh
     kArrays
   };
+  // clang-format on
 
  private:
   double* A(int array) { return buf_.data() + array * stride_; }
