@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <vector>
@@ -194,6 +195,76 @@ TEST(ExactSumsTest, EverySumIsTheReferencesWhicheverPathItTook) {
             for (double t : fast.Terms(i)) again.Add(t);
             EXPECT_EQ(again.Round(), want) << "input " << k << " sum " << i;
             EXPECT_LE(fast.Terms(i).size(), reference[i].Terms().size() + 1);
+          }
+        }
+      }
+    }
+  }
+}
+
+// AddScaledTerms against Add, term by term and component by component, in
+// both instruction sets: rows over six vertices (repeats included) of
+// terms whose components are near their sums' magnitudes (the vector path),
+// far from them (a lane whose pair cannot hold the sum: x, y or z alone),
+// -0, overflowing with g, or not finite, scaled by weights of every sign and
+// scale; every sum's rounding and terms (the state left for Round, Terms
+// and later additions) and its pair's bytes must be Add's after each of 40
+// rows.
+TEST(ExactSumsTest, AddScaledTermsGivesTheBitsOfAddForEachComponent) {
+  constexpr int kVertices = 6;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  auto component = [&]() -> double {
+    switch (rng() % 12) {
+      case 0:
+        return std::ldexp(unit(rng), static_cast<int>(rng() % 2000) - 1000);
+      case 1:
+        return -0.0;
+      case 2:
+        return rng() % 2 ? kInf : -kInf;
+      case 3:
+        return rng() % 50 == 0 ? std::nan("") : kMax;
+      default:
+        return std::ldexp(unit(rng), static_cast<int>(rng() % 20));
+    }
+  };
+  for (const bool avx : {true, false}) {
+    for (const double g : {1.0, -0.7, 0.0, -0.0, 1e300, 0x1p-600}) {
+      // 40 rows one after the other into the same sums, from 1, 2, 3, ...
+      ExactSums scattered(3 * kVertices), added(3 * kVertices);
+      for (int i = 0; i < 3 * kVertices; ++i) {
+        scattered.Add(i, 1.0 + i);
+        added.Add(i, 1.0 + i);
+      }
+      for (int row_count = 0; row_count < 40; ++row_count) {
+        std::vector<RowTerm> row(rng() % 12);
+        for (RowTerm& t : row) {
+          t.vertex = static_cast<int32_t>(rng() % kVertices);
+          t.d = {component(), component(), component()};
+        }
+        scattered.AddScaledTerms(row, g, avx);
+        for (const RowTerm& t : row) {
+          const int64_t o = 3 * int64_t{t.vertex};
+          added.Add(o, t.d.x * g);
+          added.Add(o + 1, t.d.y * g);
+          added.Add(o + 2, t.d.z * g);
+        }
+        // The pairs themselves (two doubles a sum), bit for bit.
+        EXPECT_EQ(std::memcmp(scattered.storage(), added.storage(),
+                              3 * kVertices * 2 * sizeof(double)),
+                  0)
+            << "avx " << avx << " g " << g << " row " << row_count;
+        for (int i = 0; i < 3 * kVertices; ++i) {
+          EXPECT_EQ(std::bit_cast<uint64_t>(scattered.Round(i)),
+                    std::bit_cast<uint64_t>(added.Round(i)))
+              << "avx " << avx << " g " << g << " row " << row_count << " sum "
+              << i;
+          const std::vector<double> a = scattered.Terms(i), b = added.Terms(i);
+          ASSERT_EQ(a.size(), b.size()) << "sum " << i;
+          for (size_t k = 0; k < a.size(); ++k) {
+            EXPECT_EQ(std::bit_cast<uint64_t>(a[k]),
+                      std::bit_cast<uint64_t>(b[k]))
+                << "avx " << avx << " row " << row_count << " sum " << i;
           }
         }
       }

@@ -21,6 +21,7 @@
 #include "absl/container/inlined_vector.h"
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
+#include "lib/core/row_term.h"
 #include "lib/core/table_allocator.h"
 
 namespace meshgauge {
@@ -102,6 +103,15 @@ class ExactSums {
     }
     Spill(i, x);
   }
+  // Adds g * t.d to the sums 3 v, 3 v + 1 and 3 v + 2 of each term t (v =
+  // t.vertex), in the terms' order: the VJP's scatter of a sample's row
+  // into x, y, z sums per vertex. The bits of Add(3 v, g * t.d.x), Add(3 v
+  // + 1, g * t.d.y), Add(3 v + 2, g * t.d.z) term by term, with a term's
+  // three TwoSum pairs in one vector (AVX registers where the CPU has them
+  // and `avx`, else SSE2's; exact_sums_rows.cc). Preconditions: g finite;
+  // 0 <= 3 v + 2 < size() for every term.
+  void AddScaledTerms(absl::Span<const RowTerm> terms, double g,
+                      bool avx = true);
   // Asks for sums i, i + 1 and i + 2 to be brought into the cache for
   // writing (a hint: scatters over large arrays miss the cache on almost
   // every addition otherwise). Precondition: i + 2 < size().
@@ -123,6 +133,8 @@ class ExactSums {
     double hi = 0;
     double lo = 0;
   };
+  // AddScaledTerms' loop, built for AVX or for the baseline.
+  friend struct RowScatter;
   // A TableVector: a large array (the VJP's, 48 bytes a vertex) sits in
   // huge pages, as a fresh one is made for every VJP and 4 KiB pages cost
   // about 12 us each to fault in on this project's machines.

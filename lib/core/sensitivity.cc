@@ -35,9 +35,6 @@ constexpr int64_t kBatch = 1024;
 // 2 MiB of terms): about 200 samples with 100 rays, 21 with 1024.
 constexpr int64_t kBatchEntries = int64_t{1} << 16;
 
-// Terms ahead whose sums the VJP's scatter prefetches.
-constexpr size_t kScatterAhead = 8;
-
 // Everything a sample's gradient needs, shared read-only by the workers.
 struct Context {
   const MeshGeometry& ev;
@@ -459,18 +456,7 @@ absl::StatusOr<ExactSums> ComputeVjpSums(
   absl::Status s = ForEachBatch(*ctx, control, [&](Batch& batch) {
     for (int64_t slot = batch.begin; slot < batch.end; ++slot) {
       const double gp = g[ctx->Sample(slot) - first];
-      const std::vector<RowTerm>& row = batch.rows[slot - batch.begin];
-      for (size_t k = 0; k < row.size(); ++k) {
-        if (k + kScatterAhead < row.size()) {
-          out.Prefetch(3 * int64_t{row[k + kScatterAhead].vertex});
-        }
-        const RowTerm& term = row[k];
-        const Vec3 d = term.d * gp;
-        const int64_t o = 3 * int64_t{term.vertex};
-        out.Add(o, d.x);
-        out.Add(o + 1, d.y);
-        out.Add(o + 2, d.z);
-      }
+      out.AddScaledTerms(batch.rows[slot - batch.begin], gp);
     }
   });
   if (!s.ok()) return s;

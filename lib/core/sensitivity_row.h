@@ -9,15 +9,11 @@
 #include <cstdint>
 #include <vector>
 
+#include "lib/core/row_term.h"
 #include "lib/core/topology.h"
 #include "lib/core/vec3.h"
 
 namespace meshgauge {
-
-struct RowTerm {
-  int32_t vertex;
-  Vec3 d;
-};
 
 // A sample's row of the Jacobian, summed per vertex as its terms arrive
 // (entries in the order of each vertex's first term, each the sum of its

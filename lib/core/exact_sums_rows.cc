@@ -1,0 +1,129 @@
+// ExactSums::AddScaledTerms, the VJP's scatter. Compiled with
+// -ffp-contract=off (lib/CMakeLists.txt): a product g * d is never fused
+// into the sum it is added to, so each lane is Add's arithmetic.
+#include <cstring>
+
+#include "lib/core/exact_sum.h"
+
+namespace meshgauge {
+
+// A term's three sums' pairs are hi0 lo0 hi1 lo1 hi2 lo2 in memory. Their
+// his and los are gathered into vectors (AVX: the three in four lanes, the
+// fourth adding 0 to 0; the baseline: x and y in SSE2 pairs, z alone), Add's
+// two TwoSums are done lane by lane, and the pairs are written back when
+// every lane's sum was exact. Otherwise (rare: a term beyond about 2^50 of
+// its sum's magnitude, or not finite) the term takes Add three times, from
+// the sums as they were.
+struct RowScatter {
+  using V4 = double __attribute__((vector_size(32)));
+  using V2 = double __attribute__((vector_size(16)));
+
+  // Add's TwoSums on each lane: hi + x = s + e1, lo + e1 = t + e2 (e2 is 0
+  // where the pair (s, t) holds the sum exactly). By reference: a V4
+  // returned by value in the baseline build would change the calling
+  // convention (GCC's -Wpsabi).
+  template <typename V>
+  [[gnu::always_inline]] static inline void TwoSums(const V& hi, const V& lo,
+                                                    const V& x, V& s, V& t,
+                                                    V& e2) {
+    s = hi + x;
+    const V s_x = s - hi;
+    const V e1 = (hi - (s - s_x)) + (x - s_x);
+    t = lo + e1;
+    const V t_e = t - lo;
+    e2 = (lo - (t - t_e)) + (e1 - t_e);
+  }
+
+  // Adds term.d * g to the pairs at `p` (three); false, with nothing
+  // written, where a sum would not be exact in its pair.
+  [[gnu::always_inline]] static inline bool AddFour(ExactSums::Pair* p,
+                                                    const Vec3& d, double g) {
+    V4 a;  // hi0 lo0 hi1 lo1
+    V2 b;  // hi2 lo2
+    std::memcpy(&a, static_cast<const void*>(p), sizeof a);
+    std::memcpy(&b, static_cast<const void*>(p + 2), sizeof b);
+    const V4 b4 = __builtin_shufflevector(b, V2{0, 0}, 0, 1, 2, 3);
+    const V4 hi = __builtin_shufflevector(a, b4, 0, 2, 4, 6);
+    const V4 lo = __builtin_shufflevector(a, b4, 1, 3, 5, 7);
+    V4 s, t, e2;
+    TwoSums(hi, lo, V4{d.x, d.y, d.z, 0} * g, s, t, e2);
+    const auto exact = e2 == 0;  // false for NaN, as in Add.
+    if ((exact[0] & exact[1] & exact[2]) == 0) return false;
+    const V4 a2 = __builtin_shufflevector(s, t, 0, 4, 1, 5);
+    const V2 b2 = __builtin_shufflevector(s, t, 2, 6);
+    std::memcpy(static_cast<void*>(p), &a2, sizeof a2);
+    std::memcpy(static_cast<void*>(p + 2), &b2, sizeof b2);
+    return true;
+  }
+  [[gnu::always_inline]] static inline bool AddTwoAndOne(ExactSums::Pair* p,
+                                                         const Vec3& d,
+                                                         double g) {
+    V2 a0, a1;  // hi0 lo0, hi1 lo1
+    std::memcpy(&a0, static_cast<const void*>(p), sizeof a0);
+    std::memcpy(&a1, static_cast<const void*>(p + 1), sizeof a1);
+    const V2 hi = __builtin_shufflevector(a0, a1, 0, 2);
+    const V2 lo = __builtin_shufflevector(a0, a1, 1, 3);
+    V2 s, t, e2;
+    double sz, tz, ez;
+    TwoSums(hi, lo, V2{d.x, d.y} * g, s, t, e2);
+    TwoSums(p[2].hi, p[2].lo, d.z * g, sz, tz, ez);
+    const auto exact = e2 == 0;
+    if ((exact[0] & exact[1]) == 0 || ez != 0) return false;
+    const V2 b0 = __builtin_shufflevector(s, t, 0, 2);
+    const V2 b1 = __builtin_shufflevector(s, t, 1, 3);
+    std::memcpy(static_cast<void*>(p), &b0, sizeof b0);
+    std::memcpy(static_cast<void*>(p + 1), &b1, sizeof b1);
+    p[2] = {sz, tz};
+    return true;
+  }
+
+  template <bool kFour>
+  [[gnu::always_inline]] static inline void Loop(ExactSums& sums,
+                                                 absl::Span<const RowTerm> row,
+                                                 double g) {
+    // Terms ahead whose sums are prefetched.
+    constexpr size_t kAhead = 8;
+    ExactSums::Pair* pairs = sums.pairs_.data();
+    for (size_t k = 0; k < row.size(); ++k) {
+      if (k + kAhead < row.size()) {
+        sums.Prefetch(3 * int64_t{row[k + kAhead].vertex});
+      }
+      const RowTerm& term = row[k];
+      const int64_t o = 3 * int64_t{term.vertex};
+      const bool done = kFour ? AddFour(pairs + o, term.d, g)
+                              : AddTwoAndOne(pairs + o, term.d, g);
+      if (done) [[likely]] {
+        continue;
+      }
+      sums.Add(o, term.d.x * g);
+      sums.Add(o + 1, term.d.y * g);
+      sums.Add(o + 2, term.d.z * g);
+    }
+  }
+
+#if defined(__x86_64__)
+  __attribute__((target("avx"))) static void Avx(ExactSums& sums,
+                                                 absl::Span<const RowTerm> row,
+                                                 double g) {
+    Loop<true>(sums, row, g);
+  }
+#endif
+  static void Baseline(ExactSums& sums, absl::Span<const RowTerm> row,
+                       double g) {
+    Loop<false>(sums, row, g);
+  }
+};
+
+void ExactSums::AddScaledTerms(absl::Span<const RowTerm> terms, double g,
+                               bool avx) {
+#if defined(__x86_64__)
+  static const bool has_avx = __builtin_cpu_supports("avx");
+  if (avx && has_avx) {
+    RowScatter::Avx(*this, terms, g);
+    return;
+  }
+#endif
+  RowScatter::Baseline(*this, terms, g);
+}
+
+}  // namespace meshgauge
