@@ -10,6 +10,7 @@
 #include <random>
 #include <vector>
 
+#include "lib/core/row_term.h"
 #include "lib/core/table_allocator.h"
 #include "tests/smaps.h"
 
@@ -228,6 +229,7 @@ TEST(ExactSumsTest, AddScaledTermsGivesTheBitsOfAddForEachComponent) {
         return std::ldexp(unit(rng), static_cast<int>(rng() % 20));
     }
   };
+  // avx = true takes the baseline's path too on a CPU without AVX.
   for (const bool avx : {true, false}) {
     for (const double g : {1.0, -0.7, 0.0, -0.0, 1e300, 0x1p-600}) {
       // 40 rows one after the other into the same sums, from 1, 2, 3, ...

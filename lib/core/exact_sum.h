@@ -21,10 +21,11 @@
 #include "absl/container/inlined_vector.h"
 #include "absl/status/statusor.h"
 #include "absl/types/span.h"
-#include "lib/core/row_term.h"
 #include "lib/core/table_allocator.h"
 
 namespace meshgauge {
+
+struct RowTerm;  // lib/core/row_term.h
 
 class ExactSum {
  public:
@@ -106,19 +107,14 @@ class ExactSums {
   // Adds g * t.d to the sums 3 v, 3 v + 1 and 3 v + 2 of each term t (v =
   // t.vertex), in the terms' order: the VJP's scatter of a sample's row
   // into x, y, z sums per vertex. The bits of Add(3 v, g * t.d.x), Add(3 v
-  // + 1, g * t.d.y), Add(3 v + 2, g * t.d.z) term by term, with a term's
-  // three TwoSum pairs in one vector (AVX registers where the CPU has them
-  // and `avx`, else SSE2's; exact_sums_rows.cc). Preconditions: g finite;
-  // 0 <= 3 v + 2 < size() for every term.
+  // + 1, g * t.d.y), Add(3 v + 2, g * t.d.z) term by term (the products
+  // never fused into the sums), with a term's TwoSums lane by lane: the
+  // three in one AVX vector where the CPU has AVX and `avx`, else x and y
+  // in an SSE2 pair (or the target's vector extension) and z alone
+  // (exact_sums_rows.cc). Precondition: 0 <= 3 v + 2 < size() for every
+  // term.
   void AddScaledTerms(absl::Span<const RowTerm> terms, double g,
                       bool avx = true);
-  // Asks for sums i, i + 1 and i + 2 to be brought into the cache for
-  // writing (a hint: scatters over large arrays miss the cache on almost
-  // every addition otherwise). Precondition: i + 2 < size().
-  void Prefetch(int64_t i) const {
-    __builtin_prefetch(&pairs_[i], 1);
-    __builtin_prefetch(&pairs_[i + 2], 1);
-  }
   // As ExactSum::Round and ExactSum::Terms of sum i.
   double Round(int64_t i) const;
   std::vector<double> Terms(int64_t i) const;

@@ -1,22 +1,31 @@
 // ExactSums::AddScaledTerms, the VJP's scatter. Compiled with
 // -ffp-contract=off (lib/CMakeLists.txt): a product g * d is never fused
-// into the sum it is added to, so each lane is Add's arithmetic.
+// into the sum it is added to, in the lanes or in the fall-back's Add, so
+// each lane is Add's arithmetic on the same addend.
+#include <cstddef>
 #include <cstring>
+#include <type_traits>
 
 #include "lib/core/exact_sum.h"
+#include "lib/core/row_term.h"
 
 namespace meshgauge {
 
 // A term's three sums' pairs are hi0 lo0 hi1 lo1 hi2 lo2 in memory. Their
 // his and los are gathered into vectors (AVX: the three in four lanes, the
-// fourth adding 0 to 0; the baseline: x and y in SSE2 pairs, z alone), Add's
-// two TwoSums are done lane by lane, and the pairs are written back when
-// every lane's sum was exact. Otherwise (rare: a term beyond about 2^50 of
-// its sum's magnitude, or not finite) the term takes Add three times, from
-// the sums as they were.
+// fourth adding 0 to 0 and never read; the baseline: x and y in an SSE2
+// pair, z alone), Add's two TwoSums are done lane by lane, and the pairs
+// are written back when every lane's sum was exact. Otherwise (rare: a
+// term beyond about 2^50 of its sum's magnitude, or not finite) the term
+// takes Add three times, from the sums as they were.
 struct RowScatter {
   using V4 = double __attribute__((vector_size(32)));
   using V2 = double __attribute__((vector_size(16)));
+  using Pair = ExactSums::Pair;
+  static_assert(std::is_trivially_copyable_v<Pair> &&
+                    sizeof(Pair) == 2 * sizeof(double) &&
+                    offsetof(Pair, lo) == sizeof(double),
+                "the vectors read and write pairs as hi, lo doubles");
 
   // Add's TwoSums on each lane: hi + x = s + e1, lo + e1 = t + e2 (e2 is 0
   // where the pair (s, t) holds the sum exactly). By reference: a V4
@@ -34,14 +43,14 @@ struct RowScatter {
     e2 = (lo - (t - t_e)) + (e1 - t_e);
   }
 
-  // Adds term.d * g to the pairs at `p` (three); false, with nothing
-  // written, where a sum would not be exact in its pair.
-  [[gnu::always_inline]] static inline bool AddFour(ExactSums::Pair* p,
-                                                    const Vec3& d, double g) {
+  // Adds d * g to the three pairs at `p` in four lanes; false, with nothing
+  // written, where a lane's sum would not be exact in its pair.
+  [[gnu::always_inline]] static inline bool AddFour(Pair* p, const Vec3& d,
+                                                    double g) {
     V4 a;  // hi0 lo0 hi1 lo1
     V2 b;  // hi2 lo2
-    std::memcpy(&a, static_cast<const void*>(p), sizeof a);
-    std::memcpy(&b, static_cast<const void*>(p + 2), sizeof b);
+    std::memcpy(&a, p, sizeof a);
+    std::memcpy(&b, p + 2, sizeof b);
     const V4 b4 = __builtin_shufflevector(b, V2{0, 0}, 0, 1, 2, 3);
     const V4 hi = __builtin_shufflevector(a, b4, 0, 2, 4, 6);
     const V4 lo = __builtin_shufflevector(a, b4, 1, 3, 5, 7);
@@ -55,12 +64,12 @@ struct RowScatter {
     std::memcpy(static_cast<void*>(p + 2), &b2, sizeof b2);
     return true;
   }
-  [[gnu::always_inline]] static inline bool AddTwoAndOne(ExactSums::Pair* p,
-                                                         const Vec3& d,
+  // As AddFour, with x and y in two lanes and z alone.
+  [[gnu::always_inline]] static inline bool AddTwoAndOne(Pair* p, const Vec3& d,
                                                          double g) {
     V2 a0, a1;  // hi0 lo0, hi1 lo1
-    std::memcpy(&a0, static_cast<const void*>(p), sizeof a0);
-    std::memcpy(&a1, static_cast<const void*>(p + 1), sizeof a1);
+    std::memcpy(&a0, p, sizeof a0);
+    std::memcpy(&a1, p + 1, sizeof a1);
     const V2 hi = __builtin_shufflevector(a0, a1, 0, 2);
     const V2 lo = __builtin_shufflevector(a0, a1, 1, 3);
     V2 s, t, e2;
@@ -81,17 +90,26 @@ struct RowScatter {
   [[gnu::always_inline]] static inline void Loop(ExactSums& sums,
                                                  absl::Span<const RowTerm> row,
                                                  double g) {
-    // Terms ahead whose sums are prefetched.
+    // The sums of the term this far ahead are asked for, for writing (a
+    // hint: scatters over large arrays miss the cache on almost every term
+    // otherwise). Directly: GCC drops a call to a prefetching function
+    // that it does not inline into this always-inline one.
     constexpr size_t kAhead = 8;
-    ExactSums::Pair* pairs = sums.pairs_.data();
+    Pair* pairs = sums.pairs_.data();
     for (size_t k = 0; k < row.size(); ++k) {
       if (k + kAhead < row.size()) {
-        sums.Prefetch(3 * int64_t{row[k + kAhead].vertex});
+        Pair* ahead = pairs + 3 * int64_t{row[k + kAhead].vertex};
+        __builtin_prefetch(ahead, 1);
+        __builtin_prefetch(ahead + 2, 1);
       }
       const RowTerm& term = row[k];
       const int64_t o = 3 * int64_t{term.vertex};
-      const bool done = kFour ? AddFour(pairs + o, term.d, g)
-                              : AddTwoAndOne(pairs + o, term.d, g);
+      bool done;
+      if constexpr (kFour) {
+        done = AddFour(pairs + o, term.d, g);
+      } else {
+        done = AddTwoAndOne(pairs + o, term.d, g);
+      }
       if (done) [[likely]] {
         continue;
       }
