@@ -13,6 +13,7 @@
 #include "lib/core/row_term.h"
 #include "lib/core/table_allocator.h"
 #include "tests/smaps.h"
+#include "tests/test_util.h"
 
 namespace meshgauge {
 namespace {
@@ -257,17 +258,12 @@ TEST(ExactSumsTest, AddScaledTermsGivesTheBitsOfAddForEachComponent) {
                   0)
             << "avx " << avx << " g " << g << " row " << row_count;
         for (int i = 0; i < 3 * kVertices; ++i) {
-          EXPECT_EQ(std::bit_cast<uint64_t>(scattered.Round(i)),
-                    std::bit_cast<uint64_t>(added.Round(i)))
+          EXPECT_EQ(testing::Bits(scattered.Round(i)),
+                    testing::Bits(added.Round(i)))
               << "avx " << avx << " g " << g << " row " << row_count << " sum "
               << i;
-          const std::vector<double> a = scattered.Terms(i), b = added.Terms(i);
-          ASSERT_EQ(a.size(), b.size()) << "sum " << i;
-          for (size_t k = 0; k < a.size(); ++k) {
-            EXPECT_EQ(std::bit_cast<uint64_t>(a[k]),
-                      std::bit_cast<uint64_t>(b[k]))
-                << "avx " << avx << " row " << row_count << " sum " << i;
-          }
+          EXPECT_TRUE(testing::SameBits(scattered.Terms(i), added.Terms(i)))
+              << "avx " << avx << " row " << row_count << " sum " << i;
         }
       }
     }
