@@ -6,8 +6,9 @@
 # igea with its vertices permuted and on a generated mesh of a million
 # vertices (25 rays);
 # Embree's watertight ray test against its fast one on every test mesh;
-# then incremental passes after patch updates (meshgauge_incremental_bench)
-# and the CLI's start-up (bench/cli_startup_bench.sh).
+# then incremental passes after patch updates (meshgauge_incremental_bench),
+# the VJP's scatter alone (meshgauge_scatter_bench) and the CLI's start-up
+# (bench/cli_startup_bench.sh).
 # About 10 minutes on 2 cores. Extra arguments go to every meshgauge_bench.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,6 +32,10 @@ build/bench/meshgauge_bench --ray_tests_only "$@" data/meshes/*.ply \
 # vertex moved, against a full pass.
 build/bench/meshgauge_incremental_bench data/meshes/igea-triangles.ply \
   data/meshes/rocker-arm.obj
+# The VJP's scatter alone: three ExactSums::Add a term against
+# AddScaledTerms in AVX and in SSE2 (the same sums).
+build/bench/meshgauge_scatter_bench data/meshes/igea-triangles.ply \
+  data/meshes/stanford-bunny.obj data/meshes/rocker-arm.obj
 # Start-up of the CLI's programs: the local verbs' `meshgauge` loads no
 # gRPC; `meshgauge-remote` does.
 bench/cli_startup_bench.sh build
