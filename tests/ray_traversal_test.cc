@@ -16,6 +16,7 @@
 #include "lib/core/shapes.h"
 #include "lib/embree/cone_walk.h"
 #include "lib/embree/sdf_evaluator.h"
+#include "lib/embree/traversal_choice.h"
 #include "lib/io/mesh_io.h"
 #include "tests/pass_test_util.h"
 #include "tests/test_util.h"
@@ -141,7 +142,8 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
 // primitives with the watertight test, the cone walk from the surface for
 // normal rays and where a pilot counts at most 8 of its tests a ray, else
 // streams where the rays start at the surface; packets elsewhere.
-TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
+TEST(RayTraversalTest,
+     APassWalksConesWhereItsPilotFindsLittleWorkElseStreamsNarrowOnes) {
   if (!ConeWalk::Supported()) GTEST_SKIP() << "this CPU has no AVX2 and FMA";
   struct Used {
     bool walked = false, streamed = false, past_balls = false;
@@ -190,7 +192,10 @@ TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
   EXPECT_FALSE(teapot_wide.walked);
   EXPECT_TRUE(teapot_wide.past_balls);
   EXPECT_GT(teapot_wide.pilot, 8);
-  EXPECT_TRUE(traced(teapot, wide, RayStartMode::kSurface).streamed);
+  // From the surface the 60-degree cones go in packets: streams only
+  // for cones narrower than kStreamMaxConeDegrees.
+  const Used teapot_wide_surface = traced(teapot, wide, RayStartMode::kSurface);
+  EXPECT_FALSE(teapot_wide_surface.walked || teapot_wide_surface.streamed);
   // A range's pilot is the whole pass's: the same samples decide.
   const Used teapot_few = traced(teapot, few);
   EXPECT_TRUE(teapot_few.walked);
@@ -204,7 +209,7 @@ TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
   EXPECT_FALSE(fandisk_few.walked || fandisk_few.streamed);
   EXPECT_EQ(fandisk_few.pilot, 0);
   // Normal rays (one ray a fan) walk without a pilot; more rays than the
-  // walk takes stream.
+  // walk takes stream in a narrow cone, go in packets in a wide one.
   SdfParams normal_ray = wide;
   normal_ray.method = SdfMethod::kNormalRay;
   const Used teapot_normal = traced(teapot, normal_ray);
@@ -213,6 +218,9 @@ TEST(RayTraversalTest, APassWalksConesWhereItsPilotFindsLittleWorkElseStreams) {
   SdfParams many = all;
   many.rays = ConeWalk::kMaxRays + 1;
   EXPECT_TRUE(traced(knight, many).streamed);
+  many.cone_angle_degrees = kStreamMaxConeDegrees;
+  const Used knight_many_wide = traced(knight, many);
+  EXPECT_FALSE(knight_many_wide.walked || knight_many_wide.streamed);
   // Embree's fast test, and 2D: packets.
   const Used fast = traced(knight, all, RayStartMode::kAuto, RayTest::kFast);
   EXPECT_FALSE(fast.walked || fast.streamed);

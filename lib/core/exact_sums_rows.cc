@@ -6,6 +6,7 @@
 #include <cstring>
 #include <type_traits>
 
+#include "lib/core/double_lanes.h"
 #include "lib/core/exact_sum.h"
 #include "lib/core/row_term.h"
 
@@ -19,8 +20,6 @@ namespace meshgauge {
 // term beyond about 2^50 of its sum's magnitude, or not finite) the term
 // takes Add three times, from the sums as they were.
 struct RowScatter {
-  using V4 = double __attribute__((vector_size(32)));
-  using V2 = double __attribute__((vector_size(16)));
   using Pair = ExactSums::Pair;
   static_assert(std::is_trivially_copyable_v<Pair> &&
                     sizeof(Pair) == 2 * sizeof(double) &&
@@ -135,8 +134,7 @@ struct RowScatter {
 void ExactSums::AddScaledTerms(absl::Span<const RowTerm> terms, double g,
                                bool avx) {
 #if defined(__x86_64__)
-  static const bool has_avx = __builtin_cpu_supports("avx");
-  if (avx && has_avx) {
+  if (avx && CpuHasAvx()) {
     RowScatter::Avx(*this, terms, g);
     return;
   }

@@ -7,6 +7,8 @@
 #include <cstring>
 #include <limits>
 
+#include "lib/core/double_lanes.h"
+
 namespace meshgauge {
 namespace {
 
@@ -19,12 +21,7 @@ constexpr bool kLanesAreEvaluateHit = true;
 constexpr bool kLanesAreEvaluateHit = false;
 #endif
 
-// Four doubles, one per ray (GCC's and clang's vector extension: AVX
-// registers where the function is built for AVX, pairs of SSE2 registers
-// otherwise).
-using V4 = double __attribute__((vector_size(32)));
-
-// A 3-vector of each lane's ray.
+// A 3-vector of each lane's ray (a V4 lane per ray).
 struct V3x4 {
   V4 x, y, z;
 };
@@ -153,8 +150,7 @@ void RunBaseline(const Job& job) { RunLanes(job); }
 // In AVX registers when `avx` and the CPU has them, else in the baseline's.
 void Run(bool avx, const Job& job) {
 #if defined(__x86_64__)
-  static const bool has_avx = __builtin_cpu_supports("avx");
-  if (avx && has_avx) {
+  if (avx && CpuHasAvx()) {
     RunAvx(job);
     return;
   }

@@ -714,9 +714,10 @@ absl::StatusOr<SdfResult> SdfEvaluator::Compute(
       samples_past_ball{0}, samples_streamed{0}, samples_walked{0},
       samples_fell_back{0};
   FanTraversal traversal = fan_traversal_.value_or(
-      walks_cones && !starts ? FanTraversal::kCone
-                             : ChooseTraversal(starts.has_value(), ray_test_,
-                                               primitives, mesh_.dimension));
+      walks_cones && !starts
+          ? FanTraversal::kCone
+          : ChooseTraversal(starts.has_value(), ray_test_, primitives,
+                            mesh_.dimension, setup->cone_half_angle));
   // A pass walks all of its samples or none, so that whether a sample walks
   // does not depend on which of its rays a pass traces.
   if (traversal == FanTraversal::kCone &&

@@ -66,7 +66,8 @@ struct EvaluatorOptions {
   // (normal rays) or where a pilot finds the walk's work small (kAuto or
   // kSurface starts; the pass then starts its rays at the surface,
   // whatever kAuto would have chosen); else kStream where the pass starts
-  // its rays at the surface on such a scene, and kPackets otherwise
+  // its rays at the surface on such a scene and its cones open less than
+  // kStreamMaxConeDegrees, and kPackets otherwise
   // (traversal_choice.h, WalksCones). A pass asked for kCone streams where the
   // walk would give up on its fans (ConeWalk::Intersect): it walks all samples
   // or none. The others only to measure them; none changed a value on the fans

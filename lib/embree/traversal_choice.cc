@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <array>
+#include <numbers>
 #include <vector>
 
 #include "absl/types/span.h"
@@ -65,9 +66,11 @@ double PilotGroupTestsPerRay(const MeshGeometry& g, const RayScene& scene,
 }  // namespace
 
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension) {
+                             int dimension, double cone_half_angle) {
   return !past_balls && test == RayTest::kWatertight &&
-                 primitives < kStreamMaxPrimitives && dimension == 3
+                 primitives < kStreamMaxPrimitives && dimension == 3 &&
+                 2 * cone_half_angle <
+                     kStreamMaxConeDegrees * std::numbers::pi / 180
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
 }

@@ -20,6 +20,15 @@ namespace meshgauge {
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 inline constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
+// ... and whose cones open less than this (full angle, degrees): Embree's
+// frustum test culls less of a wider cone's BVH than the stream's set-up
+// costs. Measured (meshgauge_bench --repeat 3, packets and streams forced
+// from the surface, pass / SPEC ceiling; docs/benchmarks.md, "streams for
+// narrow cones alone"): on the knight and the tray streams 0.853 and 0.800
+// against packets 0.799 and 0.733 at 30 degrees, level at 40 (0.777 and
+// 0.772 against 0.809 and 0.748), behind from 45 (0.759 and 0.727 against
+// 0.836 and 0.798) to 170 (0.480 and 0.639 against 0.782 and 0.883).
+inline constexpr double kStreamMaxConeDegrees = 40;
 // A pass walks cones where a pilot finds the walk's work small: at most
 // this many (triangle, group of 8 rays) tests per ray over kPilotSamples
 // fans (ConeWalk::Intersect's count). Measured (meshgauge_bench, pass /
@@ -34,12 +43,14 @@ inline constexpr double kWalkMaxGroupTestsPerRay = 8;
 inline constexpr int64_t kPilotSamples = 16;
 // The traversal of a pass that EvaluatorOptions::fan_traversal leaves
 // open and that does not walk cones: streams where the rays start at the
-// surface on a small 3D scene under the watertight test. Embree's fast
-// test met other primitives in streams than in packets (the tray's raw
-// plain passes); a 2D circle of 4,000 segments took 1.30-1.35 times as
-// long streamed (a throwaway program; docs/benchmarks.md).
+// surface on a small 3D scene under the watertight test and the cone
+// (half-angle `cone_half_angle`, radians) opens less than
+// kStreamMaxConeDegrees; else packets. Embree's fast test met other
+// primitives in streams than in packets (the tray's raw plain passes); a
+// 2D circle of 4,000 segments took 1.30-1.35 times as long streamed (a
+// throwaway program; docs/benchmarks.md).
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
-                             int dimension);
+                             int dimension, double cone_half_angle);
 
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
 // RayStartMode::kAuto or kSurface starts) walks cones: a cone pass (or normal
