@@ -20,11 +20,12 @@ namespace meshgauge {
 // (6,320), 0.99-1.02 on spot (5,856); 1.06-1.16 on fandisk (12,946) and
 // 1.16-1.24 on ranges of bunny, horse and igea.
 inline constexpr int64_t kStreamMaxPrimitives = int64_t{1} << 13;
-// ... and whose cones open less than this (full angle, degrees): Embree's
-// frustum test culls less of a wider cone's BVH than the stream's set-up
-// costs. Measured (meshgauge_bench --repeat 3, packets and streams forced
-// from the surface, pass / SPEC ceiling; docs/benchmarks.md, "streams for
-// narrow cones alone"): on the knight and the tray streams 0.853 and 0.800
+// ... and whose cones open less than this (full angle, degrees); wider
+// cones go in packets (likely because Embree's frustum test culls less of a
+// wider cone's BVH: not profiled). Measured (meshgauge_bench --repeat 3,
+// 170 degrees at --repeat 1, packets and streams forced from the surface,
+// pass / SPEC ceiling; docs/benchmarks.md, "streams for narrow cones
+// alone"): on the knight and the tray streams 0.853 and 0.800
 // against packets 0.799 and 0.733 at 30 degrees, level at 40 (0.777 and
 // 0.772 against 0.809 and 0.748), behind from 45 (0.759 and 0.727 against
 // 0.836 and 0.798) to 170 (0.480 and 0.639 against 0.782 and 0.883).
