@@ -213,6 +213,17 @@ TEST(RayTraversalTest,
   const Used fandisk_few = traced(fandisk, few);
   EXPECT_FALSE(fandisk_few.walked || fandisk_few.streamed);
   EXPECT_EQ(fandisk_few.pilot, 0);
+  // But not for a cone narrower than kNarrowWalkMaxConeDegrees (up to
+  // kNarrowWalkMaxPrimitives): fandisk's 10-degree cones meet few
+  // triangles. Normal rays keep the smaller scenes' bound.
+  SdfParams narrow = few;
+  narrow.cone_angle_degrees = 10;
+  const Used fandisk_narrow = traced(fandisk, narrow);
+  EXPECT_TRUE(fandisk_narrow.walked);
+  EXPECT_GT(fandisk_narrow.pilot, 0);
+  EXPECT_LE(fandisk_narrow.pilot, 8);
+  narrow.method = SdfMethod::kNormalRay;
+  EXPECT_FALSE(traced(fandisk, narrow).walked);
   // Normal rays (one ray a fan) walk without a pilot; more rays than the
   // walk takes stream in a narrow cone, go in packets in a wide one (from
   // kStreamMaxConeDegrees itself: the bound is exclusive).

@@ -78,8 +78,12 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
 bool WalksCones(const MeshGeometry& g, const RayScene& scene,
                 const PassSetup& setup, RayTest test, double* pilot) {
   const int64_t primitives = std::ssize(g.topology().primitives);
+  const bool narrow = setup.num_rays > 1 &&
+                      2 * setup.cone_half_angle <
+                          kNarrowWalkMaxConeDegrees * std::numbers::pi / 180;
   if (setup.sphere || test != RayTest::kWatertight ||
-      primitives >= kStreamMaxPrimitives ||
+      primitives >=
+          (narrow ? kNarrowWalkMaxPrimitives : kStreamMaxPrimitives) ||
       !ConeWalk::TakesEveryFan(primitives, g.mesh().dimension, setup.num_rays,
                                setup.cone_half_angle)) {
     return false;
