@@ -275,8 +275,9 @@ int BenchMesh(const std::string& name, const Mesh& mesh,
   auto stream_evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .fan_traversal = FanTraversal::kStream});
-  // The cone walk forced, from the surface (kAuto's choice on small scenes
-  // where its pilot finds little work; elsewhere measured only).
+  // The cone walk forced, from the surface (kAuto's choice on small scenes,
+  // and larger ones for narrow cones, where its pilot finds little work;
+  // elsewhere measured only).
   auto cone_evaluator =
       SdfEvaluator::Create(mesh, {.bvh_policy = BvhUpdatePolicy::kRebuild,
                                   .ray_start = RayStartMode::kSurface,

@@ -4,8 +4,9 @@
 // differ only at ties, ExpectSameResultsUpToTies), at both cone angles, with
 // and without ray starts, for vertex ranges, face samples, 2D curves, quads and
 // hub fans; and a pass left to choose walks cones (from the surface) on small
-// scenes where a pilot finds the walk's work small, and streams the other
-// small scenes whose rays start at the surface.
+// scenes (larger ones for narrow cones) where a pilot finds the walk's work
+// small, and streams the other small scenes whose rays start at the surface
+// in narrow cones.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -143,7 +144,9 @@ TEST(RayTraversalTest, AnIncrementalPassGivesTheSameValues) {
 }
 
 // kAuto's rule (traversal_choice.h): on 3D scenes of fewer than 2^13
-// primitives with the watertight test, the cone walk from the surface for
+// primitives (2^15 for cones of more than one ray narrower than
+// kNarrowWalkMaxConeDegrees) with the watertight test, the cone walk from
+// the surface for
 // normal rays and where a pilot counts at most 8 of its tests a ray, else
 // streams where the rays start at the surface and the cones open less than
 // kStreamMaxConeDegrees; packets elsewhere.

@@ -61,8 +61,8 @@ struct EvaluatorOptions {
   // measure what the empty ball saves and that it changes no bit.
   RayStartMode ray_start = RayStartMode::kAuto;
   // How a pass traces each sample's rays; nullopt: kCone on a 3D scene of
-  // fewer than 2^13 primitives (2^15 for cones narrower than
-  // kNarrowWalkMaxConeDegrees) with the watertight test, at most
+  // fewer than 2^13 primitives (2^15 for cones of more than one ray
+  // narrower than kNarrowWalkMaxConeDegrees) with the watertight test, at most
   // ConeWalk::kMaxRays rays and a CPU with AVX2 and FMA, for one ray a fan
   // (normal rays) or where a pilot finds the walk's work small (kAuto or
   // kSurface starts; the pass then starts its rays at the surface,

@@ -44,15 +44,17 @@ inline constexpr double kWalkMaxGroupTestsPerRay = 8;
 // kNarrowWalkMaxPrimitives primitives (others: kStreamMaxPrimitives). A
 // narrow cone meets few triangles even on a finer mesh; the pilot needs the
 // walk's tree, built after every move, which a wider cone there seldom
-// repays. Measured (meshgauge_bench --repeat 2, pass / SPEC ceiling, the
-// limit at 2^13 against 2^15; docs/benchmarks.md, "the walk for narrow
-// cones on larger scenes"): at 10 degrees rocker-arm (20,088 primitives)
-// 0.819 -> 1.529, fandisk (12,946) 0.909 -> 1.461, homer (12,000) 0.750 ->
-// 1.674, cheburashka (13,334) 0.749 -> 1.526; at 20 degrees 0.991 -> 1.382,
-// 0.896 -> 0.965, 0.975 -> 1.574, 0.951 -> 1.488; at 30 degrees the pilot
-// walked homer alone (0.91-0.94 -> 1.09-1.22) and its tree made fandisk's
-// pass 0.85-0.87 -> 0.78-0.80; bunny (69,664) walked at 0.47 of the ceiling
-// at 20 degrees.
+// repays. Measured (meshgauge_bench --repeat 2, pass / SPEC ceiling;
+// docs/benchmarks.md, "the walk for narrow cones on larger scenes"): at 10
+// degrees rocker-arm (20,088 primitives) 1.746 walked against 0.832 in
+// packets, fandisk (12,946) 1.484 against 0.904, homer (12,000) 1.680
+// against 0.739, cheburashka (13,334) 1.646 against 0.782; at 20 degrees,
+// the limit at 2^13 against 2^15, 0.991 -> 1.382, 0.896 -> 0.965, 0.975 ->
+// 1.574, 0.951 -> 1.488; at 30 degrees (--repeat 3) the pilot walked homer
+// alone (0.91-0.94 -> 1.09-1.22) and its tree made fandisk's pass 0.85-0.87
+// -> 0.78-0.80; bunny (69,664) walked at 0.47 of the ceiling at 20
+// degrees. The bound 2^15 is extrapolated from these meshes: none between
+// 20,088 and 32,768 primitives was measured.
 inline constexpr int64_t kNarrowWalkMaxPrimitives = int64_t{1} << 15;
 inline constexpr double kNarrowWalkMaxConeDegrees = 30;
 // The pilot's fans: this many samples spread evenly over all of the pass's
@@ -71,8 +73,9 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
 
 // Whether a pass left to choose (EvaluatorOptions::fan_traversal unset,
 // RayStartMode::kAuto or kSurface starts) walks cones: a cone pass (or normal
-// rays) on a scene of fewer than kStreamMaxPrimitives (a cone narrower than
-// kNarrowWalkMaxConeDegrees: kNarrowWalkMaxPrimitives) under the watertight
+// rays) on a scene of fewer than kStreamMaxPrimitives (a cone of more than
+// one ray narrower than kNarrowWalkMaxConeDegrees: kNarrowWalkMaxPrimitives)
+// under the watertight
 // test, every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
 // one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
 // for groups of 8, says little there; the walk meets the far face along
