@@ -75,11 +75,11 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
 // RayStartMode::kAuto or kSurface starts) walks cones: a cone pass (or normal
 // rays) on a scene of fewer than kStreamMaxPrimitives (a cone of more than
 // one ray narrower than kNarrowWalkMaxConeDegrees: kNarrowWalkMaxPrimitives)
-// under the watertight
-// test, every fan of which the walk takes (ConeWalk::TakesEveryFan): always for
-// one ray a fan (normal rays, or a cone of one ray: the pilot's count, made
-// for groups of 8, says little there; the walk meets the far face along
-// seams where Embree's box test misses it, ConeWalkTest.MeetsTheFarFace...),
+// under the watertight test, every fan of which the walk takes
+// (ConeWalk::TakesEveryFan): always for one ray a fan (normal rays, or a
+// cone of one ray: the pilot's count, made for groups of 8, says little
+// there; the walk meets the far face along seams where Embree's box test
+// misses it, ConeWalkTest.MeetsTheFarFace...),
 // else where the pilot (into *pilot) finds at most
 // kWalkMaxGroupTestsPerRay tests a ray. The pilot depends on the positions
 // (the walk's tree is built from them after every update, not refitted,
