@@ -87,16 +87,8 @@ class ExactSums {
   // Adds x to sum i, 0 <= i < size().
   void Add(int64_t i, double x) {
     Pair& p = pairs_[i];
-    const double s = p.hi + x;
-    const double s_x = s - p.hi;
-    const double e1 = (p.hi - (s - s_x)) + (x - s_x);  // hi + x = s + e1
-    const double t = p.lo + e1;
-    const double t_e = t - p.lo;
-    const double e2 = (p.lo - (t - t_e)) + (e1 - t_e);  // lo + e1 = t + e2
-    // Once a step is inf or NaN, every later one is (an overflow of s
-    // makes s - s_x inf - inf, one of t makes t - t_e so), so e2 is NaN
-    // when anything overflowed or x is not finite; e2 == 0 says both
-    // TwoSums were exact and the pair holds the sum.
+    double s, t, e2;
+    TwoSums(p.hi, p.lo, x, s, t, e2);
     if (e2 == 0) [[likely]] {
       p.hi = s;
       p.lo = t;
@@ -129,6 +121,25 @@ class ExactSums {
     double hi = 0;
     double lo = 0;
   };
+  // The two TwoSums of adding x to a pair (hi, lo): hi + x = s + e1,
+  // lo + e1 = t + e2, on doubles or, lane by lane, on vectors of them
+  // (AddScaledTerms). Once a step is inf or NaN, every later one is (an
+  // overflow of s makes s - s_x inf - inf, one of t makes t - t_e so), so
+  // e2 is NaN when anything overflowed or x is not finite; e2 == 0 says
+  // both were exact and (s, t) holds the sum. Outputs by reference: a
+  // vector returned by value in a baseline build would change the calling
+  // convention (GCC's -Wpsabi).
+  template <typename V>
+  [[gnu::always_inline]] static inline void TwoSums(const V& hi, const V& lo,
+                                                    const V& x, V& s, V& t,
+                                                    V& e2) {
+    s = hi + x;
+    const V s_x = s - hi;
+    const V e1 = (hi - (s - s_x)) + (x - s_x);
+    t = lo + e1;
+    const V t_e = t - lo;
+    e2 = (lo - (t - t_e)) + (e1 - t_e);
+  }
   // AddScaledTerms' loop, built for AVX or for the baseline.
   friend struct RowScatter;
   // A TableVector: a large array (the VJP's, 48 bytes a vertex) sits in

@@ -26,22 +26,6 @@ struct RowScatter {
                     offsetof(Pair, lo) == sizeof(double),
                 "the vectors read and write pairs as hi, lo doubles");
 
-  // Add's TwoSums on each lane: hi + x = s + e1, lo + e1 = t + e2 (e2 is 0
-  // where the pair (s, t) holds the sum exactly). By reference: a V4
-  // returned by value in the baseline build would change the calling
-  // convention (GCC's -Wpsabi).
-  template <typename V>
-  [[gnu::always_inline]] static inline void TwoSums(const V& hi, const V& lo,
-                                                    const V& x, V& s, V& t,
-                                                    V& e2) {
-    s = hi + x;
-    const V s_x = s - hi;
-    const V e1 = (hi - (s - s_x)) + (x - s_x);
-    t = lo + e1;
-    const V t_e = t - lo;
-    e2 = (lo - (t - t_e)) + (e1 - t_e);
-  }
-
   // Adds d * g to the three pairs at `p` in four lanes; false, with nothing
   // written, where a lane's sum would not be exact in its pair.
   [[gnu::always_inline]] static inline bool AddFour(Pair* p, const Vec3& d,
@@ -54,7 +38,7 @@ struct RowScatter {
     const V4 hi = __builtin_shufflevector(a, b4, 0, 2, 4, 6);
     const V4 lo = __builtin_shufflevector(a, b4, 1, 3, 5, 7);
     V4 s, t, e2;
-    TwoSums(hi, lo, V4{d.x, d.y, d.z, 0} * g, s, t, e2);
+    ExactSums::TwoSums(hi, lo, V4{d.x, d.y, d.z, 0} * g, s, t, e2);
     const auto exact = e2 == 0;  // false for NaN, as in Add.
     if ((exact[0] & exact[1] & exact[2]) == 0) return false;
     const V4 a2 = __builtin_shufflevector(s, t, 0, 4, 1, 5);
@@ -73,8 +57,8 @@ struct RowScatter {
     const V2 lo = __builtin_shufflevector(a0, a1, 1, 3);
     V2 s, t, e2;
     double sz, tz, ez;
-    TwoSums(hi, lo, V2{d.x, d.y} * g, s, t, e2);
-    TwoSums(p[2].hi, p[2].lo, d.z * g, sz, tz, ez);
+    ExactSums::TwoSums(hi, lo, V2{d.x, d.y} * g, s, t, e2);
+    ExactSums::TwoSums(p[2].hi, p[2].lo, d.z * g, sz, tz, ez);
     const auto exact = e2 == 0;
     if ((exact[0] & exact[1]) == 0 || ez != 0) return false;
     const V2 b0 = __builtin_shufflevector(s, t, 0, 2);

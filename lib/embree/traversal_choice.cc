@@ -63,14 +63,19 @@ double PilotGroupTestsPerRay(const MeshGeometry& g, const RayScene& scene,
   return rays > 0 ? static_cast<double>(tests) / static_cast<double>(rays) : 0;
 }
 
+// Whether a cone of half-angle `half_angle` (radians) opens less than
+// `degrees` (its full angle).
+bool OpensLessThan(double half_angle, double degrees) {
+  return 2 * half_angle < degrees * std::numbers::pi / 180;
+}
+
 }  // namespace
 
 FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
                              int dimension, double cone_half_angle) {
   return !past_balls && test == RayTest::kWatertight &&
                  primitives < kStreamMaxPrimitives && dimension == 3 &&
-                 2 * cone_half_angle <
-                     kStreamMaxConeDegrees * std::numbers::pi / 180
+                 OpensLessThan(cone_half_angle, kStreamMaxConeDegrees)
              ? FanTraversal::kStream
              : FanTraversal::kPackets;
 }
@@ -78,9 +83,9 @@ FanTraversal ChooseTraversal(bool past_balls, RayTest test, int64_t primitives,
 bool WalksCones(const MeshGeometry& g, const RayScene& scene,
                 const PassSetup& setup, RayTest test, double* pilot) {
   const int64_t primitives = std::ssize(g.topology().primitives);
-  const bool narrow = setup.num_rays > 1 &&
-                      2 * setup.cone_half_angle <
-                          kNarrowWalkMaxConeDegrees * std::numbers::pi / 180;
+  const bool narrow =
+      setup.num_rays > 1 &&
+      OpensLessThan(setup.cone_half_angle, kNarrowWalkMaxConeDegrees);
   if (setup.sphere || test != RayTest::kWatertight ||
       primitives >=
           (narrow ? kNarrowWalkMaxPrimitives : kStreamMaxPrimitives) ||
